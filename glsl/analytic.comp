@@ -1,0 +1,71 @@
+// `analyticdirect`: the exact direct lighting of diffuse surfaces, with no visibility,
+// from polygonal emitters (Lambert's formula for the irradiance of a polygon:
+// E = L/2 * sum_i theta_i * dot(n, gamma_i), Arvo 1995), point and directional lights.
+// A closed-form oracle for the Monte Carlo integrators on unoccluded scenes. Emissive
+// spheres are not polygons and are left out. No horizon clipping: lights must lie
+// entirely above the surfaces they light.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "abi.h"
+layout(local_size_x = WORKGROUP_SIZE_X, local_size_y = WORKGROUP_SIZE_Y) in;
+#include "bindings.glsl"
+#include "rng.glsl"
+#include "sampling.glsl"
+#include "trace.glsl"
+#include "lights.glsl"
+#include "camera.glsl"
+
+// Irradiance factor sum_i theta_i * dot(n, gamma_i) / 2 of the triangle (v0, v1, v2) at p.
+float polygon_irradiance_factor(vec3 p, vec3 n, vec3 v0, vec3 v1, vec3 v2) {
+    vec3 r[3] = vec3[3](normalize(v0 - p), normalize(v1 - p), normalize(v2 - p));
+    float sum = 0.0;
+    for (int i = 0; i < 3; ++i) {
+        vec3 a = r[i];
+        vec3 b = r[(i + 1) % 3];
+        float theta = acos(clamp(dot(a, b), -1.0, 1.0));
+        vec3 c = cross(a, b);
+        float len = length(c);
+        if (len > 0.0) sum += theta * dot(n, c / len);
+    }
+    return 0.5 * abs(sum);
+}
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy + pass_params.pass.zw;
+    if (pixel.x >= scene.dims.x || pixel.y >= scene.dims.y) return;
+    uint index = pixel.y * scene.dims.x + pixel.x;
+    vec3 sum = vec3(0.0);
+    uint rays = 0u;
+    for (uint i = 0u; i < pass_params.pass.y; ++i) {
+        Rng rng = rng_init(scene.direct.z, index, pass_params.pass.x + i);
+        vec3 o = scene.cam_eye.xyz;
+        vec3 d = camera_ray_direction(pixel, rng_next2(rng));
+        Hit hit;
+        rays++;
+        if (!trace_closest(o, d, INF, hit)) continue;
+        Surface s = surface_at(hit, o, d);
+        vec3 wo = -d;
+        vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
+        vec3 L = s.emitter != NO_EMITTER ? emitted_radiance(s.material, s.ng, wo) : vec3(0.0);
+        vec3 E = vec3(0.0);
+        for (uint e = 0u; e < scene.counts.x; ++e) {
+            GpuEmitter em = emitters[e];
+            if (em.info.x == EMITTER_TRIANGLE) {
+                if (em.info.y == s.prim) continue;
+                vec3 ne = cross(em.p1.xyz - em.p0.xyz, em.p2.xyz - em.p0.xyz);
+                // One-sided emitters light only the half-space in front of them.
+                if (em.info.z == 0u && dot(s.p - em.p0.xyz, ne) <= 0.0) continue;
+                E += em.radiance.xyz * polygon_irradiance_factor(s.p, n, em.p0.xyz, em.p1.xyz, em.p2.xyz);
+            } else if (em.info.x == EMITTER_POINT) {
+                vec3 to = em.p0.xyz - s.p;
+                float d2 = dot(to, to);
+                E += em.radiance.xyz * max(0.0, dot(n, to) / sqrt(d2)) / d2;
+            } else if (em.info.x == EMITTER_DIRECTIONAL) {
+                E += em.radiance.xyz * max(0.0, dot(n, em.p0.xyz));
+            }
+        }
+        sum += L + materials[s.material].diffuse.xyz * INV_PI * E;
+    }
+    film[index] += vec4(sum, float(rays));
+}

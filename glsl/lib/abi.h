@@ -1,0 +1,112 @@
+// The host/GLSL interface: constants and buffer structs shared by every kernel.
+// build.rs turns each `#define NAME <integer>` line into a Rust `pub const NAME: u32`;
+// src/gpu/abi.rs mirrors the structs and a test checks their offsets in the SPIR-V.
+// Buffer structs are made only of 16-byte vectors.
+#ifndef ABI_H
+#define ABI_H
+
+#define WORKGROUP_SIZE_X 8
+#define WORKGROUP_SIZE_Y 8
+
+// Descriptor bindings (set 0).
+#define BINDING_SCENE 0
+#define BINDING_TRIANGLES 1
+#define BINDING_SPHERES 2
+#define BINDING_MATERIALS 3
+#define BINDING_EMITTERS 4
+#define BINDING_EMITTER_CDF 5
+#define BINDING_FILM 6
+#define BINDING_STATS 7
+#define BINDING_TLAS 8
+#define BINDING_BVH_NODES 8
+#define BINDING_BVH_PRIMS 9
+#define BINDING_SPLAT 10
+
+// Emitter kinds (GpuEmitter.info.x).
+#define EMITTER_TRIANGLE 0
+#define EMITTER_SPHERE 1
+#define EMITTER_POINT 2
+#define EMITTER_DIRECTIONAL 3
+
+// Integrators (SceneParams.options.w).
+#define INTEGRATOR_PATHTRACER 0
+#define INTEGRATOR_DIRECT 1
+#define INTEGRATOR_ANALYTIC 2
+
+// Next-event estimation (SceneParams.options.x).
+#define NEE_OFF 0
+#define NEE_ON 1
+#define NEE_MIS 2
+
+// Slots of the stats buffer (uint counters).
+#define STAT_NONFINITE 0
+#define STAT_COUNT 4
+
+// Marks "no emitter" in per-primitive emitter indices.
+#define NO_EMITTER 4294967295
+
+// Hard cap on path length when maxdepth is -1 (unbounded, ended by Russian roulette).
+#define UNBOUNDED_DEPTH_CAP 1024
+
+#ifdef GL_core_profile
+// A world-space triangle. v0.w: material index, v1.w: emitter index (NO_EMITTER if
+// none), both as uint bits.
+struct GpuTriangle {
+    vec4 v0;
+    vec4 v1;
+    vec4 v2;
+};
+
+// The unit sphere under an affine transform: rows of object-to-world and
+// world-to-object 3x4 matrices. info.x: material, info.y: emitter index.
+struct GpuSphere {
+    vec4 o2w0;
+    vec4 o2w1;
+    vec4 o2w2;
+    vec4 w2o0;
+    vec4 w2o1;
+    vec4 w2o2;
+    uvec4 info;
+};
+
+// params: x shininess, y roughness (GGX alpha), z brdf kind (0 phong, 1 ggx),
+// w 1 when emission is two-sided.
+struct GpuMaterial {
+    vec4 diffuse;
+    vec4 specular;
+    vec4 emission;
+    vec4 params;
+};
+
+// An emitter. Triangles: p0,p1,p2 the vertices. Spheres: info.y the sphere. Point:
+// p0 the position. Directional: p0 the unit direction toward the light.
+// radiance.w: the probability of picking this emitter. info: x kind, y primitive,
+// z 1 when two-sided, w unused. p0.w: area (triangles, spheres).
+struct GpuEmitter {
+    vec4 p0;
+    vec4 p1;
+    vec4 p2;
+    vec4 radiance;
+    uvec4 info;
+};
+
+// Everything a kernel needs to know about the scene and the render settings.
+struct SceneParams {
+    vec4 cam_eye;        // w: tan(fovy / 2)
+    vec4 cam_right;      // w: aspect (width / height)
+    vec4 cam_up;
+    vec4 cam_forward;
+    vec4 bounds;         // xyz: centre of the scene's bounding sphere, w: its radius
+    uvec4 dims;          // x width, y height, z triangles, w spheres
+    uvec4 counts;        // x emitters, y max scattering vertices, z 1 if maxdepth is -1, w total spp
+    uvec4 options;       // x nee mode, y russian roulette, z importance sampling, w integrator
+    uvec4 direct;        // x light samples, y stratify, z seed, w unused
+};
+
+// Per-dispatch constants.
+struct PassParams {
+    uvec4 pass;          // x first sample index of the pass, y samples in the pass, z tile x0, w tile y0
+};
+#endif
+
+#endif

@@ -1,0 +1,118 @@
+// Exact ray-primitive intersections (CPU mirror: src/accel/geometry.rs) and the
+// surface description at a hit.
+#ifndef GEOMETRY_GLSL
+#define GEOMETRY_GLSL
+
+struct Hit {
+    float t;
+    uint prim;   // < triangle count: a triangle; else a sphere (prim - triangle count)
+    vec2 bary;   // triangles: barycentrics of v1, v2
+};
+
+// Moller-Trumbore, two-sided; d need not be unit length.
+bool intersect_triangle(vec3 v0, vec3 v1, vec3 v2, vec3 o, vec3 d, float tmin, float tmax,
+                        out float t, out vec2 bary) {
+    vec3 e1 = v1 - v0;
+    vec3 e2 = v2 - v0;
+    vec3 p = cross(d, e2);
+    float det = dot(e1, p);
+    t = 0.0;
+    bary = vec2(0.0);
+    if (det == 0.0) return false;
+    float inv_det = 1.0 / det;
+    vec3 s = o - v0;
+    float u = dot(s, p) * inv_det;
+    if (u < 0.0 || u > 1.0) return false;
+    vec3 q = cross(s, e1);
+    float v = dot(d, q) * inv_det;
+    if (v < 0.0 || u + v > 1.0) return false;
+    t = dot(e2, q) * inv_det;
+    bary = vec2(u, v);
+    return t > tmin && t < tmax;
+}
+
+vec3 sphere_to_object_point(GpuSphere s, vec3 p) {
+    vec4 h = vec4(p, 1.0);
+    return vec3(dot(s.w2o0, h), dot(s.w2o1, h), dot(s.w2o2, h));
+}
+vec3 sphere_to_object_dir(GpuSphere s, vec3 d) {
+    return vec3(dot(s.w2o0.xyz, d), dot(s.w2o1.xyz, d), dot(s.w2o2.xyz, d));
+}
+vec3 sphere_to_world_point(GpuSphere s, vec3 q) {
+    vec4 h = vec4(q, 1.0);
+    return vec3(dot(s.o2w0, h), dot(s.o2w1, h), dot(s.o2w2, h));
+}
+// Unnormalised world normal at object-space point q: (W^T) q, W = world-to-object.
+vec3 sphere_normal_unnormalized(GpuSphere s, vec3 q) {
+    return q.x * s.w2o0.xyz + q.y * s.w2o1.xyz + q.z * s.w2o2.xyz;
+}
+
+// The unit sphere in object space; t is the same parameter as in world space because
+// the object-space direction is not renormalised.
+bool intersect_sphere(GpuSphere s, vec3 o, vec3 d, float tmin, float tmax, out float t) {
+    vec3 oo = sphere_to_object_point(s, o);
+    vec3 dd = sphere_to_object_dir(s, d);
+    float a = dot(dd, dd);
+    float b = dot(oo, dd);
+    float c = dot(oo, oo) - 1.0;
+    // Discriminant from the closest point on the line (Ray Tracing Gems, ch. 7).
+    vec3 l = oo - (b / a) * dd;
+    float disc = a * (1.0 - dot(l, l));
+    t = 0.0;
+    if (disc < 0.0) return false;
+    float q = -b - (b >= 0.0 ? 1.0 : -1.0) * sqrt(disc);
+    float t0 = c / q;
+    float t1 = q / a;
+    if (t0 > t1) { float tmp = t0; t0 = t1; t1 = tmp; }
+    if (t0 > tmin && t0 < tmax) { t = t0; return true; }
+    if (t1 > tmin && t1 < tmax) { t = t1; return true; }
+    return false;
+}
+
+struct Surface {
+    vec3 p;       // position
+    vec3 ng;      // unit geometric normal (not flipped)
+    uint material;
+    uint emitter; // NO_EMITTER if the primitive emits nothing
+    uint prim;
+};
+
+Surface surface_at(Hit hit, vec3 o, vec3 d) {
+    Surface s;
+    s.prim = hit.prim;
+    uint ntri = scene.dims.z;
+    if (hit.prim < ntri) {
+        GpuTriangle tri = triangles[hit.prim];
+        vec3 e1 = tri.v1.xyz - tri.v0.xyz;
+        vec3 e2 = tri.v2.xyz - tri.v0.xyz;
+        s.p = tri.v0.xyz + hit.bary.x * e1 + hit.bary.y * e2;
+        s.ng = normalize(cross(e1, e2));
+        s.material = floatBitsToUint(tri.v0.w);
+        s.emitter = floatBitsToUint(tri.v1.w);
+    } else {
+        GpuSphere sp = spheres[hit.prim - ntri];
+        s.p = o + hit.t * d;
+        vec3 q = sphere_to_object_point(sp, s.p);
+        s.ng = normalize(sphere_normal_unnormalized(sp, q));
+        s.material = sp.info.x;
+        s.emitter = sp.info.y;
+    }
+    return s;
+}
+
+// Move a ray origin off a surface by a few ULPs along the normal, robust at any scale
+// (Wachter & Binder, Ray Tracing Gems ch. 6).
+vec3 offset_ray_origin(vec3 p, vec3 n) {
+    const float origin = 1.0 / 32.0;
+    const float float_scale = 1.0 / 65536.0;
+    const float int_scale = 256.0;
+    ivec3 of_i = ivec3(int_scale * n);
+    vec3 p_i = vec3(
+        intBitsToFloat(floatBitsToInt(p.x) + ((p.x < 0.0) ? -of_i.x : of_i.x)),
+        intBitsToFloat(floatBitsToInt(p.y) + ((p.y < 0.0) ? -of_i.y : of_i.y)),
+        intBitsToFloat(floatBitsToInt(p.z) + ((p.z < 0.0) ? -of_i.z : of_i.z)));
+    return vec3(abs(p.x) < origin ? p.x + float_scale * n.x : p_i.x,
+                abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
+                abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
+}
+#endif

@@ -1,0 +1,121 @@
+// Emitters: selection by power, position sampling and the matching pdfs.
+// Area pdfs of ellipsoids use the exact Jacobian of the affine map:
+// dA_world = |det M| * |M^-T q| dA_object for the unit-sphere point q.
+#ifndef LIGHTS_GLSL
+#define LIGHTS_GLSL
+
+// Pick an emitter by power: the first i with u < cdf[i].
+uint pick_emitter(float u) {
+    uint lo = 0u;
+    uint hi = scene.counts.x - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi) >> 1;
+        if (u < emitter_cdf[mid]) hi = mid; else lo = mid + 1u;
+    }
+    return lo;
+}
+
+float emitter_pick_pdf(uint e) { return emitters[e].radiance.w; }
+
+// Radiance leaving an emissive surface point with unit normal ng toward w.
+vec3 emitted_radiance(uint material, vec3 ng, vec3 w) {
+    GpuMaterial m = materials[material];
+    if (m.params.w == 0.0 && dot(ng, w) <= 0.0) return vec3(0.0);
+    return m.emission.xyz;
+}
+
+float sphere_area_pdf(GpuSphere sp, float det_abs, vec3 q) {
+    return 1.0 / (4.0 * PI * det_abs * length(sphere_normal_unnormalized(sp, q)));
+}
+
+// Area-measure pdf (given the emitter was picked) of the point p on emitter e.
+float emitter_area_pdf(uint e, vec3 p) {
+    GpuEmitter em = emitters[e];
+    if (em.info.x == EMITTER_TRIANGLE) return 1.0 / em.p0.w;
+    GpuSphere sp = spheres[em.info.y];
+    return sphere_area_pdf(sp, em.p1.x, sphere_to_object_point(sp, p));
+}
+
+struct LightSample {
+    vec3 wi;      // unit direction from the reference point toward the light
+    float dist;   // distance to the light point (INF for directional lights)
+    vec3 L;       // radiance arriving along -wi (point lights: I / d^2; directional: E)
+    float pdf;    // solid-angle pdf including the pick probability (delta: pick probability)
+    bool delta;
+    vec3 p;       // the sampled point (for occlusion tests), n its normal
+    vec3 n;
+};
+
+// Sample a point on emitter e as seen from ref. Returns false for no contribution.
+bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
+    GpuEmitter em = emitters[e];
+    float pick = em.radiance.w;
+    ls.delta = false;
+    ls.n = vec3(0.0);
+    ls.L = vec3(0.0);
+    ls.pdf = 0.0;
+    ls.dist = 0.0;
+    ls.wi = vec3(0.0, 0.0, 1.0);
+    ls.p = ref;
+    float area_pdf;
+    uint material;
+    if (em.info.x == EMITTER_POINT) {
+        vec3 to = em.p0.xyz - ref;
+        float d2 = dot(to, to);
+        if (d2 == 0.0) return false;
+        ls.dist = sqrt(d2);
+        ls.wi = to / ls.dist;
+        ls.L = em.radiance.xyz / d2;
+        ls.pdf = pick;
+        ls.delta = true;
+        ls.p = em.p0.xyz;
+        return true;
+    }
+    if (em.info.x == EMITTER_DIRECTIONAL) {
+        ls.wi = em.p0.xyz;
+        ls.dist = INF;
+        ls.L = em.radiance.xyz;
+        ls.pdf = pick;
+        ls.delta = true;
+        return true;
+    }
+    if (em.info.x == EMITTER_TRIANGLE) {
+        vec2 b = sample_uniform_triangle(u);
+        vec3 e1 = em.p1.xyz - em.p0.xyz;
+        vec3 e2 = em.p2.xyz - em.p0.xyz;
+        ls.p = em.p0.xyz + b.x * e1 + b.y * e2;
+        ls.n = normalize(cross(e1, e2));
+        area_pdf = 1.0 / em.p0.w;
+        material = floatBitsToUint(triangles[em.info.y].v0.w);
+    } else {
+        GpuSphere sp = spheres[em.info.y];
+        vec3 q = sample_uniform_sphere(u);
+        ls.p = sphere_to_world_point(sp, q);
+        vec3 nu = sphere_normal_unnormalized(sp, q);
+        ls.n = normalize(nu);
+        area_pdf = 1.0 / (4.0 * PI * em.p1.x * length(nu));
+        material = sp.info.x;
+    }
+    vec3 to = ls.p - ref;
+    float d2 = dot(to, to);
+    if (d2 == 0.0) return false;
+    ls.dist = sqrt(d2);
+    ls.wi = to / ls.dist;
+    float cos_l = abs(dot(ls.n, ls.wi));
+    if (cos_l == 0.0) return false;
+    ls.L = emitted_radiance(material, ls.n, -ls.wi);
+    ls.pdf = pick * area_pdf * d2 / cos_l;
+    return ls.L != vec3(0.0);
+}
+
+// Solid-angle pdf (pick included) with which sample_emitter would have produced the
+// point p with normal ng on emitter e, seen from ref. For MIS of emitters hit by
+// BSDF sampling.
+float emitter_pdf_solid_angle(uint e, vec3 ref, vec3 p, vec3 ng) {
+    vec3 to = p - ref;
+    float d2 = dot(to, to);
+    float cos_l = abs(dot(ng, to)) / sqrt(d2);
+    if (cos_l == 0.0) return 0.0;
+    return emitter_pick_pdf(e) * emitter_area_pdf(e, p) * d2 / cos_l;
+}
+#endif

@@ -1,0 +1,56 @@
+// Visibility by VK_KHR_ray_query. Triangles are one BLAS instance (identity transform);
+// each sphere is an instance of a unit-cube AABB BLAS under the sphere's transform,
+// whose custom index is the sphere's index, intersected exactly here in world space.
+#extension GL_EXT_ray_query : require
+
+layout(set = 0, binding = BINDING_TLAS) uniform accelerationStructureEXT tlas;
+
+bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
+    rayQueryEXT rq;
+    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT, 0xFF, o, 0.0, d, tmax);
+    float closest = tmax;
+    uint sphere_hit = 0xFFFFFFFFu;
+    while (rayQueryProceedEXT(rq)) {
+        if (rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionAABBEXT) {
+            uint si = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));
+            float t;
+            if (intersect_sphere(spheres[si], o, d, 0.0, closest, t)) {
+                closest = t;
+                sphere_hit = si;
+                rayQueryGenerateIntersectionEXT(rq, t);
+            }
+        }
+    }
+    hit.t = 0.0;
+    hit.prim = 0u;
+    hit.bary = vec2(0.0);
+    uint kind = rayQueryGetIntersectionTypeEXT(rq, true);
+    if (kind == gl_RayQueryCommittedIntersectionTriangleEXT) {
+        hit.t = rayQueryGetIntersectionTEXT(rq, true);
+        hit.prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true));
+        hit.bary = rayQueryGetIntersectionBarycentricsEXT(rq, true);
+        return true;
+    }
+    if (kind == gl_RayQueryCommittedIntersectionGeneratedEXT) {
+        hit.t = rayQueryGetIntersectionTEXT(rq, true);
+        hit.prim = scene.dims.z + uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
+        return true;
+    }
+    return false;
+}
+
+bool trace_occluded(vec3 o, vec3 d, float tmax) {
+    rayQueryEXT rq;
+    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xFF, o, 0.0, d, tmax);
+    while (rayQueryProceedEXT(rq)) {
+        if (rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionAABBEXT) {
+            uint si = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));
+            float t;
+            if (intersect_sphere(spheres[si], o, d, 0.0, tmax, t)) {
+                rayQueryGenerateIntersectionEXT(rq, t);
+                rayQueryTerminateEXT(rq);
+            }
+        }
+    }
+    return rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionNoneEXT;
+}

@@ -1,0 +1,1037 @@
+//! The CPU-built SAH BVH that the GPU traverses from a storage buffer, and its CPU
+//! traversal mirror.
+//!
+//! Layout (read by `glsl/lib/trace_bvh.glsl`): nodes in depth-first order, root at 0.
+//! An internal node (`count == 0`) has its first child at `index + 1` and its second at
+//! `left_or_first`; a leaf (`count > 0`) holds `prim_refs[left_or_first..][..count]`.
+//!
+//! An empty scene is a single node with `count == 0` and the empty box (`min = +inf`,
+//! `max = -inf`). `count == 0` would read as an internal node, so traversal checks the
+//! root box first and reports no hit when it is inverted (`min.x > max.x`); no other
+//! node can have an inverted box.
+//!
+//! Builder: binned SAH (Wald 2007, "On fast Construction of SAH-based Bounding Volume
+//! Hierarchies") with [`SAH_BINS`] bins per axis over the centroid bounds, all three
+//! axes, costs [`TRAVERSAL_COST`] and [`INTERSECTION_COST`]. A node becomes a leaf
+//! when it has at most [`MIN_LEAF_SIZE`] primitives, or at most [`MAX_LEAF_SIZE`] and
+//! the SAH says splitting does not pay. Coincident centroids split at the index median.
+//! Leaf depth is capped at [`MAX_DEPTH`] so the traversal stack of [`STACK_SIZE`]
+//! entries cannot overflow: where an SAH split could break the cap, the node splits at
+//! the centroid median of its widest axis instead.
+
+use super::geometry::Aabb;
+use glam::Vec3;
+
+/// One BVH node: two std430 `vec4`s, the `w` lanes holding `uint` bits.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BvhNode {
+    pub min: [f32; 3],
+    /// Internal: index of the second child. Leaf: first index into `prim_refs`.
+    pub left_or_first: u32,
+    pub max: [f32; 3],
+    /// 0 for an internal node, else the number of primitives in the leaf.
+    pub count: u32,
+}
+
+const _: () = {
+    assert!(std::mem::size_of::<BvhNode>() == 32);
+    assert!(std::mem::offset_of!(BvhNode, min) == 0);
+    assert!(std::mem::offset_of!(BvhNode, left_or_first) == 12);
+    assert!(std::mem::offset_of!(BvhNode, max) == 16);
+    assert!(std::mem::offset_of!(BvhNode, count) == 28);
+};
+
+impl BvhNode {
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        Aabb {
+            min: Vec3::from(self.min),
+            max: Vec3::from(self.max),
+        }
+    }
+}
+
+/// Entries of the traversal stack (CPU and GPU: `BVH_STACK_SIZE`).
+pub const STACK_SIZE: usize = 64;
+/// Deepest leaf (root depth 0); a path pushes at most one entry per internal node above
+/// its leaf, so `MAX_DEPTH < STACK_SIZE` keeps the stack from overflowing.
+pub const MAX_DEPTH: u32 = 63;
+/// Bins per axis of the SAH sweep.
+pub const SAH_BINS: usize = 32;
+/// SAH cost of visiting one node (ratio to one primitive test is what matters).
+pub const TRAVERSAL_COST: f32 = 1.0;
+/// SAH cost of one ray–primitive test.
+pub const INTERSECTION_COST: f32 = 1.0;
+/// Nodes with at most this many primitives are always leaves.
+pub const MIN_LEAF_SIZE: u32 = 4;
+/// No leaf holds more primitives than this.
+pub const MAX_LEAF_SIZE: u32 = 16;
+/// Slab exit distances are scaled by `1 + 2 gamma(3)` so that rounding in the slab
+/// test never rejects a box the ray touches (Pharr et al., PBR 3rd ed., §3.9.2);
+/// gamma(n) = n eps / (1 - n eps) with eps = 2^-24.
+pub const SLAB_EXIT_SCALE: f32 = 1.0 + 2.0 * (3.0 * 5.960_464_5e-8) / (1.0 - 3.0 * 5.960_464_5e-8);
+/// Direction components smaller in magnitude than this are replaced by ±this before
+/// inverting, so the inverse is finite and `(bound - o) * inv_d` is never `0 * inf`
+/// (NaN). For a ray parallel to a slab this still gives an interval covering all `t`
+/// when the origin is inside the slab, and one beyond ~1e30 × the gap when outside;
+/// the products stay finite for scene coordinates below ~1e8.
+pub const MIN_DIR_COMPONENT: f32 = 1e-30;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bvh {
+    pub nodes: Vec<BvhNode>,
+    /// Leaf ranges index this; its values are primitive indices into the build input.
+    pub prim_refs: Vec<u32>,
+}
+
+/// Per-bin accumulation of the SAH sweep.
+#[derive(Clone, Copy)]
+struct Bin {
+    bounds: Aabb,
+    count: u32,
+}
+
+/// Bin of centroid coordinate `c` over `[lo, lo + extent]` (`extent > 0`); the same
+/// expression bins and partitions, so both agree exactly.
+fn bin_of(c: f32, lo: f32, extent: f32) -> usize {
+    (((c - lo) / extent * SAH_BINS as f32) as usize).min(SAH_BINS - 1)
+}
+
+/// Levels of median splits needed before `count` primitives fit in leaves.
+fn median_levels(mut count: u32) -> u32 {
+    let mut levels = 0;
+    while count > MAX_LEAF_SIZE {
+        count = count.div_ceil(2);
+        levels += 1;
+    }
+    levels
+}
+
+/// A subtree still to build: `prim_refs[begin..end]`, at `depth`; `parent` is the node
+/// whose `left_or_first` must point here (second children only).
+struct Task {
+    begin: u32,
+    end: u32,
+    depth: u32,
+    parent: Option<u32>,
+}
+
+/// Inverse direction for the slab test, with tiny components clamped away from 0
+/// (see [`MIN_DIR_COMPONENT`]).
+pub fn safe_inverse(d: Vec3) -> Vec3 {
+    let clamp = |x: f32| {
+        if x.abs() < MIN_DIR_COMPONENT {
+            if x >= 0.0 {
+                MIN_DIR_COMPONENT
+            } else {
+                -MIN_DIR_COMPONENT
+            }
+        } else {
+            x
+        }
+    };
+    Vec3::new(1.0 / clamp(d.x), 1.0 / clamp(d.y), 1.0 / clamp(d.z))
+}
+
+/// Distance at which the ray enters `node`'s box within `[tmin, tmax]`, or `+inf` when
+/// it misses it there. A box touched exactly at `tmax` counts as entered.
+pub fn box_entry(node: &BvhNode, o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> f32 {
+    let t0 = (Vec3::from(node.min) - o) * inv_d;
+    let t1 = (Vec3::from(node.max) - o) * inv_d;
+    let t_near = t0.min(t1);
+    let t_far = t0.max(t1);
+    let enter = t_near.x.max(t_near.y).max(t_near.z.max(tmin));
+    let leave = (t_far.x.min(t_far.y).min(t_far.z) * SLAB_EXIT_SCALE).min(tmax);
+    if enter <= leave {
+        enter
+    } else {
+        f32::INFINITY
+    }
+}
+
+impl Bvh {
+    /// Builds the BVH over primitives whose bounds are `bounds[i]`. Deterministic.
+    pub fn build(bounds: &[Aabb]) -> Bvh {
+        Self::build_with_max_depth(bounds, MAX_DEPTH)
+    }
+
+    fn build_with_max_depth(bounds: &[Aabb], max_depth: u32) -> Bvh {
+        let n = u32::try_from(bounds.len()).expect("more than 2^32 primitives");
+        if n == 0 {
+            let empty = Aabb::empty();
+            return Bvh {
+                nodes: vec![BvhNode {
+                    min: empty.min.into(),
+                    left_or_first: 0,
+                    max: empty.max.into(),
+                    count: 0,
+                }],
+                prim_refs: Vec::new(),
+            };
+        }
+        assert!(median_levels(n) <= max_depth);
+        // An empty (or NaN) primitive box adds nothing to any node's bounds; give it a
+        // finite centroid so the binning stays finite.
+        let centroids: Vec<Vec3> = bounds
+            .iter()
+            .map(|b| {
+                let c = b.centroid();
+                if b.is_empty() || !c.is_finite() {
+                    Vec3::ZERO
+                } else {
+                    c
+                }
+            })
+            .collect();
+        let mut prim_refs: Vec<u32> = (0..n).collect();
+        let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * n as usize);
+        let mut tasks = vec![Task {
+            begin: 0,
+            end: n,
+            depth: 0,
+            parent: None,
+        }];
+        while let Some(task) = tasks.pop() {
+            let index = nodes.len() as u32;
+            if let Some(parent) = task.parent {
+                nodes[parent as usize].left_or_first = index;
+            }
+            let refs = &mut prim_refs[task.begin as usize..task.end as usize];
+            let mut node_bounds = Aabb::empty();
+            let mut centroid_bounds = Aabb::empty();
+            for &r in refs.iter() {
+                node_bounds = node_bounds.union(bounds[r as usize]);
+                centroid_bounds.grow(centroids[r as usize]);
+            }
+            let split = choose_split(
+                refs,
+                bounds,
+                &centroids,
+                &node_bounds,
+                &centroid_bounds,
+                task.depth,
+                max_depth,
+            );
+            let count = task.end - task.begin;
+            nodes.push(BvhNode {
+                min: node_bounds.min.into(),
+                left_or_first: if split.is_some() { 0 } else { task.begin },
+                max: node_bounds.max.into(),
+                count: if split.is_some() { 0 } else { count },
+            });
+            if let Some(left_count) = split {
+                let mid = task.begin + left_count;
+                // Pushed second, popped first: the first child lands at index + 1.
+                tasks.push(Task {
+                    begin: mid,
+                    end: task.end,
+                    depth: task.depth + 1,
+                    parent: Some(index),
+                });
+                tasks.push(Task {
+                    begin: task.begin,
+                    end: mid,
+                    depth: task.depth + 1,
+                    parent: None,
+                });
+            }
+        }
+        Bvh { nodes, prim_refs }
+    }
+
+    /// Closest hit along `o + t d` with `t` in `(tmin, tmax)`. `hit_prim(prim, t_max)`
+    /// tests primitive `prim` (an index into the build input) and returns its hit
+    /// distance, which must be below `t_max`. Returns the primitive and distance.
+    ///
+    /// Shaped like the GPU loop: fixed stack, no recursion, nearer child first, and a
+    /// popped node is re-tested against the current closest distance (so nodes whose
+    /// entry lies beyond it are skipped without storing distances on the stack).
+    pub fn closest_hit(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: f32,
+        hit_prim: impl FnMut(u32, f32) -> Option<f32>,
+    ) -> Option<(u32, f32)> {
+        self.traverse(o, d, tmin, tmax, false, hit_prim)
+    }
+
+    /// True when some primitive is hit with `t` in `(tmin, tmax)`; stops at the first.
+    pub fn any_hit(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: f32,
+        hit_prim: impl FnMut(u32, f32) -> Option<f32>,
+    ) -> bool {
+        self.traverse(o, d, tmin, tmax, true, hit_prim).is_some()
+    }
+
+    fn traverse(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: f32,
+        any_hit: bool,
+        mut hit_prim: impl FnMut(u32, f32) -> Option<f32>,
+    ) -> Option<(u32, f32)> {
+        let inv_d = safe_inverse(d);
+        let mut stack = [0u32; STACK_SIZE];
+        let mut sp = 0usize;
+        let mut node_index = 0u32;
+        let mut closest = tmax;
+        let mut found: Option<(u32, f32)> = None;
+        let root = &self.nodes[0];
+        // The empty scene's root has an inverted box (see the module docs).
+        if root.min[0] > root.max[0] || box_entry(root, o, inv_d, tmin, closest) == f32::INFINITY {
+            return None;
+        }
+        loop {
+            let node = &self.nodes[node_index as usize];
+            if node.count > 0 {
+                for i in node.left_or_first..node.left_or_first + node.count {
+                    let prim = self.prim_refs[i as usize];
+                    if let Some(t) = hit_prim(prim, closest) {
+                        if t < closest {
+                            closest = t;
+                            found = Some((prim, t));
+                            if any_hit {
+                                return found;
+                            }
+                        }
+                    }
+                }
+            } else {
+                let mut a = node_index + 1;
+                let mut b = node.left_or_first;
+                let mut ta = box_entry(&self.nodes[a as usize], o, inv_d, tmin, closest);
+                let mut tb = box_entry(&self.nodes[b as usize], o, inv_d, tmin, closest);
+                if ta > tb {
+                    std::mem::swap(&mut ta, &mut tb);
+                    std::mem::swap(&mut a, &mut b);
+                }
+                if ta != f32::INFINITY {
+                    // The builder caps depth, so the stack cannot be full here.
+                    if tb != f32::INFINITY && sp < STACK_SIZE {
+                        stack[sp] = b;
+                        sp += 1;
+                    }
+                    node_index = a;
+                    continue;
+                }
+            }
+            // Pop the next node the ray still enters before the closest hit.
+            let mut next = false;
+            while sp > 0 {
+                sp -= 1;
+                let candidate = stack[sp];
+                if box_entry(&self.nodes[candidate as usize], o, inv_d, tmin, closest)
+                    != f32::INFINITY
+                {
+                    node_index = candidate;
+                    next = true;
+                    break;
+                }
+            }
+            if !next {
+                return found;
+            }
+        }
+    }
+}
+
+/// Decides how to split `refs` (a node's primitives): `None` for a leaf, or the size
+/// of the first child after reordering `refs` so that it comes first.
+#[allow(clippy::too_many_arguments)]
+fn choose_split(
+    refs: &mut [u32],
+    bounds: &[Aabb],
+    centroids: &[Vec3],
+    node_bounds: &Aabb,
+    centroid_bounds: &Aabb,
+    depth: u32,
+    max_depth: u32,
+) -> Option<u32> {
+    let count = refs.len() as u32;
+    if count <= MIN_LEAF_SIZE {
+        return None;
+    }
+    let extent = centroid_bounds.max - centroid_bounds.min;
+    // Children of an SAH split may hold up to count - 1 primitives; past the depth
+    // budget for that, median splits (which halve) still reach leaves in time.
+    let sah_allowed = depth + 1 + median_levels(count - 1) <= max_depth;
+    if !(extent.max_element() > 0.0) || !sah_allowed {
+        if count <= MAX_LEAF_SIZE {
+            return None;
+        }
+        if extent.max_element() > 0.0 {
+            let axis = if extent.x >= extent.y && extent.x >= extent.z {
+                0
+            } else if extent.y >= extent.z {
+                1
+            } else {
+                2
+            };
+            let key = |r: &u32| (centroids[*r as usize][axis], *r);
+            refs.select_nth_unstable_by(refs.len() / 2, |x, y| {
+                key(x).partial_cmp(&key(y)).expect("finite centroids")
+            });
+        }
+        // Coincident centroids: any halving is as good as another; keep index order.
+        return Some(count / 2);
+    }
+
+    // Binned SAH over all three axes; costs are scaled by the node's area so a flat
+    // node (area 0) needs no division.
+    let mut best_cost = f32::INFINITY;
+    let mut best_axis = 0;
+    let mut best_plane = 0; // bins [0, plane] go left
+    for axis in 0..3 {
+        if !(extent[axis] > 0.0) {
+            continue;
+        }
+        let lo = centroid_bounds.min[axis];
+        let mut bins = [Bin {
+            bounds: Aabb::empty(),
+            count: 0,
+        }; SAH_BINS];
+        for &r in refs.iter() {
+            let bin = &mut bins[bin_of(centroids[r as usize][axis], lo, extent[axis])];
+            bin.bounds = bin.bounds.union(bounds[r as usize]);
+            bin.count += 1;
+        }
+        // Right-to-left sweep: cost of the right side of each plane.
+        let mut right_cost = [0.0f32; SAH_BINS];
+        let mut acc = Aabb::empty();
+        let mut acc_count = 0u32;
+        for plane in (1..SAH_BINS).rev() {
+            acc = acc.union(bins[plane].bounds);
+            acc_count += bins[plane].count;
+            right_cost[plane - 1] = if acc_count > 0 {
+                acc.surface_area() * acc_count as f32
+            } else {
+                f32::INFINITY
+            };
+        }
+        let mut acc = Aabb::empty();
+        let mut acc_count = 0u32;
+        for (plane, right) in right_cost.iter().enumerate().take(SAH_BINS - 1) {
+            acc = acc.union(bins[plane].bounds);
+            acc_count += bins[plane].count;
+            if acc_count == 0 {
+                continue;
+            }
+            let cost = acc.surface_area() * acc_count as f32 + right;
+            if cost < best_cost {
+                best_cost = cost;
+                best_axis = axis;
+                best_plane = plane;
+            }
+        }
+    }
+    let area = node_bounds.surface_area();
+    let split_cost = TRAVERSAL_COST * area + INTERSECTION_COST * best_cost;
+    let leaf_cost = INTERSECTION_COST * count as f32 * area;
+    if count <= MAX_LEAF_SIZE && leaf_cost <= split_cost {
+        return None;
+    }
+
+    // Partition in place: primitives in bins [0, best_plane] first.
+    let lo = centroid_bounds.min[best_axis];
+    let ext = extent[best_axis];
+    let goes_left = |r: u32| bin_of(centroids[r as usize][best_axis], lo, ext) <= best_plane;
+    let (mut i, mut j) = (0usize, refs.len());
+    while i < j {
+        if goes_left(refs[i]) {
+            i += 1;
+        } else {
+            j -= 1;
+            refs.swap(i, j);
+        }
+    }
+    debug_assert!(i > 0 && i < refs.len());
+    Some(i as u32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::geometry::{
+        intersect_triangle, intersect_unit_sphere, sphere_world_bounds, triangle_bounds,
+    };
+    use glam::{Mat4, Quat};
+    use std::time::Instant;
+
+    /// SplitMix64: a tiny deterministic generator for tests.
+    struct Rng(u64);
+    impl Rng {
+        fn next_u64(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+        fn below(&mut self, n: usize) -> usize {
+            (self.next_u64() % n as u64) as usize
+        }
+        fn f32(&mut self) -> f32 {
+            (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+        }
+        fn range(&mut self, lo: f32, hi: f32) -> f32 {
+            lo + (hi - lo) * self.f32()
+        }
+        fn vec3(&mut self, lo: f32, hi: f32) -> Vec3 {
+            Vec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
+        }
+        fn in_box(&mut self, b: &Aabb) -> Vec3 {
+            Vec3::new(
+                self.range(b.min.x, b.max.x),
+                self.range(b.min.y, b.max.y),
+                self.range(b.min.z, b.max.z),
+            )
+        }
+        fn unit_vec3(&mut self) -> Vec3 {
+            loop {
+                let v = self.vec3(-1.0, 1.0);
+                let l = v.length_squared();
+                if l > 1e-4 && l <= 1.0 {
+                    return v / l.sqrt();
+                }
+            }
+        }
+    }
+
+    /// Spheres are boxed to keep the enum small: brute force streams the whole list
+    /// once per ray.
+    #[derive(Clone, Debug)]
+    enum Prim {
+        Triangle([Vec3; 3]),
+        Sphere(Box<SpherePrim>),
+    }
+
+    #[derive(Clone, Debug)]
+    struct SpherePrim {
+        world_to_object: Mat4,
+        bounds: Aabb,
+    }
+
+    impl Prim {
+        fn bounds(&self) -> Aabb {
+            match self {
+                Prim::Triangle(v) => triangle_bounds(*v),
+                Prim::Sphere(s) => s.bounds,
+            }
+        }
+        fn hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+            match self {
+                Prim::Triangle(v) => {
+                    intersect_triangle(v[0], v[1], v[2], o, d, tmin, tmax).map(|(t, _)| t)
+                }
+                Prim::Sphere(s) => intersect_unit_sphere(&s.world_to_object, o, d, tmin, tmax),
+            }
+        }
+        fn point(&self) -> Vec3 {
+            self.bounds().centroid()
+        }
+    }
+
+    fn sphere(object_to_world: Mat4) -> Prim {
+        Prim::Sphere(Box::new(SpherePrim {
+            world_to_object: object_to_world.inverse(),
+            bounds: sphere_world_bounds(&object_to_world),
+        }))
+    }
+
+    /// A triangle soup in a cube of side `size` with a mix of ordinary, large, thin,
+    /// degenerate, axis-aligned and duplicated triangles.
+    fn random_triangles(rng: &mut Rng, n: usize, size: f32) -> Vec<Prim> {
+        let mut prims: Vec<Prim> = Vec::with_capacity(n);
+        let edge = size / (n as f32).cbrt().max(1.0);
+        while prims.len() < n {
+            let c = rng.vec3(-0.5 * size, 0.5 * size);
+            let mut v = [
+                c + rng.vec3(-edge, edge),
+                c + rng.vec3(-edge, edge),
+                c + rng.vec3(-edge, edge),
+            ];
+            match rng.below(20) {
+                // Large.
+                0 => v[2] = c + rng.vec3(-4.0 * edge, 4.0 * edge),
+                // Repeated vertex.
+                1 => v[2] = v[1],
+                // Collinear.
+                2 => v[2] = v[0] + 2.5 * (v[1] - v[0]),
+                // Sliver: third vertex almost on the first edge.
+                3 => v[2] = v[0] + 0.3 * (v[1] - v[0]) + rng.vec3(-1e-4, 1e-4) * edge,
+                // Axis-aligned plane: a flat box.
+                4 => {
+                    let axis = rng.below(3);
+                    for k in 1..3 {
+                        v[k][axis] = v[0][axis];
+                    }
+                }
+                // A point.
+                5 => v = [v[0]; 3],
+                // Duplicate of an earlier triangle (vertices rotated sometimes).
+                6 | 7 if !prims.is_empty() => {
+                    if let Prim::Triangle(w) = prims[rng.below(prims.len())] {
+                        v = if rng.below(2) == 0 {
+                            w
+                        } else {
+                            [w[1], w[2], w[0]]
+                        };
+                    }
+                }
+                _ => {}
+            }
+            prims.push(Prim::Triangle(v));
+        }
+        prims
+    }
+
+    fn random_spheres(rng: &mut Rng, n: usize, size: f32) -> Vec<Prim> {
+        (0..n)
+            .map(|i| {
+                let rotation = Quat::from_axis_angle(rng.unit_vec3(), rng.range(0.0, 6.3));
+                let scale = if i % 3 == 0 {
+                    Vec3::splat(rng.range(0.02, 0.15) * size)
+                } else {
+                    rng.vec3(0.01, 0.15) * size
+                };
+                let translation = rng.vec3(-0.5 * size, 0.5 * size);
+                sphere(Mat4::from_scale_rotation_translation(
+                    scale,
+                    rotation,
+                    translation,
+                ))
+            })
+            .collect()
+    }
+
+    fn brute_closest(prims: &[Prim], o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(u32, f32)> {
+        let mut best = None;
+        let mut closest = tmax;
+        for (i, p) in prims.iter().enumerate() {
+            if let Some(t) = p.hit(o, d, tmin, closest) {
+                closest = t;
+                best = Some((i as u32, t));
+            }
+        }
+        best
+    }
+
+    fn scene_bounds(prims: &[Prim]) -> Aabb {
+        prims.iter().fold(Aabb::empty(), |b, p| b.union(p.bounds()))
+    }
+
+    struct Ray {
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: f32,
+    }
+
+    fn random_ray(rng: &mut Rng, prims: &[Prim], b: &Aabb) -> Ray {
+        let diag = (b.max - b.min).length().max(1e-3);
+        let centre = b.centroid();
+        let grown = Aabb {
+            min: b.min - 0.1 * diag,
+            max: b.max + 0.1 * diag,
+        };
+        let axis_dir = |rng: &mut Rng| {
+            let mut d = Vec3::ZERO;
+            d[rng.below(3)] = if rng.below(2) == 0 { 1.0 } else { -1.0 };
+            d
+        };
+        let target = |rng: &mut Rng| prims[rng.below(prims.len())].point();
+        let (o, mut d) = match rng.below(7) {
+            // Anywhere near the scene, any direction.
+            0 => (rng.in_box(&grown), rng.unit_vec3()),
+            // From outside, towards the scene.
+            1 => {
+                let o = centre + rng.unit_vec3() * diag * rng.range(0.6, 3.0);
+                (o, rng.in_box(b) - o)
+            }
+            // Inside, axis-aligned (two exact zero components).
+            2 => (rng.in_box(b), axis_dir(rng)),
+            // Axis-aligned through a primitive, from inside or outside the bounds.
+            3 => {
+                let d = axis_dir(rng);
+                let o = target(rng) - d * diag * rng.range(-0.5, 1.5);
+                (o, d)
+            }
+            // One zero component.
+            4 => {
+                let mut d = rng.unit_vec3();
+                d[rng.below(3)] = 0.0;
+                (rng.in_box(&grown), d)
+            }
+            // From a triangle vertex (like a secondary ray), any direction.
+            5 => {
+                let o = match &prims[rng.below(prims.len())] {
+                    Prim::Triangle(v) => v[rng.below(3)],
+                    p => p.point(),
+                };
+                (o, rng.unit_vec3())
+            }
+            // Aimed at a primitive: mostly hits, through dense regions.
+            _ => {
+                let o = rng.in_box(&grown);
+                (o, target(rng) - o)
+            }
+        };
+        if d == Vec3::ZERO {
+            d = Vec3::X;
+        }
+        d *= match rng.below(3) {
+            0 => rng.range(0.01, 100.0),
+            _ => 1.0,
+        };
+        let scale = diag / d.length();
+        let tmin = if rng.below(4) == 0 {
+            rng.range(0.0, 0.5) * scale
+        } else {
+            0.0
+        };
+        let tmax = if rng.below(3) == 0 {
+            tmin + rng.range(0.0, 1.5) * scale
+        } else {
+            f32::INFINITY
+        };
+        Ray { o, d, tmin, tmax }
+    }
+
+    /// Every ray's BVH closest hit has the brute-force distance (bit for bit: the same
+    /// routine computes it) on a primitive that really has it, and `any_hit` agrees with
+    /// brute-force existence.
+    fn check_against_brute_force(prims: &[Prim], rays: usize, seed: u64) {
+        let bounds: Vec<Aabb> = prims.iter().map(Prim::bounds).collect();
+        let bvh = Bvh::build(&bounds);
+        check_structure(&bvh, &bounds, MAX_DEPTH);
+        let sb = scene_bounds(prims);
+        let mut rng = Rng(seed);
+        let mut hits = 0;
+        for k in 0..rays {
+            let ray = random_ray(&mut rng, prims, &sb);
+            let (o, d) = (ray.o, ray.d);
+            let expected = brute_closest(prims, o, d, ray.tmin, ray.tmax);
+            let got = bvh.closest_hit(o, d, ray.tmin, ray.tmax, |p, tmax| {
+                prims[p as usize].hit(o, d, ray.tmin, tmax)
+            });
+            match (expected, got) {
+                (None, None) => {}
+                (Some((_, te)), Some((pg, tg))) => {
+                    assert_eq!(te, tg, "ray {k}: t differs (o {o} d {d})");
+                    // Duplicates tie: any primitive with exactly that distance is right.
+                    let t_of_got = prims[pg as usize].hit(o, d, ray.tmin, ray.tmax);
+                    assert_eq!(t_of_got, Some(tg), "ray {k}: prim {pg} not at t {tg}");
+                    hits += 1;
+                }
+                _ => panic!(
+                    "ray {k}: bvh {got:?} vs brute force {expected:?} \
+                     (o {o} d {d} tmin {} tmax {})",
+                    ray.tmin, ray.tmax
+                ),
+            }
+            let any = bvh.any_hit(o, d, ray.tmin, ray.tmax, |p, tmax| {
+                prims[p as usize].hit(o, d, ray.tmin, tmax)
+            });
+            assert_eq!(any, expected.is_some(), "ray {k}: any_hit");
+        }
+        // The ray mix must exercise hits, not just misses.
+        assert!(
+            prims.len() < 10 || hits > rays / 10,
+            "only {hits} hits of {rays}"
+        );
+    }
+
+    /// Structural invariants: a permutation of primitives in leaves, one leaf each,
+    /// nested boxes, leaf sizes within the cap, depth within the stack, every node
+    /// reachable.
+    fn check_structure(bvh: &Bvh, bounds: &[Aabb], max_depth: u32) {
+        let n = bounds.len();
+        assert_eq!(bvh.prim_refs.len(), n);
+        if n == 0 {
+            assert_eq!(bvh.nodes.len(), 1);
+            assert!(bvh.nodes[0].bounds().is_empty());
+            assert_eq!(bvh.nodes[0].count, 0);
+            return;
+        }
+        let mut seen = vec![0u32; n];
+        let mut covered = vec![false; n];
+        let mut visited = 0usize;
+        let mut stack = vec![(0u32, 0u32)];
+        while let Some((index, depth)) = stack.pop() {
+            visited += 1;
+            assert!(depth <= max_depth, "depth {depth}");
+            let node = bvh.nodes[index as usize];
+            let b = node.bounds();
+            assert!(!b.is_empty());
+            if node.is_leaf() {
+                assert!(node.count <= MAX_LEAF_SIZE);
+                for i in node.left_or_first..node.left_or_first + node.count {
+                    assert!(!covered[i as usize], "prim_refs slot {i} in two leaves");
+                    covered[i as usize] = true;
+                    let p = bvh.prim_refs[i as usize] as usize;
+                    seen[p] += 1;
+                    assert!(b.contains(&bounds[p]));
+                }
+            } else {
+                let (l, r) = (index + 1, node.left_or_first);
+                assert!(r > l && (r as usize) < bvh.nodes.len());
+                for c in [l, r] {
+                    assert!(b.contains(&bvh.nodes[c as usize].bounds()));
+                    stack.push((c, depth + 1));
+                }
+            }
+        }
+        assert_eq!(visited, bvh.nodes.len(), "unreachable nodes");
+        assert!(
+            seen.iter().all(|&s| s == 1),
+            "a primitive not in exactly one leaf"
+        );
+        assert!(covered.iter().all(|&c| c));
+    }
+
+    #[test]
+    fn empty_scene_never_hits() {
+        let bvh = Bvh::build(&[]);
+        check_structure(&bvh, &[], MAX_DEPTH);
+        let mut calls = 0;
+        let hit = bvh.closest_hit(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY, |_, _| {
+            calls += 1;
+            Some(1.0)
+        });
+        assert_eq!(hit, None);
+        assert!(!bvh.any_hit(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY, |_, _| Some(1.0)));
+        assert_eq!(calls, 0);
+    }
+
+    #[test]
+    fn triangle_soups_match_brute_force() {
+        let mut rng = Rng(1);
+        for (n, rays, seed) in [
+            (1, 2000, 10),
+            (2, 2000, 11),
+            (17, 4000, 12),
+            (1000, 10_000, 13),
+            // Brute force dominates the run time here: fewer rays.
+            (20_000, 4000, 14),
+        ] {
+            let prims = random_triangles(&mut rng, n, 10.0);
+            check_against_brute_force(&prims, rays, seed);
+        }
+    }
+
+    #[test]
+    fn mixed_spheres_and_triangles_match_brute_force() {
+        let mut rng = Rng(2);
+        for (tris, spheres, rays, seed) in [
+            (0, 1, 2000, 20),
+            (0, 40, 4000, 21),
+            (1, 1, 2000, 22),
+            (500, 60, 10_000, 23),
+            (5000, 300, 10_000, 24),
+        ] {
+            let mut prims = random_triangles(&mut rng, tris, 10.0);
+            prims.extend(random_spheres(&mut rng, spheres, 10.0));
+            // Interleave so sphere indices are not all at the end.
+            let len = prims.len();
+            for i in (1..len).rev() {
+                prims.swap(i, rng.below(i + 1));
+            }
+            check_against_brute_force(&prims, rays, seed);
+        }
+    }
+
+    #[test]
+    fn coincident_and_extreme_inputs_match_brute_force() {
+        let mut rng = Rng(3);
+        // 100 copies of one triangle: all centroids coincide.
+        let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let prims = vec![Prim::Triangle(t); 100];
+        check_against_brute_force(&prims, 2000, 30);
+        // Geometrically spaced clusters, a distribution that makes SAH trees deep.
+        let mut prims = Vec::new();
+        for i in 0..100 {
+            let c = Vec3::new(1.1f32.powi(i), 0.0, 0.0);
+            for _ in 0..8 {
+                let v = [
+                    c + rng.vec3(-0.1, 0.1),
+                    c + rng.vec3(-0.1, 0.1),
+                    c + rng.vec3(-0.1, 0.1),
+                ];
+                prims.push(Prim::Triangle(v));
+            }
+        }
+        check_against_brute_force(&prims, 4000, 31);
+    }
+
+    #[test]
+    fn depth_cap_forces_median_splits() {
+        let mut rng = Rng(4);
+        let prims = random_triangles(&mut rng, 3000, 10.0);
+        let bounds: Vec<Aabb> = prims.iter().map(Prim::bounds).collect();
+        // 3000 primitives need 8 levels of halving to reach leaves of 16.
+        for max_depth in [8, 9, 12] {
+            let bvh = Bvh::build_with_max_depth(&bounds, max_depth);
+            check_structure(&bvh, &bounds, max_depth);
+        }
+        // A chain-like distribution stays within the real cap too.
+        let chain: Vec<Aabb> = (0..4000)
+            .map(|i| {
+                let c = Vec3::new(1.004f32.powi(i), 0.0, 0.0);
+                Aabb {
+                    min: c - 0.001,
+                    max: c + 0.001,
+                }
+            })
+            .collect();
+        check_structure(&Bvh::build(&chain), &chain, MAX_DEPTH);
+    }
+
+    #[test]
+    fn build_is_deterministic() {
+        let mut rng = Rng(5);
+        let mut prims = random_triangles(&mut rng, 5000, 10.0);
+        prims.extend(random_spheres(&mut rng, 100, 10.0));
+        let bounds: Vec<Aabb> = prims.iter().map(Prim::bounds).collect();
+        assert_eq!(Bvh::build(&bounds), Bvh::build(&bounds));
+    }
+
+    #[test]
+    fn sah_root_splits_between_clusters() {
+        let mut rng = Rng(6);
+        let mut bounds = Vec::new();
+        for i in 0..1000 {
+            let centre = if i % 2 == 0 { -100.0 } else { 100.0 };
+            let c = Vec3::new(centre, 0.0, 0.0) + rng.vec3(-5.0, 5.0);
+            bounds.push(triangle_bounds([
+                c + rng.vec3(-0.5, 0.5),
+                c + rng.vec3(-0.5, 0.5),
+                c + rng.vec3(-0.5, 0.5),
+            ]));
+        }
+        let bvh = Bvh::build(&bounds);
+        let root = bvh.nodes[0];
+        assert!(!root.is_leaf());
+        let (a, b) = (
+            bvh.nodes[1].bounds(),
+            bvh.nodes[root.left_or_first as usize].bounds(),
+        );
+        let (neg, pos) = if a.min.x < b.min.x { (a, b) } else { (b, a) };
+        assert!(neg.max.x < -90.0 && pos.min.x > 90.0, "{neg:?} {pos:?}");
+    }
+
+    #[test]
+    fn leaf_policy_follows_sah() {
+        // Four or fewer primitives: one leaf.
+        let b = triangle_bounds([Vec3::ZERO, Vec3::X, Vec3::Y]);
+        assert_eq!(Bvh::build(&[b; 4]).nodes.len(), 1);
+        // Sixteen overlapping primitives: splitting cannot pay, one leaf.
+        assert_eq!(Bvh::build(&[b; 16]).nodes.len(), 1);
+        // Seventeen coincident ones exceed the cap: split at the median.
+        let bvh = Bvh::build(&[b; 17]);
+        assert_eq!(bvh.nodes.len(), 3);
+        assert_eq!((bvh.nodes[1].count, bvh.nodes[2].count), (8, 9));
+        // Eight small far-apart primitives: splitting pays.
+        let spread: Vec<Aabb> = (0..8)
+            .map(|i| Aabb {
+                min: Vec3::splat(10.0 * i as f32),
+                max: Vec3::splat(10.0 * i as f32 + 0.1),
+            })
+            .collect();
+        assert!(Bvh::build(&spread).nodes.len() > 1);
+    }
+
+    #[test]
+    fn box_entry_handles_parallel_rays() {
+        let node = BvhNode {
+            min: [0.0, 0.0, 0.0],
+            left_or_first: 0,
+            max: [1.0, 1.0, 1.0],
+            count: 1,
+        };
+        let inf = f32::INFINITY;
+        // Parallel to x, origin on the min-y and min-z faces: inside the slabs.
+        let o = Vec3::new(-1.0, 0.0, 0.0);
+        let t = box_entry(&node, o, safe_inverse(Vec3::X), 0.0, inf);
+        assert_eq!(t, 1.0);
+        // Same with negative zeros in the direction.
+        let t = box_entry(&node, o, safe_inverse(Vec3::new(1.0, -0.0, -0.0)), 0.0, inf);
+        assert_eq!(t, 1.0);
+        // Parallel outside a slab: miss.
+        let o = Vec3::new(-1.0, -0.001, 0.5);
+        assert_eq!(box_entry(&node, o, safe_inverse(Vec3::X), 0.0, inf), inf);
+        // Origin inside: entry at tmin.
+        let o = Vec3::splat(0.5);
+        assert_eq!(box_entry(&node, o, safe_inverse(Vec3::Y), 0.25, inf), 0.25);
+        // Box behind the ray, or beyond tmax.
+        let o = Vec3::new(2.0, 0.5, 0.5);
+        assert_eq!(box_entry(&node, o, safe_inverse(Vec3::X), 0.0, inf), inf);
+        assert_eq!(box_entry(&node, o, safe_inverse(-Vec3::X), 0.0, 0.5), inf);
+        assert_eq!(box_entry(&node, o, safe_inverse(-Vec3::X), 0.0, 1.0), 1.0);
+        // A flat box (zero thickness in z) hit head-on.
+        let flat = BvhNode {
+            max: [1.0, 1.0, 0.0],
+            ..node
+        };
+        let o = Vec3::new(0.5, 0.5, 3.0);
+        assert_eq!(box_entry(&flat, o, safe_inverse(-Vec3::Z), 0.0, inf), 3.0);
+    }
+
+    /// A closed, bumpy, finely tessellated surface: a stand-in for a scanned model.
+    fn tessellated_blob(rings: usize, segments: usize) -> Vec<Aabb> {
+        let point = |i: usize, j: usize| {
+            let theta = std::f32::consts::PI * i as f32 / rings as f32;
+            let phi = std::f32::consts::TAU * j as f32 / segments as f32;
+            let r = 1.0 + 0.2 * (5.0 * theta).sin() * (7.0 * phi).cos();
+            r * Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            )
+        };
+        let mut bounds = Vec::with_capacity(2 * rings * segments);
+        for i in 0..rings {
+            for j in 0..segments {
+                let (a, b) = (point(i, j), point(i + 1, j));
+                let (c, d) = (point(i + 1, j + 1), point(i, j + 1));
+                bounds.push(triangle_bounds([a, b, c]));
+                bounds.push(triangle_bounds([a, c, d]));
+            }
+        }
+        bounds
+    }
+
+    /// Not a timed assertion: prints build times (see them with `--nocapture`).
+    #[test]
+    fn build_time_100k_triangles() {
+        let mut rng = Rng(8);
+        let soup: Vec<Aabb> = random_triangles(&mut rng, 100_000, 10.0)
+            .iter()
+            .map(Prim::bounds)
+            .collect();
+        let blob = tessellated_blob(250, 200);
+        for (name, bounds) in [("random soup", &soup), ("tessellated surface", &blob)] {
+            let start = Instant::now();
+            let bvh = Bvh::build(bounds);
+            let elapsed = start.elapsed();
+            eprintln!(
+                "bvh build, {name}: {} triangles, {} nodes, {:.1} ms",
+                bounds.len(),
+                bvh.nodes.len(),
+                elapsed.as_secs_f64() * 1e3
+            );
+            check_structure(&bvh, bounds, MAX_DEPTH);
+        }
+    }
+}

@@ -1,0 +1,185 @@
+//! Acceleration structures for VK_KHR_ray_query: one triangle BLAS (the scene's
+//! triangles, already in BVH leaf order — lavapipe's builder splits index ranges
+//! without sorting, so file order can trace hundreds of times slower), one unit-cube
+//! AABB BLAS shared by every sphere, and a TLAS with one instance per sphere whose
+//! transform is the sphere's object-to-world matrix.
+use crate::gpu::buffer::Buffer;
+use crate::gpu::{other_error, Device, GpuResult, Stage};
+use ash::vk;
+use glam::Mat4;
+use std::sync::Arc;
+
+pub struct AccelStructure {
+    device: Arc<Device>,
+    pub raw: vk::AccelerationStructureKHR,
+    _storage: Buffer,
+}
+
+impl Drop for AccelStructure {
+    fn drop(&mut self) {
+        if let Some(loader) = &self.device.accel_loader {
+            unsafe { loader.destroy_acceleration_structure(self.raw, None) };
+        }
+    }
+}
+
+pub struct RayQueryScene {
+    pub tlas: AccelStructure,
+    _blas: Vec<AccelStructure>,
+    _inputs: Vec<Buffer>,
+}
+
+const INPUT_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
+    vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw()
+        | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR.as_raw()
+        | vk::BufferUsageFlags::STORAGE_BUFFER.as_raw(),
+);
+
+fn build(
+    device: &Arc<Device>,
+    name: &str,
+    ty: vk::AccelerationStructureTypeKHR,
+    geometry: vk::AccelerationStructureGeometryKHR,
+    count: u32,
+) -> GpuResult<AccelStructure> {
+    let stage = format!("building the {name} acceleration structure");
+    let loader = device.accel_loader.as_ref().ok_or_else(|| other_error(&stage, "ray query not enabled"))?;
+    let geometries = [geometry];
+    let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+        .ty(ty)
+        .flags(vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE)
+        .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+        .geometries(&geometries);
+    let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
+    unsafe {
+        loader.get_acceleration_structure_build_sizes(
+            vk::AccelerationStructureBuildTypeKHR::DEVICE,
+            &info,
+            &[count],
+            &mut sizes,
+        )
+    };
+    let storage = Buffer::new(
+        device,
+        &format!("{name} acceleration structure"),
+        sizes.acceleration_structure_size,
+        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+        gpu_allocator::MemoryLocation::GpuOnly,
+    )?;
+    let raw = unsafe {
+        loader.create_acceleration_structure(
+            &vk::AccelerationStructureCreateInfoKHR::default()
+                .buffer(storage.raw)
+                .size(sizes.acceleration_structure_size)
+                .ty(ty),
+            None,
+        )
+    }
+    .stage(&stage)?;
+    let accel = AccelStructure { device: device.clone(), raw, _storage: storage };
+    // Scratch alignment is a device limit; over-allocate and align the address.
+    let align = 256u64;
+    let scratch = Buffer::new(
+        device,
+        &format!("{name} build scratch"),
+        sizes.build_scratch_size + align,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+        gpu_allocator::MemoryLocation::GpuOnly,
+    )?;
+    let scratch_address = (scratch.device_address() + align - 1) & !(align - 1);
+    info = info
+        .dst_acceleration_structure(raw)
+        .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+    let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
+    let ranges: [&[vk::AccelerationStructureBuildRangeInfoKHR]; 1] = [&range];
+    device.run_commands(&stage, |cmd| unsafe {
+        loader.cmd_build_acceleration_structures(cmd, std::slice::from_ref(&info), &ranges);
+    })?;
+    Ok(accel)
+}
+
+fn address_of(device: &Device, a: &AccelStructure) -> u64 {
+    let loader = device.accel_loader.as_ref().expect("checked by build");
+    unsafe {
+        loader.get_acceleration_structure_device_address(
+            &vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(a.raw),
+        )
+    }
+}
+
+/// `triangles` is the GPU triangle buffer (three vec4 vertices per triangle, used as a
+/// vertex buffer of stride 16), `sphere_transforms` the spheres' object-to-world maps.
+pub fn build_scene(
+    device: &Arc<Device>,
+    triangles: &Buffer,
+    triangle_count: u32,
+    sphere_transforms: &[Mat4],
+) -> GpuResult<RayQueryScene> {
+    let mut blas = Vec::new();
+    let mut inputs = Vec::new();
+    let mut instances: Vec<vk::AccelerationStructureInstanceKHR> = Vec::new();
+    let flags = vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE | vk::GeometryInstanceFlagsKHR::FORCE_OPAQUE;
+    let instance = |transform: [f32; 12], custom: u32, reference: u64| vk::AccelerationStructureInstanceKHR {
+        transform: vk::TransformMatrixKHR { matrix: transform },
+        instance_custom_index_and_mask: vk::Packed24_8::new(custom, 0xff),
+        instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(0, flags.as_raw() as u8),
+        acceleration_structure_reference: vk::AccelerationStructureReferenceKHR { device_handle: reference },
+    };
+    if triangle_count > 0 {
+        let triangles_data = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+            .vertex_format(vk::Format::R32G32B32_SFLOAT)
+            .vertex_data(vk::DeviceOrHostAddressConstKHR { device_address: triangles.device_address() })
+            .vertex_stride(16)
+            .max_vertex(triangle_count * 3 - 1)
+            .index_type(vk::IndexType::NONE_KHR);
+        let geometry = vk::AccelerationStructureGeometryKHR::default()
+            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+            .geometry(vk::AccelerationStructureGeometryDataKHR { triangles: triangles_data })
+            .flags(vk::GeometryFlagsKHR::OPAQUE);
+        let b = build(device, "triangle BLAS", vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, geometry, triangle_count)?;
+        let identity = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        instances.push(instance(identity, 0, address_of(device, &b)));
+        blas.push(b);
+    }
+    if !sphere_transforms.is_empty() {
+        let aabb: [f32; 6] = [-1.0, -1.0, -1.0, 1.0, 1.0, 1.0];
+        let aabb_buffer = Buffer::with_data(device, "sphere AABB", bytemuck::cast_slice(&aabb), INPUT_USAGE)?;
+        let aabbs = vk::AccelerationStructureGeometryAabbsDataKHR::default()
+            .data(vk::DeviceOrHostAddressConstKHR { device_address: aabb_buffer.device_address() })
+            .stride(24);
+        let geometry = vk::AccelerationStructureGeometryKHR::default()
+            .geometry_type(vk::GeometryTypeKHR::AABBS)
+            .geometry(vk::AccelerationStructureGeometryDataKHR { aabbs })
+            .flags(vk::GeometryFlagsKHR::OPAQUE);
+        let b = build(device, "sphere BLAS", vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, geometry, 1)?;
+        let reference = address_of(device, &b);
+        for (i, m) in sphere_transforms.iter().enumerate() {
+            let r = m.transpose().to_cols_array(); // rows of m
+            instances.push(instance(
+                [r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11]],
+                i as u32,
+                reference,
+            ));
+        }
+        blas.push(b);
+        inputs.push(aabb_buffer);
+    }
+    let instance_bytes: Vec<u8> = instances
+        .iter()
+        .flat_map(|i| {
+            // SAFETY: AccelerationStructureInstanceKHR is a plain 64-byte C struct.
+            unsafe { std::slice::from_raw_parts(i as *const _ as *const u8, std::mem::size_of_val(i)) }.to_vec()
+        })
+        .collect();
+    let instance_buffer = Buffer::with_data(device, "TLAS instances", &instance_bytes, INPUT_USAGE)?;
+    let data = vk::AccelerationStructureGeometryInstancesDataKHR::default()
+        .array_of_pointers(false)
+        .data(vk::DeviceOrHostAddressConstKHR { device_address: instance_buffer.device_address() });
+    let geometry = vk::AccelerationStructureGeometryKHR::default()
+        .geometry_type(vk::GeometryTypeKHR::INSTANCES)
+        .geometry(vk::AccelerationStructureGeometryDataKHR { instances: data })
+        .flags(vk::GeometryFlagsKHR::OPAQUE);
+    let tlas = build(device, "TLAS", vk::AccelerationStructureTypeKHR::TOP_LEVEL, geometry, instances.len() as u32)?;
+    inputs.push(instance_buffer);
+    Ok(RayQueryScene { tlas, _blas: blas, _inputs: inputs })
+}

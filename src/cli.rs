@@ -1,0 +1,210 @@
+//! The command line: `lightpath render | devices | compare | bench`.
+use crate::io;
+use crate::render::{AccelChoice, Renderer};
+use crate::scene::{self, IntegratorKind, Scene};
+use crate::trace::Trace;
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
+
+#[derive(Parser)]
+#[command(name = "lightpath", version, about = "A GPU renderer on Vulkan: path tracing, BDPT and MMLT")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(clap::Args, Clone, Debug)]
+pub struct RenderArgs {
+    /// The scene (.test file).
+    pub scene: PathBuf,
+    /// Output image (.exr: linear float RGB; .png: 8-bit with the scene's gamma).
+    /// Default: the scene's `output`.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Samples per pixel.
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Maximum number of scattering vertices (-1: unbounded, with Russian roulette).
+    #[arg(long, allow_hyphen_values = true)]
+    pub max_depth: Option<i32>,
+    /// Random seed; a render is a pure function of scene, settings and seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Image size, WxH.
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// Integrator: pathtracer, direct, analyticdirect.
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Visibility backend: auto, rayquery or bvh.
+    #[arg(long, default_value = "auto")]
+    pub accel: String,
+    /// Vulkan device, by index or part of its name (see `lightpath devices`).
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Write a Chrome trace-event file (open it in Perfetto).
+    #[arg(long)]
+    pub trace: Option<PathBuf>,
+    /// No progress bar and no summary table.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene.
+    Render(RenderArgs),
+    /// List Vulkan devices with their driver, ray-query support and limits.
+    Devices,
+    /// Compare image A against reference B: mean per channel, RMSE, relMSE (ε = 0.01).
+    Compare { a: PathBuf, b: PathBuf },
+    /// Measure path-tracing speed on the Cornell box for each backend.
+    Bench(crate::bench::BenchArgs),
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WxH, got {s:?}"))?;
+    let w: u32 = w.parse().map_err(|_| format!("bad width in {s:?}"))?;
+    let h: u32 = h.parse().map_err(|_| format!("bad height in {s:?}"))?;
+    if w == 0 || h == 0 {
+        return Err(format!("size must be at least 1x1, got {s:?}"));
+    }
+    Ok((w, h))
+}
+
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render_command(&args),
+        Command::Devices => devices_command(),
+        Command::Compare { a, b } => compare_command(&a, &b),
+        Command::Bench(args) => crate::bench::run(&args),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            1
+        }
+    }
+}
+
+/// Apply the command line's overrides to a parsed scene.
+pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
+    if let Some(spp) = args.spp {
+        if spp == 0 {
+            bail!("--spp must be at least 1");
+        }
+        scene.settings.spp = spp;
+    }
+    if let Some(d) = args.max_depth {
+        if d < -1 {
+            bail!("--max-depth must be -1 (unbounded) or at least 0, got {d}");
+        }
+        scene.settings.max_depth = d;
+    }
+    if let Some((w, h)) = args.size {
+        scene.width = w;
+        scene.height = h;
+    }
+    if let Some(name) = &args.integrator {
+        scene.settings.integrator = IntegratorKind::from_name(name).with_context(|| {
+            format!("--integrator {name:?}: expected pathtracer, direct, analyticdirect, bdpt or mmlt")
+        })?;
+    }
+    Ok(())
+}
+
+fn output_path(scene: &Scene, args: &RenderArgs) -> PathBuf {
+    if let Some(o) = &args.output {
+        return o.clone();
+    }
+    if let Some(o) = &scene.output {
+        return PathBuf::from(o);
+    }
+    let stem = args.scene.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or("render".into());
+    PathBuf::from(format!("{stem}.png"))
+}
+
+fn render_command(args: &RenderArgs) -> Result<()> {
+    let mut trace = Trace::new();
+    let accel = AccelChoice::from_name(&args.accel)
+        .with_context(|| format!("--accel {:?}: expected auto, rayquery or bvh", args.accel))?;
+    let mut scene = trace.cpu("parse", || scene::parse_file(&args.scene))?;
+    apply_overrides(&mut scene, args)?;
+    let output = output_path(&scene, args);
+    io::check_writable(&output)?;
+    if let Some(t) = &args.trace {
+        io::check_writable_file(t)?;
+    }
+    let mut renderer = trace.cpu("device and kernels", || Renderer::new(args.device.as_deref(), accel))?;
+    renderer.show_progress = !args.quiet;
+    let out = renderer.render(&scene, args.seed, &mut trace)?;
+    trace.cpu("write image", || io::write_image(&output, &out.image, scene.settings.gamma))?;
+    if out.nonfinite_samples > 0 {
+        eprintln!(
+            "warning: {} samples were NaN or infinite and were left out of the image",
+            out.nonfinite_samples
+        );
+    }
+    if !args.quiet {
+        let total = out.samples_per_pixel as f64 * scene.width as f64 * scene.height as f64;
+        eprintln!(
+            "{}: {}x{} {} spp, {} on {} ({}), {:.3} Msamples/s, {:.2} Mrays/s in dispatches",
+            output.display(),
+            scene.width,
+            scene.height,
+            out.samples_per_pixel,
+            scene.settings.integrator.name(),
+            renderer.device.info.name,
+            out.backend.name(),
+            total / out.dispatch_seconds / 1e6,
+            out.rays / out.dispatch_seconds / 1e6
+        );
+        eprint!("{}", trace.summary());
+    }
+    if let Some(t) = &args.trace {
+        trace.write(t)?;
+    }
+    Ok(())
+}
+
+fn devices_command() -> Result<()> {
+    let instance = crate::gpu::Instance::new()?;
+    let devices = instance.devices()?;
+    if devices.is_empty() {
+        bail!("no Vulkan device found (install Mesa's lavapipe: scripts/setup-system.sh)");
+    }
+    let best = crate::gpu::choose_device(&devices, None)?;
+    for (i, (_, d)) in devices.iter().enumerate() {
+        println!(
+            "[{}]{} {} ({})\n    driver: {}\n    Vulkan {}.{}.{}, ray query: {}, float atomics: {}\n    max storage buffer range: {} MiB, max workgroup invocations: {}, timestamps: {}",
+            i,
+            if i == best { " (default)" } else { "" },
+            d.name,
+            d.kind_name(),
+            d.driver,
+            ash::vk::api_version_major(d.api_version),
+            ash::vk::api_version_minor(d.api_version),
+            ash::vk::api_version_patch(d.api_version),
+            if d.ray_query { "yes" } else { "no" },
+            if d.atomic_float { "yes" } else { "no" },
+            d.max_storage_buffer_range / (1024 * 1024),
+            d.max_workgroup_invocations,
+            if d.timestamps { "yes" } else { "no" },
+        );
+    }
+    Ok(())
+}
+
+fn compare_command(a: &Path, b: &Path) -> Result<()> {
+    let ia = io::read_exr(a)?;
+    let ib = io::read_exr(b)?;
+    let c = io::compare(&ia, &ib)?;
+    println!("mean A: {:.6} {:.6} {:.6}", c.mean_a[0], c.mean_a[1], c.mean_a[2]);
+    println!("mean B: {:.6} {:.6} {:.6}", c.mean_b[0], c.mean_b[1], c.mean_b[2]);
+    println!("RMSE: {:.6}", c.rmse);
+    println!("relMSE: {:.6}", c.relmse);
+    Ok(())
+}

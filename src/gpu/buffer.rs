@@ -1,0 +1,176 @@
+//! Buffers that free themselves: allocate → bind → (use) → free → destroy.
+use super::{other_error, Device, GpuResult, Stage};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+use std::sync::Arc;
+
+pub struct Buffer {
+    device: Arc<Device>,
+    pub raw: vk::Buffer,
+    allocation: Option<Allocation>,
+    pub size: u64,
+    pub name: String,
+}
+
+impl Buffer {
+    pub fn new(
+        device: &Arc<Device>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> GpuResult<Buffer> {
+        let stage = format!("creating buffer '{name}' ({size} bytes)");
+        let size = size.max(16);
+        let raw = unsafe {
+            device
+                .raw
+                .create_buffer(&vk::BufferCreateInfo::default().size(size).usage(usage), None)
+        }
+        .stage(&stage)?;
+        let requirements = unsafe { device.raw.get_buffer_memory_requirements(raw) };
+        let allocation = device
+            .allocator
+            .lock()
+            .map_err(|_| other_error(&stage, "allocator lock poisoned"))?
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear: true,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            });
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { device.raw.destroy_buffer(raw, None) };
+                return Err(other_error(&stage, e));
+            }
+        };
+        if let Err(e) = unsafe { device.raw.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) } {
+            let _ = device.allocator.lock().map(|mut a| a.free(allocation));
+            unsafe { device.raw.destroy_buffer(raw, None) };
+            return Err(e).stage(&stage);
+        }
+        Ok(Buffer { device: device.clone(), raw, allocation: Some(allocation), size, name: name.to_string() })
+    }
+
+    /// A device-local buffer holding `data`, copied through a staging buffer.
+    pub fn with_data(
+        device: &Arc<Device>,
+        name: &str,
+        data: &[u8],
+        usage: vk::BufferUsageFlags,
+    ) -> GpuResult<Buffer> {
+        let size = (data.len() as u64).max(16);
+        let buffer = Buffer::new(
+            device,
+            name,
+            size,
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        if !data.is_empty() {
+            let mut staging = Buffer::new(
+                device,
+                &format!("{name} (staging)"),
+                size,
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+            )?;
+            staging.write(data)?;
+            device.run_commands(&format!("uploading '{name}'"), |cmd| unsafe {
+                device.raw.cmd_copy_buffer(
+                    cmd,
+                    staging.raw,
+                    buffer.raw,
+                    &[vk::BufferCopy::default().size(data.len() as u64)],
+                );
+            })?;
+        }
+        Ok(buffer)
+    }
+
+    /// A zero-filled device-local buffer.
+    pub fn zeroed(device: &Arc<Device>, name: &str, size: u64, usage: vk::BufferUsageFlags) -> GpuResult<Buffer> {
+        let buffer = Buffer::new(device, name, size, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly)?;
+        device.run_commands(&format!("clearing '{name}'"), |cmd| unsafe {
+            device.raw.cmd_fill_buffer(cmd, buffer.raw, 0, vk::WHOLE_SIZE, 0);
+        })?;
+        Ok(buffer)
+    }
+
+    /// Write into a host-visible buffer.
+    pub fn write(&mut self, data: &[u8]) -> GpuResult<()> {
+        let stage = format!("writing buffer '{}'", self.name);
+        let mapped = self
+            .allocation
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .ok_or_else(|| other_error(&stage, "buffer is not host visible"))?;
+        if data.len() > mapped.len() {
+            return Err(other_error(&stage, "data larger than the buffer"));
+        }
+        mapped[..data.len()].copy_from_slice(data);
+        Ok(())
+    }
+
+    /// Read `len` bytes of a host-visible buffer.
+    pub fn read(&self, len: usize) -> GpuResult<Vec<u8>> {
+        let stage = format!("reading buffer '{}'", self.name);
+        let mapped = self
+            .allocation
+            .as_ref()
+            .and_then(|a| a.mapped_slice())
+            .ok_or_else(|| other_error(&stage, "buffer is not host visible"))?;
+        Ok(mapped[..len.min(mapped.len())].to_vec())
+    }
+
+    /// Copy a device-local buffer back to the host.
+    pub fn download(&self, len: u64) -> GpuResult<Vec<u8>> {
+        let device = &self.device;
+        let staging = Buffer::new(
+            device,
+            &format!("{} (readback)", self.name),
+            len,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        device.run_commands(&format!("reading back '{}'", self.name), |cmd| unsafe {
+            let barrier = vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
+            device.raw.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::ALL_COMMANDS,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[barrier],
+                &[],
+                &[],
+            );
+            device.raw.cmd_copy_buffer(cmd, self.raw, staging.raw, &[vk::BufferCopy::default().size(len)]);
+        })?;
+        staging.read(len as usize)
+    }
+
+    pub fn device_address(&self) -> vk::DeviceAddress {
+        unsafe {
+            self.device
+                .raw
+                .get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(self.raw))
+        }
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        if let Some(allocation) = self.allocation.take() {
+            if let Ok(mut a) = self.device.allocator.lock() {
+                let _ = a.free(allocation);
+            }
+        }
+        unsafe { self.device.raw.destroy_buffer(self.raw, None) };
+    }
+}

@@ -1,0 +1,441 @@
+//! The thin Vulkan layer: instance and device selection, memory, buffers, pipelines,
+//! command submission and timestamps. Rendering logic lives in `render` and
+//! `integrators`; nothing here knows what a path is.
+
+pub mod abi;
+pub mod buffer;
+pub mod kernels;
+pub mod timing;
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use std::ffi::CStr;
+use std::mem::ManuallyDrop;
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+/// A Vulkan failure, with the stage of the renderer that hit it.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("{stage}: {result}{}", hint(*result))]
+    Vulkan { stage: String, result: vk::Result },
+    #[error("{stage}: {message}")]
+    Other { stage: String, message: String },
+}
+
+fn hint(r: vk::Result) -> &'static str {
+    match r {
+        vk::Result::ERROR_DEVICE_LOST => " (the device was lost: the driver reset or crashed)",
+        vk::Result::ERROR_OUT_OF_DEVICE_MEMORY => " (out of device memory: try a smaller --size)",
+        vk::Result::ERROR_OUT_OF_HOST_MEMORY => " (out of host memory)",
+        _ => "",
+    }
+}
+
+pub type GpuResult<T> = Result<T, GpuError>;
+
+/// Attach the renderer's stage to a Vulkan result.
+pub trait Stage<T> {
+    fn stage(self, stage: &str) -> GpuResult<T>;
+}
+
+impl<T> Stage<T> for Result<T, vk::Result> {
+    fn stage(self, stage: &str) -> GpuResult<T> {
+        self.map_err(|result| GpuError::Vulkan { stage: stage.to_string(), result })
+    }
+}
+
+pub fn other_error(stage: &str, message: impl std::fmt::Display) -> GpuError {
+    GpuError::Other { stage: stage.to_string(), message: message.to_string() }
+}
+
+/// What `lightpath devices` reports for each device.
+#[derive(Clone, Debug)]
+pub struct DeviceInfo {
+    pub index: usize,
+    pub name: String,
+    pub kind: vk::PhysicalDeviceType,
+    pub driver: String,
+    pub api_version: u32,
+    pub ray_query: bool,
+    pub atomic_float: bool,
+    pub max_storage_buffer_range: u64,
+    pub max_workgroup_invocations: u32,
+    pub timestamp_period_ns: f32,
+    pub timestamps: bool,
+    pub min_storage_buffer_offset_alignment: u64,
+    pub pipeline_cache_uuid: [u8; 16],
+    pub vendor_id: u32,
+    pub device_id: u32,
+}
+
+impl DeviceInfo {
+    pub fn kind_name(&self) -> &'static str {
+        match self.kind {
+            vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
+            vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
+            vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
+            vk::PhysicalDeviceType::CPU => "CPU",
+            _ => "other",
+        }
+    }
+    fn preference(&self) -> u32 {
+        match self.kind {
+            vk::PhysicalDeviceType::DISCRETE_GPU => 4,
+            vk::PhysicalDeviceType::INTEGRATED_GPU => 3,
+            vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+            vk::PhysicalDeviceType::CPU => 1,
+            _ => 0,
+        }
+    }
+}
+
+const RAY_QUERY_EXTENSIONS: [&CStr; 3] = [
+    ash::khr::acceleration_structure::NAME,
+    ash::khr::ray_query::NAME,
+    ash::khr::deferred_host_operations::NAME,
+];
+
+/// The Vulkan instance alone, for listing devices.
+pub struct Instance {
+    pub entry: ash::Entry,
+    pub raw: ash::Instance,
+}
+
+impl Instance {
+    pub fn new() -> GpuResult<Instance> {
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| {
+            other_error(
+                "loading the Vulkan loader",
+                format!("{e}. Install it (Debian: libvulkan1 and mesa-vulkan-drivers; scripts/setup-system.sh does both)"),
+            )
+        })?;
+        let app = vk::ApplicationInfo::default()
+            .application_name(c"lightpath")
+            .api_version(vk::API_VERSION_1_2);
+        let extensions = [ash::khr::portability_enumeration::NAME.as_ptr()];
+        let available = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .stage("listing instance extensions")?;
+        let has_portability = available
+            .iter()
+            .any(|e| e.extension_name_as_c_str() == Ok(ash::khr::portability_enumeration::NAME));
+        let mut info = vk::InstanceCreateInfo::default().application_info(&app);
+        if has_portability {
+            info = info
+                .enabled_extension_names(&extensions)
+                .flags(vk::InstanceCreateFlags::ENUMERATE_PORTABILITY_KHR);
+        }
+        let raw = unsafe { entry.create_instance(&info, None) }.stage("creating the Vulkan instance")?;
+        Ok(Instance { entry, raw })
+    }
+
+    /// Every physical device with what the renderer needs to know of it.
+    pub fn devices(&self) -> GpuResult<Vec<(vk::PhysicalDevice, DeviceInfo)>> {
+        let physicals = unsafe { self.raw.enumerate_physical_devices() }.stage("listing Vulkan devices")?;
+        let mut out = Vec::new();
+        for (index, &pd) in physicals.iter().enumerate() {
+            let props = unsafe { self.raw.get_physical_device_properties(pd) };
+            let mut driver = vk::PhysicalDeviceDriverProperties::default();
+            let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+            unsafe { self.raw.get_physical_device_properties2(pd, &mut props2) };
+            let exts = unsafe { self.raw.enumerate_device_extension_properties(pd) }
+                .stage("listing device extensions")?;
+            let has = |name: &CStr| exts.iter().any(|e| e.extension_name_as_c_str() == Ok(name));
+            let mut rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
+            let mut asf = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
+            let mut af = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
+            let mut v12 = vk::PhysicalDeviceVulkan12Features::default();
+            let ray_exts = RAY_QUERY_EXTENSIONS.iter().all(|n| has(n));
+            let float_ext = has(ash::ext::shader_atomic_float::NAME);
+            let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut v12);
+            if ray_exts {
+                f2 = f2.push_next(&mut rq).push_next(&mut asf);
+            }
+            if float_ext {
+                f2 = f2.push_next(&mut af);
+            }
+            unsafe { self.raw.get_physical_device_features2(pd, &mut f2) };
+            let queue_ok = unsafe { self.raw.get_physical_device_queue_family_properties(pd) }
+                .iter()
+                .find(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
+                .map(|q| q.timestamp_valid_bits > 0);
+            let limits = props.limits;
+            let name = props.device_name_as_c_str().unwrap_or(c"?").to_string_lossy().to_string();
+            let driver_name = format!(
+                "{} {}",
+                driver.driver_name_as_c_str().unwrap_or(c"?").to_string_lossy(),
+                driver.driver_info_as_c_str().unwrap_or(c"").to_string_lossy()
+            );
+            out.push((
+                pd,
+                DeviceInfo {
+                    index,
+                    name,
+                    kind: props.device_type,
+                    driver: driver_name.trim().to_string(),
+                    api_version: props.api_version,
+                    ray_query: ray_exts
+                        && rq.ray_query == vk::TRUE
+                        && asf.acceleration_structure == vk::TRUE
+                        && v12.buffer_device_address == vk::TRUE,
+                    atomic_float: float_ext && af.shader_buffer_float32_atomic_add == vk::TRUE,
+                    max_storage_buffer_range: limits.max_storage_buffer_range as u64,
+                    max_workgroup_invocations: limits.max_compute_work_group_invocations,
+                    timestamp_period_ns: limits.timestamp_period,
+                    timestamps: queue_ok == Some(true),
+                    min_storage_buffer_offset_alignment: limits.min_storage_buffer_offset_alignment,
+                    pipeline_cache_uuid: props.pipeline_cache_uuid,
+                    vendor_id: props.vendor_id,
+                    device_id: props.device_id,
+                },
+            ));
+        }
+        Ok(out)
+    }
+}
+
+impl Drop for Instance {
+    fn drop(&mut self) {
+        unsafe { self.raw.destroy_instance(None) };
+    }
+}
+
+/// Which device to use: the best one (discrete, integrated, virtual, CPU), or one the
+/// user named by index or by a part of its name.
+pub fn choose_device(
+    devices: &[(vk::PhysicalDevice, DeviceInfo)],
+    wanted: Option<&str>,
+) -> GpuResult<usize> {
+    if devices.is_empty() {
+        return Err(other_error(
+            "choosing a Vulkan device",
+            "no Vulkan device found. Install a driver (with no GPU: Mesa's lavapipe, package mesa-vulkan-drivers; scripts/setup-system.sh installs it)",
+        ));
+    }
+    match wanted {
+        None => Ok(devices
+            .iter()
+            .enumerate()
+            .max_by_key(|(i, (_, d))| (d.preference(), std::cmp::Reverse(*i)))
+            .map(|(i, _)| i)
+            .unwrap_or(0)),
+        Some(w) => {
+            if let Ok(i) = w.parse::<usize>() {
+                if i < devices.len() {
+                    return Ok(i);
+                }
+                return Err(other_error(
+                    "choosing a Vulkan device",
+                    format!("--device {i}: there are only {} devices (see `lightpath devices`)", devices.len()),
+                ));
+            }
+            let lw = w.to_lowercase();
+            devices
+                .iter()
+                .position(|(_, d)| d.name.to_lowercase().contains(&lw))
+                .ok_or_else(|| {
+                    other_error(
+                        "choosing a Vulkan device",
+                        format!("--device {w:?} matches no device name (see `lightpath devices`)"),
+                    )
+                })
+        }
+    }
+}
+
+/// A logical device with its queue, allocator and pipeline cache. Everything created
+/// from it holds an `Arc<Device>`, so it is destroyed last.
+pub struct Device {
+    pub instance: Instance,
+    pub physical: vk::PhysicalDevice,
+    pub raw: ash::Device,
+    pub info: DeviceInfo,
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub allocator: ManuallyDrop<Mutex<Allocator>>,
+    pub accel_loader: Option<ash::khr::acceleration_structure::Device>,
+    pub pipeline_cache: vk::PipelineCache,
+    cache_path: Option<PathBuf>,
+    pub command_pool: vk::CommandPool,
+}
+
+impl Device {
+    /// Open a device. `want_ray_query` enables the ray-query extensions when present.
+    pub fn open(wanted: Option<&str>, want_ray_query: bool) -> GpuResult<Device> {
+        let instance = Instance::new()?;
+        let devices = instance.devices()?;
+        let index = choose_device(&devices, wanted)?;
+        let (physical, info) = devices[index].clone();
+        if info.api_version < vk::API_VERSION_1_2 {
+            return Err(other_error(
+                "opening the device",
+                format!("{} supports Vulkan {}.{}; lightpath needs 1.2", info.name,
+                    vk::api_version_major(info.api_version), vk::api_version_minor(info.api_version)),
+            ));
+        }
+        let families = unsafe { instance.raw.get_physical_device_queue_family_properties(physical) };
+        let queue_family = families
+            .iter()
+            .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            .ok_or_else(|| other_error("opening the device", "no compute queue"))? as u32;
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let ray_query = want_ray_query && info.ray_query;
+        let mut ext_names: Vec<*const i8> = Vec::new();
+        if ray_query {
+            ext_names.extend(RAY_QUERY_EXTENSIONS.iter().map(|n| n.as_ptr()));
+        }
+        if info.atomic_float {
+            ext_names.push(ash::ext::shader_atomic_float::NAME.as_ptr());
+        }
+        let mut v12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(ray_query);
+        let mut rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+        let mut asf = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+        let mut af = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default().shader_buffer_float32_atomic_add(true);
+        let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut v12);
+        if ray_query {
+            f2 = f2.push_next(&mut rq).push_next(&mut asf);
+        }
+        if info.atomic_float {
+            f2 = f2.push_next(&mut af);
+        }
+        let create = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(&ext_names)
+            .push_next(&mut f2);
+        let raw = unsafe { instance.raw.create_device(physical, &create, None) }.stage("creating the device")?;
+        let queue = unsafe { raw.get_device_queue(queue_family, 0) };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.raw.clone(),
+            device: raw.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: ray_query,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|e| other_error("creating the memory allocator", e))?;
+        let accel_loader = ray_query.then(|| ash::khr::acceleration_structure::Device::new(&instance.raw, &raw));
+        let cache_path = pipeline_cache_path(&info);
+        let initial = cache_path.as_ref().and_then(|p| std::fs::read(p).ok()).unwrap_or_default();
+        let pipeline_cache = match unsafe {
+            raw.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default().initial_data(&initial), None)
+        } {
+            Ok(c) => c,
+            // A cache from another driver version is refused by some drivers: start empty.
+            Err(_) => unsafe { raw.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
+                .stage("creating the pipeline cache")?,
+        };
+        let command_pool = unsafe {
+            raw.create_command_pool(
+                &vk::CommandPoolCreateInfo::default()
+                    .queue_family_index(queue_family)
+                    .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
+                None,
+            )
+        }
+        .stage("creating the command pool")?;
+        Ok(Device {
+            instance,
+            physical,
+            raw,
+            info,
+            queue,
+            queue_family,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            accel_loader,
+            pipeline_cache,
+            cache_path,
+            command_pool,
+        })
+    }
+
+    pub fn ray_query_enabled(&self) -> bool {
+        self.accel_loader.is_some()
+    }
+
+    /// Record commands into a fresh command buffer, submit them and wait.
+    pub fn run_commands(&self, stage: &str, record: impl FnOnce(vk::CommandBuffer)) -> GpuResult<()> {
+        let cmd = self.begin_commands(stage)?;
+        record(cmd);
+        self.submit_and_wait(cmd, stage)
+    }
+
+    pub fn begin_commands(&self, stage: &str) -> GpuResult<vk::CommandBuffer> {
+        let cmd = unsafe {
+            self.raw.allocate_command_buffers(
+                &vk::CommandBufferAllocateInfo::default()
+                    .command_pool(self.command_pool)
+                    .level(vk::CommandBufferLevel::PRIMARY)
+                    .command_buffer_count(1),
+            )
+        }
+        .stage(stage)?[0];
+        unsafe {
+            self.raw.begin_command_buffer(
+                cmd,
+                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )
+        }
+        .stage(stage)?;
+        Ok(cmd)
+    }
+
+    pub fn submit_and_wait(&self, cmd: vk::CommandBuffer, stage: &str) -> GpuResult<()> {
+        let result = (|| unsafe {
+            self.raw.end_command_buffer(cmd)?;
+            let fence = self.raw.create_fence(&vk::FenceCreateInfo::default(), None)?;
+            let cmds = [cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            let r = self
+                .raw
+                .queue_submit(self.queue, &submit, fence)
+                .and_then(|_| self.raw.wait_for_fences(&[fence], true, u64::MAX));
+            self.raw.destroy_fence(fence, None);
+            r
+        })();
+        unsafe { self.raw.free_command_buffers(self.command_pool, &[cmd]) };
+        result.stage(stage)
+    }
+
+    /// Write the pipeline cache back to disk (atomically), so the next run starts fast.
+    pub fn save_pipeline_cache(&self) {
+        let Some(path) = &self.cache_path else { return };
+        let Ok(data) = (unsafe { self.raw.get_pipeline_cache_data(self.pipeline_cache) }) else { return };
+        if let Some(dir) = path.parent() {
+            let _ = std::fs::create_dir_all(dir);
+        }
+        let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+        if std::fs::write(&tmp, &data).is_ok() {
+            let _ = std::fs::rename(&tmp, path);
+        }
+    }
+}
+
+fn pipeline_cache_path(info: &DeviceInfo) -> Option<PathBuf> {
+    let base = std::env::var_os("LIGHTPATH_CACHE_DIR")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("XDG_CACHE_HOME").map(|d| PathBuf::from(d).join("lightpath")))
+        .or_else(|| std::env::var_os("HOME").map(|d| PathBuf::from(d).join(".cache/lightpath")))?;
+    let uuid: String = info.pipeline_cache_uuid.iter().map(|b| format!("{b:02x}")).collect();
+    Some(base.join(format!(
+        "pipelines-{:04x}-{:04x}-{uuid}-{}.bin",
+        info.vendor_id,
+        info.device_id,
+        env!("CARGO_PKG_VERSION")
+    )))
+}
+
+impl Drop for Device {
+    fn drop(&mut self) {
+        unsafe {
+            let _ = self.raw.device_wait_idle();
+            self.save_pipeline_cache();
+            self.raw.destroy_pipeline_cache(self.pipeline_cache, None);
+            self.raw.destroy_command_pool(self.command_pool, None);
+            ManuallyDrop::drop(&mut self.allocator);
+            self.raw.destroy_device(None);
+        }
+    }
+}

@@ -1,0 +1,11 @@
+//! lightpath: a GPU renderer on raw Vulkan. Path tracing, bidirectional path tracing
+//! and multiplexed Metropolis light transport, converging to the same image.
+pub mod accel;
+pub mod bench;
+pub mod bsdf;
+pub mod cli;
+pub mod gpu;
+pub mod io;
+pub mod render;
+pub mod scene;
+pub mod trace;

@@ -1,0 +1,569 @@
+//! From a parsed scene to an image: scene preparation (BVH, triangle order, emitter
+//! table), GPU buffers, acceleration structures and the dispatch loop of the
+//! unidirectional integrators.
+use crate::accel::bvh::Bvh;
+use crate::accel::rayquery::{self, RayQueryScene};
+use crate::gpu::abi::*;
+use crate::gpu::buffer::Buffer;
+use crate::gpu::kernels::{Backend, Kernels};
+use crate::gpu::timing::Timestamps;
+use crate::gpu::{other_error, Device};
+use crate::io::Image;
+use crate::scene::{BrdfKind, DeltaLight, ImportanceSampling, IntegratorKind, NextEventEstimation, Scene};
+use crate::trace::Trace;
+use anyhow::{bail, Result};
+use ash::vk;
+use glam::{Mat3, Vec3};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// `--accel`: which visibility backend the kernels use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AccelChoice {
+    Auto,
+    RayQuery,
+    Bvh,
+}
+
+impl AccelChoice {
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "auto" => Some(Self::Auto),
+            "rayquery" => Some(Self::RayQuery),
+            "bvh" => Some(Self::Bvh),
+            _ => None,
+        }
+    }
+}
+
+/// A render's result and what was measured along the way.
+pub struct RenderOutput {
+    pub image: Image,
+    /// Samples that came out NaN or infinite and were left out of the film.
+    pub nonfinite_samples: u64,
+    pub rays: f64,
+    pub samples_per_pixel: u32,
+    /// Time in the render dispatches only (GPU timestamps when the device has them).
+    pub dispatch_seconds: f64,
+    pub backend: Backend,
+}
+
+/// An open device with its kernels for one backend; renders any number of scenes.
+pub struct Renderer {
+    pub device: Arc<Device>,
+    pub kernels: Kernels,
+    pub show_progress: bool,
+}
+
+impl Renderer {
+    pub fn new(device_name: Option<&str>, accel: AccelChoice) -> Result<Renderer> {
+        let device = Arc::new(Device::open(device_name, accel != AccelChoice::Bvh)?);
+        let backend = match accel {
+            AccelChoice::Bvh => Backend::Bvh,
+            AccelChoice::RayQuery => {
+                if !device.ray_query_enabled() {
+                    bail!(
+                        "--accel rayquery: {} has no VK_KHR_ray_query/VK_KHR_acceleration_structure (use --accel bvh)",
+                        device.info.name
+                    );
+                }
+                Backend::RayQuery
+            }
+            // Measured on lavapipe (see README, "Performance"): its ray-query traversal is
+            // slower than the kernel's own BVH walk, so CPU devices get the BVH.
+            AccelChoice::Auto => {
+                if device.ray_query_enabled() && device.info.kind != vk::PhysicalDeviceType::CPU {
+                    Backend::RayQuery
+                } else {
+                    Backend::Bvh
+                }
+            }
+        };
+        let kernels = Kernels::new(&device, backend)?;
+        Ok(Renderer { device, kernels, show_progress: false })
+    }
+
+    pub fn backend(&self) -> Backend {
+        self.kernels.backend
+    }
+
+    /// Render `scene` (its settings already overridden by the command line) with `seed`.
+    pub fn render(&mut self, scene: &Scene, seed: u32, trace: &mut Trace) -> Result<RenderOutput> {
+        let kernel: &'static str = match scene.settings.integrator {
+            IntegratorKind::PathTracer | IntegratorKind::Direct => "pt",
+            IntegratorKind::AnalyticDirect => "analytic",
+            other => bail!("integrator '{}' is not available in this version of lightpath", other.name()),
+        };
+        let (width, height) = (scene.width, scene.height);
+        let film_bytes = width as u64 * height as u64 * 16;
+        if film_bytes > self.device.info.max_storage_buffer_range {
+            bail!(
+                "a {width}x{height} film needs {film_bytes} bytes, more than {}'s storage-buffer range ({} bytes); render a smaller --size",
+                self.device.info.name,
+                self.device.info.max_storage_buffer_range
+            );
+        }
+        let mut scene = scene.clone();
+        let bvh = trace.cpu("BVH build", || crate::accel::prepare(&mut scene))?;
+        let gpu_scene = trace.cpu("scene upload", || GpuScene::new(&self.device, &scene, &bvh, self.backend(), seed))?;
+        let rq = if self.backend() == Backend::RayQuery {
+            let spheres: Vec<_> = scene.spheres.iter().map(|s| s.object_to_world).collect();
+            Some(trace.cpu("acceleration structure build", || {
+                rayquery::build_scene(&self.device, &gpu_scene.triangles, scene.triangles.len() as u32, &spheres)
+            })?)
+        } else {
+            None
+        };
+        let pipeline = trace.cpu("pipeline creation", || self.kernels.pipeline(kernel))?;
+        let film = trace.cpu("film allocation", || {
+            Buffer::zeroed(&self.device, "film", film_bytes, vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC)
+        })?;
+        let stats = Buffer::zeroed(
+            &self.device,
+            "stats",
+            4 * STAT_COUNT as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+        )?;
+        let set = gpu_scene.descriptor_set(&self.kernels, &film, &stats, rq.as_ref())?;
+
+        let spp = scene.settings.spp.max(1);
+        let dispatch_seconds = self.dispatch_passes(pipeline, set, kernel, width, height, spp, trace)?;
+
+        let (film_data, stat_data) = trace.cpu("readback", || -> Result<_> {
+            Ok((film.download(film_bytes)?, stats.download(4 * STAT_COUNT as u64)?))
+        })?;
+        let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
+        let stat: &[u32] = bytemuck::cast_slice(&stat_data);
+        let inv = 1.0 / spp as f32;
+        let image = Image {
+            width,
+            height,
+            pixels: film.iter().map(|p| [p[0] * inv, p[1] * inv, p[2] * inv]).collect(),
+        };
+        let rays = film.iter().map(|p| p[3] as f64).sum();
+        Ok(RenderOutput {
+            image,
+            nonfinite_samples: stat[STAT_NONFINITE as usize] as u64,
+            rays,
+            samples_per_pixel: spp,
+            dispatch_seconds,
+            backend: self.backend(),
+        })
+    }
+
+    /// Dispatch `spp` passes of one sample per pixel, several per submission, with GPU
+    /// timestamps around each and a progress bar over passes.
+    #[allow(clippy::too_many_arguments)]
+    fn dispatch_passes(
+        &mut self,
+        pipeline: vk::Pipeline,
+        set: vk::DescriptorSet,
+        kernel: &str,
+        width: u32,
+        height: u32,
+        spp: u32,
+        trace: &mut Trace,
+    ) -> Result<f64> {
+        let device = self.device.clone();
+        let groups = (width.div_ceil(WORKGROUP_SIZE_X), height.div_ceil(WORKGROUP_SIZE_Y));
+        let max_batch = 64u32;
+        let mut timestamps = Timestamps::new(&device, max_batch)?;
+        let progress = if self.show_progress {
+            let bar = indicatif::ProgressBar::new(spp as u64);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} passes, {elapsed} elapsed, {eta} left")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            bar.set_message(kernel.to_string());
+            Some(bar)
+        } else {
+            None
+        };
+        let span_name = format!("{kernel} pass");
+        let mut done = 0u32;
+        let mut batch = 1u32;
+        let mut dispatch_seconds = 0.0;
+        while done < spp {
+            let n = batch.min(spp - done);
+            let stage = format!("running {kernel} passes {}..{}", done, done + n);
+            let cmd = device.begin_commands(&stage)?;
+            timestamps.reset(cmd);
+            let mut spans = Vec::new();
+            unsafe {
+                device.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                device.raw.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.kernels.layout, 0, &[set], &[]);
+                for i in 0..n {
+                    let params = PassParams { pass: [done + i, 1, 0, 0] };
+                    device.raw.cmd_push_constants(
+                        cmd,
+                        self.kernels.layout,
+                        vk::ShaderStageFlags::COMPUTE,
+                        0,
+                        bytemuck::bytes_of(&params),
+                    );
+                    let span = timestamps.begin(cmd);
+                    device.raw.cmd_dispatch(cmd, groups.0, groups.1, 1);
+                    timestamps.end(cmd, span);
+                    spans.push(span);
+                    let barrier = vk::MemoryBarrier::default()
+                        .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                        .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE);
+                    device.raw.cmd_pipeline_barrier(
+                        cmd,
+                        vk::PipelineStageFlags::COMPUTE_SHADER,
+                        vk::PipelineStageFlags::COMPUTE_SHADER,
+                        vk::DependencyFlags::empty(),
+                        &[barrier],
+                        &[],
+                        &[],
+                    );
+                }
+            }
+            let submit_us = trace.now_us();
+            let t0 = Instant::now();
+            device.submit_and_wait(cmd, &stage)?;
+            let wall = t0.elapsed().as_secs_f64();
+            let times = timestamps.read()?;
+            if times.is_empty() {
+                trace.add_gpu(&span_name, submit_us, wall * 1e6);
+                dispatch_seconds += wall;
+            } else {
+                let origin = times[0].0;
+                for (s, e) in &times {
+                    trace.add_gpu(&span_name, submit_us + (s - origin) / 1e3, (e - s) / 1e3);
+                    dispatch_seconds += (e - s) / 1e9;
+                }
+            }
+            done += n;
+            if let Some(bar) = &progress {
+                bar.set_position(done as u64);
+            }
+            // Aim for submissions of about a quarter second: short enough for the
+            // progress bar and for watchdogs, long enough to keep the device busy.
+            if wall < 0.25 && batch < max_batch {
+                batch = (batch * 2).min(max_batch);
+            } else if wall > 1.0 && batch > 1 {
+                batch /= 2;
+            }
+        }
+        if let Some(bar) = progress {
+            bar.finish_and_clear();
+        }
+        Ok(dispatch_seconds)
+    }
+}
+
+/// The scene's GPU buffers.
+pub struct GpuScene {
+    pub scene_params: Buffer,
+    pub triangles: Buffer,
+    pub spheres: Buffer,
+    pub materials: Buffer,
+    pub emitters: Buffer,
+    pub emitter_cdf: Buffer,
+    pub bvh_nodes: Option<Buffer>,
+    pub bvh_prims: Option<Buffer>,
+}
+
+/// The emitter table: every emissive triangle and sphere, point and directional light,
+/// with selection probabilities proportional to power.
+pub struct EmitterTable {
+    pub emitters: Vec<GpuEmitter>,
+    pub cdf: Vec<f32>,
+    /// Per triangle and per sphere: index of its emitter, or NO_EMITTER.
+    pub triangle_emitter: Vec<u32>,
+    pub sphere_emitter: Vec<u32>,
+}
+
+fn avg(v: Vec3) -> f32 {
+    (v.x + v.y + v.z) / 3.0
+}
+
+/// Surface area of the unit sphere under the linear map m (a quadrature; only used to
+/// weigh emitters by power, never in a pdf).
+fn ellipsoid_area(m: Mat3) -> f32 {
+    let n = 512;
+    let det = m.determinant().abs();
+    let inv_t = m.inverse().transpose();
+    let mut sum = 0.0;
+    for i in 0..n {
+        // Fibonacci sphere points.
+        let z = 1.0 - (2.0 * i as f32 + 1.0) / n as f32;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = i as f32 * 2.399_963;
+        let q = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+        sum += det * (inv_t * q).length();
+    }
+    4.0 * std::f32::consts::PI * sum / n as f32
+}
+
+pub fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for t in &scene.triangles {
+        for v in t.v {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    for s in &scene.spheres {
+        let b = crate::accel::geometry::sphere_world_bounds(&s.object_to_world);
+        lo = lo.min(b.min);
+        hi = hi.max(b.max);
+    }
+    if lo.x > hi.x {
+        return (Vec3::ZERO, 1.0);
+    }
+    let c = (lo + hi) * 0.5;
+    (c, ((hi - lo).length() * 0.5).max(1e-3))
+}
+
+pub fn emitter_table(scene: &Scene) -> EmitterTable {
+    let pi = std::f32::consts::PI;
+    let mut emitters = Vec::new();
+    let mut power = Vec::new();
+    let mut triangle_emitter = vec![NO_EMITTER; scene.triangles.len()];
+    let mut sphere_emitter = vec![NO_EMITTER; scene.spheres.len()];
+    for (i, t) in scene.triangles.iter().enumerate() {
+        let m = &scene.materials[t.material as usize];
+        if !m.is_emissive() {
+            continue;
+        }
+        let area = 0.5 * (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length();
+        if area <= 0.0 {
+            continue;
+        }
+        triangle_emitter[i] = emitters.len() as u32;
+        let sides = if m.two_sided_emission { 2.0 } else { 1.0 };
+        power.push(avg(m.emission) * area * pi * sides);
+        emitters.push(GpuEmitter {
+            p0: t.v[0].extend(area).to_array(),
+            p1: t.v[1].extend(0.0).to_array(),
+            p2: t.v[2].extend(0.0).to_array(),
+            radiance: m.emission.extend(0.0).to_array(),
+            info: [EMITTER_TRIANGLE, i as u32, m.two_sided_emission as u32, 0],
+        });
+    }
+    for (i, s) in scene.spheres.iter().enumerate() {
+        let m = &scene.materials[s.material as usize];
+        if !m.is_emissive() {
+            continue;
+        }
+        let lin = Mat3::from_mat4(s.object_to_world);
+        let det = lin.determinant().abs();
+        if det == 0.0 {
+            continue;
+        }
+        sphere_emitter[i] = emitters.len() as u32;
+        power.push(avg(m.emission) * ellipsoid_area(lin) * pi);
+        emitters.push(GpuEmitter {
+            p0: [0.0; 4],
+            p1: [det, 0.0, 0.0, 0.0],
+            p2: [0.0; 4],
+            radiance: m.emission.extend(0.0).to_array(),
+            info: [EMITTER_SPHERE, i as u32, 1, 0],
+        });
+    }
+    let (_, radius) = scene_bounds(scene);
+    for l in &scene.delta_lights {
+        match *l {
+            DeltaLight::Point { position, intensity } => {
+                power.push(4.0 * pi * avg(intensity));
+                emitters.push(GpuEmitter {
+                    p0: position.extend(0.0).to_array(),
+                    radiance: intensity.extend(0.0).to_array(),
+                    info: [EMITTER_POINT, 0, 0, 0],
+                    ..Default::default()
+                });
+            }
+            DeltaLight::Directional { direction, radiance } => {
+                power.push(pi * radius * radius * avg(radiance));
+                emitters.push(GpuEmitter {
+                    p0: direction.normalize().extend(0.0).to_array(),
+                    radiance: radiance.extend(0.0).to_array(),
+                    info: [EMITTER_DIRECTIONAL, 0, 0, 0],
+                    ..Default::default()
+                });
+            }
+        }
+    }
+    // Emitters of zero power (black emission channels averaging to 0) keep a tiny
+    // weight so that a hit on them still has a well-defined pdf.
+    let total: f64 = power.iter().map(|&p| p.max(0.0) as f64).sum();
+    let n = emitters.len();
+    let mut cdf = Vec::with_capacity(n);
+    let mut acc = 0.0f64;
+    for (e, &p) in emitters.iter_mut().zip(&power) {
+        let prob = if total > 0.0 { p.max(0.0) as f64 / total } else { 1.0 / n as f64 };
+        e.radiance[3] = prob as f32;
+        acc += prob;
+        cdf.push(acc as f32);
+    }
+    if let Some(last) = cdf.last_mut() {
+        *last = 1.0;
+    }
+    EmitterTable { emitters, cdf, triangle_emitter, sphere_emitter }
+}
+
+pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams {
+    let c = &scene.camera;
+    let forward = (c.look_at - c.eye).normalize();
+    let right = forward.cross(c.up).normalize();
+    let up = right.cross(forward);
+    let s = &scene.settings;
+    let (center, radius) = scene_bounds(scene);
+    let max_depth = s.max_depth.max(0) as u32;
+    SceneParams {
+        cam_eye: c.eye.extend((c.fovy_degrees.to_radians() * 0.5).tan()).to_array(),
+        cam_right: right.extend(scene.width as f32 / scene.height as f32).to_array(),
+        cam_up: up.extend(0.0).to_array(),
+        cam_forward: forward.extend(0.0).to_array(),
+        bounds: center.extend(radius).to_array(),
+        dims: [scene.width, scene.height, scene.triangles.len() as u32, scene.spheres.len() as u32],
+        counts: [emitter_count, max_depth, (s.max_depth < 0) as u32, s.spp],
+        options: [
+            match s.nee {
+                NextEventEstimation::Off => NEE_OFF,
+                NextEventEstimation::On => NEE_ON,
+                NextEventEstimation::Mis => NEE_MIS,
+            },
+            s.russian_roulette as u32,
+            match s.importance_sampling {
+                ImportanceSampling::Hemisphere => 0,
+                ImportanceSampling::Cosine => 1,
+                ImportanceSampling::Brdf => 2,
+            },
+            match s.integrator {
+                IntegratorKind::Direct => INTEGRATOR_DIRECT,
+                IntegratorKind::AnalyticDirect => INTEGRATOR_ANALYTIC,
+                _ => INTEGRATOR_PATHTRACER,
+            },
+        ],
+        direct: [s.light_samples.max(1), s.light_stratify as u32, seed, 0],
+    }
+}
+
+impl GpuScene {
+    pub fn new(device: &Arc<Device>, scene: &Scene, bvh: &Bvh, backend: Backend, seed: u32) -> Result<GpuScene> {
+        let table = emitter_table(scene);
+        let bits = f32::from_bits;
+        let triangles: Vec<GpuTriangle> = scene
+            .triangles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| GpuTriangle {
+                v0: t.v[0].extend(bits(t.material)).to_array(),
+                v1: t.v[1].extend(bits(table.triangle_emitter[i])).to_array(),
+                v2: t.v[2].extend(0.0).to_array(),
+            })
+            .collect();
+        let spheres: Vec<GpuSphere> = scene
+            .spheres
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let o2w = s.object_to_world.transpose().to_cols_array_2d(); // rows
+                let w2o = s.object_to_world.inverse().transpose().to_cols_array_2d();
+                GpuSphere {
+                    o2w0: o2w[0],
+                    o2w1: o2w[1],
+                    o2w2: o2w[2],
+                    w2o0: w2o[0],
+                    w2o1: w2o[1],
+                    w2o2: w2o[2],
+                    info: [s.material, table.sphere_emitter[i], 0, 0],
+                }
+            })
+            .collect();
+        let materials: Vec<GpuMaterial> = scene
+            .materials
+            .iter()
+            .map(|m| GpuMaterial {
+                diffuse: m.diffuse.extend(0.0).to_array(),
+                specular: m.specular.extend(0.0).to_array(),
+                emission: m.emission.extend(0.0).to_array(),
+                params: [
+                    m.shininess,
+                    m.roughness,
+                    match m.brdf {
+                        BrdfKind::Phong => 0.0,
+                        BrdfKind::Ggx => 1.0,
+                    },
+                    m.two_sided_emission as u32 as f32,
+                ],
+            })
+            .collect();
+        let params = scene_params(scene, seed, table.emitters.len() as u32);
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let triangle_usage = if backend == Backend::RayQuery {
+            storage
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+                | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+        } else {
+            storage
+        };
+        let limit = device.info.max_storage_buffer_range;
+        for (name, bytes) in [
+            ("triangles", triangles.len() * 48),
+            ("BVH nodes", bvh.nodes.len() * 32),
+            ("emitters", table.emitters.len() * 80),
+        ] {
+            if bytes as u64 > limit {
+                return Err(other_error(
+                    "uploading the scene",
+                    format!("{name} need {bytes} bytes, more than the device's storage-buffer range ({limit})"),
+                )
+                .into());
+            }
+        }
+        let (bvh_nodes, bvh_prims) = if backend == Backend::Bvh {
+            (
+                Some(Buffer::with_data(device, "BVH nodes", bytemuck::cast_slice(&bvh.nodes), storage)?),
+                Some(Buffer::with_data(device, "BVH primitives", bytemuck::cast_slice(&bvh.prim_refs), storage)?),
+            )
+        } else {
+            (None, None)
+        };
+        Ok(GpuScene {
+            scene_params: Buffer::with_data(
+                device,
+                "scene parameters",
+                bytemuck::bytes_of(&params),
+                vk::BufferUsageFlags::UNIFORM_BUFFER,
+            )?,
+            triangles: Buffer::with_data(device, "triangles", bytemuck::cast_slice(&triangles), triangle_usage)?,
+            spheres: Buffer::with_data(device, "spheres", bytemuck::cast_slice(&spheres), storage)?,
+            materials: Buffer::with_data(device, "materials", bytemuck::cast_slice(&materials), storage)?,
+            emitters: Buffer::with_data(device, "emitters", bytemuck::cast_slice(&table.emitters), storage)?,
+            emitter_cdf: Buffer::with_data(device, "emitter CDF", bytemuck::cast_slice(&table.cdf), storage)?,
+            bvh_nodes,
+            bvh_prims,
+        })
+    }
+
+    pub fn descriptor_set(
+        &self,
+        kernels: &Kernels,
+        film: &Buffer,
+        stats: &Buffer,
+        rq: Option<&RayQueryScene>,
+    ) -> Result<vk::DescriptorSet> {
+        let s = vk::DescriptorType::STORAGE_BUFFER;
+        let mut list = vec![
+            (BINDING_SCENE, self.scene_params.raw, vk::DescriptorType::UNIFORM_BUFFER),
+            (BINDING_TRIANGLES, self.triangles.raw, s),
+            (BINDING_SPHERES, self.spheres.raw, s),
+            (BINDING_MATERIALS, self.materials.raw, s),
+            (BINDING_EMITTERS, self.emitters.raw, s),
+            (BINDING_EMITTER_CDF, self.emitter_cdf.raw, s),
+            (BINDING_FILM, film.raw, s),
+            (BINDING_STATS, stats.raw, s),
+        ];
+        if let (Some(n), Some(p)) = (&self.bvh_nodes, &self.bvh_prims) {
+            list.push((BINDING_BVH_NODES, n.raw, s));
+            list.push((BINDING_BVH_PRIMS, p.raw, s));
+        }
+        Ok(kernels.descriptor_set(&list, rq.map(|r| r.tlas.raw))?)
+    }
+}
+

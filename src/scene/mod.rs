@@ -1,0 +1,225 @@
+//! The scene model: what a `.test` file describes, in world space.
+//!
+//! The parser (`parse.rs`) fills a [`Scene`]; everything downstream (acceleration
+//! structures, GPU buffers, integrators) reads only this model.
+
+mod parse;
+
+pub use parse::{parse_file, parse_str, ParseError};
+
+use glam::{Mat4, Vec3};
+use std::path::PathBuf;
+
+/// Which BRDF a material uses (SCENE_FORMAT.md, "Materials").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BrdfKind {
+    Phong,
+    Ggx,
+}
+
+/// One material: the sticky material state at the moment a shape was declared.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    pub brdf: BrdfKind,
+    pub diffuse: Vec3,
+    pub specular: Vec3,
+    pub shininess: f32,
+    pub roughness: f32,
+    pub emission: Vec3,
+    /// `emission` emits from both sides; a `quadLight` only from its front
+    /// (the side its geometric normal points to).
+    pub two_sided_emission: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            brdf: BrdfKind::Phong,
+            diffuse: Vec3::ZERO,
+            specular: Vec3::ZERO,
+            shininess: 1.0,
+            roughness: 0.0,
+            emission: Vec3::ZERO,
+            two_sided_emission: true,
+        }
+    }
+}
+
+impl Material {
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
+/// A world-space triangle. Its geometric normal is `cross(v1 - v0, v2 - v0)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    pub v: [Vec3; 3],
+    pub material: u32,
+}
+
+/// A sphere as the unit sphere at the origin under an affine `object_to_world`
+/// transform (the file's centre and radius are folded into it). A non-uniform scale
+/// makes it an ellipsoid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub object_to_world: Mat4,
+    pub material: u32,
+}
+
+/// A parallelogram light as written in the file (world space): corner `a`, edges
+/// `ab` and `ac`, emitting `radiance` toward `normalize(cross(ac, ab))`.
+/// The parser also adds its two triangles (with a one-sided emissive material) to
+/// [`Scene::triangles`], so it is geometry and an area light like any other.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QuadLight {
+    pub a: Vec3,
+    pub ab: Vec3,
+    pub ac: Vec3,
+    pub radiance: Vec3,
+}
+
+/// Lights that are not geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DeltaLight {
+    /// Intensity (W/sr per channel), 1/d² falloff.
+    Point { position: Vec3, intensity: Vec3 },
+    /// Light arriving from `direction` (pointing from the scene toward the light)
+    /// with irradiance `radiance` on a surface facing it.
+    Directional { direction: Vec3, radiance: Vec3 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    pub fovy_degrees: f32,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Camera {
+            eye: Vec3::new(0.0, 0.0, 1.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            fovy_degrees: 45.0,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum IntegratorKind {
+    PathTracer,
+    Direct,
+    AnalyticDirect,
+    Bdpt,
+    Mmlt,
+    /// The course's Whitted ray tracer: parsed, not rendered by lightpath.
+    RayTracer,
+}
+
+impl IntegratorKind {
+    pub fn from_name(name: &str) -> Option<Self> {
+        Some(match name {
+            "pathtracer" => Self::PathTracer,
+            "direct" => Self::Direct,
+            "analyticdirect" => Self::AnalyticDirect,
+            "bdpt" => Self::Bdpt,
+            "mmlt" => Self::Mmlt,
+            "raytracer" => Self::RayTracer,
+            _ => return None,
+        })
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::PathTracer => "pathtracer",
+            Self::Direct => "direct",
+            Self::AnalyticDirect => "analyticdirect",
+            Self::Bdpt => "bdpt",
+            Self::Mmlt => "mmlt",
+            Self::RayTracer => "raytracer",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum NextEventEstimation {
+    Off,
+    On,
+    Mis,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ImportanceSampling {
+    Hemisphere,
+    Cosine,
+    Brdf,
+}
+
+/// Integrator settings (SCENE_FORMAT.md, "Integrator settings").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    pub integrator: IntegratorKind,
+    pub spp: u32,
+    /// At most this many scattering vertices; -1 is unbounded.
+    pub max_depth: i32,
+    pub nee: NextEventEstimation,
+    pub russian_roulette: bool,
+    pub importance_sampling: ImportanceSampling,
+    pub light_samples: u32,
+    pub light_stratify: bool,
+    pub gamma: f32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            integrator: IntegratorKind::PathTracer,
+            spp: 1,
+            max_depth: 5,
+            nee: NextEventEstimation::Off,
+            russian_roulette: false,
+            importance_sampling: ImportanceSampling::Hemisphere,
+            light_samples: 1,
+            light_stratify: false,
+            gamma: 1.0,
+        }
+    }
+}
+
+/// A parsed scene, all in world space.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The file it came from (for messages); `None` when parsed from a string.
+    pub source: Option<PathBuf>,
+    pub width: u32,
+    pub height: u32,
+    /// The `output` command's file name, if any.
+    pub output: Option<String>,
+    pub camera: Camera,
+    pub settings: Settings,
+    pub materials: Vec<Material>,
+    pub triangles: Vec<Triangle>,
+    pub spheres: Vec<Sphere>,
+    pub quad_lights: Vec<QuadLight>,
+    pub delta_lights: Vec<DeltaLight>,
+}
+
+impl Default for Scene {
+    fn default() -> Self {
+        Scene {
+            source: None,
+            width: 640,
+            height: 480,
+            output: None,
+            camera: Camera::default(),
+            settings: Settings::default(),
+            materials: Vec::new(),
+            triangles: Vec::new(),
+            spheres: Vec::new(),
+            quad_lights: Vec::new(),
+            delta_lights: Vec::new(),
+        }
+    }
+}

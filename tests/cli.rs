@@ -1,0 +1,107 @@
+//! The command line on bad input: a clear message, a non-zero exit and no output file.
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lightpath(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lightpath"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run lightpath")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lightpath-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("scratch dir");
+    d
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .expect("read dir")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    v.sort();
+    v
+}
+
+const GOOD: &str = "size 8 8\ncamera 0 0 3 0 0 0 0 1 0 45\nspp 1\nvertex -1 -1 0\nvertex 1 -1 0\nvertex 0 1 0\ndiffuse 0.5 0.5 0.5\ntri 0 1 2\npoint 0 0 2 1 1 1\n";
+
+#[test]
+fn malformed_scene_names_file_line_and_command() {
+    let d = scratch("malformed");
+    std::fs::write(d.join("bad.test"), "size 8 8\n# comment\ntri 0 1 2\n").unwrap();
+    let out = lightpath(&["render", "bad.test", "-o", "out.exr", "-q"], &d);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("bad.test:3") && err.contains("tri"), "message: {err}");
+    assert_eq!(files_in(&d), vec!["bad.test"]);
+
+    std::fs::write(d.join("bad.test"), "size 8 8\nsphere 0 0 zero 1\n").unwrap();
+    let out = lightpath(&["render", "bad.test", "-o", "out.exr", "-q"], &d);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("bad.test:2") && err.contains("sphere"), "message: {err}");
+    assert_eq!(files_in(&d), vec!["bad.test"]);
+}
+
+#[test]
+fn missing_scene_file_is_an_error() {
+    let d = scratch("missing");
+    let out = lightpath(&["render", "nope.test", "-o", "out.png"], &d);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("nope.test"), "message: {err}");
+    assert!(files_in(&d).is_empty());
+}
+
+#[test]
+fn unknown_option_is_an_error() {
+    let d = scratch("option");
+    std::fs::write(d.join("ok.test"), GOOD).unwrap();
+    let out = lightpath(&["render", "ok.test", "--frobnicate", "3"], &d);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--frobnicate"));
+    let out = lightpath(&["render", "ok.test", "--integrator", "magic", "-o", "x.png"], &d);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("magic"));
+    let out = lightpath(&["render", "ok.test", "--accel", "warp", "-o", "x.png"], &d);
+    assert!(!out.status.success());
+    assert_eq!(files_in(&d), vec!["ok.test"]);
+}
+
+#[test]
+fn unwritable_output_is_an_error_before_rendering() {
+    let d = scratch("unwritable");
+    std::fs::write(d.join("ok.test"), GOOD).unwrap();
+    let out = lightpath(&["render", "ok.test", "-o", "no/such/dir/out.png", "-q"], &d);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/dir/out.png"));
+    let out = lightpath(&["render", "ok.test", "-o", "out.tiff", "-q"], &d);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains(".exr or .png"));
+    assert_eq!(files_in(&d), vec!["ok.test"]);
+}
+
+#[test]
+fn render_writes_images_trace_and_compare_reads_them() {
+    let d = scratch("good");
+    std::fs::write(d.join("ok.test"), GOOD).unwrap();
+    let out = lightpath(&["render", "ok.test", "-o", "a.exr", "--trace", "t.json", "--accel", "bvh"], &d);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("pt pass") && err.contains("parse"), "summary table missing: {err}");
+    let out = lightpath(&["render", "ok.test", "-o", "b.png", "--seed", "3", "-q", "--accel", "bvh"], &d);
+    assert!(out.status.success());
+    assert_eq!(files_in(&d), vec!["a.exr", "b.png", "ok.test", "t.json"]);
+    let trace: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("t.json")).unwrap()).unwrap();
+    let events = trace["traceEvents"].as_array().expect("traceEvents");
+    assert!(events.iter().any(|e| e["cat"] == "gpu" && e["name"] == "pt pass"));
+    assert!(events.iter().any(|e| e["cat"] == "cpu" && e["name"] == "parse"));
+    let out = lightpath(&["compare", "a.exr", "a.exr"], &d);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("RMSE: 0.000000") && text.contains("relMSE: 0.000000"), "{text}");
+}

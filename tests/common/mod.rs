@@ -1,0 +1,112 @@
+//! Shared helpers of the rendering tests: one renderer per backend for the whole test
+//! binary (lavapipe compiles pipelines slowly), and statistics over independent seeds.
+#![allow(dead_code)]
+
+use lightpath::io::Image;
+use lightpath::render::{AccelChoice, Renderer};
+use lightpath::scene::{self, Scene};
+use lightpath::trace::Trace;
+use std::path::PathBuf;
+use std::sync::{Mutex, MutexGuard, OnceLock};
+
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn open(accel: AccelChoice) -> Mutex<Renderer> {
+    match Renderer::new(None, accel) {
+        Ok(r) => Mutex::new(r),
+        Err(e) => panic!(
+            "these tests need a Vulkan device with {accel:?} support and none could be opened: {e:#}\n\
+             On a machine without a GPU install Mesa's lavapipe (mesa-vulkan-drivers >= 24 for ray query): \
+             run scripts/setup-system.sh"
+        ),
+    }
+}
+
+/// The renderer of a backend, shared by every test of the binary (tests take turns).
+pub fn renderer(accel: AccelChoice) -> MutexGuard<'static, Renderer> {
+    static BVH: OnceLock<Mutex<Renderer>> = OnceLock::new();
+    static RQ: OnceLock<Mutex<Renderer>> = OnceLock::new();
+    let cell = match accel {
+        AccelChoice::RayQuery => &RQ,
+        _ => &BVH,
+    };
+    let m = cell.get_or_init(|| open(if accel == AccelChoice::RayQuery { AccelChoice::RayQuery } else { AccelChoice::Bvh }));
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+pub fn render(scene: &Scene, seed: u32, accel: AccelChoice) -> Image {
+    let mut r = renderer(accel);
+    let out = r.render(scene, seed, &mut Trace::new()).expect("render");
+    assert_eq!(out.nonfinite_samples, 0, "the render produced NaN/Inf samples");
+    out.image
+}
+
+pub fn load(name: &str) -> Scene {
+    scene::parse_file(&repo().join("scenes").join(name)).expect("scene parses")
+}
+
+pub fn parse(text: &str) -> Scene {
+    scene::parse_str(text, "test scene").expect("test scene parses")
+}
+
+/// Region means on a g×g grid (plus the whole image last), per channel.
+pub fn region_means(img: &Image, g: u32) -> Vec<[f64; 3]> {
+    let mut out = Vec::new();
+    for j in 0..g {
+        for i in 0..g {
+            out.push(img.region_mean(
+                i * img.width / g,
+                j * img.height / g,
+                (i + 1) * img.width / g,
+                (j + 1) * img.height / g,
+            ));
+        }
+    }
+    out.push(img.mean());
+    out
+}
+
+/// Mean and standard error, over `seeds` independent renders, of every region mean.
+pub struct Estimate {
+    pub mean: Vec<[f64; 3]>,
+    pub stderr: Vec<[f64; 3]>,
+}
+
+pub fn estimate(scene: &Scene, seeds: u32, grid: u32, accel: AccelChoice) -> Estimate {
+    let runs: Vec<Vec<[f64; 3]>> = (0..seeds).map(|s| region_means(&render(scene, 1000 + s, accel), grid)).collect();
+    let n = runs[0].len();
+    let k = seeds as f64;
+    let mut mean = vec![[0.0; 3]; n];
+    let mut stderr = vec![[0.0; 3]; n];
+    for r in 0..n {
+        for c in 0..3 {
+            let m = runs.iter().map(|x| x[r][c]).sum::<f64>() / k;
+            let var = runs.iter().map(|x| (x[r][c] - m).powi(2)).sum::<f64>() / (k - 1.0);
+            mean[r][c] = m;
+            stderr[r][c] = (var / k).sqrt();
+        }
+    }
+    Estimate { mean, stderr }
+}
+
+/// Assert two estimates agree region by region: |a - b| <= z·sqrt(se_a² + se_b²) + rel·|b|.
+pub fn assert_agree(what: &str, a: &Estimate, b: &Estimate, z: f64, rel: f64) {
+    for r in 0..a.mean.len() {
+        for c in 0..3 {
+            let (ma, mb) = (a.mean[r][c], b.mean[r][c]);
+            let bound = z * (a.stderr[r][c].powi(2) + b.stderr[r][c].powi(2)).sqrt() + rel * mb.abs() + 1e-5;
+            assert!(
+                (ma - mb).abs() <= bound,
+                "{what}: region {r} channel {c}: {ma:.5} vs {mb:.5} (difference {:.5} > bound {bound:.5})",
+                (ma - mb).abs()
+            );
+        }
+    }
+}
+
+/// An estimate with no noise (for closed-form values).
+pub fn exact(value: [f64; 3], regions: usize) -> Estimate {
+    Estimate { mean: vec![value; regions], stderr: vec![[0.0; 3]; regions] }
+}
