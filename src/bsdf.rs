@@ -24,6 +24,9 @@
 //! - Phong exponent s = max(shininess, 0); max(0, r·wi)^s is 0 for r·wi <= 0 (pow(0, 0)
 //!   is undefined in GLSL).
 
+// `!(x > 0.0)` is deliberate throughout, as in the GLSL: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use glam::{Vec2, Vec3};
 
 use self::sampling::{to_world, INV_PI, INV_TWO_PI, TWO_PI};

@@ -127,15 +127,14 @@ pub fn write_image(path: &Path, image: &Image, gamma: f32) -> Result<()> {
 }
 
 pub fn read_exr(path: &Path) -> Result<Image> {
-    use exr::prelude::*;
-    let image = read_first_rgba_layer_from_file(
+    let image = exr::prelude::read_first_rgba_layer_from_file(
         path,
         |resolution, _| Image {
             width: resolution.width() as u32,
             height: resolution.height() as u32,
             pixels: vec![[0.0; 3]; resolution.width() * resolution.height()],
         },
-        |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+        |img: &mut Image, pos: exr::math::Vec2<usize>, (r, g, b, _a): (f32, f32, f32, f32)| {
             let w = img.width as usize;
             img.pixels[pos.y() * w + pos.x()] = [r, g, b];
         },

@@ -567,3 +567,59 @@ impl GpuScene {
     }
 }
 
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::parse_str;
+
+    #[test]
+    fn emitter_table_picks_by_power() {
+        let s = parse_str(
+            "quadLight 0 1 0  1 0 0  0 0 1  2 2 2\nquadLight 5 1 0  2 0 0  0 0 2  1 1 1\npoint 0 3 0 4 4 4\n\
+             emission 1 1 1\nsphere 0 -3 0 0.5\n",
+            "t",
+        )
+        .unwrap();
+        let t = emitter_table(&s);
+        assert_eq!(t.emitters.len(), 2 + 2 + 1 + 1);
+        let probs: Vec<f32> = t.emitters.iter().map(|e| e.radiance[3]).collect();
+        assert!((probs.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        assert_eq!(*t.cdf.last().unwrap(), 1.0);
+        // Quad 1: area 1, L 2, one-sided → power 2π; quad 2: area 4, L 1 → 4π;
+        // point: 4π·4 = 16π; sphere r 0.5, two-sided (but closed): area π, L 1 → π·π.
+        let pi = std::f32::consts::PI;
+        let total = 2.0 * pi + 4.0 * pi + 16.0 * pi + pi * pi;
+        let quad1 = probs[0] + probs[1];
+        assert!((quad1 - 2.0 * pi / total).abs() < 1e-4, "{quad1}");
+        let sphere = probs[4];
+        assert!((sphere - pi * pi / total).abs() < 1e-3, "{sphere}");
+        assert_eq!(t.emitters[0].info[2], 0, "quad lights are one-sided");
+        assert_eq!(t.emitters[4].info[0], EMITTER_SPHERE);
+        assert!((t.emitters[4].p1[0] - 0.125).abs() < 1e-6, "|det| of a 0.5 scale");
+        assert_eq!(t.triangle_emitter, vec![0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn ellipsoid_area_quadrature_is_accurate() {
+        let a = ellipsoid_area(Mat3::from_diagonal(Vec3::new(2.0, 2.0, 2.0)));
+        assert!((a - 16.0 * std::f32::consts::PI).abs() / a < 1e-3);
+        // Prolate spheroid a = b = 1, c = 2: 2π(1 + c²/(e) asin e / ... ) ≈ 21.4784.
+        let a = ellipsoid_area(Mat3::from_diagonal(Vec3::new(1.0, 1.0, 2.0)));
+        assert!((a - 21.4784).abs() / 21.4784 < 2e-3, "{a}");
+    }
+
+    #[test]
+    fn camera_basis_is_orthonormal_and_looks_at_the_target() {
+        let s = parse_str("size 200 100\ncamera 1 2 3  0 1 0  0 1 0  45\n", "t").unwrap();
+        let p = scene_params(&s, 0, 0);
+        let f = Vec3::from_slice(&p.cam_forward[..3]);
+        let r = Vec3::from_slice(&p.cam_right[..3]);
+        let u = Vec3::from_slice(&p.cam_up[..3]);
+        assert!((f - (Vec3::new(-1.0, -1.0, -3.0)).normalize()).length() < 1e-6);
+        assert!(f.dot(r).abs() < 1e-6 && f.dot(u).abs() < 1e-6 && r.dot(u).abs() < 1e-6);
+        assert!(u.y > 0.0);
+        assert!((p.cam_right[3] - 2.0).abs() < 1e-6);
+        assert!((p.cam_eye[3] - (22.5f32).to_radians().tan()).abs() < 1e-6);
+    }
+}

@@ -3,6 +3,8 @@
 #ifndef GEOMETRY_GLSL
 #define GEOMETRY_GLSL
 
+const float TRIANGLE_DET_REL_EPS_SQ = 1e-10;
+
 struct Hit {
     float t;
     uint prim;   // < triangle count: a triangle; else a sphere (prim - triangle count)
@@ -18,7 +20,9 @@ bool intersect_triangle(vec3 v0, vec3 v1, vec3 v2, vec3 o, vec3 d, float tmin, f
     float det = dot(e1, p);
     t = 0.0;
     bary = vec2(0.0);
-    if (det == 0.0) return false;
+    // Degenerate triangles and rays (nearly) parallel to the plane miss.
+    float scale2 = dot(e1, e1) * dot(e2, e2) * dot(d, d);
+    if (abs(det) < 1.17549435e-38 || det * det <= TRIANGLE_DET_REL_EPS_SQ * scale2) return false;
     float inv_det = 1.0 / det;
     vec3 s = o - v0;
     float u = dot(s, p) * inv_det;
@@ -53,15 +57,16 @@ bool intersect_sphere(GpuSphere s, vec3 o, vec3 d, float tmin, float tmax, out f
     vec3 oo = sphere_to_object_point(s, o);
     vec3 dd = sphere_to_object_dir(s, d);
     float a = dot(dd, dd);
+    t = 0.0;
+    if (a < 1.17549435e-38) return false;
     float b = dot(oo, dd);
     float c = dot(oo, oo) - 1.0;
     // Discriminant from the closest point on the line (Ray Tracing Gems, ch. 7).
     vec3 l = oo - (b / a) * dd;
     float disc = a * (1.0 - dot(l, l));
-    t = 0.0;
     if (disc < 0.0) return false;
     float q = -b - (b >= 0.0 ? 1.0 : -1.0) * sqrt(disc);
-    float t0 = c / q;
+    float t0 = q != 0.0 ? c / q : 0.0;
     float t1 = q / a;
     if (t0 > t1) { float tmp = t0; t0 = t1; t1 = tmp; }
     if (t0 > tmin && t0 < tmax) { t = t0; return true; }

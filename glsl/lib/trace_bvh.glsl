@@ -7,6 +7,15 @@ layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodeBuff
 layout(std430, set = 0, binding = BINDING_BVH_PRIMS) readonly buffer BvhPrimBuffer { uint bvh_prims[]; };
 
 #define BVH_STACK_SIZE 64
+// Mirrors of src/accel/bvh.rs: SLAB_EXIT_SCALE = 1 + 2 gamma(3), MIN_DIR_COMPONENT.
+const float BVH_SLAB_EXIT_SCALE = 1.0 + 2.0 * (3.0 * 5.9604645e-8) / (1.0 - 3.0 * 5.9604645e-8);
+const float BVH_MIN_DIR_COMPONENT = 1e-30;
+
+vec3 bvh_safe_inverse(vec3 d) {
+    vec3 c = mix(d, mix(vec3(-BVH_MIN_DIR_COMPONENT), vec3(BVH_MIN_DIR_COMPONENT), greaterThanEqual(d, vec3(0.0))),
+                 lessThan(abs(d), vec3(BVH_MIN_DIR_COMPONENT)));
+    return 1.0 / c;
+}
 
 // Entry distance of the ray into a node's box, or INF when it misses within [0, tmax].
 float bvh_box_entry(BvhNode node, vec3 o, vec3 inv_d, float tmax) {
@@ -15,7 +24,7 @@ float bvh_box_entry(BvhNode node, vec3 o, vec3 inv_d, float tmax) {
     vec3 tnear = min(t0, t1);
     vec3 tfar = max(t0, t1);
     float enter = max(max(tnear.x, tnear.y), max(tnear.z, 0.0));
-    float leave = min(min(tfar.x, tfar.y), min(tfar.z, tmax));
+    float leave = min(min(min(tfar.x, tfar.y), tfar.z) * BVH_SLAB_EXIT_SCALE, tmax);
     return enter <= leave ? enter : INF;
 }
 
@@ -30,7 +39,7 @@ bool bvh_intersect_prim(uint prim, vec3 o, vec3 d, float tmax, out float t, out 
 }
 
 bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
-    vec3 inv_d = 1.0 / d;
+    vec3 inv_d = bvh_safe_inverse(d);
     uint stack[BVH_STACK_SIZE];
     uint sp = 0u;
     uint node_index = 0u;
@@ -39,7 +48,10 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     hit.t = 0.0;
     hit.prim = 0u;
     hit.bary = vec2(0.0);
-    if (bvh_box_entry(bvh_nodes[0], o, inv_d, closest) == INF) return false;
+    BvhNode root = bvh_nodes[0];
+    // An empty scene is one empty leaf with an inverted box.
+    if (root.min_left.x > root.max_count.x) return false;
+    if (bvh_box_entry(root, o, inv_d, closest) == INF) return false;
     while (true) {
         BvhNode node = bvh_nodes[node_index];
         uint count = floatBitsToUint(node.max_count.w);

@@ -19,8 +19,8 @@
 //! entries cannot overflow: where an SAH split could break the cap, the node splits at
 //! the centroid median of its widest axis instead.
 
-use super::geometry::Aabb;
-use glam::Vec3;
+pub use super::geometry::Aabb;
+use glam::{Vec3, Vec3A};
 
 /// One BVH node: two std430 `vec4`s, the `w` lanes holding `uint` bits.
 #[repr(C)]
@@ -88,17 +88,43 @@ pub struct Bvh {
     pub prim_refs: Vec<u32>,
 }
 
+/// A primitive as the builder moves it around: its box, centroid and input index,
+/// kept together so every sweep reads memory in order.
+#[derive(Clone, Copy)]
+struct BuildPrim {
+    min: Vec3A,
+    max: Vec3A,
+    centroid: Vec3,
+    index: u32,
+}
+
 /// Per-bin accumulation of the SAH sweep.
 #[derive(Clone, Copy)]
 struct Bin {
-    bounds: Aabb,
+    min: Vec3A,
+    max: Vec3A,
     count: u32,
 }
 
-/// Bin of centroid coordinate `c` over `[lo, lo + extent]` (`extent > 0`); the same
-/// expression bins and partitions, so both agree exactly.
-fn bin_of(c: f32, lo: f32, extent: f32) -> usize {
-    (((c - lo) / extent * SAH_BINS as f32) as usize).min(SAH_BINS - 1)
+impl Bin {
+    const EMPTY: Bin = Bin {
+        min: Vec3A::INFINITY,
+        max: Vec3A::NEG_INFINITY,
+        count: 0,
+    };
+}
+
+/// Surface area of a box, 0 when empty.
+fn area(min: Vec3A, max: Vec3A) -> f32 {
+    let e = (max - min).max(Vec3A::ZERO);
+    2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+}
+
+/// Per-axis bin of a centroid: `(c - lo) * scale` truncated and clamped to the last
+/// bin. The same expression bins and partitions, so both agree exactly.
+fn bins_of(c: Vec3A, lo: Vec3A, scale: Vec3A) -> [usize; 3] {
+    let b = ((c - lo) * scale).min(Vec3A::splat((SAH_BINS - 1) as f32));
+    [b.x as usize, b.y as usize, b.z as usize]
 }
 
 /// Levels of median splits needed before `count` primitives fit in leaves.
@@ -111,7 +137,7 @@ fn median_levels(mut count: u32) -> u32 {
     levels
 }
 
-/// A subtree still to build: `prim_refs[begin..end]`, at `depth`; `parent` is the node
+/// A subtree still to build: `prims[begin..end]`, at `depth`; `parent` is the node
 /// whose `left_or_first` must point here (second children only).
 struct Task {
     begin: u32,
@@ -174,20 +200,30 @@ impl Bvh {
             };
         }
         assert!(median_levels(n) <= max_depth);
-        // An empty (or NaN) primitive box adds nothing to any node's bounds; give it a
-        // finite centroid so the binning stays finite.
-        let centroids: Vec<Vec3> = bounds
+        let mut prims: Vec<BuildPrim> = bounds
             .iter()
-            .map(|b| {
+            .zip(0..n)
+            .map(|(b, index)| {
+                // An empty (or NaN) box adds nothing to any node's bounds; give it a
+                // finite centroid so the binning stays finite.
                 let c = b.centroid();
-                if b.is_empty() || !c.is_finite() {
-                    Vec3::ZERO
-                } else {
-                    c
+                let valid = !b.is_empty() && c.is_finite();
+                BuildPrim {
+                    min: if b.is_empty() {
+                        Vec3A::INFINITY
+                    } else {
+                        b.min.into()
+                    },
+                    max: if b.is_empty() {
+                        Vec3A::NEG_INFINITY
+                    } else {
+                        b.max.into()
+                    },
+                    centroid: if valid { c } else { Vec3::ZERO },
+                    index,
                 }
             })
             .collect();
-        let mut prim_refs: Vec<u32> = (0..n).collect();
         let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * n as usize);
         let mut tasks = vec![Task {
             begin: 0,
@@ -200,27 +236,22 @@ impl Bvh {
             if let Some(parent) = task.parent {
                 nodes[parent as usize].left_or_first = index;
             }
-            let refs = &mut prim_refs[task.begin as usize..task.end as usize];
-            let mut node_bounds = Aabb::empty();
-            let mut centroid_bounds = Aabb::empty();
-            for &r in refs.iter() {
-                node_bounds = node_bounds.union(bounds[r as usize]);
-                centroid_bounds.grow(centroids[r as usize]);
+            let range = &mut prims[task.begin as usize..task.end as usize];
+            let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+            let (mut cmin, mut cmax) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+            for p in range.iter() {
+                min = min.min(p.min);
+                max = max.max(p.max);
+                let c = Vec3A::from(p.centroid);
+                cmin = cmin.min(c);
+                cmax = cmax.max(c);
             }
-            let split = choose_split(
-                refs,
-                bounds,
-                &centroids,
-                &node_bounds,
-                &centroid_bounds,
-                task.depth,
-                max_depth,
-            );
+            let split = choose_split(range, area(min, max), cmin, cmax, task.depth, max_depth);
             let count = task.end - task.begin;
             nodes.push(BvhNode {
-                min: node_bounds.min.into(),
+                min: min.into(),
                 left_or_first: if split.is_some() { 0 } else { task.begin },
-                max: node_bounds.max.into(),
+                max: max.into(),
                 count: if split.is_some() { 0 } else { count },
             });
             if let Some(left_count) = split {
@@ -240,7 +271,10 @@ impl Bvh {
                 });
             }
         }
-        Bvh { nodes, prim_refs }
+        Bvh {
+            nodes,
+            prim_refs: prims.iter().map(|p| p.index).collect(),
+        }
     }
 
     /// Closest hit along `o + t d` with `t` in `(tmin, tmax)`. `hit_prim(prim, t_max)`
@@ -347,27 +381,27 @@ impl Bvh {
     }
 }
 
-/// Decides how to split `refs` (a node's primitives): `None` for a leaf, or the size
-/// of the first child after reordering `refs` so that it comes first.
-#[allow(clippy::too_many_arguments)]
+/// Decides how to split a node's primitives `prims` (surface area `node_area`,
+/// centroid bounds `cmin..cmax`): `None` for a leaf, or the size of the first child
+/// after reordering `prims` so that it comes first.
 fn choose_split(
-    refs: &mut [u32],
-    bounds: &[Aabb],
-    centroids: &[Vec3],
-    node_bounds: &Aabb,
-    centroid_bounds: &Aabb,
+    prims: &mut [BuildPrim],
+    node_area: f32,
+    cmin: Vec3A,
+    cmax: Vec3A,
     depth: u32,
     max_depth: u32,
 ) -> Option<u32> {
-    let count = refs.len() as u32;
+    let count = prims.len() as u32;
     if count <= MIN_LEAF_SIZE {
         return None;
     }
-    let extent = centroid_bounds.max - centroid_bounds.min;
+    // Finite and non-negative: centroids are finite.
+    let extent = cmax - cmin;
     // Children of an SAH split may hold up to count - 1 primitives; past the depth
     // budget for that, median splits (which halve) still reach leaves in time.
     let sah_allowed = depth + 1 + median_levels(count - 1) <= max_depth;
-    if !(extent.max_element() > 0.0) || !sah_allowed {
+    if extent.max_element() <= 0.0 || !sah_allowed {
         if count <= MAX_LEAF_SIZE {
             return None;
         }
@@ -379,56 +413,62 @@ fn choose_split(
             } else {
                 2
             };
-            let key = |r: &u32| (centroids[*r as usize][axis], *r);
-            refs.select_nth_unstable_by(refs.len() / 2, |x, y| {
+            let key = |p: &BuildPrim| (p.centroid[axis], p.index);
+            prims.select_nth_unstable_by(prims.len() / 2, |x, y| {
                 key(x).partial_cmp(&key(y)).expect("finite centroids")
             });
         }
-        // Coincident centroids: any halving is as good as another; keep index order.
+        // Coincident centroids: any halving is as good as another; keep the order.
         return Some(count / 2);
     }
 
-    // Binned SAH over all three axes; costs are scaled by the node's area so a flat
-    // node (area 0) needs no division.
+    // Binned SAH, all three axes in one pass. Axes with no extent get scale 0 (all in
+    // bin 0) and are skipped in the sweep.
+    let scale = Vec3A::select(
+        extent.cmpgt(Vec3A::ZERO),
+        Vec3A::splat(SAH_BINS as f32) / extent,
+        Vec3A::ZERO,
+    );
+    let mut bins = [[Bin::EMPTY; SAH_BINS]; 3];
+    for p in prims.iter() {
+        let b = bins_of(p.centroid.into(), cmin, scale);
+        for axis in 0..3 {
+            let bin = &mut bins[axis][b[axis]];
+            bin.min = bin.min.min(p.min);
+            bin.max = bin.max.max(p.max);
+            bin.count += 1;
+        }
+    }
+    // Costs are scaled by the node's area so a flat node (area 0) needs no division.
     let mut best_cost = f32::INFINITY;
     let mut best_axis = 0;
     let mut best_plane = 0; // bins [0, plane] go left
-    for axis in 0..3 {
-        if !(extent[axis] > 0.0) {
+    for (axis, bins) in bins.iter().enumerate() {
+        if extent[axis] <= 0.0 {
             continue;
-        }
-        let lo = centroid_bounds.min[axis];
-        let mut bins = [Bin {
-            bounds: Aabb::empty(),
-            count: 0,
-        }; SAH_BINS];
-        for &r in refs.iter() {
-            let bin = &mut bins[bin_of(centroids[r as usize][axis], lo, extent[axis])];
-            bin.bounds = bin.bounds.union(bounds[r as usize]);
-            bin.count += 1;
         }
         // Right-to-left sweep: cost of the right side of each plane.
         let mut right_cost = [0.0f32; SAH_BINS];
-        let mut acc = Aabb::empty();
-        let mut acc_count = 0u32;
+        let (mut min, mut max, mut acc_count) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0u32);
         for plane in (1..SAH_BINS).rev() {
-            acc = acc.union(bins[plane].bounds);
+            min = min.min(bins[plane].min);
+            max = max.max(bins[plane].max);
             acc_count += bins[plane].count;
             right_cost[plane - 1] = if acc_count > 0 {
-                acc.surface_area() * acc_count as f32
+                area(min, max) * acc_count as f32
             } else {
                 f32::INFINITY
             };
         }
-        let mut acc = Aabb::empty();
-        let mut acc_count = 0u32;
+        let (mut min, mut max, mut acc_count) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0u32);
         for (plane, right) in right_cost.iter().enumerate().take(SAH_BINS - 1) {
-            acc = acc.union(bins[plane].bounds);
+            min = min.min(bins[plane].min);
+            max = max.max(bins[plane].max);
             acc_count += bins[plane].count;
             if acc_count == 0 {
                 continue;
             }
-            let cost = acc.surface_area() * acc_count as f32 + right;
+            let cost = area(min, max) * acc_count as f32 + right;
             if cost < best_cost {
                 best_cost = cost;
                 best_axis = axis;
@@ -436,27 +476,25 @@ fn choose_split(
             }
         }
     }
-    let area = node_bounds.surface_area();
-    let split_cost = TRAVERSAL_COST * area + INTERSECTION_COST * best_cost;
-    let leaf_cost = INTERSECTION_COST * count as f32 * area;
+    let split_cost = TRAVERSAL_COST * node_area + INTERSECTION_COST * best_cost;
+    let leaf_cost = INTERSECTION_COST * count as f32 * node_area;
     if count <= MAX_LEAF_SIZE && leaf_cost <= split_cost {
         return None;
     }
 
     // Partition in place: primitives in bins [0, best_plane] first.
-    let lo = centroid_bounds.min[best_axis];
-    let ext = extent[best_axis];
-    let goes_left = |r: u32| bin_of(centroids[r as usize][best_axis], lo, ext) <= best_plane;
-    let (mut i, mut j) = (0usize, refs.len());
+    let goes_left =
+        |p: &BuildPrim| bins_of(p.centroid.into(), cmin, scale)[best_axis] <= best_plane;
+    let (mut i, mut j) = (0usize, prims.len());
     while i < j {
-        if goes_left(refs[i]) {
+        if goes_left(&prims[i]) {
             i += 1;
         } else {
             j -= 1;
-            refs.swap(i, j);
+            prims.swap(i, j);
         }
     }
-    debug_assert!(i > 0 && i < refs.len());
+    debug_assert!(i > 0 && i < prims.len());
     Some(i as u32)
 }
 

@@ -114,7 +114,8 @@ pub const TRIANGLE_DET_REL_EPS_SQ: f32 = 1e-5 * 1e-5;
 /// noise is rejected (see [`TRIANGLE_DET_REL_EPS_SQ`]), and so is `|det|` below the
 /// smallest normal float, which keeps `1 / det` finite, so no `0 * inf` NaN can reach
 /// the comparisons (GPUs are not bound to IEEE NaN comparison semantics).
-#[allow(clippy::too_many_arguments)]
+// The range checks are spelled as in the GLSL.
+#[allow(clippy::manual_range_contains)]
 pub fn intersect_triangle(
     v0: Vec3,
     v1: Vec3,
