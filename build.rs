@@ -32,22 +32,33 @@ fn main() {
         let source = fs::read_to_string(kernel).expect("read kernel");
         for (suffix, define) in BACKENDS {
             let mut options = shaderc::CompileOptions::new().expect("shaderc options");
-            options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
+            options.set_target_env(
+                shaderc::TargetEnv::Vulkan,
+                shaderc::EnvVersion::Vulkan1_2 as u32,
+            );
             options.set_target_spirv(shaderc::SpirvVersion::V1_5);
             options.set_optimization_level(shaderc::OptimizationLevel::Performance);
             options.set_generate_debug_info();
             options.add_macro_definition(define, Some("1"));
             let lib = glsl.join("lib");
             options.set_include_callback(move |requested, _kind, requester, _depth| {
-                let requester_dir = Path::new(requester).parent().map(Path::to_path_buf).unwrap_or_default();
+                let requester_dir = Path::new(requester)
+                    .parent()
+                    .map(Path::to_path_buf)
+                    .unwrap_or_default();
                 let candidates = [lib.join(requested), requester_dir.join(requested)];
                 for path in candidates {
                     if let Ok(content) = fs::read_to_string(&path) {
                         println!("cargo:rerun-if-changed={}", path.display());
-                        return Ok(shaderc::ResolvedInclude { resolved_name: path.display().to_string(), content });
+                        return Ok(shaderc::ResolvedInclude {
+                            resolved_name: path.display().to_string(),
+                            content,
+                        });
                     }
                 }
-                Err(format!("cannot find include '{requested}' (looked in glsl/lib and beside {requester})"))
+                Err(format!(
+                    "cannot find include '{requested}' (looked in glsl/lib and beside {requester})"
+                ))
             });
             match compiler.compile_into_spirv(
                 &source,
@@ -70,7 +81,10 @@ fn main() {
                 }
                 Err(e) => {
                     // shaderc's messages already read "file:line: error: ...".
-                    eprintln!("GLSL error in {} ({suffix} backend):\n{e}", kernel.display());
+                    eprintln!(
+                        "GLSL error in {} ({suffix} backend):\n{e}",
+                        kernel.display()
+                    );
                     for line in e.to_string().lines() {
                         println!("cargo:warning={line}");
                     }

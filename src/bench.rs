@@ -54,17 +54,31 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let out = renderer.render(&scene, 0, &mut trace)?;
         let samples = out.samples_per_pixel as f64 * scene.width as f64 * scene.height as f64;
         results.push(BenchResult {
-            name: format!("lightpath pt, {} ({})", out.backend.name(), renderer.device.info.name),
+            name: format!(
+                "lightpath pt, {} ({})",
+                out.backend.name(),
+                renderer.device.info.name
+            ),
             samples_per_second: samples / out.dispatch_seconds,
             rays_per_second: Some(out.rays / out.dispatch_seconds),
         });
     }
     if args.mitsuba {
         let sps = mitsuba_samples_per_second(args)?;
-        results.push(BenchResult { name: "Mitsuba 3 path tracer (llvm_ad_rgb, CPU)".into(), samples_per_second: sps, rays_per_second: None });
+        results.push(BenchResult {
+            name: "Mitsuba 3 path tracer (llvm_ad_rgb, CPU)".into(),
+            samples_per_second: sps,
+            rays_per_second: None,
+        });
     }
-    let reference = results.first().context("no backend could be measured")?.samples_per_second;
-    let reference_rays = results.first().and_then(|r| r.rays_per_second).unwrap_or(1.0);
+    let reference = results
+        .first()
+        .context("no backend could be measured")?
+        .samples_per_second;
+    let reference_rays = results
+        .first()
+        .and_then(|r| r.rays_per_second)
+        .unwrap_or(1.0);
     println!(
         "scene {} at {}x{}, {} spp, maxdepth {}",
         args.scene.display(),
@@ -73,10 +87,16 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         args.spp,
         scene.settings.max_depth
     );
-    println!("{:<60} {:>12} {:>8} {:>12} {:>8}", "renderer", "Msamples/s", "ratio", "Mrays/s", "ratio");
+    println!(
+        "{:<60} {:>12} {:>8} {:>12} {:>8}",
+        "renderer", "Msamples/s", "ratio", "Mrays/s", "ratio"
+    );
     for r in &results {
         let (rays, rratio) = match r.rays_per_second {
-            Some(v) => (format!("{:.3}", v / 1e6), format!("{:.2}", v / reference_rays)),
+            Some(v) => (
+                format!("{:.3}", v / 1e6),
+                format!("{:.2}", v / reference_rays),
+            ),
             None => ("-".into(), "-".into()),
         };
         println!(
@@ -103,7 +123,10 @@ fn mitsuba_samples_per_second(args: &BenchArgs) -> Result<f64> {
         .output()
         .context("running python3 scripts/mitsuba_bench.py")?;
     if !out.status.success() {
-        anyhow::bail!("mitsuba benchmark failed:\n{}", String::from_utf8_lossy(&out.stderr));
+        anyhow::bail!(
+            "mitsuba benchmark failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
     }
     let text = String::from_utf8_lossy(&out.stdout);
     text.lines()

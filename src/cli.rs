@@ -8,7 +8,11 @@ use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
 #[derive(Parser)]
-#[command(name = "lightpath", version, about = "A GPU renderer on Vulkan: path tracing, BDPT and MMLT")]
+#[command(
+    name = "lightpath",
+    version,
+    about = "A GPU renderer on Vulkan: path tracing, BDPT and MMLT"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -64,7 +68,9 @@ enum Command {
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WxH, got {s:?}"))?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WxH, got {s:?}"))?;
     let w: u32 = w.parse().map_err(|_| format!("bad width in {s:?}"))?;
     let h: u32 = h.parse().map_err(|_| format!("bad height in {s:?}"))?;
     if w == 0 || h == 0 {
@@ -110,7 +116,9 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
     }
     if let Some(name) = &args.integrator {
         scene.settings.integrator = IntegratorKind::from_name(name).with_context(|| {
-            format!("--integrator {name:?}: expected pathtracer, direct, analyticdirect, bdpt or mmlt")
+            format!(
+                "--integrator {name:?}: expected pathtracer, direct, analyticdirect, bdpt or mmlt"
+            )
         })?;
     }
     Ok(())
@@ -123,7 +131,11 @@ fn output_path(scene: &Scene, args: &RenderArgs) -> PathBuf {
     if let Some(o) = &scene.output {
         return PathBuf::from(o);
     }
-    let stem = args.scene.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or("render".into());
+    let stem = args
+        .scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or("render".into());
     PathBuf::from(format!("{stem}.png"))
 }
 
@@ -138,10 +150,14 @@ fn render_command(args: &RenderArgs) -> Result<()> {
     if let Some(t) = &args.trace {
         io::check_writable_file(t)?;
     }
-    let mut renderer = trace.cpu("device and kernels", || Renderer::new(args.device.as_deref(), accel))?;
+    let mut renderer = trace.cpu("device and kernels", || {
+        Renderer::new(args.device.as_deref(), accel)
+    })?;
     renderer.show_progress = !args.quiet;
     let out = renderer.render(&scene, args.seed, &mut trace)?;
-    trace.cpu("write image", || io::write_image(&output, &out.image, scene.settings.gamma))?;
+    trace.cpu("write image", || {
+        io::write_image(&output, &out.image, scene.settings.gamma)
+    })?;
     if out.nonfinite_samples > 0 {
         eprintln!(
             "warning: {} samples were NaN or infinite and were left out of the image",
@@ -202,8 +218,14 @@ fn compare_command(a: &Path, b: &Path) -> Result<()> {
     let ia = io::read_exr(a)?;
     let ib = io::read_exr(b)?;
     let c = io::compare(&ia, &ib)?;
-    println!("mean A: {:.6} {:.6} {:.6}", c.mean_a[0], c.mean_a[1], c.mean_a[2]);
-    println!("mean B: {:.6} {:.6} {:.6}", c.mean_b[0], c.mean_b[1], c.mean_b[2]);
+    println!(
+        "mean A: {:.6} {:.6} {:.6}",
+        c.mean_a[0], c.mean_a[1], c.mean_a[2]
+    );
+    println!(
+        "mean B: {:.6} {:.6} {:.6}",
+        c.mean_b[0], c.mean_b[1], c.mean_b[2]
+    );
     println!("RMSE: {:.6}", c.rmse);
     println!("relMSE: {:.6}", c.relmse);
     Ok(())

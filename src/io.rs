@@ -41,7 +41,10 @@ impl Image {
 }
 
 fn temp_path(path: &Path) -> PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
     path.with_file_name(format!(".{name}.partial-{}", std::process::id()))
 }
 
@@ -61,10 +64,18 @@ pub enum Format {
 }
 
 pub fn format_of(path: &Path) -> Result<Format> {
-    match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .as_deref()
+    {
         Some("exr") => Ok(Format::Exr),
         Some("png") => Ok(Format::Png),
-        _ => bail!("{}: unsupported image format (expected a .exr or .png file name)", path.display()),
+        _ => bail!(
+            "{}: unsupported image format (expected a .exr or .png file name)",
+            path.display()
+        ),
     }
 }
 
@@ -82,7 +93,13 @@ pub fn check_writable_file(path: &Path) -> Result<()> {
         _ => PathBuf::from("."),
     };
     let probe = dir.join(format!(".lightpath-probe-{}", std::process::id()));
-    std::fs::write(&probe, b"").with_context(|| format!("cannot write {}: directory {} is not writable", path.display(), dir.display()))?;
+    std::fs::write(&probe, b"").with_context(|| {
+        format!(
+            "cannot write {}: directory {} is not writable",
+            path.display(),
+            dir.display()
+        )
+    })?;
     let _ = std::fs::remove_file(&probe);
     Ok(())
 }
@@ -154,7 +171,13 @@ pub struct Comparison {
 
 pub fn compare(a: &Image, b: &Image) -> Result<Comparison> {
     if a.width != b.width || a.height != b.height {
-        bail!("images differ in size: {}x{} vs {}x{}", a.width, a.height, b.width, b.height);
+        bail!(
+            "images differ in size: {}x{} vs {}x{}",
+            a.width,
+            a.height,
+            b.width,
+            b.height
+        );
     }
     let mut se = 0.0f64;
     let mut rel = 0.0f64;
@@ -166,5 +189,10 @@ pub fn compare(a: &Image, b: &Image) -> Result<Comparison> {
         }
     }
     let n = (a.pixels.len() * 3).max(1) as f64;
-    Ok(Comparison { mean_a: a.mean(), mean_b: b.mean(), rmse: (se / n).sqrt(), relmse: rel / n })
+    Ok(Comparison {
+        mean_a: a.mean(),
+        mean_b: b.mean(),
+        rmse: (se / n).sqrt(),
+        relmse: rel / n,
+    })
 }

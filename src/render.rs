@@ -9,7 +9,9 @@ use crate::gpu::kernels::{Backend, Kernels};
 use crate::gpu::timing::Timestamps;
 use crate::gpu::{other_error, Device};
 use crate::io::Image;
-use crate::scene::{BrdfKind, DeltaLight, ImportanceSampling, IntegratorKind, NextEventEstimation, Scene};
+use crate::scene::{
+    BrdfKind, DeltaLight, ImportanceSampling, IntegratorKind, NextEventEstimation, Scene,
+};
 use crate::trace::Trace;
 use anyhow::{bail, Result};
 use ash::vk;
@@ -80,7 +82,11 @@ impl Renderer {
             }
         };
         let kernels = Kernels::new(&device, backend)?;
-        Ok(Renderer { device, kernels, show_progress: false })
+        Ok(Renderer {
+            device,
+            kernels,
+            show_progress: false,
+        })
     }
 
     pub fn backend(&self) -> Backend {
@@ -92,7 +98,10 @@ impl Renderer {
         let kernel: &'static str = match scene.settings.integrator {
             IntegratorKind::PathTracer | IntegratorKind::Direct => "pt",
             IntegratorKind::AnalyticDirect => "analytic",
-            other => bail!("integrator '{}' is not available in this version of lightpath", other.name()),
+            other => bail!(
+                "integrator '{}' is not available in this version of lightpath",
+                other.name()
+            ),
         };
         let (width, height) = (scene.width, scene.height);
         let film_bytes = width as u64 * height as u64 * 16;
@@ -105,18 +114,30 @@ impl Renderer {
         }
         let mut scene = scene.clone();
         let bvh = trace.cpu("BVH build", || crate::accel::prepare(&mut scene))?;
-        let gpu_scene = trace.cpu("scene upload", || GpuScene::new(&self.device, &scene, &bvh, self.backend(), seed))?;
+        let gpu_scene = trace.cpu("scene upload", || {
+            GpuScene::new(&self.device, &scene, &bvh, self.backend(), seed)
+        })?;
         let rq = if self.backend() == Backend::RayQuery {
             let spheres: Vec<_> = scene.spheres.iter().map(|s| s.object_to_world).collect();
             Some(trace.cpu("acceleration structure build", || {
-                rayquery::build_scene(&self.device, &gpu_scene.triangles, scene.triangles.len() as u32, &spheres)
+                rayquery::build_scene(
+                    &self.device,
+                    &gpu_scene.triangles,
+                    scene.triangles.len() as u32,
+                    &spheres,
+                )
             })?)
         } else {
             None
         };
         let pipeline = trace.cpu("pipeline creation", || self.kernels.pipeline(kernel))?;
         let film = trace.cpu("film allocation", || {
-            Buffer::zeroed(&self.device, "film", film_bytes, vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC)
+            Buffer::zeroed(
+                &self.device,
+                "film",
+                film_bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            )
         })?;
         let stats = Buffer::zeroed(
             &self.device,
@@ -127,10 +148,14 @@ impl Renderer {
         let set = gpu_scene.descriptor_set(&self.kernels, &film, &stats, rq.as_ref())?;
 
         let spp = scene.settings.spp.max(1);
-        let dispatch_seconds = self.dispatch_passes(pipeline, set, kernel, width, height, spp, trace)?;
+        let dispatch_seconds =
+            self.dispatch_passes(pipeline, set, kernel, width, height, spp, trace)?;
 
         let (film_data, stat_data) = trace.cpu("readback", || -> Result<_> {
-            Ok((film.download(film_bytes)?, stats.download(4 * STAT_COUNT as u64)?))
+            Ok((
+                film.download(film_bytes)?,
+                stats.download(4 * STAT_COUNT as u64)?,
+            ))
         })?;
         let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
         let stat: &[u32] = bytemuck::cast_slice(&stat_data);
@@ -138,7 +163,10 @@ impl Renderer {
         let image = Image {
             width,
             height,
-            pixels: film.iter().map(|p| [p[0] * inv, p[1] * inv, p[2] * inv]).collect(),
+            pixels: film
+                .iter()
+                .map(|p| [p[0] * inv, p[1] * inv, p[2] * inv])
+                .collect(),
         };
         let rays = film.iter().map(|p| p[3] as f64).sum();
         Ok(RenderOutput {
@@ -165,14 +193,19 @@ impl Renderer {
         trace: &mut Trace,
     ) -> Result<f64> {
         let device = self.device.clone();
-        let groups = (width.div_ceil(WORKGROUP_SIZE_X), height.div_ceil(WORKGROUP_SIZE_Y));
+        let groups = (
+            width.div_ceil(WORKGROUP_SIZE_X),
+            height.div_ceil(WORKGROUP_SIZE_Y),
+        );
         let max_batch = 64u32;
         let mut timestamps = Timestamps::new(&device, max_batch)?;
         let progress = if self.show_progress {
             let bar = indicatif::ProgressBar::new(spp as u64);
             bar.set_style(
-                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} passes, {elapsed} elapsed, {eta} left")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+                indicatif::ProgressStyle::with_template(
+                    "{msg} [{bar:30}] {pos}/{len} passes, {elapsed} elapsed, {eta} left",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
             );
             bar.set_message(kernel.to_string());
             Some(bar)
@@ -190,10 +223,21 @@ impl Renderer {
             timestamps.reset(cmd);
             let mut spans = Vec::new();
             unsafe {
-                device.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                device.raw.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.kernels.layout, 0, &[set], &[]);
+                device
+                    .raw
+                    .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                device.raw.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::COMPUTE,
+                    self.kernels.layout,
+                    0,
+                    &[set],
+                    &[],
+                );
                 for i in 0..n {
-                    let params = PassParams { pass: [done + i, 1, 0, 0] };
+                    let params = PassParams {
+                        pass: [done + i, 1, 0, 0],
+                    };
                     device.raw.cmd_push_constants(
                         cmd,
                         self.kernels.layout,
@@ -207,7 +251,9 @@ impl Renderer {
                     spans.push(span);
                     let barrier = vk::MemoryBarrier::default()
                         .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                        .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE);
+                        .dst_access_mask(
+                            vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+                        );
                     device.raw.cmd_pipeline_barrier(
                         cmd,
                         vk::PipelineStageFlags::COMPUTE_SHADER,
@@ -367,7 +413,10 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
     let (_, radius) = scene_bounds(scene);
     for l in &scene.delta_lights {
         match *l {
-            DeltaLight::Point { position, intensity } => {
+            DeltaLight::Point {
+                position,
+                intensity,
+            } => {
                 power.push(4.0 * pi * avg(intensity));
                 emitters.push(GpuEmitter {
                     p0: position.extend(0.0).to_array(),
@@ -376,7 +425,10 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
                     ..Default::default()
                 });
             }
-            DeltaLight::Directional { direction, radiance } => {
+            DeltaLight::Directional {
+                direction,
+                radiance,
+            } => {
                 power.push(pi * radius * radius * avg(radiance));
                 emitters.push(GpuEmitter {
                     p0: direction.normalize().extend(0.0).to_array(),
@@ -394,7 +446,11 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
     let mut cdf = Vec::with_capacity(n);
     let mut acc = 0.0f64;
     for (e, &p) in emitters.iter_mut().zip(&power) {
-        let prob = if total > 0.0 { p.max(0.0) as f64 / total } else { 1.0 / n as f64 };
+        let prob = if total > 0.0 {
+            p.max(0.0) as f64 / total
+        } else {
+            1.0 / n as f64
+        };
         e.radiance[3] = prob as f32;
         acc += prob;
         cdf.push(acc as f32);
@@ -402,7 +458,12 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
     if let Some(last) = cdf.last_mut() {
         *last = 1.0;
     }
-    EmitterTable { emitters, cdf, triangle_emitter, sphere_emitter }
+    EmitterTable {
+        emitters,
+        cdf,
+        triangle_emitter,
+        sphere_emitter,
+    }
 }
 
 pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams {
@@ -414,12 +475,22 @@ pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams
     let (center, radius) = scene_bounds(scene);
     let max_depth = s.max_depth.max(0) as u32;
     SceneParams {
-        cam_eye: c.eye.extend((c.fovy_degrees.to_radians() * 0.5).tan()).to_array(),
-        cam_right: right.extend(scene.width as f32 / scene.height as f32).to_array(),
+        cam_eye: c
+            .eye
+            .extend((c.fovy_degrees.to_radians() * 0.5).tan())
+            .to_array(),
+        cam_right: right
+            .extend(scene.width as f32 / scene.height as f32)
+            .to_array(),
         cam_up: up.extend(0.0).to_array(),
         cam_forward: forward.extend(0.0).to_array(),
         bounds: center.extend(radius).to_array(),
-        dims: [scene.width, scene.height, scene.triangles.len() as u32, scene.spheres.len() as u32],
+        dims: [
+            scene.width,
+            scene.height,
+            scene.triangles.len() as u32,
+            scene.spheres.len() as u32,
+        ],
         counts: [emitter_count, max_depth, (s.max_depth < 0) as u32, s.spp],
         options: [
             match s.nee {
@@ -444,7 +515,13 @@ pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams
 }
 
 impl GpuScene {
-    pub fn new(device: &Arc<Device>, scene: &Scene, bvh: &Bvh, backend: Backend, seed: u32) -> Result<GpuScene> {
+    pub fn new(
+        device: &Arc<Device>,
+        scene: &Scene,
+        bvh: &Bvh,
+        backend: Backend,
+        seed: u32,
+    ) -> Result<GpuScene> {
         let table = emitter_table(scene);
         let bits = f32::from_bits;
         let triangles: Vec<GpuTriangle> = scene
@@ -518,8 +595,18 @@ impl GpuScene {
         }
         let (bvh_nodes, bvh_prims) = if backend == Backend::Bvh {
             (
-                Some(Buffer::with_data(device, "BVH nodes", bytemuck::cast_slice(&bvh.nodes), storage)?),
-                Some(Buffer::with_data(device, "BVH primitives", bytemuck::cast_slice(&bvh.prim_refs), storage)?),
+                Some(Buffer::with_data(
+                    device,
+                    "BVH nodes",
+                    bytemuck::cast_slice(&bvh.nodes),
+                    storage,
+                )?),
+                Some(Buffer::with_data(
+                    device,
+                    "BVH primitives",
+                    bytemuck::cast_slice(&bvh.prim_refs),
+                    storage,
+                )?),
             )
         } else {
             (None, None)
@@ -531,11 +618,31 @@ impl GpuScene {
                 bytemuck::bytes_of(&params),
                 vk::BufferUsageFlags::UNIFORM_BUFFER,
             )?,
-            triangles: Buffer::with_data(device, "triangles", bytemuck::cast_slice(&triangles), triangle_usage)?,
+            triangles: Buffer::with_data(
+                device,
+                "triangles",
+                bytemuck::cast_slice(&triangles),
+                triangle_usage,
+            )?,
             spheres: Buffer::with_data(device, "spheres", bytemuck::cast_slice(&spheres), storage)?,
-            materials: Buffer::with_data(device, "materials", bytemuck::cast_slice(&materials), storage)?,
-            emitters: Buffer::with_data(device, "emitters", bytemuck::cast_slice(&table.emitters), storage)?,
-            emitter_cdf: Buffer::with_data(device, "emitter CDF", bytemuck::cast_slice(&table.cdf), storage)?,
+            materials: Buffer::with_data(
+                device,
+                "materials",
+                bytemuck::cast_slice(&materials),
+                storage,
+            )?,
+            emitters: Buffer::with_data(
+                device,
+                "emitters",
+                bytemuck::cast_slice(&table.emitters),
+                storage,
+            )?,
+            emitter_cdf: Buffer::with_data(
+                device,
+                "emitter CDF",
+                bytemuck::cast_slice(&table.cdf),
+                storage,
+            )?,
             bvh_nodes,
             bvh_prims,
         })
@@ -550,7 +657,11 @@ impl GpuScene {
     ) -> Result<vk::DescriptorSet> {
         let s = vk::DescriptorType::STORAGE_BUFFER;
         let mut list = vec![
-            (BINDING_SCENE, self.scene_params.raw, vk::DescriptorType::UNIFORM_BUFFER),
+            (
+                BINDING_SCENE,
+                self.scene_params.raw,
+                vk::DescriptorType::UNIFORM_BUFFER,
+            ),
             (BINDING_TRIANGLES, self.triangles.raw, s),
             (BINDING_SPHERES, self.spheres.raw, s),
             (BINDING_MATERIALS, self.materials.raw, s),
@@ -566,7 +677,6 @@ impl GpuScene {
         Ok(kernels.descriptor_set(&list, rq.map(|r| r.tlas.raw))?)
     }
 }
-
 
 #[cfg(test)]
 mod tests {
@@ -596,7 +706,10 @@ mod tests {
         assert!((sphere - pi * pi / total).abs() < 1e-3, "{sphere}");
         assert_eq!(t.emitters[0].info[2], 0, "quad lights are one-sided");
         assert_eq!(t.emitters[4].info[0], EMITTER_SPHERE);
-        assert!((t.emitters[4].p1[0] - 0.125).abs() < 1e-6, "|det| of a 0.5 scale");
+        assert!(
+            (t.emitters[4].p1[0] - 0.125).abs() < 1e-6,
+            "|det| of a 0.5 scale"
+        );
         assert_eq!(t.triangle_emitter, vec![0, 1, 2, 3]);
     }
 

@@ -26,7 +26,10 @@ impl Default for Trace {
 
 impl Trace {
     pub fn new() -> Trace {
-        Trace { origin: Instant::now(), spans: Vec::new() }
+        Trace {
+            origin: Instant::now(),
+            spans: Vec::new(),
+        }
     }
 
     /// Microseconds since the trace began.
@@ -39,12 +42,22 @@ impl Trace {
         let start = self.now_us();
         let out = f();
         let end = self.now_us();
-        self.spans.push(Span { name: name.to_string(), gpu: false, start_us: start, dur_us: end - start });
+        self.spans.push(Span {
+            name: name.to_string(),
+            gpu: false,
+            start_us: start,
+            dur_us: end - start,
+        });
         out
     }
 
     pub fn add_gpu(&mut self, name: &str, start_us: f64, dur_us: f64) {
-        self.spans.push(Span { name: name.to_string(), gpu: true, start_us, dur_us });
+        self.spans.push(Span {
+            name: name.to_string(),
+            gpu: true,
+            start_us,
+            dur_us,
+        });
     }
 
     /// The Chrome trace-event JSON (an array of complete events).
@@ -88,7 +101,10 @@ impl Trace {
             e.0 += 1;
             e.1 += s.dur_us;
         }
-        let mut out = format!("{:<32} {:>4} {:>7} {:>12} {:>12}\n", "stage", "on", "count", "total ms", "mean ms");
+        let mut out = format!(
+            "{:<32} {:>4} {:>7} {:>12} {:>12}\n",
+            "stage", "on", "count", "total ms", "mean ms"
+        );
         for key in order {
             let (n, total, _) = by[&key];
             out.push_str(&format!(

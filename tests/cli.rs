@@ -36,14 +36,20 @@ fn malformed_scene_names_file_line_and_command() {
     let out = lightpath(&["render", "bad.test", "-o", "out.exr", "-q"], &d);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(err.contains("bad.test:3") && err.contains("tri"), "message: {err}");
+    assert!(
+        err.contains("bad.test:3") && err.contains("tri"),
+        "message: {err}"
+    );
     assert_eq!(files_in(&d), vec!["bad.test"]);
 
     std::fs::write(d.join("bad.test"), "size 8 8\nsphere 0 0 zero 1\n").unwrap();
     let out = lightpath(&["render", "bad.test", "-o", "out.exr", "-q"], &d);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(err.contains("bad.test:2") && err.contains("sphere"), "message: {err}");
+    assert!(
+        err.contains("bad.test:2") && err.contains("sphere"),
+        "message: {err}"
+    );
     assert_eq!(files_in(&d), vec!["bad.test"]);
 }
 
@@ -64,7 +70,10 @@ fn unknown_option_is_an_error() {
     let out = lightpath(&["render", "ok.test", "--frobnicate", "3"], &d);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--frobnicate"));
-    let out = lightpath(&["render", "ok.test", "--integrator", "magic", "-o", "x.png"], &d);
+    let out = lightpath(
+        &["render", "ok.test", "--integrator", "magic", "-o", "x.png"],
+        &d,
+    );
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("magic"));
     let out = lightpath(&["render", "ok.test", "--accel", "warp", "-o", "x.png"], &d);
@@ -76,7 +85,10 @@ fn unknown_option_is_an_error() {
 fn unwritable_output_is_an_error_before_rendering() {
     let d = scratch("unwritable");
     std::fs::write(d.join("ok.test"), GOOD).unwrap();
-    let out = lightpath(&["render", "ok.test", "-o", "no/such/dir/out.png", "-q"], &d);
+    let out = lightpath(
+        &["render", "ok.test", "-o", "no/such/dir/out.png", "-q"],
+        &d,
+    );
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/dir/out.png"));
     let out = lightpath(&["render", "ok.test", "-o", "out.tiff", "-q"], &d);
@@ -89,19 +101,44 @@ fn unwritable_output_is_an_error_before_rendering() {
 fn render_writes_images_trace_and_compare_reads_them() {
     let d = scratch("good");
     std::fs::write(d.join("ok.test"), GOOD).unwrap();
-    let out = lightpath(&["render", "ok.test", "-o", "a.exr", "--trace", "t.json", "--accel", "bvh"], &d);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = lightpath(
+        &[
+            "render", "ok.test", "-o", "a.exr", "--trace", "t.json", "--accel", "bvh",
+        ],
+        &d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("pt pass") && err.contains("parse"), "summary table missing: {err}");
-    let out = lightpath(&["render", "ok.test", "-o", "b.png", "--seed", "3", "-q", "--accel", "bvh"], &d);
+    assert!(
+        err.contains("pt pass") && err.contains("parse"),
+        "summary table missing: {err}"
+    );
+    let out = lightpath(
+        &[
+            "render", "ok.test", "-o", "b.png", "--seed", "3", "-q", "--accel", "bvh",
+        ],
+        &d,
+    );
     assert!(out.status.success());
     assert_eq!(files_in(&d), vec!["a.exr", "b.png", "ok.test", "t.json"]);
-    let trace: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("t.json")).unwrap()).unwrap();
+    let trace: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("t.json")).unwrap()).unwrap();
     let events = trace["traceEvents"].as_array().expect("traceEvents");
-    assert!(events.iter().any(|e| e["cat"] == "gpu" && e["name"] == "pt pass"));
-    assert!(events.iter().any(|e| e["cat"] == "cpu" && e["name"] == "parse"));
+    assert!(events
+        .iter()
+        .any(|e| e["cat"] == "gpu" && e["name"] == "pt pass"));
+    assert!(events
+        .iter()
+        .any(|e| e["cat"] == "cpu" && e["name"] == "parse"));
     let out = lightpath(&["compare", "a.exr", "a.exr"], &d);
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(text.contains("RMSE: 0.000000") && text.contains("relMSE: 0.000000"), "{text}");
+    assert!(
+        text.contains("RMSE: 0.000000") && text.contains("relMSE: 0.000000"),
+        "{text}"
+    );
 }

@@ -35,15 +35,50 @@ fn furnace_expected(depth: i32) -> f64 {
 #[test]
 fn furnace_matches_closed_form_for_every_option() {
     for (nee, sampling, rr, depth) in [
-        (NextEventEstimation::Off, ImportanceSampling::Cosine, false, 3),
-        (NextEventEstimation::Off, ImportanceSampling::Hemisphere, false, 2),
+        (
+            NextEventEstimation::Off,
+            ImportanceSampling::Cosine,
+            false,
+            3,
+        ),
+        (
+            NextEventEstimation::Off,
+            ImportanceSampling::Hemisphere,
+            false,
+            2,
+        ),
         (NextEventEstimation::Off, ImportanceSampling::Brdf, true, 3),
-        (NextEventEstimation::On, ImportanceSampling::Cosine, false, 3),
-        (NextEventEstimation::On, ImportanceSampling::Hemisphere, true, 1),
+        (
+            NextEventEstimation::On,
+            ImportanceSampling::Cosine,
+            false,
+            3,
+        ),
+        (
+            NextEventEstimation::On,
+            ImportanceSampling::Hemisphere,
+            true,
+            1,
+        ),
         (NextEventEstimation::Mis, ImportanceSampling::Brdf, false, 3),
-        (NextEventEstimation::Mis, ImportanceSampling::Hemisphere, true, 4),
-        (NextEventEstimation::Mis, ImportanceSampling::Cosine, true, -1),
-        (NextEventEstimation::Off, ImportanceSampling::Cosine, false, 0),
+        (
+            NextEventEstimation::Mis,
+            ImportanceSampling::Hemisphere,
+            true,
+            4,
+        ),
+        (
+            NextEventEstimation::Mis,
+            ImportanceSampling::Cosine,
+            true,
+            -1,
+        ),
+        (
+            NextEventEstimation::Off,
+            ImportanceSampling::Cosine,
+            false,
+            0,
+        ),
     ] {
         let mut s = furnace();
         s.settings.nee = nee;
@@ -65,12 +100,22 @@ fn furnace_matches_closed_form_for_every_option() {
 
 #[test]
 fn ellipsoid_furnace_matches_closed_form() {
-    for nee in [NextEventEstimation::Off, NextEventEstimation::On, NextEventEstimation::Mis] {
+    for nee in [
+        NextEventEstimation::Off,
+        NextEventEstimation::On,
+        NextEventEstimation::Mis,
+    ] {
         let mut s = ellipsoid_furnace();
         s.settings.nee = nee;
         s.settings.importance_sampling = ImportanceSampling::Cosine;
         let e = estimate(&s, 4, 2, Bvh);
-        assert_agree(&format!("ellipsoid furnace, nee {nee:?}"), &e, &exact([1.875; 3], e.mean.len()), 5.0, 2e-3);
+        assert_agree(
+            &format!("ellipsoid furnace, nee {nee:?}"),
+            &e,
+            &exact([1.875; 3], e.mean.len()),
+            5.0,
+            2e-3,
+        );
     }
 }
 
@@ -100,7 +145,13 @@ fn pathtracer_depth_one_matches_analyticdirect() {
         pt.settings.nee = nee;
         pt.settings.importance_sampling = ImportanceSampling::Cosine;
         let p = estimate(&pt, 4, 3, Bvh);
-        assert_agree(&format!("pathtracer (maxdepth 1, nee {nee:?}) vs analyticdirect"), &p, &a, 5.0, 5e-3);
+        assert_agree(
+            &format!("pathtracer (maxdepth 1, nee {nee:?}) vs analyticdirect"),
+            &p,
+            &a,
+            5.0,
+            5e-3,
+        );
     }
     // `direct` is the same estimator family: it must agree too.
     let mut direct = unoccluded();
@@ -115,7 +166,7 @@ fn small_cornell() -> Scene {
     let mut s = load("cornell-box.test");
     s.width = 32;
     s.height = 32;
-    s.settings.spp = 16;
+    s.settings.spp = 64;
     s.settings.max_depth = 3;
     s
 }
@@ -134,10 +185,16 @@ fn next_event_estimation_modes_converge_to_the_same_image() {
         s.settings.nee = nee;
         s.settings.importance_sampling = sampling;
         if nee == NextEventEstimation::Off {
-            s.settings.spp = 128; // only paths that hit the small light count
+            s.settings.spp = 512; // only paths that hit the small light count
         }
         let e = estimate(&s, 4, 2, Bvh);
-        assert_agree(&format!("cornell box, nee {nee:?} with {sampling:?} vs mis"), &e, &mis, 5.0, 0.01);
+        assert_agree(
+            &format!("cornell box, nee {nee:?} with {sampling:?} vs mis"),
+            &e,
+            &mis,
+            5.0,
+            0.01,
+        );
     }
 }
 
@@ -146,7 +203,7 @@ fn glossy_scene_sampling_modes_agree() {
     let mut base = load("cornell-glossy.test");
     base.width = 32;
     base.height = 32;
-    base.settings.spp = 16;
+    base.settings.spp = 64;
     base.settings.max_depth = 2;
     base.settings.nee = NextEventEstimation::Mis;
     base.settings.importance_sampling = ImportanceSampling::Brdf;
@@ -160,14 +217,17 @@ fn glossy_scene_sampling_modes_agree() {
 
 #[test]
 fn ray_query_and_bvh_give_the_same_image() {
-    for scene in [small_cornell(), {
-        let mut s = load("cornell-glossy.test");
-        s.width = 32;
-        s.height = 32;
-        s.settings.spp = 4;
-        s
-    }, ellipsoid_furnace()]
-    {
+    for scene in [
+        small_cornell(),
+        {
+            let mut s = load("cornell-glossy.test");
+            s.width = 32;
+            s.height = 32;
+            s.settings.spp = 4;
+            s
+        },
+        ellipsoid_furnace(),
+    ] {
         let a = render(&scene, 7, Bvh);
         let b = render(&scene, 7, RayQuery);
         // Same seed, same paths: only hit-point rounding differs, so almost every pixel
@@ -179,10 +239,17 @@ fn ray_query_and_bvh_give_the_same_image() {
             .filter(|(p, q)| (0..3).all(|c| (p[c] - q[c]).abs() <= 1e-3 * (1.0 + p[c].abs())))
             .count();
         let frac = close as f64 / a.pixels.len() as f64;
-        assert!(frac > 0.97, "only {:.1}% of pixels agree between ray query and BVH", frac * 100.0);
+        assert!(
+            frac > 0.97,
+            "only {:.1}% of pixels agree between ray query and BVH",
+            frac * 100.0
+        );
         let (ma, mb) = (a.mean(), b.mean());
         for c in 0..3 {
-            assert!((ma[c] - mb[c]).abs() <= 0.01 * mb[c].abs() + 1e-5, "means differ: {ma:?} vs {mb:?}");
+            assert!(
+                (ma[c] - mb[c]).abs() <= 0.01 * mb[c].abs() + 1e-5,
+                "means differ: {ma:?} vs {mb:?}"
+            );
         }
     }
 }
@@ -192,9 +259,15 @@ fn same_seed_same_image_and_different_seeds_differ() {
     let s = small_cornell();
     let a = render(&s, 42, Bvh);
     let b = render(&s, 42, Bvh);
-    assert!(a.pixels == b.pixels, "two renders with the same seed differ");
+    assert!(
+        a.pixels == b.pixels,
+        "two renders with the same seed differ"
+    );
     let c = render(&s, 43, Bvh);
-    assert!(a.pixels != c.pixels, "renders with different seeds are identical");
+    assert!(
+        a.pixels != c.pixels,
+        "renders with different seeds are identical"
+    );
 }
 
 #[test]
@@ -203,7 +276,11 @@ fn every_course_scene_renders_at_small_size() {
     let mut count = 0;
     let mut paths: Vec<_> = walk(&dir);
     paths.sort();
-    assert!(!paths.is_empty(), "no scenes found under {} (the checkout must sit beside shared/)", dir.display());
+    assert!(
+        !paths.is_empty(),
+        "no scenes found under {} (the checkout must sit beside shared/)",
+        dir.display()
+    );
     for path in paths {
         let mut s = lightpath::scene::parse_file(&path).expect("course scene parses");
         s.width = 16;
@@ -211,8 +288,16 @@ fn every_course_scene_renders_at_small_size() {
         s.settings.spp = 1;
         let img = render(&s, 0, Bvh);
         let m = img.mean();
-        assert!(m.iter().all(|v| v.is_finite() && *v >= 0.0), "{}: mean {m:?}", path.display());
-        assert!(m.iter().any(|v| *v > 0.0), "{}: the image is black", path.display());
+        assert!(
+            m.iter().all(|v| v.is_finite() && *v >= 0.0),
+            "{}: mean {m:?}",
+            path.display()
+        );
+        assert!(
+            m.iter().any(|v| *v > 0.0),
+            "{}: the image is black",
+            path.display()
+        );
         count += 1;
     }
     assert!(count >= 15, "expected the 15 course scenes, found {count}");

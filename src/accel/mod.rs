@@ -17,8 +17,17 @@ pub const MAX_BVH_DEPTH: usize = 64;
 /// geometry. Primitive ids: triangles `0..n`, then spheres `n..n+m`.
 pub fn prepare(scene: &mut Scene) -> anyhow::Result<Bvh> {
     let ntri = scene.triangles.len();
-    let mut bounds: Vec<Aabb> = scene.triangles.iter().map(|t| geometry::triangle_bounds(t.v)).collect();
-    bounds.extend(scene.spheres.iter().map(|s| geometry::sphere_world_bounds(&s.object_to_world)));
+    let mut bounds: Vec<Aabb> = scene
+        .triangles
+        .iter()
+        .map(|t| geometry::triangle_bounds(t.v))
+        .collect();
+    bounds.extend(
+        scene
+            .spheres
+            .iter()
+            .map(|s| geometry::sphere_world_bounds(&s.object_to_world)),
+    );
     let mut bvh = Bvh::build(&bounds);
     // Leaf order of the triangles.
     let mut new_index = vec![u32::MAX; ntri];
@@ -31,7 +40,10 @@ pub fn prepare(scene: &mut Scene) -> anyhow::Result<Bvh> {
         }
     }
     if reordered.len() != ntri {
-        anyhow::bail!("internal error: the BVH lost {} triangles", ntri - reordered.len());
+        anyhow::bail!(
+            "internal error: the BVH lost {} triangles",
+            ntri - reordered.len()
+        );
     }
     scene.triangles = reordered;
     for p in bvh.prim_refs.iter_mut() {
@@ -41,7 +53,9 @@ pub fn prepare(scene: &mut Scene) -> anyhow::Result<Bvh> {
     }
     let depth = bvh_depth(&bvh);
     if depth > MAX_BVH_DEPTH {
-        anyhow::bail!("the BVH is {depth} levels deep; the kernels' traversal stack holds {MAX_BVH_DEPTH}");
+        anyhow::bail!(
+            "the BVH is {depth} levels deep; the kernels' traversal stack holds {MAX_BVH_DEPTH}"
+        );
     }
     Ok(bvh)
 }

@@ -43,7 +43,10 @@ fn build(
     count: u32,
 ) -> GpuResult<AccelStructure> {
     let stage = format!("building the {name} acceleration structure");
-    let loader = device.accel_loader.as_ref().ok_or_else(|| other_error(&stage, "ray query not enabled"))?;
+    let loader = device
+        .accel_loader
+        .as_ref()
+        .ok_or_else(|| other_error(&stage, "ray query not enabled"))?;
     let geometries = [geometry];
     let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
         .ty(ty)
@@ -63,7 +66,8 @@ fn build(
         device,
         &format!("{name} acceleration structure"),
         sizes.acceleration_structure_size,
-        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
         gpu_allocator::MemoryLocation::GpuOnly,
     )?;
     let raw = unsafe {
@@ -76,7 +80,11 @@ fn build(
         )
     }
     .stage(&stage)?;
-    let accel = AccelStructure { device: device.clone(), raw, _storage: storage };
+    let accel = AccelStructure {
+        device: device.clone(),
+        raw,
+        _storage: storage,
+    };
     // Scratch alignment is a device limit; over-allocate and align the address.
     let align = 256u64;
     let scratch = Buffer::new(
@@ -89,7 +97,9 @@ fn build(
     let scratch_address = (scratch.device_address() + align - 1) & !(align - 1);
     info = info
         .dst_acceleration_structure(raw)
-        .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_address });
+        .scratch_data(vk::DeviceOrHostAddressKHR {
+            device_address: scratch_address,
+        });
     let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
     let ranges: [&[vk::AccelerationStructureBuildRangeInfoKHR]; 1] = [&range];
     device.run_commands(&stage, |cmd| unsafe {
@@ -118,45 +128,77 @@ pub fn build_scene(
     let mut blas = Vec::new();
     let mut inputs = Vec::new();
     let mut instances: Vec<vk::AccelerationStructureInstanceKHR> = Vec::new();
-    let flags = vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE | vk::GeometryInstanceFlagsKHR::FORCE_OPAQUE;
-    let instance = |transform: [f32; 12], custom: u32, reference: u64| vk::AccelerationStructureInstanceKHR {
-        transform: vk::TransformMatrixKHR { matrix: transform },
-        instance_custom_index_and_mask: vk::Packed24_8::new(custom, 0xff),
-        instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(0, flags.as_raw() as u8),
-        acceleration_structure_reference: vk::AccelerationStructureReferenceKHR { device_handle: reference },
-    };
+    let flags = vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE
+        | vk::GeometryInstanceFlagsKHR::FORCE_OPAQUE;
+    let instance =
+        |transform: [f32; 12], custom: u32, reference: u64| vk::AccelerationStructureInstanceKHR {
+            transform: vk::TransformMatrixKHR { matrix: transform },
+            instance_custom_index_and_mask: vk::Packed24_8::new(custom, 0xff),
+            instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
+                0,
+                flags.as_raw() as u8,
+            ),
+            acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
+                device_handle: reference,
+            },
+        };
     if triangle_count > 0 {
         let triangles_data = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
             .vertex_format(vk::Format::R32G32B32_SFLOAT)
-            .vertex_data(vk::DeviceOrHostAddressConstKHR { device_address: triangles.device_address() })
+            .vertex_data(vk::DeviceOrHostAddressConstKHR {
+                device_address: triangles.device_address(),
+            })
             .vertex_stride(16)
             .max_vertex(triangle_count * 3 - 1)
             .index_type(vk::IndexType::NONE_KHR);
         let geometry = vk::AccelerationStructureGeometryKHR::default()
             .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
-            .geometry(vk::AccelerationStructureGeometryDataKHR { triangles: triangles_data })
+            .geometry(vk::AccelerationStructureGeometryDataKHR {
+                triangles: triangles_data,
+            })
             .flags(vk::GeometryFlagsKHR::OPAQUE);
-        let b = build(device, "triangle BLAS", vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, geometry, triangle_count)?;
+        let b = build(
+            device,
+            "triangle BLAS",
+            vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+            geometry,
+            triangle_count,
+        )?;
         let identity = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
         instances.push(instance(identity, 0, address_of(device, &b)));
         blas.push(b);
     }
     if !sphere_transforms.is_empty() {
         let aabb: [f32; 6] = [-1.0, -1.0, -1.0, 1.0, 1.0, 1.0];
-        let aabb_buffer = Buffer::with_data(device, "sphere AABB", bytemuck::cast_slice(&aabb), INPUT_USAGE)?;
+        let aabb_buffer = Buffer::with_data(
+            device,
+            "sphere AABB",
+            bytemuck::cast_slice(&aabb),
+            INPUT_USAGE,
+        )?;
         let aabbs = vk::AccelerationStructureGeometryAabbsDataKHR::default()
-            .data(vk::DeviceOrHostAddressConstKHR { device_address: aabb_buffer.device_address() })
+            .data(vk::DeviceOrHostAddressConstKHR {
+                device_address: aabb_buffer.device_address(),
+            })
             .stride(24);
         let geometry = vk::AccelerationStructureGeometryKHR::default()
             .geometry_type(vk::GeometryTypeKHR::AABBS)
             .geometry(vk::AccelerationStructureGeometryDataKHR { aabbs })
             .flags(vk::GeometryFlagsKHR::OPAQUE);
-        let b = build(device, "sphere BLAS", vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, geometry, 1)?;
+        let b = build(
+            device,
+            "sphere BLAS",
+            vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+            geometry,
+            1,
+        )?;
         let reference = address_of(device, &b);
         for (i, m) in sphere_transforms.iter().enumerate() {
             let r = m.transpose().to_cols_array(); // rows of m
             instances.push(instance(
-                [r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11]],
+                [
+                    r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11],
+                ],
                 i as u32,
                 reference,
             ));
@@ -168,18 +210,34 @@ pub fn build_scene(
         .iter()
         .flat_map(|i| {
             // SAFETY: AccelerationStructureInstanceKHR is a plain 64-byte C struct.
-            unsafe { std::slice::from_raw_parts(i as *const _ as *const u8, std::mem::size_of_val(i)) }.to_vec()
+            unsafe {
+                std::slice::from_raw_parts(i as *const _ as *const u8, std::mem::size_of_val(i))
+            }
+            .to_vec()
         })
         .collect();
-    let instance_buffer = Buffer::with_data(device, "TLAS instances", &instance_bytes, INPUT_USAGE)?;
+    let instance_buffer =
+        Buffer::with_data(device, "TLAS instances", &instance_bytes, INPUT_USAGE)?;
     let data = vk::AccelerationStructureGeometryInstancesDataKHR::default()
         .array_of_pointers(false)
-        .data(vk::DeviceOrHostAddressConstKHR { device_address: instance_buffer.device_address() });
+        .data(vk::DeviceOrHostAddressConstKHR {
+            device_address: instance_buffer.device_address(),
+        });
     let geometry = vk::AccelerationStructureGeometryKHR::default()
         .geometry_type(vk::GeometryTypeKHR::INSTANCES)
         .geometry(vk::AccelerationStructureGeometryDataKHR { instances: data })
         .flags(vk::GeometryFlagsKHR::OPAQUE);
-    let tlas = build(device, "TLAS", vk::AccelerationStructureTypeKHR::TOP_LEVEL, geometry, instances.len() as u32)?;
+    let tlas = build(
+        device,
+        "TLAS",
+        vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+        geometry,
+        instances.len() as u32,
+    )?;
     inputs.push(instance_buffer);
-    Ok(RayQueryScene { tlas, _blas: blas, _inputs: inputs })
+    Ok(RayQueryScene {
+        tlas,
+        _blas: blas,
+        _inputs: inputs,
+    })
 }

@@ -68,8 +68,11 @@ pub struct PassParams {
 
 pub use crate::accel::bvh::BvhNode;
 
-/// (struct name in GLSL, member names, Rust offsets, Rust size) for the layout test.
-pub fn layouts() -> Vec<(&'static str, Vec<(&'static str, usize)>, usize)> {
+/// A struct's name in GLSL, its members' (name, Rust offset) and its Rust size.
+pub type StructLayout = (&'static str, Vec<(&'static str, usize)>, usize);
+
+/// The layouts of every mirrored struct, for the layout test.
+pub fn layouts() -> Vec<StructLayout> {
     use std::mem::{offset_of, size_of};
     macro_rules! layout {
         ($t:ident, $($f:ident),*) => {
@@ -81,7 +84,18 @@ pub fn layouts() -> Vec<(&'static str, Vec<(&'static str, usize)>, usize)> {
         layout!(GpuSphere, o2w0, o2w1, o2w2, w2o0, w2o1, w2o2, info),
         layout!(GpuMaterial, diffuse, specular, emission, params),
         layout!(GpuEmitter, p0, p1, p2, radiance, info),
-        layout!(SceneParams, cam_eye, cam_right, cam_up, cam_forward, bounds, dims, counts, options, direct),
+        layout!(
+            SceneParams,
+            cam_eye,
+            cam_right,
+            cam_up,
+            cam_forward,
+            bounds,
+            dims,
+            counts,
+            options,
+            direct
+        ),
         layout!(PassParams, pass),
     ]
 }
@@ -96,9 +110,16 @@ const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
 /// Member offsets of named structs in a SPIR-V module: (struct name, member name, offset).
 pub fn spirv_member_offsets(code: &[u8]) -> Vec<(String, String, u32)> {
     use std::collections::HashMap;
-    let words: Vec<u32> = code.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let words: Vec<u32> = code
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
     let string_at = |w: &[u32]| -> String {
-        let bytes: Vec<u8> = w.iter().flat_map(|x| x.to_le_bytes()).take_while(|&b| b != 0).collect();
+        let bytes: Vec<u8> = w
+            .iter()
+            .flat_map(|x| x.to_le_bytes())
+            .take_while(|&b| b != 0)
+            .collect();
         String::from_utf8_lossy(&bytes).to_string()
     };
     let mut names: HashMap<u32, String> = HashMap::new();
@@ -127,7 +148,11 @@ pub fn spirv_member_offsets(code: &[u8]) -> Vec<(String, String, u32)> {
     offsets
         .into_iter()
         .filter_map(|(ty, member, offset)| {
-            Some((names.get(&ty)?.clone(), member_names.get(&(ty, member))?.clone(), offset))
+            Some((
+                names.get(&ty)?.clone(),
+                member_names.get(&(ty, member))?.clone(),
+                offset,
+            ))
         })
         .collect()
 }
@@ -148,11 +173,15 @@ mod tests {
         let mut seen = std::collections::HashSet::new();
         for (kernel, backend, code) in KERNELS {
             for (st, member, offset) in spirv_member_offsets(code) {
-                let Some((_, members, _)) = mirrored.iter().find(|(n, _, _)| *n == st) else { continue };
+                let Some((_, members, _)) = mirrored.iter().find(|(n, _, _)| *n == st) else {
+                    continue;
+                };
                 let rust = members
                     .iter()
                     .find(|(m, _)| *m == member)
-                    .unwrap_or_else(|| panic!("{kernel} ({backend}): {st}.{member} has no Rust mirror"));
+                    .unwrap_or_else(|| {
+                        panic!("{kernel} ({backend}): {st}.{member} has no Rust mirror")
+                    });
                 assert_eq!(
                     rust.1 as u32, offset,
                     "{kernel} ({backend}): {st}.{member} is at {offset} in SPIR-V, {} in Rust",
@@ -162,9 +191,16 @@ mod tests {
             }
         }
         for (name, members, size) in &mirrored {
-            assert!(seen.contains(*name), "struct {name} was not found in any kernel's SPIR-V");
+            assert!(
+                seen.contains(*name),
+                "struct {name} was not found in any kernel's SPIR-V"
+            );
             // Every member is a 16-byte vector, so the size is 16 per member.
-            assert_eq!(*size, members.len() * 16, "{name}: size is not 16 bytes per member");
+            assert_eq!(
+                *size,
+                members.len() * 16,
+                "{name}: size is not 16 bytes per member"
+            );
         }
     }
 
@@ -173,7 +209,10 @@ mod tests {
         let kernels: std::collections::BTreeSet<_> = KERNELS.iter().map(|(k, _, _)| *k).collect();
         for k in kernels {
             for b in ["rayquery", "bvh"] {
-                assert!(KERNELS.iter().any(|(kk, bb, _)| *kk == k && *bb == b), "{k} is not compiled for {b}");
+                assert!(
+                    KERNELS.iter().any(|(kk, bb, _)| *kk == k && *bb == b),
+                    "{k} is not compiled for {b}"
+                );
             }
         }
     }

@@ -24,9 +24,10 @@ impl Buffer {
         let stage = format!("creating buffer '{name}' ({size} bytes)");
         let size = size.max(16);
         let raw = unsafe {
-            device
-                .raw
-                .create_buffer(&vk::BufferCreateInfo::default().size(size).usage(usage), None)
+            device.raw.create_buffer(
+                &vk::BufferCreateInfo::default().size(size).usage(usage),
+                None,
+            )
         }
         .stage(&stage)?;
         let requirements = unsafe { device.raw.get_buffer_memory_requirements(raw) };
@@ -48,12 +49,22 @@ impl Buffer {
                 return Err(other_error(&stage, e));
             }
         };
-        if let Err(e) = unsafe { device.raw.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) } {
+        if let Err(e) = unsafe {
+            device
+                .raw
+                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
+        } {
             let _ = device.allocator.lock().map(|mut a| a.free(allocation));
             unsafe { device.raw.destroy_buffer(raw, None) };
             return Err(e).stage(&stage);
         }
-        Ok(Buffer { device: device.clone(), raw, allocation: Some(allocation), size, name: name.to_string() })
+        Ok(Buffer {
+            device: device.clone(),
+            raw,
+            allocation: Some(allocation),
+            size,
+            name: name.to_string(),
+        })
     }
 
     /// A device-local buffer holding `data`, copied through a staging buffer.
@@ -93,10 +104,23 @@ impl Buffer {
     }
 
     /// A zero-filled device-local buffer.
-    pub fn zeroed(device: &Arc<Device>, name: &str, size: u64, usage: vk::BufferUsageFlags) -> GpuResult<Buffer> {
-        let buffer = Buffer::new(device, name, size, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly)?;
+    pub fn zeroed(
+        device: &Arc<Device>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> GpuResult<Buffer> {
+        let buffer = Buffer::new(
+            device,
+            name,
+            size,
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
         device.run_commands(&format!("clearing '{name}'"), |cmd| unsafe {
-            device.raw.cmd_fill_buffer(cmd, buffer.raw, 0, vk::WHOLE_SIZE, 0);
+            device
+                .raw
+                .cmd_fill_buffer(cmd, buffer.raw, 0, vk::WHOLE_SIZE, 0);
         })?;
         Ok(buffer)
     }
@@ -150,7 +174,12 @@ impl Buffer {
                 &[],
                 &[],
             );
-            device.raw.cmd_copy_buffer(cmd, self.raw, staging.raw, &[vk::BufferCopy::default().size(len)]);
+            device.raw.cmd_copy_buffer(
+                cmd,
+                self.raw,
+                staging.raw,
+                &[vk::BufferCopy::default().size(len)],
+            );
         })?;
         staging.read(len as usize)
     }

@@ -26,7 +26,10 @@ impl Backend {
 
 /// The SPIR-V of one kernel for one backend.
 pub fn spirv(kernel: &str, backend: Backend) -> Option<&'static [u8]> {
-    KERNELS.iter().find(|(k, b, _)| *k == kernel && *b == backend.name()).map(|(_, _, s)| *s)
+    KERNELS
+        .iter()
+        .find(|(k, b, _)| *k == kernel && *b == backend.name())
+        .map(|(_, _, s)| *s)
 }
 
 /// Every binding of set 0 and its descriptor type for a backend.
@@ -75,9 +78,10 @@ impl Kernels {
             })
             .collect();
         let set_layout = unsafe {
-            device
-                .raw
-                .create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings), None)
+            device.raw.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
+                None,
+            )
         }
         .stage(stage)?;
         let set_layouts = [set_layout];
@@ -86,25 +90,46 @@ impl Kernels {
             .size(std::mem::size_of::<PassParams>() as u32)];
         let layout = unsafe {
             device.raw.create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&push),
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&push),
                 None,
             )
         }
         .stage("creating the pipeline layout")?;
         let mut sizes = vec![
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: 4 },
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 64 },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::UNIFORM_BUFFER,
+                descriptor_count: 4,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                descriptor_count: 64,
+            },
         ];
         if backend == Backend::RayQuery {
-            sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR, descriptor_count: 4 });
+            sizes.push(vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+                descriptor_count: 4,
+            });
         }
         let pool = unsafe {
-            device
-                .raw
-                .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(4).pool_sizes(&sizes), None)
+            device.raw.create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(4)
+                    .pool_sizes(&sizes),
+                None,
+            )
         }
         .stage("creating the descriptor pool")?;
-        Ok(Kernels { device: device.clone(), backend, set_layout, layout, pipelines: HashMap::new(), pool })
+        Ok(Kernels {
+            device: device.clone(),
+            backend,
+            set_layout,
+            layout,
+            pipelines: HashMap::new(),
+            pool,
+        })
     }
 
     /// The pipeline of a kernel, created (through the on-disk pipeline cache) on first use.
@@ -113,10 +138,16 @@ impl Kernels {
             return Ok(p);
         }
         let stage = format!("creating the '{kernel}' pipeline ({})", self.backend.name());
-        let code = spirv(kernel, self.backend).ok_or_else(|| other_error(&stage, "kernel not compiled in"))?;
-        let words: Vec<u32> = code.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let code = spirv(kernel, self.backend)
+            .ok_or_else(|| other_error(&stage, "kernel not compiled in"))?;
+        let words: Vec<u32> = code
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
         let module = unsafe {
-            self.device.raw.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
+            self.device
+                .raw
+                .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
         }
         .stage(&stage)?;
         let info = [vk::ComputePipelineCreateInfo::default()
@@ -127,7 +158,11 @@ impl Kernels {
                     .name(c"main"),
             )
             .layout(self.layout)];
-        let result = unsafe { self.device.raw.create_compute_pipelines(self.device.pipeline_cache, &info, None) };
+        let result = unsafe {
+            self.device
+                .raw
+                .create_compute_pipelines(self.device.pipeline_cache, &info, None)
+        };
         unsafe { self.device.raw.destroy_shader_module(module, None) };
         let pipeline = result.map_err(|(_, e)| e).stage(&stage)?[0];
         self.pipelines.insert(kernel, pipeline);
@@ -143,30 +178,44 @@ impl Kernels {
     ) -> GpuResult<vk::DescriptorSet> {
         let stage = "writing the descriptor set";
         // One render's set is live at a time: recycle the pool's sets.
-        unsafe { self.device.raw.reset_descriptor_pool(self.pool, vk::DescriptorPoolResetFlags::empty()) }
-            .stage(stage)?;
-        let layouts = [self.set_layout];
-        let set = unsafe {
+        unsafe {
             self.device
                 .raw
-                .allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(self.pool).set_layouts(&layouts))
+                .reset_descriptor_pool(self.pool, vk::DescriptorPoolResetFlags::empty())
+        }
+        .stage(stage)?;
+        let layouts = [self.set_layout];
+        let set = unsafe {
+            self.device.raw.allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(self.pool)
+                    .set_layouts(&layouts),
+            )
         }
         .stage(stage)?[0];
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
-            .map(|(_, b, _)| [vk::DescriptorBufferInfo::default().buffer(*b).range(vk::WHOLE_SIZE)])
+            .map(|(_, b, _)| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(*b)
+                    .range(vk::WHOLE_SIZE)]
+            })
             .collect();
         let mut writes: Vec<vk::WriteDescriptorSet> = buffers
             .iter()
             .zip(&infos)
             .map(|((binding, _, ty), info)| {
-                vk::WriteDescriptorSet::default().dst_set(set).dst_binding(*binding).descriptor_type(*ty).buffer_info(info)
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(*binding)
+                    .descriptor_type(*ty)
+                    .buffer_info(info)
             })
             .collect();
         let tlas_list = tlas.map(|t| [t]);
-        let mut as_write = tlas_list
-            .as_ref()
-            .map(|l| vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(l));
+        let mut as_write = tlas_list.as_ref().map(|l| {
+            vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(l)
+        });
         if let Some(w) = as_write.as_mut() {
             let mut write = vk::WriteDescriptorSet::default()
                 .dst_set(set)
@@ -189,7 +238,9 @@ impl Drop for Kernels {
             }
             self.device.raw.destroy_descriptor_pool(self.pool, None);
             self.device.raw.destroy_pipeline_layout(self.layout, None);
-            self.device.raw.destroy_descriptor_set_layout(self.set_layout, None);
+            self.device
+                .raw
+                .destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
 }

@@ -41,12 +41,18 @@ pub trait Stage<T> {
 
 impl<T> Stage<T> for Result<T, vk::Result> {
     fn stage(self, stage: &str) -> GpuResult<T> {
-        self.map_err(|result| GpuError::Vulkan { stage: stage.to_string(), result })
+        self.map_err(|result| GpuError::Vulkan {
+            stage: stage.to_string(),
+            result,
+        })
     }
 }
 
 pub fn other_error(stage: &str, message: impl std::fmt::Display) -> GpuError {
-    GpuError::Other { stage: stage.to_string(), message: message.to_string() }
+    GpuError::Other {
+        stage: stage.to_string(),
+        message: message.to_string(),
+    }
 }
 
 /// What `lightpath devices` reports for each device.
@@ -125,13 +131,15 @@ impl Instance {
                 .enabled_extension_names(&extensions)
                 .flags(vk::InstanceCreateFlags::ENUMERATE_PORTABILITY_KHR);
         }
-        let raw = unsafe { entry.create_instance(&info, None) }.stage("creating the Vulkan instance")?;
+        let raw =
+            unsafe { entry.create_instance(&info, None) }.stage("creating the Vulkan instance")?;
         Ok(Instance { entry, raw })
     }
 
     /// Every physical device with what the renderer needs to know of it.
     pub fn devices(&self) -> GpuResult<Vec<(vk::PhysicalDevice, DeviceInfo)>> {
-        let physicals = unsafe { self.raw.enumerate_physical_devices() }.stage("listing Vulkan devices")?;
+        let physicals =
+            unsafe { self.raw.enumerate_physical_devices() }.stage("listing Vulkan devices")?;
         let mut out = Vec::new();
         for (index, &pd) in physicals.iter().enumerate() {
             let props = unsafe { self.raw.get_physical_device_properties(pd) };
@@ -160,11 +168,21 @@ impl Instance {
                 .find(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
                 .map(|q| q.timestamp_valid_bits > 0);
             let limits = props.limits;
-            let name = props.device_name_as_c_str().unwrap_or(c"?").to_string_lossy().to_string();
+            let name = props
+                .device_name_as_c_str()
+                .unwrap_or(c"?")
+                .to_string_lossy()
+                .to_string();
             let driver_name = format!(
                 "{} {}",
-                driver.driver_name_as_c_str().unwrap_or(c"?").to_string_lossy(),
-                driver.driver_info_as_c_str().unwrap_or(c"").to_string_lossy()
+                driver
+                    .driver_name_as_c_str()
+                    .unwrap_or(c"?")
+                    .to_string_lossy(),
+                driver
+                    .driver_info_as_c_str()
+                    .unwrap_or(c"")
+                    .to_string_lossy()
             );
             out.push((
                 pd,
@@ -226,7 +244,10 @@ pub fn choose_device(
                 }
                 return Err(other_error(
                     "choosing a Vulkan device",
-                    format!("--device {i}: there are only {} devices (see `lightpath devices`)", devices.len()),
+                    format!(
+                        "--device {i}: there are only {} devices (see `lightpath devices`)",
+                        devices.len()
+                    ),
                 ));
             }
             let lw = w.to_lowercase();
@@ -269,15 +290,24 @@ impl Device {
         if info.api_version < vk::API_VERSION_1_2 {
             return Err(other_error(
                 "opening the device",
-                format!("{} supports Vulkan {}.{}; lightpath needs 1.2", info.name,
-                    vk::api_version_major(info.api_version), vk::api_version_minor(info.api_version)),
+                format!(
+                    "{} supports Vulkan {}.{}; lightpath needs 1.2",
+                    info.name,
+                    vk::api_version_major(info.api_version),
+                    vk::api_version_minor(info.api_version)
+                ),
             ));
         }
-        let families = unsafe { instance.raw.get_physical_device_queue_family_properties(physical) };
+        let families = unsafe {
+            instance
+                .raw
+                .get_physical_device_queue_family_properties(physical)
+        };
         let queue_family = families
             .iter()
             .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
-            .ok_or_else(|| other_error("opening the device", "no compute queue"))? as u32;
+            .ok_or_else(|| other_error("opening the device", "no compute queue"))?
+            as u32;
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
@@ -290,10 +320,13 @@ impl Device {
         if info.atomic_float {
             ext_names.push(ash::ext::shader_atomic_float::NAME.as_ptr());
         }
-        let mut v12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(ray_query);
+        let mut v12 =
+            vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(ray_query);
         let mut rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
-        let mut asf = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
-        let mut af = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default().shader_buffer_float32_atomic_add(true);
+        let mut asf = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
+            .acceleration_structure(true);
+        let mut af = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default()
+            .shader_buffer_float32_atomic_add(true);
         let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut v12);
         if ray_query {
             f2 = f2.push_next(&mut rq).push_next(&mut asf);
@@ -305,7 +338,8 @@ impl Device {
             .queue_create_infos(&queue_info)
             .enabled_extension_names(&ext_names)
             .push_next(&mut f2);
-        let raw = unsafe { instance.raw.create_device(physical, &create, None) }.stage("creating the device")?;
+        let raw = unsafe { instance.raw.create_device(physical, &create, None) }
+            .stage("creating the device")?;
         let queue = unsafe { raw.get_device_queue(queue_family, 0) };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.raw.clone(),
@@ -316,16 +350,25 @@ impl Device {
             allocation_sizes: Default::default(),
         })
         .map_err(|e| other_error("creating the memory allocator", e))?;
-        let accel_loader = ray_query.then(|| ash::khr::acceleration_structure::Device::new(&instance.raw, &raw));
+        let accel_loader =
+            ray_query.then(|| ash::khr::acceleration_structure::Device::new(&instance.raw, &raw));
         let cache_path = pipeline_cache_path(&info);
-        let initial = cache_path.as_ref().and_then(|p| std::fs::read(p).ok()).unwrap_or_default();
+        let initial = cache_path
+            .as_ref()
+            .and_then(|p| std::fs::read(p).ok())
+            .unwrap_or_default();
         let pipeline_cache = match unsafe {
-            raw.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default().initial_data(&initial), None)
+            raw.create_pipeline_cache(
+                &vk::PipelineCacheCreateInfo::default().initial_data(&initial),
+                None,
+            )
         } {
             Ok(c) => c,
             // A cache from another driver version is refused by some drivers: start empty.
-            Err(_) => unsafe { raw.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
-                .stage("creating the pipeline cache")?,
+            Err(_) => {
+                unsafe { raw.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
+                    .stage("creating the pipeline cache")?
+            }
         };
         let command_pool = unsafe {
             raw.create_command_pool(
@@ -356,7 +399,11 @@ impl Device {
     }
 
     /// Record commands into a fresh command buffer, submit them and wait.
-    pub fn run_commands(&self, stage: &str, record: impl FnOnce(vk::CommandBuffer)) -> GpuResult<()> {
+    pub fn run_commands(
+        &self,
+        stage: &str,
+        record: impl FnOnce(vk::CommandBuffer),
+    ) -> GpuResult<()> {
         let cmd = self.begin_commands(stage)?;
         record(cmd);
         self.submit_and_wait(cmd, stage)
@@ -375,7 +422,8 @@ impl Device {
         unsafe {
             self.raw.begin_command_buffer(
                 cmd,
-                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                &vk::CommandBufferBeginInfo::default()
+                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
             )
         }
         .stage(stage)?;
@@ -385,7 +433,9 @@ impl Device {
     pub fn submit_and_wait(&self, cmd: vk::CommandBuffer, stage: &str) -> GpuResult<()> {
         let result = (|| unsafe {
             self.raw.end_command_buffer(cmd)?;
-            let fence = self.raw.create_fence(&vk::FenceCreateInfo::default(), None)?;
+            let fence = self
+                .raw
+                .create_fence(&vk::FenceCreateInfo::default(), None)?;
             let cmds = [cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
             let r = self
@@ -402,7 +452,9 @@ impl Device {
     /// Write the pipeline cache back to disk (atomically), so the next run starts fast.
     pub fn save_pipeline_cache(&self) {
         let Some(path) = &self.cache_path else { return };
-        let Ok(data) = (unsafe { self.raw.get_pipeline_cache_data(self.pipeline_cache) }) else { return };
+        let Ok(data) = (unsafe { self.raw.get_pipeline_cache_data(self.pipeline_cache) }) else {
+            return;
+        };
         if let Some(dir) = path.parent() {
             let _ = std::fs::create_dir_all(dir);
         }
@@ -418,7 +470,11 @@ fn pipeline_cache_path(info: &DeviceInfo) -> Option<PathBuf> {
         .map(PathBuf::from)
         .or_else(|| std::env::var_os("XDG_CACHE_HOME").map(|d| PathBuf::from(d).join("lightpath")))
         .or_else(|| std::env::var_os("HOME").map(|d| PathBuf::from(d).join(".cache/lightpath")))?;
-    let uuid: String = info.pipeline_cache_uuid.iter().map(|b| format!("{b:02x}")).collect();
+    let uuid: String = info
+        .pipeline_cache_uuid
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
     Some(base.join(format!(
         "pipelines-{:04x}-{:04x}-{uuid}-{}.bin",
         info.vendor_id,

@@ -17,17 +17,29 @@ impl Timestamps {
         let enabled = device.info.timestamps;
         let pool = unsafe {
             device.raw.create_query_pool(
-                &vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(capacity.max(2)),
+                &vk::QueryPoolCreateInfo::default()
+                    .query_type(vk::QueryType::TIMESTAMP)
+                    .query_count(capacity.max(2)),
                 None,
             )
         }
         .stage("creating the timestamp query pool")?;
-        Ok(Timestamps { device: device.clone(), pool, capacity, used: 0, enabled })
+        Ok(Timestamps {
+            device: device.clone(),
+            pool,
+            capacity,
+            used: 0,
+            enabled,
+        })
     }
 
     /// Reset the pool (outside a render pass; before the batch's first span).
     pub fn reset(&mut self, cmd: vk::CommandBuffer) {
-        unsafe { self.device.raw.cmd_reset_query_pool(cmd, self.pool, 0, self.capacity.max(2)) };
+        unsafe {
+            self.device
+                .raw
+                .cmd_reset_query_pool(cmd, self.pool, 0, self.capacity.max(2))
+        };
         self.used = 0;
     }
 
@@ -38,7 +50,12 @@ impl Timestamps {
         }
         let i = self.used;
         unsafe {
-            self.device.raw.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, i)
+            self.device.raw.cmd_write_timestamp(
+                cmd,
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                self.pool,
+                i,
+            )
         };
         self.used += 2;
         Some(i / 2)
@@ -47,9 +64,12 @@ impl Timestamps {
     pub fn end(&mut self, cmd: vk::CommandBuffer, span: Option<u32>) {
         if let Some(s) = span {
             unsafe {
-                self.device
-                    .raw
-                    .cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, s * 2 + 1)
+                self.device.raw.cmd_write_timestamp(
+                    cmd,
+                    vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+                    self.pool,
+                    s * 2 + 1,
+                )
             };
         }
     }
@@ -70,7 +90,10 @@ impl Timestamps {
         }
         .stage("reading GPU timestamps")?;
         let period = self.device.info.timestamp_period_ns as f64;
-        Ok(data.chunks_exact(2).map(|c| (c[0] as f64 * period, c[1] as f64 * period)).collect())
+        Ok(data
+            .chunks_exact(2)
+            .map(|c| (c[0] as f64 * period, c[1] as f64 * period))
+            .collect())
     }
 }
 

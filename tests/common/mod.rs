@@ -32,14 +32,23 @@ pub fn renderer(accel: AccelChoice) -> MutexGuard<'static, Renderer> {
         AccelChoice::RayQuery => &RQ,
         _ => &BVH,
     };
-    let m = cell.get_or_init(|| open(if accel == AccelChoice::RayQuery { AccelChoice::RayQuery } else { AccelChoice::Bvh }));
+    let m = cell.get_or_init(|| {
+        open(if accel == AccelChoice::RayQuery {
+            AccelChoice::RayQuery
+        } else {
+            AccelChoice::Bvh
+        })
+    });
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
 pub fn render(scene: &Scene, seed: u32, accel: AccelChoice) -> Image {
     let mut r = renderer(accel);
     let out = r.render(scene, seed, &mut Trace::new()).expect("render");
-    assert_eq!(out.nonfinite_samples, 0, "the render produced NaN/Inf samples");
+    assert_eq!(
+        out.nonfinite_samples, 0,
+        "the render produced NaN/Inf samples"
+    );
     out.image
 }
 
@@ -75,7 +84,9 @@ pub struct Estimate {
 }
 
 pub fn estimate(scene: &Scene, seeds: u32, grid: u32, accel: AccelChoice) -> Estimate {
-    let runs: Vec<Vec<[f64; 3]>> = (0..seeds).map(|s| region_means(&render(scene, 1000 + s, accel), grid)).collect();
+    let runs: Vec<Vec<[f64; 3]>> = (0..seeds)
+        .map(|s| region_means(&render(scene, 1000 + s, accel), grid))
+        .collect();
     let n = runs[0].len();
     let k = seeds as f64;
     let mut mean = vec![[0.0; 3]; n];
@@ -96,7 +107,9 @@ pub fn assert_agree(what: &str, a: &Estimate, b: &Estimate, z: f64, rel: f64) {
     for r in 0..a.mean.len() {
         for c in 0..3 {
             let (ma, mb) = (a.mean[r][c], b.mean[r][c]);
-            let bound = z * (a.stderr[r][c].powi(2) + b.stderr[r][c].powi(2)).sqrt() + rel * mb.abs() + 1e-5;
+            let bound = z * (a.stderr[r][c].powi(2) + b.stderr[r][c].powi(2)).sqrt()
+                + rel * mb.abs()
+                + 1e-5;
             assert!(
                 (ma - mb).abs() <= bound,
                 "{what}: region {r} channel {c}: {ma:.5} vs {mb:.5} (difference {:.5} > bound {bound:.5})",
@@ -108,5 +121,8 @@ pub fn assert_agree(what: &str, a: &Estimate, b: &Estimate, z: f64, rel: f64) {
 
 /// An estimate with no noise (for closed-form values).
 pub fn exact(value: [f64; 3], regions: usize) -> Estimate {
-    Estimate { mean: vec![value; regions], stderr: vec![[0.0; 3]; regions] }
+    Estimate {
+        mean: vec![value; regions],
+        stderr: vec![[0.0; 3]; regions],
+    }
 }
