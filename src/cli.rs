@@ -145,6 +145,12 @@ fn render_command(args: &RenderArgs) -> Result<()> {
         .with_context(|| format!("--accel {:?}: expected auto, rayquery or bvh", args.accel))?;
     let mut scene = trace.cpu("parse", || scene::parse_file(&args.scene))?;
     apply_overrides(&mut scene, args)?;
+    if scene.settings.max_depth < 0 && !scene.settings.russian_roulette {
+        eprintln!(
+            "warning: maxdepth -1 without russianroulette: paths end only at the cap of {} vertices",
+            crate::gpu::abi::UNBOUNDED_DEPTH_CAP
+        );
+    }
     let output = output_path(&scene, args);
     io::check_writable(&output)?;
     if let Some(t) = &args.trace {

@@ -50,6 +50,9 @@ pub struct RenderOutput {
     pub backend: Backend,
 }
 
+/// Pixels per dispatch: a pass over a larger image is split into bands of rows.
+const BAND_PIXELS: u32 = 1 << 18;
+
 /// An open device with its kernels for one backend; renders any number of scenes.
 pub struct Renderer {
     pub device: Arc<Device>,
@@ -147,6 +150,34 @@ impl Renderer {
         )?;
         let set = gpu_scene.descriptor_set(&self.kernels, &film, &stats, rq.as_ref())?;
 
+        // Drivers that compile lazily (lavapipe JITs a kernel at its first dispatch:
+        // ~25 s for `pt` with a cold Mesa shader cache) do it here, in a stage of its own,
+        // rather than inside the first timed pass. Zero samples: the film is unchanged.
+        trace.cpu("kernel warm-up", || {
+            self.device
+                .run_commands("warming up the kernel", |cmd| unsafe {
+                    let d = &self.device.raw;
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                    d.cmd_bind_descriptor_sets(
+                        cmd,
+                        vk::PipelineBindPoint::COMPUTE,
+                        self.kernels.layout,
+                        0,
+                        &[set],
+                        &[],
+                    );
+                    let params = PassParams { pass: [0, 0, 0, 0] };
+                    d.cmd_push_constants(
+                        cmd,
+                        self.kernels.layout,
+                        vk::ShaderStageFlags::COMPUTE,
+                        0,
+                        bytemuck::bytes_of(&params),
+                    );
+                    d.cmd_dispatch(cmd, 1, 1, 1);
+                })
+        })?;
+
         let spp = scene.settings.spp.max(1);
         let dispatch_seconds =
             self.dispatch_passes(pipeline, set, kernel, width, height, spp, trace)?;
@@ -180,7 +211,7 @@ impl Renderer {
     }
 
     /// Dispatch `spp` passes of one sample per pixel, several per submission, with GPU
-    /// timestamps around each and a progress bar over passes.
+    /// timestamps around each dispatch and a progress bar over passes.
     #[allow(clippy::too_many_arguments)]
     fn dispatch_passes(
         &mut self,
@@ -193,12 +224,12 @@ impl Renderer {
         trace: &mut Trace,
     ) -> Result<f64> {
         let device = self.device.clone();
-        let groups = (
-            width.div_ceil(WORKGROUP_SIZE_X),
-            height.div_ceil(WORKGROUP_SIZE_Y),
-        );
+        // A pass is split into bands of rows so that no single dispatch runs for long
+        // (lavapipe traces roughly a million samples a second).
+        let band_rows = (BAND_PIXELS / width.max(1)).clamp(1, height);
+        let bands: Vec<u32> = (0..height).step_by(band_rows as usize).collect();
         let max_batch = 64u32;
-        let mut timestamps = Timestamps::new(&device, max_batch)?;
+        let mut timestamps = Timestamps::new(&device, max_batch * bands.len() as u32)?;
         let progress = if self.show_progress {
             let bar = indicatif::ProgressBar::new(spp as u64);
             bar.set_style(
@@ -221,7 +252,6 @@ impl Renderer {
             let stage = format!("running {kernel} passes {}..{}", done, done + n);
             let cmd = device.begin_commands(&stage)?;
             timestamps.reset(cmd);
-            let mut spans = Vec::new();
             unsafe {
                 device
                     .raw
@@ -235,20 +265,28 @@ impl Renderer {
                     &[],
                 );
                 for i in 0..n {
-                    let params = PassParams {
-                        pass: [done + i, 1, 0, 0],
-                    };
-                    device.raw.cmd_push_constants(
-                        cmd,
-                        self.kernels.layout,
-                        vk::ShaderStageFlags::COMPUTE,
-                        0,
-                        bytemuck::bytes_of(&params),
-                    );
-                    let span = timestamps.begin(cmd);
-                    device.raw.cmd_dispatch(cmd, groups.0, groups.1, 1);
-                    timestamps.end(cmd, span);
-                    spans.push(span);
+                    for &y0 in &bands {
+                        let rows = band_rows.min(height - y0);
+                        let params = PassParams {
+                            pass: [done + i, 1, 0, y0],
+                        };
+                        device.raw.cmd_push_constants(
+                            cmd,
+                            self.kernels.layout,
+                            vk::ShaderStageFlags::COMPUTE,
+                            0,
+                            bytemuck::bytes_of(&params),
+                        );
+                        let span = timestamps.begin(cmd);
+                        device.raw.cmd_dispatch(
+                            cmd,
+                            width.div_ceil(WORKGROUP_SIZE_X),
+                            rows.div_ceil(WORKGROUP_SIZE_Y),
+                            1,
+                        );
+                        timestamps.end(cmd, span);
+                    }
+                    // Passes accumulate into the film: order them.
                     let barrier = vk::MemoryBarrier::default()
                         .src_access_mask(vk::AccessFlags::SHADER_WRITE)
                         .dst_access_mask(
