@@ -142,3 +142,41 @@ fn render_writes_images_trace_and_compare_reads_them() {
         "{text}"
     );
 }
+
+#[test]
+fn devices_lists_the_device_and_bad_device_choice_is_an_error() {
+    let d = scratch("devices");
+    let out = lightpath(&["devices"], &d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("ray query:") && text.contains("max storage buffer range"),
+        "{text}"
+    );
+    std::fs::write(d.join("ok.test"), GOOD).unwrap();
+    let out = lightpath(
+        &["render", "ok.test", "-o", "x.png", "--device", "99", "-q"],
+        &d,
+    );
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--device 99"));
+    let out = lightpath(
+        &[
+            "render",
+            "ok.test",
+            "-o",
+            "x.png",
+            "--device",
+            "no-such-gpu",
+            "-q",
+        ],
+        &d,
+    );
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-gpu"));
+    assert_eq!(files_in(&d), vec!["ok.test"]);
+}

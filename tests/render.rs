@@ -317,3 +317,20 @@ fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     }
     out
 }
+
+#[test]
+fn two_lights_with_a_point_light_nee_on_and_mis_agree() {
+    // A point light cannot be hit by BSDF sampling, so only on and mis apply.
+    let mut s = load("two-lights.test");
+    s.width = 32;
+    s.height = 32;
+    s.settings.spp = 64;
+    s.settings.max_depth = 3;
+    s.settings.nee = NextEventEstimation::On;
+    s.settings.importance_sampling = ImportanceSampling::Cosine;
+    let on = estimate(&s, 4, 2, Bvh);
+    s.settings.nee = NextEventEstimation::Mis;
+    s.settings.importance_sampling = ImportanceSampling::Brdf;
+    let mis = estimate(&s, 4, 2, Bvh);
+    assert_agree("two lights: nee on vs mis", &on, &mis, 5.0, 0.01);
+}

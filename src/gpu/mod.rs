@@ -28,6 +28,9 @@ fn hint(r: vk::Result) -> &'static str {
         vk::Result::ERROR_DEVICE_LOST => " (the device was lost: the driver reset or crashed)",
         vk::Result::ERROR_OUT_OF_DEVICE_MEMORY => " (out of device memory: try a smaller --size)",
         vk::Result::ERROR_OUT_OF_HOST_MEMORY => " (out of host memory)",
+        vk::Result::ERROR_INCOMPATIBLE_DRIVER => {
+            " (no usable Vulkan driver: without a GPU install Mesa's lavapipe, package mesa-vulkan-drivers; scripts/setup-system.sh does)"
+        }
         _ => "",
     }
 }

@@ -17,7 +17,7 @@ fn open(accel: AccelChoice) -> Mutex<Renderer> {
     match Renderer::new(None, accel) {
         Ok(r) => Mutex::new(r),
         Err(e) => panic!(
-            "these tests need a Vulkan device with {accel:?} support and none could be opened: {e:#}\n\
+            "these tests need a Vulkan device (for the {accel:?} backend) and none could be opened: {e:#}\n\
              On a machine without a GPU install Mesa's lavapipe (mesa-vulkan-drivers >= 24 for ray query): \
              run scripts/setup-system.sh"
         ),
