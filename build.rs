@@ -41,17 +41,27 @@ fn main() {
             options.set_generate_debug_info();
             options.add_macro_definition(define, Some("1"));
             let lib = glsl.join("lib");
+            let root_for_names = root.clone();
             options.set_include_callback(move |requested, _kind, requester, _depth| {
-                let requester_dir = Path::new(requester)
-                    .parent()
-                    .map(Path::to_path_buf)
-                    .unwrap_or_default();
+                let requester_dir = root_for_names.join(
+                    Path::new(requester)
+                        .parent()
+                        .map(Path::to_path_buf)
+                        .unwrap_or_default(),
+                );
                 let candidates = [lib.join(requested), requester_dir.join(requested)];
                 for path in candidates {
                     if let Ok(content) = fs::read_to_string(&path) {
                         println!("cargo:rerun-if-changed={}", path.display());
+                        // Names relative to the repository keep the SPIR-V (its debug
+                        // info) the same in every clone, so drivers' shader caches hold.
+                        let resolved_name = path
+                            .strip_prefix(&root_for_names)
+                            .unwrap_or(&path)
+                            .display()
+                            .to_string();
                         return Ok(shaderc::ResolvedInclude {
-                            resolved_name: path.display().to_string(),
+                            resolved_name,
                             content,
                         });
                     }
@@ -63,7 +73,11 @@ fn main() {
             match compiler.compile_into_spirv(
                 &source,
                 shaderc::ShaderKind::Compute,
-                &kernel.display().to_string(),
+                &kernel
+                    .strip_prefix(&root)
+                    .unwrap_or(kernel)
+                    .display()
+                    .to_string(),
                 "main",
                 Some(&options),
             ) {
