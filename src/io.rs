@@ -48,13 +48,24 @@ fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.partial-{}", std::process::id()))
 }
 
+/// Write `path` through a temporary file beside it and a rename; the temporary file
+/// is removed when anything fails.
+fn write_via_temp(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let tmp = temp_path(path);
+    let result = write(&tmp).and_then(|()| {
+        std::fs::rename(&tmp, path)
+            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
 /// Write bytes to `path` through a temporary file and a rename.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = temp_path(path);
-    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", path.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        anyhow::anyhow!("cannot write {}: {e}", path.display())
+    write_via_temp(path, |tmp| {
+        std::fs::write(tmp, bytes).with_context(|| format!("cannot write {}", path.display()))
     })
 }
 
@@ -105,11 +116,11 @@ pub fn check_writable_file(path: &Path) -> Result<()> {
 }
 
 pub fn write_image(path: &Path, image: &Image, gamma: f32) -> Result<()> {
-    let tmp = temp_path(path);
-    let result = match format_of(path)? {
+    let format = format_of(path)?;
+    write_via_temp(path, |tmp| match format {
         Format::Exr => {
             let (w, h) = (image.width as usize, image.height as usize);
-            exr::prelude::write_rgb_file(&tmp, w, h, |x, y| {
+            exr::prelude::write_rgb_file(tmp, w, h, |x, y| {
                 let p = image.pixels[y * w + x];
                 (p[0], p[1], p[2])
             })
@@ -123,7 +134,7 @@ pub fn write_image(path: &Path, image: &Image, gamma: f32) -> Result<()> {
                 .flat_map(|p| p.map(|v| (v.max(0.0).powf(inv).min(1.0) * 255.0 + 0.5) as u8))
                 .collect();
             image::save_buffer_with_format(
-                &tmp,
+                tmp,
                 &bytes,
                 image.width,
                 image.height,
@@ -132,14 +143,6 @@ pub fn write_image(path: &Path, image: &Image, gamma: f32) -> Result<()> {
             )
             .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
         }
-    };
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e);
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        anyhow::anyhow!("cannot write {}: {e}", path.display())
     })
 }
 
