@@ -21,6 +21,9 @@ pub struct BenchArgs {
     /// Vulkan device, by index or part of its name.
     #[arg(long)]
     pub device: Option<String>,
+    /// Renders per measurement (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    pub repeats: u32,
     /// Also measure Mitsuba 3 (python3 with the `mitsuba` package, variant llvm_ad_rgb).
     #[arg(long)]
     pub mitsuba: bool,
@@ -47,37 +50,57 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             }
         };
         let mut trace = Trace::new();
-        // A first short render warms up pipelines and caches.
+        // A first short render warms up pipelines and caches (lavapipe JITs kernels at
+        // their first dispatch).
         let mut warm = scene.clone();
         warm.settings.spp = 1;
         renderer.render(&warm, 1, &mut trace)?;
-        let out = renderer.render(&scene, 0, &mut trace)?;
-        let samples = out.samples_per_pixel as f64 * scene.width as f64 * scene.height as f64;
+        // The median of a few renders: a shared CPU machine is noisy.
+        let mut runs = Vec::new();
+        for seed in 0..args.repeats.max(1) {
+            let out = renderer.render(&scene, seed, &mut trace)?;
+            let samples = out.samples_per_pixel as f64 * scene.width as f64 * scene.height as f64;
+            runs.push((
+                samples / out.dispatch_seconds,
+                out.rays / out.dispatch_seconds,
+                out.backend,
+            ));
+        }
+        runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (sps, rps, backend) = runs[runs.len() / 2];
         results.push(BenchResult {
             name: format!(
                 "lightpath pt, {} ({})",
-                out.backend.name(),
+                backend.name(),
                 renderer.device.info.name
             ),
-            samples_per_second: samples / out.dispatch_seconds,
-            rays_per_second: Some(out.rays / out.dispatch_seconds),
+            samples_per_second: sps,
+            rays_per_second: Some(rps),
         });
     }
     if args.mitsuba {
-        let sps = mitsuba_samples_per_second(args)?;
-        results.push(BenchResult {
-            name: "Mitsuba 3 path tracer (llvm_ad_rgb, CPU)".into(),
-            samples_per_second: sps,
-            rays_per_second: None,
-        });
+        let mut runs = Vec::new();
+        for _ in 0..args.repeats.max(1) {
+            runs.push(mitsuba_samples_per_second(args)?);
+        }
+        runs.sort_by(|a, b| a.total_cmp(b));
+        // The reference row goes first.
+        results.insert(
+            0,
+            BenchResult {
+                name: "Mitsuba 3 path tracer (llvm_ad_rgb, CPU)".into(),
+                samples_per_second: runs[runs.len() / 2],
+                rays_per_second: None,
+            },
+        );
     }
     let reference = results
         .first()
         .context("no backend could be measured")?
         .samples_per_second;
     let reference_rays = results
-        .first()
-        .and_then(|r| r.rays_per_second)
+        .iter()
+        .find_map(|r| r.rays_per_second)
         .unwrap_or(1.0);
     println!(
         "scene {} at {}x{}, {} spp, maxdepth {}",
@@ -108,7 +131,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             rratio
         );
     }
-    println!("(ratios are against the first row, measured in the same run)");
+    println!(
+        "(medians of {} renders; samples/s ratios against the first row, rays/s ratios against the first row that counts rays; all measured in this run)",
+        args.repeats.max(1)
+    );
     Ok(())
 }
 
