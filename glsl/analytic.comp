@@ -32,8 +32,8 @@ float polygon_irradiance_factor(vec3 p, vec3 n, vec3 v0, vec3 v1, vec3 v2) {
 }
 
 void main() {
-    uvec2 pixel = gl_GlobalInvocationID.xy + pass_params.pass.zw;
-    if (pixel.x >= scene.dims.x || pixel.y >= scene.dims.y) return;
+    uvec2 pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.pass.z);
+    if (pixel.x >= scene.dims.x || pixel.y >= min(scene.dims.y, pass_params.pass.w)) return;
     uint index = pixel.y * scene.dims.x + pixel.x;
     vec3 sum = vec3(0.0);
     uint rays = 0u;

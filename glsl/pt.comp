@@ -32,7 +32,7 @@ bool light_visible(vec3 p, vec3 n, LightSample ls) {
 // Light sampling at a surface point: f * cos * L / pdf, MIS-weighted when asked.
 vec3 estimate_direct(GpuMaterial m, vec3 p, vec3 n, vec3 wo, uint e, vec2 u, bool mis, uint mode) {
     LightSample ls;
-    if (!sample_emitter(e, p, u, ls)) return vec3(0.0);
+    if (!sample_emitter(e, p, u, ls) || !(ls.pdf > 0.0)) return vec3(0.0);
     float cos_s = dot(n, ls.wi);
     if (cos_s <= 0.0) return vec3(0.0);
     uint kind = uint(m.params.z);
@@ -84,6 +84,8 @@ vec3 path_sample(uvec2 pixel, inout Rng rng) {
             uint e = pick_emitter(rng_next(rng));
             L += beta * estimate_direct(m, s.p, n, wo, e, rng_next2(rng), nee == NEE_MIS, mode);
         }
+        // With NEE on, emission found by the next bounce would not count: stop here.
+        if (nee == NEE_ON && depth + 1u == max_vertices) break;
         vec3 wi;
         float pdf;
         if (!bsdf_sample(mode, kind, m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, rng_next3(rng), wi, pdf)) break;
@@ -115,7 +117,7 @@ vec3 direct_sample(uvec2 pixel, inout Rng rng) {
     vec3 wo = -d;
     vec3 L = vec3(0.0);
     if (s.emitter != NO_EMITTER) L += emitted_radiance(s.material, s.ng, wo);
-    if (scene.counts.x == 0u || scene.counts.y == 0u) return L;
+    if (scene.counts.x == 0u || (scene.counts.y == 0u && scene.counts.z == 0u)) return L;
     GpuMaterial m = materials[s.material];
     vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
     uint count = max(scene.direct.x, 1u);
@@ -131,8 +133,8 @@ vec3 direct_sample(uvec2 pixel, inout Rng rng) {
 }
 
 void main() {
-    uvec2 pixel = gl_GlobalInvocationID.xy + pass_params.pass.zw;
-    if (pixel.x >= scene.dims.x || pixel.y >= scene.dims.y) return;
+    uvec2 pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.pass.z);
+    if (pixel.x >= scene.dims.x || pixel.y >= min(scene.dims.y, pass_params.pass.w)) return;
     uint index = pixel.y * scene.dims.x + pixel.x;
     vec3 sum = vec3(0.0);
     for (uint i = 0u; i < pass_params.pass.y; ++i) {

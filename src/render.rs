@@ -166,7 +166,7 @@ impl Renderer {
                         &[set],
                         &[],
                     );
-                    let params = PassParams { pass: [0, 0, 0, 0] };
+                    let params = PassParams { pass: [0, 0, 0, 1] };
                     d.cmd_push_constants(
                         cmd,
                         self.kernels.layout,
@@ -226,7 +226,9 @@ impl Renderer {
         let device = self.device.clone();
         // A pass is split into bands of rows so that no single dispatch runs for long
         // (lavapipe traces roughly a million samples a second).
-        let band_rows = (BAND_PIXELS / width.max(1)).clamp(1, height);
+        // Bands are whole workgroup rows, and the kernel also stops at a band's end, so
+        // no pixel is rendered twice in a pass.
+        let band_rows = ((BAND_PIXELS / width.max(1)) / WORKGROUP_SIZE_Y).max(1) * WORKGROUP_SIZE_Y;
         let bands: Vec<u32> = (0..height).step_by(band_rows as usize).collect();
         let max_batch = 64u32;
         let mut timestamps = Timestamps::new(&device, max_batch * bands.len() as u32)?;
@@ -268,7 +270,7 @@ impl Renderer {
                     for &y0 in &bands {
                         let rows = band_rows.min(height - y0);
                         let params = PassParams {
-                            pass: [done + i, 1, 0, y0],
+                            pass: [done + i, 1, y0, y0 + rows],
                         };
                         device.raw.cmd_push_constants(
                             cmd,
@@ -449,7 +451,11 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
         });
     }
     let (_, radius) = scene_bounds(scene);
-    for l in &scene.delta_lights {
+    // Delta lights that emit nothing are left out: they could never contribute.
+    for l in scene.delta_lights.iter().filter(|l| match l {
+        DeltaLight::Point { intensity, .. } => avg(*intensity) > 0.0,
+        DeltaLight::Directional { radiance, .. } => avg(*radiance) > 0.0,
+    }) {
         match *l {
             DeltaLight::Point {
                 position,
@@ -477,8 +483,6 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
             }
         }
     }
-    // Emitters of zero power (black emission channels averaging to 0) keep a tiny
-    // weight so that a hit on them still has a well-defined pdf.
     let total: f64 = power.iter().map(|&p| p.max(0.0) as f64).sum();
     let n = emitters.len();
     let mut cdf = Vec::with_capacity(n);
@@ -620,6 +624,7 @@ impl GpuScene {
         let limit = device.info.max_storage_buffer_range;
         for (name, bytes) in [
             ("triangles", triangles.len() * 48),
+            ("spheres", spheres.len() * 112),
             ("BVH nodes", bvh.nodes.len() * 32),
             ("emitters", table.emitters.len() * 80),
         ] {

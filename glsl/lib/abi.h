@@ -105,7 +105,7 @@ struct SceneParams {
 
 // Per-dispatch constants.
 struct PassParams {
-    uvec4 pass;          // x first sample index of the pass, y samples in the pass, z tile x0, w tile y0
+    uvec4 pass;          // x first sample index of the pass, y samples in the pass, z first row, w end row of the band
 };
 #endif
 

@@ -1,31 +1,43 @@
-// Reproducible randomness: a PCG32 stream per (seed, pixel, sample), so a render is a
-// pure function of (scene, settings, seed). PCG: O'Neill 2014; hash: Jarzynski & Olano 2020.
+// Reproducible randomness, counter-based: the n-th draw of a sample is
+// pcg4d(pixel, sample index, seed, n) (Jarzynski & Olano 2020, "Hash Functions for GPU
+// Rendering"). pcg4d is a bijection of uvec4, so distinct (pixel, sample, seed, n)
+// never share a draw: streams do not overlap, and a render is a pure function of
+// (scene, settings, seed).
 #ifndef RNG_GLSL
 #define RNG_GLSL
 
-uint pcg_hash(uint v) {
-    uint state = v * 747796405u + 2891336453u;
-    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
+uvec4 pcg4d(uvec4 v) {
+    v = v * 1664525u + 1013904223u;
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    v ^= v >> 16u;
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    return v;
 }
 
-struct Rng { uint state; };
+struct Rng {
+    uvec3 key;    // pixel, sample index, seed
+    uint counter; // draws so far
+};
 
 Rng rng_init(uint seed, uint pixel, uint sample_index) {
     Rng r;
-    r.state = pcg_hash(seed ^ pcg_hash(pixel ^ pcg_hash(sample_index + 0x9e3779b9u)));
+    r.key = uvec3(pixel, sample_index, seed);
+    r.counter = 0u;
     return r;
 }
 
-uint rng_next_uint(inout Rng r) {
-    r.state = r.state * 747796405u + 2891336453u;
-    uint s = r.state;
-    uint word = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
-    return (word >> 22u) ^ word;
-}
+uvec4 rng_block(inout Rng r) { return pcg4d(uvec4(r.key, r.counter++)); }
 
-// Uniform in [0, 1).
-float rng_next(inout Rng r) { return float(rng_next_uint(r) >> 8) * (1.0 / 16777216.0); }
-vec2 rng_next2(inout Rng r) { return vec2(rng_next(r), rng_next(r)); }
-vec3 rng_next3(inout Rng r) { return vec3(rng_next(r), rng_next(r), rng_next(r)); }
+// Uniform in [0, 1): the top 24 bits.
+vec4 rng_to_unit(uvec4 x) { return vec4(x >> 8u) * (1.0 / 16777216.0); }
+
+float rng_next(inout Rng r) { return rng_to_unit(rng_block(r)).x; }
+vec2 rng_next2(inout Rng r) { return rng_to_unit(rng_block(r)).xy; }
+vec3 rng_next3(inout Rng r) { return rng_to_unit(rng_block(r)).xyz; }
 #endif

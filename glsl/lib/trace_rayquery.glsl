@@ -8,15 +8,16 @@ layout(set = 0, binding = BINDING_TLAS) uniform accelerationStructureEXT tlas;
 bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
     rayQueryEXT rq;
     rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT, 0xFF, o, 0.0, d, tmax);
-    float closest = tmax;
-    uint sphere_hit = 0xFFFFFFFFu;
     while (rayQueryProceedEXT(rq)) {
         if (rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionAABBEXT) {
+            // Generated hits skip the driver's distance check: test against the
+            // closest hit committed so far (opaque triangles commit without asking).
+            float committed = rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionNoneEXT
+                ? rayQueryGetIntersectionTEXT(rq, true)
+                : tmax;
             uint si = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));
             float t;
-            if (intersect_sphere(spheres[si], o, d, 0.0, closest, t)) {
-                closest = t;
-                sphere_hit = si;
+            if (intersect_sphere(spheres[si], o, d, 0.0, committed, t)) {
                 rayQueryGenerateIntersectionEXT(rq, t);
             }
         }

@@ -3,7 +3,7 @@
 //! without sorting, so file order can trace hundreds of times slower), one unit-cube
 //! AABB BLAS shared by every sphere, and a TLAS with one instance per sphere whose
 //! transform is the sphere's object-to-world matrix.
-use crate::gpu::buffer::Buffer;
+use crate::gpu::buffer::{writes_visible_to_later_commands, Buffer};
 use crate::gpu::{other_error, Device, GpuResult, Stage};
 use ash::vk;
 use glam::Mat4;
@@ -104,6 +104,12 @@ fn build(
     let ranges: [&[vk::AccelerationStructureBuildRangeInfoKHR]; 1] = [&range];
     device.run_commands(&stage, |cmd| unsafe {
         loader.cmd_build_acceleration_structures(cmd, std::slice::from_ref(&info), &ranges);
+        // The TLAS build reads the BLASes, and the kernels read the TLAS.
+        writes_visible_to_later_commands(
+            device,
+            cmd,
+            vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
+        );
     })?;
     Ok(accel)
 }

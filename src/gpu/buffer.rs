@@ -5,6 +5,30 @@ use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 use std::sync::Arc;
 
+/// A barrier from the given writes (of this and every earlier submission) to any
+/// later use: a fence wait alone does not make device writes visible to later
+/// commands. Uploads are rare, so the broad scope costs nothing that matters.
+pub fn writes_visible_to_later_commands(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    written: vk::AccessFlags,
+) {
+    let barrier = vk::MemoryBarrier::default()
+        .src_access_mask(written)
+        .dst_access_mask(vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE);
+    unsafe {
+        device.raw.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::ALL_COMMANDS,
+            vk::PipelineStageFlags::ALL_COMMANDS,
+            vk::DependencyFlags::empty(),
+            &[barrier],
+            &[],
+            &[],
+        )
+    };
+}
+
 pub struct Buffer {
     device: Arc<Device>,
     pub raw: vk::Buffer,
@@ -98,6 +122,7 @@ impl Buffer {
                     buffer.raw,
                     &[vk::BufferCopy::default().size(data.len() as u64)],
                 );
+                writes_visible_to_later_commands(device, cmd, vk::AccessFlags::TRANSFER_WRITE);
             })?;
         }
         Ok(buffer)
@@ -121,6 +146,7 @@ impl Buffer {
             device
                 .raw
                 .cmd_fill_buffer(cmd, buffer.raw, 0, vk::WHOLE_SIZE, 0);
+            writes_visible_to_later_commands(device, cmd, vk::AccessFlags::TRANSFER_WRITE);
         })?;
         Ok(buffer)
     }
@@ -179,6 +205,19 @@ impl Buffer {
                 self.raw,
                 staging.raw,
                 &[vk::BufferCopy::default().size(len)],
+            );
+            // Make the copy visible to the host (a fence alone does not).
+            let to_host = vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::HOST_READ);
+            device.raw.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::HOST,
+                vk::DependencyFlags::empty(),
+                &[to_host],
+                &[],
+                &[],
             );
         })?;
         staging.read(len as usize)

@@ -158,14 +158,19 @@ impl Instance {
             let mut v12 = vk::PhysicalDeviceVulkan12Features::default();
             let ray_exts = RAY_QUERY_EXTENSIONS.iter().all(|n| has(n));
             let float_ext = has(ash::ext::shader_atomic_float::NAME);
-            let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut v12);
-            if ray_exts {
-                f2 = f2.push_next(&mut rq).push_next(&mut asf);
+            // Feature structs of Vulkan 1.2 and of extensions may only be chained where
+            // the device supports them; lightpath needs 1.2 anyway.
+            let is_12 = props.api_version >= vk::API_VERSION_1_2;
+            if is_12 {
+                let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut v12);
+                if ray_exts {
+                    f2 = f2.push_next(&mut rq).push_next(&mut asf);
+                }
+                if float_ext {
+                    f2 = f2.push_next(&mut af);
+                }
+                unsafe { self.raw.get_physical_device_features2(pd, &mut f2) };
             }
-            if float_ext {
-                f2 = f2.push_next(&mut af);
-            }
-            unsafe { self.raw.get_physical_device_features2(pd, &mut f2) };
             let queue_ok = unsafe { self.raw.get_physical_device_queue_family_properties(pd) }
                 .iter()
                 .find(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))

@@ -50,9 +50,11 @@ impl Timestamps {
         }
         let i = self.used;
         unsafe {
+            // Begin when all earlier work has finished, so spans never overlap even
+            // where the device runs dispatches concurrently.
             self.device.raw.cmd_write_timestamp(
                 cmd,
-                vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
                 self.pool,
                 i,
             )
