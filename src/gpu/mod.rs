@@ -349,22 +349,23 @@ impl Device {
         let raw = unsafe { instance.raw.create_device(physical, &create, None) }
             .stage("creating the device")?;
         let queue = unsafe { raw.get_device_queue(queue_family, 0) };
-        let allocator = Allocator::new(&AllocatorCreateDesc {
-            instance: instance.raw.clone(),
-            device: raw.clone(),
-            physical_device: physical,
-            debug_settings: Default::default(),
-            buffer_device_address: ray_query,
-            allocation_sizes: Default::default(),
-        })
-        .map_err(|e| other_error("creating the memory allocator", e))?;
-        let accel_loader =
-            ray_query.then(|| ash::khr::acceleration_structure::Device::new(&instance.raw, &raw));
         let cache_path = pipeline_cache_path(&info);
         let initial = cache_path
             .as_ref()
             .and_then(|p| std::fs::read(p).ok())
             .unwrap_or_default();
+        // Each later failure destroys what was created before it, the device last.
+        let fail =
+            |e: GpuError, cache: Option<vk::PipelineCache>, pool: Option<vk::CommandPool>| unsafe {
+                if let Some(p) = pool {
+                    raw.destroy_command_pool(p, None);
+                }
+                if let Some(c) = cache {
+                    raw.destroy_pipeline_cache(c, None);
+                }
+                raw.destroy_device(None);
+                e
+            };
         let pipeline_cache = match unsafe {
             raw.create_pipeline_cache(
                 &vk::PipelineCacheCreateInfo::default().initial_data(&initial),
@@ -375,7 +376,8 @@ impl Device {
             // A cache from another driver version is refused by some drivers: start empty.
             Err(_) => {
                 unsafe { raw.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
-                    .stage("creating the pipeline cache")?
+                    .stage("creating the pipeline cache")
+                    .map_err(|e| fail(e, None, None))?
             }
         };
         let command_pool = unsafe {
@@ -386,7 +388,25 @@ impl Device {
                 None,
             )
         }
-        .stage("creating the command pool")?;
+        .stage("creating the command pool")
+        .map_err(|e| fail(e, Some(pipeline_cache), None))?;
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.raw.clone(),
+            device: raw.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: ray_query,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|e| {
+            fail(
+                other_error("creating the memory allocator", e),
+                Some(pipeline_cache),
+                Some(command_pool),
+            )
+        })?;
+        let accel_loader =
+            ray_query.then(|| ash::khr::acceleration_structure::Device::new(&instance.raw, &raw));
         Ok(Device {
             instance,
             physical,
