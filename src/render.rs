@@ -4,7 +4,7 @@
 use crate::accel::bvh::Bvh;
 use crate::accel::rayquery::{self, RayQueryScene};
 use crate::gpu::abi::*;
-use crate::gpu::buffer::Buffer;
+use crate::gpu::buffer::{memory_barrier, Buffer};
 use crate::gpu::kernels::{Backend, Kernels};
 use crate::gpu::timing::Timestamps;
 use crate::gpu::{other_error, Device};
@@ -289,19 +289,15 @@ impl Renderer {
                         timestamps.end(cmd, span);
                     }
                     // Passes accumulate into the film: order them.
-                    let barrier = vk::MemoryBarrier::default()
-                        .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                        .dst_access_mask(
-                            vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
-                        );
-                    device.raw.cmd_pipeline_barrier(
+                    let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
+                    memory_barrier(
+                        &device,
                         cmd,
-                        vk::PipelineStageFlags::COMPUTE_SHADER,
-                        vk::PipelineStageFlags::COMPUTE_SHADER,
-                        vk::DependencyFlags::empty(),
-                        &[barrier],
-                        &[],
-                        &[],
+                        (compute, vk::AccessFlags::SHADER_WRITE),
+                        (
+                            compute,
+                            vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+                        ),
                     );
                 }
             }

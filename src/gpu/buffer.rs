@@ -5,28 +5,48 @@ use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 use std::sync::Arc;
 
-/// A barrier from the given writes (of this and every earlier submission) to any
-/// later use: a fence wait alone does not make device writes visible to later
-/// commands. Uploads are rare, so the broad scope costs nothing that matters.
-pub fn writes_visible_to_later_commands(
+/// A global memory barrier: `src` (stages, accesses) of earlier commands, including
+/// earlier submissions, before `dst` of later ones.
+pub fn memory_barrier(
     device: &Device,
     cmd: vk::CommandBuffer,
-    written: vk::AccessFlags,
+    src: (vk::PipelineStageFlags, vk::AccessFlags),
+    dst: (vk::PipelineStageFlags, vk::AccessFlags),
 ) {
     let barrier = vk::MemoryBarrier::default()
-        .src_access_mask(written)
-        .dst_access_mask(vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE);
+        .src_access_mask(src.1)
+        .dst_access_mask(dst.1);
     unsafe {
         device.raw.cmd_pipeline_barrier(
             cmd,
-            vk::PipelineStageFlags::ALL_COMMANDS,
-            vk::PipelineStageFlags::ALL_COMMANDS,
+            src.0,
+            dst.0,
             vk::DependencyFlags::empty(),
             &[barrier],
             &[],
             &[],
         )
     };
+}
+
+/// A barrier from the given writes to any later use: a fence wait alone does not make
+/// device writes visible to later commands. Uploads are rare, so the broad scope costs
+/// nothing that matters.
+pub fn writes_visible_to_later_commands(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    written: vk::AccessFlags,
+) {
+    let all = vk::PipelineStageFlags::ALL_COMMANDS;
+    memory_barrier(
+        device,
+        cmd,
+        (all, written),
+        (
+            all,
+            vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
+        ),
+    );
 }
 
 pub struct Buffer {
@@ -187,37 +207,34 @@ impl Buffer {
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
         )?;
-        device.run_commands(&format!("reading back '{}'", self.name), |cmd| unsafe {
-            let barrier = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
-            device.raw.cmd_pipeline_barrier(
+        device.run_commands(&format!("reading back '{}'", self.name), |cmd| {
+            memory_barrier(
+                device,
                 cmd,
-                vk::PipelineStageFlags::ALL_COMMANDS,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &[barrier],
-                &[],
-                &[],
+                (
+                    vk::PipelineStageFlags::ALL_COMMANDS,
+                    vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::TRANSFER_READ,
+                ),
             );
-            device.raw.cmd_copy_buffer(
-                cmd,
-                self.raw,
-                staging.raw,
-                &[vk::BufferCopy::default().size(len)],
-            );
+            let region = [vk::BufferCopy::default().size(len)];
+            unsafe {
+                device
+                    .raw
+                    .cmd_copy_buffer(cmd, self.raw, staging.raw, &region)
+            };
             // Make the copy visible to the host (a fence alone does not).
-            let to_host = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ);
-            device.raw.cmd_pipeline_barrier(
+            memory_barrier(
+                device,
                 cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &[to_host],
-                &[],
-                &[],
+                (
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                ),
+                (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
             );
         })?;
         staging.read(len as usize)
