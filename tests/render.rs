@@ -162,13 +162,18 @@ fn pathtracer_depth_one_matches_analyticdirect() {
     assert_agree("direct vs analyticdirect", &d, &a, 5.0, 5e-3);
 }
 
-fn small_cornell() -> Scene {
-    let mut s = load("cornell-box.test");
+/// A project scene at 32×32 with the given spp and maxdepth.
+fn small(name: &str, spp: u32, max_depth: i32) -> Scene {
+    let mut s = load(name);
     s.width = 32;
     s.height = 32;
-    s.settings.spp = 64;
-    s.settings.max_depth = 3;
+    s.settings.spp = spp;
+    s.settings.max_depth = max_depth;
     s
+}
+
+fn small_cornell() -> Scene {
+    small("cornell-box.test", 64, 3)
 }
 
 #[test]
@@ -200,11 +205,7 @@ fn next_event_estimation_modes_converge_to_the_same_image() {
 
 #[test]
 fn glossy_scene_sampling_modes_agree() {
-    let mut base = load("cornell-glossy.test");
-    base.width = 32;
-    base.height = 32;
-    base.settings.spp = 64;
-    base.settings.max_depth = 2;
+    let mut base = small("cornell-glossy.test", 64, 2);
     base.settings.nee = NextEventEstimation::Mis;
     base.settings.importance_sampling = ImportanceSampling::Brdf;
     let a = estimate(&base, 4, 2, Bvh);
@@ -219,13 +220,7 @@ fn glossy_scene_sampling_modes_agree() {
 fn ray_query_and_bvh_give_the_same_image() {
     for scene in [
         small_cornell(),
-        {
-            let mut s = load("cornell-glossy.test");
-            s.width = 32;
-            s.height = 32;
-            s.settings.spp = 4;
-            s
-        },
+        small("cornell-glossy.test", 4, 5),
         ellipsoid_furnace(),
     ] {
         let a = render(&scene, 7, Bvh);
@@ -321,11 +316,7 @@ fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
 #[test]
 fn two_lights_with_a_point_light_nee_on_and_mis_agree() {
     // A point light cannot be hit by BSDF sampling, so only on and mis apply.
-    let mut s = load("two-lights.test");
-    s.width = 32;
-    s.height = 32;
-    s.settings.spp = 64;
-    s.settings.max_depth = 3;
+    let mut s = small("two-lights.test", 64, 3);
     s.settings.nee = NextEventEstimation::On;
     s.settings.importance_sampling = ImportanceSampling::Cosine;
     let on = estimate(&s, 4, 2, Bvh);

@@ -111,6 +111,22 @@ impl Buffer {
         })
     }
 
+    /// A device-local buffer that transfers can fill.
+    fn device_local(
+        device: &Arc<Device>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> GpuResult<Buffer> {
+        Buffer::new(
+            device,
+            name,
+            size,
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )
+    }
+
     /// A device-local buffer holding `data`, copied through a staging buffer.
     pub fn with_data(
         device: &Arc<Device>,
@@ -119,13 +135,7 @@ impl Buffer {
         usage: vk::BufferUsageFlags,
     ) -> GpuResult<Buffer> {
         let size = (data.len() as u64).max(16);
-        let buffer = Buffer::new(
-            device,
-            name,
-            size,
-            usage | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-        )?;
+        let buffer = Buffer::device_local(device, name, size, usage)?;
         if !data.is_empty() {
             let mut staging = Buffer::new(
                 device,
@@ -155,13 +165,7 @@ impl Buffer {
         size: u64,
         usage: vk::BufferUsageFlags,
     ) -> GpuResult<Buffer> {
-        let buffer = Buffer::new(
-            device,
-            name,
-            size,
-            usage | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-        )?;
+        let buffer = Buffer::device_local(device, name, size, usage)?;
         device.run_commands(&format!("clearing '{name}'"), |cmd| unsafe {
             device
                 .raw
