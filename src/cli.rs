@@ -38,7 +38,7 @@ pub struct RenderArgs {
     /// Image size, WxH.
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// Integrator: pathtracer, direct, analyticdirect.
+    /// Integrator: pathtracer, bdpt, direct, analyticdirect.
     #[arg(long)]
     pub integrator: Option<String>,
     /// Visibility backend: auto, rayquery or bvh.
@@ -50,6 +50,10 @@ pub struct RenderArgs {
     /// Write a Chrome trace-event file (open it in Perfetto).
     #[arg(long)]
     pub trace: Option<PathBuf>,
+    /// BDPT debug output: write sS_tT.exr (MIS-weighted; they sum to the image) and
+    /// sS_tT_unweighted.exr for every strategy (s light vertices, t camera vertices) into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub bdpt_strategies: Option<PathBuf>,
     /// No progress bar and no summary table.
     #[arg(short, long)]
     pub quiet: bool,
@@ -156,14 +160,36 @@ fn render_command(args: &RenderArgs) -> Result<()> {
     if let Some(t) = &args.trace {
         io::check_writable_file(t)?;
     }
+    if let Some(dir) = &args.bdpt_strategies {
+        if scene.settings.integrator != IntegratorKind::Bdpt {
+            bail!(
+                "--bdpt-strategies needs the bdpt integrator (this render uses {})",
+                scene.settings.integrator.name()
+            );
+        }
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--bdpt-strategies: cannot create {}", dir.display()))?;
+        io::check_writable(&dir.join("s0_t2.exr"))?;
+    }
     let mut renderer = trace.cpu("device and kernels", || {
         Renderer::new(args.device.as_deref(), accel)
     })?;
     renderer.show_progress = !args.quiet;
+    renderer.record_strategies = args.bdpt_strategies.is_some();
     let out = renderer.render(&scene, args.seed, &mut trace)?;
     trace.cpu("write image", || {
         io::write_image(&output, &out.image, scene.settings.gamma)
     })?;
+    if let Some(dir) = &args.bdpt_strategies {
+        trace.cpu("write strategy images", || -> Result<()> {
+            for st in &out.strategies {
+                let name = format!("s{}_t{}", st.s, st.t);
+                io::write_image(&dir.join(format!("{name}.exr")), &st.weighted, 1.0)?;
+                io::write_image(&dir.join(format!("{name}_unweighted.exr")), &st.unweighted, 1.0)?;
+            }
+            Ok(())
+        })?;
+    }
     if out.nonfinite_samples > 0 {
         eprintln!(
             "warning: {} samples were NaN or infinite and were left out of the image",

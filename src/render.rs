@@ -48,6 +48,60 @@ pub struct RenderOutput {
     /// Time in the render dispatches only (GPU timestamps when the device has them).
     pub dispatch_seconds: f64,
     pub backend: Backend,
+    /// BDPT with `record_strategies`: every (s,t) strategy's images.
+    pub strategies: Vec<StrategyImages>,
+}
+
+/// One BDPT strategy's share of the image: s light vertices, t camera vertices (the
+/// camera included). `weighted` carries the MIS weight, so the weighted images of all
+/// strategies sum to the BDPT image; `unweighted` is the strategy's own estimate.
+pub struct StrategyImages {
+    pub s: u32,
+    pub t: u32,
+    pub weighted: Image,
+    pub unweighted: Image,
+}
+
+/// The (s,t) strategies of BDPT for paths of up to `max_scatter` scattering vertices, in
+/// the order of the kernel's strategy buffer: by scattering vertices n = s + t - 2, then s.
+pub fn bdpt_strategies(max_scatter: u32) -> Vec<(u32, u32)> {
+    (0..=max_scatter)
+        .flat_map(|n| (0..=n + 1).map(move |s| (s, n + 2 - s)))
+        .collect()
+}
+
+/// Bytes per pixel of a BDPT pass's light-vertex buffer.
+pub fn bdpt_vertex_bytes_per_pixel(max_scatter: u32) -> u64 {
+    (max_scatter.max(2) - 1) as u64 * std::mem::size_of::<GpuPathVertex>() as u64
+}
+
+/// Largest device allocation lightpath makes for BDPT light vertices, whatever the
+/// device's storage-buffer range.
+const VERTEX_BUFFER_BUDGET: u64 = 1 << 30;
+
+/// Rows per band (tile) of a pass: at most about BAND_PIXELS pixels, whole workgroup rows
+/// where possible, and no more pixels than `per_pixel_bytes` lets fit in `limit` bytes.
+pub fn band_rows(width: u32, height: u32, per_pixel_bytes: u64, limit: u64) -> Result<u32> {
+    let by_dispatch =
+        ((BAND_PIXELS / width.max(1)) / WORKGROUP_SIZE_Y).max(1) * WORKGROUP_SIZE_Y;
+    let mut rows = by_dispatch;
+    if per_pixel_bytes > 0 {
+        let by_memory = limit / (per_pixel_bytes * width as u64);
+        if by_memory == 0 {
+            bail!(
+                "one row of {width} pixels needs {} bytes of BDPT light vertices, more than the device allows in one buffer ({limit} bytes); render a smaller width or maxdepth",
+                per_pixel_bytes * width as u64
+            );
+        }
+        let by_memory = by_memory.min(u32::MAX as u64) as u32;
+        let by_memory = if by_memory >= WORKGROUP_SIZE_Y {
+            by_memory / WORKGROUP_SIZE_Y * WORKGROUP_SIZE_Y
+        } else {
+            by_memory
+        };
+        rows = rows.min(by_memory);
+    }
+    Ok(rows.min(height.max(1)))
 }
 
 /// Pixels per dispatch: a pass over a larger image is split into bands of rows.
@@ -58,6 +112,8 @@ pub struct Renderer {
     pub device: Arc<Device>,
     pub kernels: Kernels,
     pub show_progress: bool,
+    /// BDPT: also return each (s,t) strategy's weighted and unweighted images.
+    pub record_strategies: bool,
 }
 
 impl Renderer {
@@ -89,6 +145,7 @@ impl Renderer {
             device,
             kernels,
             show_progress: false,
+            record_strategies: false,
         })
     }
 
@@ -101,6 +158,7 @@ impl Renderer {
         let kernel: &'static str = match scene.settings.integrator {
             IntegratorKind::PathTracer | IntegratorKind::Direct => "pt",
             IntegratorKind::AnalyticDirect => "analytic",
+            IntegratorKind::Bdpt => "bdpt",
             other => bail!(
                 "integrator '{}' is not available in this version of lightpath",
                 other.name()
@@ -115,10 +173,38 @@ impl Renderer {
                 self.device.info.max_storage_buffer_range
             );
         }
+        let bdpt = kernel == "bdpt";
+        if bdpt && !self.device.info.atomic_float {
+            bail!(
+                "bdpt splats light-tracing samples with float atomics, and {} has no VK_EXT_shader_atomic_float (shaderBufferFloat32AtomicAdd)",
+                self.device.info.name
+            );
+        }
+        let limit = self.device.info.max_storage_buffer_range;
+        let max_scatter = bdpt_max_scatter(scene);
+        let vertex_bytes = if bdpt {
+            bdpt_vertex_bytes_per_pixel(max_scatter)
+        } else {
+            0
+        };
+        let rows = band_rows(width, height, vertex_bytes, limit.min(VERTEX_BUFFER_BUDGET))?;
+        let strategies = if bdpt && self.record_strategies {
+            bdpt_strategies(max_scatter)
+        } else {
+            Vec::new()
+        };
+        let strategy_bytes = strategies.len() as u64 * 2 * film_bytes;
+        if strategy_bytes > limit {
+            bail!(
+                "recording {} BDPT strategies of a {width}x{height} image needs {strategy_bytes} bytes, more than {}'s storage-buffer range ({limit} bytes); use a smaller --size or --max-depth",
+                strategies.len(),
+                self.device.info.name
+            );
+        }
         let mut scene = scene.clone();
         let bvh = trace.cpu("BVH build", || crate::accel::prepare(&mut scene))?;
         let gpu_scene = trace.cpu("scene upload", || {
-            GpuScene::new(&self.device, &scene, &bvh, self.backend(), seed)
+            GpuScene::new(&self.device, &scene, &bvh, self.backend(), seed, !strategies.is_empty())
         })?;
         let rq = if self.backend() == Backend::RayQuery {
             let spheres: Vec<_> = scene.spheres.iter().map(|s| s.object_to_world).collect();
@@ -148,7 +234,32 @@ impl Renderer {
             4 * STAT_COUNT as u64,
             vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
         )?;
-        let set = gpu_scene.descriptor_set(&self.kernels, &film, &stats, rq.as_ref())?;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        // BDPT's buffers (a few bytes each for the other kernels, which never touch them).
+        let (splat, vertices, strategy_film) = trace.cpu("BDPT buffers", || -> Result<_> {
+            let small = 16;
+            Ok((
+                Buffer::zeroed(&self.device, "splat film", if bdpt { film_bytes } else { small }, usage)?,
+                Buffer::device_local(
+                    &self.device,
+                    "BDPT light vertices",
+                    (rows as u64 * width as u64 * vertex_bytes).max(small),
+                    vk::BufferUsageFlags::STORAGE_BUFFER,
+                )?,
+                Buffer::zeroed(&self.device, "strategy films", strategy_bytes.max(small), usage)?,
+            ))
+        })?;
+        let set = gpu_scene.descriptor_set(
+            &self.kernels,
+            &[
+                (BINDING_FILM, &film),
+                (BINDING_STATS, &stats),
+                (BINDING_SPLAT, &splat),
+                (BINDING_PATH_VERTICES, &vertices),
+                (BINDING_STRATEGIES, &strategy_film),
+            ],
+            rq.as_ref(),
+        )?;
 
         // Drivers that compile lazily (lavapipe JITs a kernel at its first dispatch:
         // ~25 s for `pt` with a cold Mesa shader cache) do it here, in a stage of its own,
@@ -180,24 +291,58 @@ impl Renderer {
 
         let spp = scene.settings.spp.max(1);
         let dispatch_seconds =
-            self.dispatch_passes(pipeline, set, kernel, width, height, spp, trace)?;
+            self.dispatch_passes(pipeline, set, kernel, width, height, rows, spp, trace)?;
 
-        let (film_data, stat_data) = trace.cpu("readback", || -> Result<_> {
-            Ok((
-                film.download(film_bytes)?,
-                stats.download(4 * STAT_COUNT as u64)?,
-            ))
-        })?;
+        let (film_data, stat_data, splat_data, strategy_data) =
+            trace.cpu("readback", || -> Result<_> {
+                Ok((
+                    film.download(film_bytes)?,
+                    stats.download(4 * STAT_COUNT as u64)?,
+                    if bdpt { Some(splat.download(film_bytes)?) } else { None },
+                    if strategies.is_empty() {
+                        None
+                    } else {
+                        Some(strategy_film.download(strategy_bytes)?)
+                    },
+                ))
+            })?;
         let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
         let stat: &[u32] = bytemuck::cast_slice(&stat_data);
         let inv = 1.0 / spp as f32;
-        let image = Image {
+        let to_image = |data: &[[f32; 4]]| Image {
             width,
             height,
-            pixels: film
+            pixels: data
                 .iter()
                 .map(|p| [p[0] * inv, p[1] * inv, p[2] * inv])
                 .collect(),
+        };
+        let mut image = to_image(film);
+        if let Some(splat) = &splat_data {
+            // The image is camera film / spp + splat film / spp.
+            let splat: &[[f32; 4]] = bytemuck::cast_slice(splat);
+            for (p, q) in image.pixels.iter_mut().zip(splat) {
+                for c in 0..3 {
+                    p[c] += q[c] * inv;
+                }
+            }
+        }
+        let strategies = match &strategy_data {
+            Some(data) => {
+                let all: &[[f32; 4]] = bytemuck::cast_slice(data);
+                let npix = (width * height) as usize;
+                strategies
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &(s, t))| StrategyImages {
+                        s,
+                        t,
+                        weighted: to_image(&all[2 * i * npix..(2 * i + 1) * npix]),
+                        unweighted: to_image(&all[(2 * i + 1) * npix..(2 * i + 2) * npix]),
+                    })
+                    .collect()
+            }
+            None => Vec::new(),
         };
         let rays = film.iter().map(|p| p[3] as f64).sum();
         Ok(RenderOutput {
@@ -207,6 +352,7 @@ impl Renderer {
             samples_per_pixel: spp,
             dispatch_seconds,
             backend: self.backend(),
+            strategies,
         })
     }
 
@@ -220,15 +366,15 @@ impl Renderer {
         kernel: &str,
         width: u32,
         height: u32,
+        band_rows: u32,
         spp: u32,
         trace: &mut Trace,
     ) -> Result<f64> {
         let device = self.device.clone();
-        // A pass is split into bands of rows so that no single dispatch runs for long
-        // (lavapipe traces roughly a million samples a second).
-        // Bands are whole workgroup rows, and the kernel also stops at a band's end, so
-        // no pixel is rendered twice in a pass.
-        let band_rows = ((BAND_PIXELS / width.max(1)) / WORKGROUP_SIZE_Y).max(1) * WORKGROUP_SIZE_Y;
+        // A pass is split into bands of `band_rows` rows (see band_rows()) so that no
+        // single dispatch runs for long (lavapipe traces roughly a million samples a
+        // second) and BDPT's per-pixel light vertices of a band fit in one buffer. The
+        // kernel stops at a band's end, so no pixel is rendered twice in a pass.
         let bands: Vec<u32> = (0..height).step_by(band_rows as usize).collect();
         let max_batch = 64u32;
         let mut timestamps = Timestamps::new(&device, max_batch * bands.len() as u32)?;
@@ -288,7 +434,8 @@ impl Renderer {
                         );
                         timestamps.end(cmd, span);
                     }
-                    // Passes accumulate into the film: order them.
+                    // Passes accumulate into the film (and BDPT's bands reuse the vertex
+                    // buffer): order them.
                     let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
                     memory_barrier(
                         &device,
@@ -504,6 +651,15 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
     }
 }
 
+/// BDPT's bound on scattering vertices: maxdepth, or BDPT_UNBOUNDED_DEPTH_CAP for -1.
+pub fn bdpt_max_scatter(scene: &Scene) -> u32 {
+    if scene.settings.max_depth < 0 {
+        BDPT_UNBOUNDED_DEPTH_CAP
+    } else {
+        scene.settings.max_depth as u32
+    }
+}
+
 pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams {
     let c = &scene.camera;
     let forward = (c.look_at - c.eye).normalize();
@@ -511,7 +667,12 @@ pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams
     let up = right.cross(forward);
     let s = &scene.settings;
     let (center, radius) = scene_bounds(scene);
-    let max_depth = s.max_depth.max(0) as u32;
+    let bdpt = s.integrator == IntegratorKind::Bdpt;
+    let max_depth = if bdpt {
+        bdpt_max_scatter(scene)
+    } else {
+        s.max_depth.max(0) as u32
+    };
     SceneParams {
         cam_eye: c
             .eye
@@ -529,7 +690,12 @@ pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams
             scene.triangles.len() as u32,
             scene.spheres.len() as u32,
         ],
-        counts: [emitter_count, max_depth, (s.max_depth < 0) as u32, s.spp],
+        counts: [
+            emitter_count,
+            max_depth,
+            (s.max_depth < 0 && !bdpt) as u32,
+            s.spp,
+        ],
         options: [
             match s.nee {
                 NextEventEstimation::Off => NEE_OFF,
@@ -545,6 +711,7 @@ pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams
             match s.integrator {
                 IntegratorKind::Direct => INTEGRATOR_DIRECT,
                 IntegratorKind::AnalyticDirect => INTEGRATOR_ANALYTIC,
+                IntegratorKind::Bdpt => INTEGRATOR_BDPT,
                 _ => INTEGRATOR_PATHTRACER,
             },
         ],
@@ -559,6 +726,7 @@ impl GpuScene {
         bvh: &Bvh,
         backend: Backend,
         seed: u32,
+        record_strategies: bool,
     ) -> Result<GpuScene> {
         let table = emitter_table(scene);
         let bits = f32::from_bits;
@@ -608,7 +776,8 @@ impl GpuScene {
                 ],
             })
             .collect();
-        let params = scene_params(scene, seed, table.emitters.len() as u32);
+        let mut params = scene_params(scene, seed, table.emitters.len() as u32);
+        params.direct[3] = record_strategies as u32;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let triangle_usage = if backend == Backend::RayQuery {
             storage
@@ -690,8 +859,7 @@ impl GpuScene {
     pub fn descriptor_set(
         &self,
         kernels: &Kernels,
-        film: &Buffer,
-        stats: &Buffer,
+        outputs: &[(u32, &Buffer)],
         rq: Option<&RayQueryScene>,
     ) -> Result<vk::DescriptorSet> {
         let s = vk::DescriptorType::STORAGE_BUFFER;
@@ -706,9 +874,8 @@ impl GpuScene {
             (BINDING_MATERIALS, self.materials.raw, s),
             (BINDING_EMITTERS, self.emitters.raw, s),
             (BINDING_EMITTER_CDF, self.emitter_cdf.raw, s),
-            (BINDING_FILM, film.raw, s),
-            (BINDING_STATS, stats.raw, s),
         ];
+        list.extend(outputs.iter().map(|(b, buf)| (*b, buf.raw, s)));
         if let (Some(n), Some(p)) = (&self.bvh_nodes, &self.bvh_prims) {
             list.push((BINDING_BVH_NODES, n.raw, s));
             list.push((BINDING_BVH_PRIMS, p.raw, s));

@@ -21,6 +21,8 @@
 #define BINDING_BVH_NODES 8
 #define BINDING_BVH_PRIMS 9
 #define BINDING_SPLAT 10
+#define BINDING_PATH_VERTICES 11
+#define BINDING_STRATEGIES 12
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -32,6 +34,7 @@
 #define INTEGRATOR_PATHTRACER 0
 #define INTEGRATOR_DIRECT 1
 #define INTEGRATOR_ANALYTIC 2
+#define INTEGRATOR_BDPT 3
 
 // Next-event estimation (SceneParams.options.x).
 #define NEE_OFF 0
@@ -41,6 +44,10 @@
 // Slots of the stats buffer (uint counters).
 #define STAT_NONFINITE 0
 #define STAT_COUNT 4
+
+// BDPT: scattering vertices allowed when maxdepth is -1 (BDPT has no Russian roulette;
+// light-subpath vertices are stored per pixel, so the bound sets the buffer size).
+#define BDPT_UNBOUNDED_DEPTH_CAP 32
 
 // Marks "no emitter" in per-primitive emitter indices.
 #define NO_EMITTER 4294967295
@@ -100,7 +107,17 @@ struct SceneParams {
     uvec4 dims;          // x width, y height, z triangles, w spheres
     uvec4 counts;        // x emitters, y max scattering vertices, z 1 if maxdepth is -1, w total spp
     uvec4 options;       // x nee mode, y russian roulette, z importance sampling, w integrator
-    uvec4 direct;        // x light samples, y stratify, z seed, w unused
+    uvec4 direct;        // x light samples, y stratify, z seed, w 1 to record BDPT strategies
+};
+
+// A vertex of a BDPT light subpath (stored per pixel, read back by the camera subpath).
+// p.w: material (uint bits); n: unit normal on the side the path arrived from, w: dVCM;
+// wi: unit direction toward the previous vertex, w: dVC; beta: throughput (w unused).
+struct GpuPathVertex {
+    vec4 p;
+    vec4 n;
+    vec4 wi;
+    vec4 beta;
 };
 
 // Per-dispatch constants.

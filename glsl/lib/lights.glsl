@@ -118,4 +118,105 @@ float emitter_pdf_solid_angle(uint e, vec3 ref, vec3 p, vec3 ng) {
     if (cos_l == 0.0) return 0.0;
     return emitter_pick_pdf(e) * emitter_area_pdf(e, p) * d2 / cos_l;
 }
+// ---------------------------------------------------------------------------------------
+// Light subpaths (BDPT, MMLT): emission of a ray from an emitter, and the pdfs a vertex on
+// an emitter would have had under that sampling. Conventions, used by the MIS weights:
+//   pdf_pos:  pick * area pdf of the point (delta lights: pick). Light subpaths and light
+//             sampling (sample_emitter) place points with the same density.
+//   pdf_emit: pdf_pos * solid-angle pdf of the direction. Area lights emit cosine-weighted
+//             around the normal (over both sides, each with probability 1/2, when
+//             two-sided); point lights uniformly over the sphere; directional lights
+//             from a disk of the scene's bounding radius, pdf_emit = pick / (pi R^2).
+//   cos_l:    |cos| between the normal and the direction (1 for delta lights).
+
+bool emitter_is_delta(uint e) { return emitters[e].info.x >= EMITTER_POINT; }
+
+struct LightEmission {
+    vec3 p;       // origin of the ray
+    vec3 n;       // unit normal (area lights; zero for delta lights)
+    vec3 dir;     // unit direction of the ray
+    vec3 Le;      // area: radiance along dir; point: intensity; directional: radiance
+    float pdf_pos;
+    float pdf_emit;
+    float cos_l;
+    uint kind;
+};
+
+float emission_direction_pdf(bool two_sided, float cos_l) {
+    return cos_l * (two_sided ? 0.5 * INV_PI : INV_PI);
+}
+
+// Start a light subpath on emitter e. u_pos places the point, u_dir the direction
+// (u_dir.x picks the side of a two-sided emitter).
+bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le) {
+    GpuEmitter em = emitters[e];
+    float pick = em.radiance.w;
+    le.kind = em.info.x;
+    le.n = vec3(0.0);
+    le.cos_l = 1.0;
+    le.Le = em.radiance.xyz;
+    le.pdf_pos = pick;
+    if (em.info.x == EMITTER_POINT) {
+        le.p = em.p0.xyz;
+        le.dir = sample_uniform_sphere(u_dir.yz);
+        le.pdf_emit = pick * (0.25 * INV_PI);
+        return pick > 0.0;
+    }
+    if (em.info.x == EMITTER_DIRECTIONAL) {
+        float r = scene.bounds.w;
+        vec3 t;
+        vec3 b;
+        build_onb(em.p0.xyz, t, b);
+        float rad = r * sqrt(u_pos.x);
+        float phi = TWO_PI * u_pos.y;
+        le.dir = -em.p0.xyz;
+        le.p = scene.bounds.xyz + r * em.p0.xyz + rad * (cos(phi) * t + sin(phi) * b);
+        le.pdf_emit = pick / (PI * r * r);
+        return pick > 0.0;
+    }
+    uint material;
+    float area_pdf;
+    if (em.info.x == EMITTER_TRIANGLE) {
+        vec2 bc = sample_uniform_triangle(u_pos);
+        vec3 e1 = em.p1.xyz - em.p0.xyz;
+        vec3 e2 = em.p2.xyz - em.p0.xyz;
+        le.p = em.p0.xyz + bc.x * e1 + bc.y * e2;
+        le.n = normalize(cross(e1, e2));
+        area_pdf = 1.0 / em.p0.w;
+        material = floatBitsToUint(triangles[em.info.y].v0.w);
+    } else {
+        GpuSphere sp = spheres[em.info.y];
+        vec3 q = sample_uniform_sphere(u_pos);
+        le.p = sphere_to_world_point(sp, q);
+        vec3 nu = sphere_normal_unnormalized(sp, q);
+        le.n = normalize(nu);
+        area_pdf = 1.0 / (4.0 * PI * em.p1.x * length(nu));
+        material = sp.info.x;
+    }
+    bool two_sided = em.info.z != 0u;
+    vec3 side = (two_sided && u_dir.x < 0.5) ? -le.n : le.n;
+    vec3 local = sample_cosine_hemisphere(u_dir.yz);
+    le.dir = to_world(local, side);
+    le.cos_l = local.z;
+    le.pdf_pos = pick * area_pdf;
+    le.pdf_emit = le.pdf_pos * emission_direction_pdf(two_sided, le.cos_l);
+    le.Le = emitted_radiance(material, le.n, le.dir);
+    return le.pdf_emit > 0.0 && le.Le != vec3(0.0);
+}
+
+// pdf_pos and pdf_emit (conventions above) of the point p, normal ng, on emitter e
+// emitting toward the unit direction w. Delta lights ignore p, ng and w.
+void emitter_emission_pdfs(uint e, vec3 p, vec3 ng, vec3 w, out float pdf_pos, out float pdf_emit) {
+    GpuEmitter em = emitters[e];
+    float pick = em.radiance.w;
+    pdf_pos = pick;
+    if (em.info.x == EMITTER_POINT) {
+        pdf_emit = pick * (0.25 * INV_PI);
+    } else if (em.info.x == EMITTER_DIRECTIONAL) {
+        pdf_emit = pick / (PI * scene.bounds.w * scene.bounds.w);
+    } else {
+        pdf_pos = pick * emitter_area_pdf(e, p);
+        pdf_emit = pdf_pos * emission_direction_pdf(em.info.z != 0u, abs(dot(ng, w)));
+    }
+}
 #endif

@@ -62,6 +62,15 @@ pub struct SceneParams {
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuPathVertex {
+    pub p: [f32; 4],
+    pub n: [f32; 4],
+    pub wi: [f32; 4],
+    pub beta: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct PassParams {
     pub pass: [u32; 4],
 }
@@ -96,6 +105,7 @@ pub fn layouts() -> Vec<StructLayout> {
             options,
             direct
         ),
+        layout!(GpuPathVertex, p, n, wi, beta),
         layout!(PassParams, pass),
     ]
 }
@@ -106,6 +116,7 @@ const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuEmitter>() == 80);
 const _: () = assert!(std::mem::size_of::<SceneParams>() == 144);
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 64);
 
 /// Member offsets of named structs in a SPIR-V module: (struct name, member name, offset).
 pub fn spirv_member_offsets(code: &[u8]) -> Vec<(String, String, u32)> {

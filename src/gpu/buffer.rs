@@ -112,7 +112,7 @@ impl Buffer {
     }
 
     /// A device-local buffer that transfers can fill.
-    fn device_local(
+    pub fn device_local(
         device: &Arc<Device>,
         name: &str,
         size: u64,

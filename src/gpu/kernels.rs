@@ -44,6 +44,9 @@ pub fn bindings(backend: Backend) -> Vec<(u32, vk::DescriptorType)> {
         (BINDING_EMITTER_CDF, storage),
         (BINDING_FILM, storage),
         (BINDING_STATS, storage),
+        (BINDING_SPLAT, storage),
+        (BINDING_PATH_VERTICES, storage),
+        (BINDING_STRATEGIES, storage),
     ];
     match backend {
         Backend::RayQuery => b.push((BINDING_TLAS, vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)),
