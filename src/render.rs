@@ -114,6 +114,9 @@ pub struct Renderer {
     pub show_progress: bool,
     /// BDPT: also return each (s,t) strategy's weighted and unweighted images.
     pub record_strategies: bool,
+    /// Caps the BDPT light-vertex buffer below the device's limit (tests use it to force
+    /// many small tiles).
+    pub vertex_buffer_limit: Option<u64>,
 }
 
 impl Renderer {
@@ -146,6 +149,7 @@ impl Renderer {
             kernels,
             show_progress: false,
             record_strategies: false,
+            vertex_buffer_limit: None,
         })
     }
 
@@ -187,7 +191,10 @@ impl Renderer {
         } else {
             0
         };
-        let rows = band_rows(width, height, vertex_bytes, limit.min(VERTEX_BUFFER_BUDGET))?;
+        let vertex_limit = limit
+            .min(VERTEX_BUFFER_BUDGET)
+            .min(self.vertex_buffer_limit.unwrap_or(u64::MAX));
+        let rows = band_rows(width, height, vertex_bytes, vertex_limit)?;
         let strategies = if bdpt && self.record_strategies {
             bdpt_strategies(max_scatter)
         } else {
@@ -917,6 +924,42 @@ mod tests {
             "|det| of a 0.5 scale"
         );
         assert_eq!(t.triangle_emitter, vec![0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn bdpt_bands_fit_the_storage_buffer_range() {
+        let range = 128 << 20; // lavapipe
+        // 1920x1080 at maxdepth 10: 9 stored vertices (576 bytes) per pixel.
+        let per_pixel = bdpt_vertex_bytes_per_pixel(10);
+        assert_eq!(per_pixel, 9 * 64);
+        let rows = band_rows(1920, 1080, per_pixel, range).unwrap();
+        assert!(rows as u64 * 1920 * per_pixel <= range);
+        assert_eq!(rows % WORKGROUP_SIZE_Y, 0);
+        assert!(rows >= 64, "{rows}");
+        // The unbounded cap still fits.
+        let per_pixel = bdpt_vertex_bytes_per_pixel(BDPT_UNBOUNDED_DEPTH_CAP);
+        let rows = band_rows(1920, 1080, per_pixel, range).unwrap();
+        assert!(rows >= 1 && rows as u64 * 1920 * per_pixel <= range);
+        // Fewer rows than a workgroup when that is all that fits; an error when not even
+        // one row fits.
+        assert_eq!(band_rows(100, 50, 64, 100 * 64 * 3).unwrap(), 3);
+        assert!(band_rows(100, 50, 64, 100 * 64 - 1).is_err());
+        // Without vertices, bands are about BAND_PIXELS.
+        assert_eq!(band_rows(512, 4096, 0, range).unwrap(), BAND_PIXELS / 512);
+        assert_eq!(band_rows(64, 16, 0, range).unwrap(), 16);
+    }
+
+    #[test]
+    fn bdpt_strategy_list_counts_every_s_t_pair() {
+        let st = bdpt_strategies(5);
+        assert_eq!(st.len(), 6 * 9 / 2);
+        assert_eq!(&st[..5], &[(0, 2), (1, 1), (0, 3), (1, 2), (2, 1)]);
+        assert!(st.iter().all(|&(s, t)| t >= 1 && s + t <= 7));
+        // The kernel's index n(n+3)/2 + s.
+        for (i, &(s, t)) in st.iter().enumerate() {
+            let n = s + t - 2;
+            assert_eq!(i as u32, n * (n + 3) / 2 + s);
+        }
     }
 
     #[test]
