@@ -1,6 +1,7 @@
 //! lightpath: a GPU renderer on raw Vulkan. Path tracing, bidirectional path tracing
 //! and multiplexed Metropolis light transport, converging to the same image.
 pub mod accel;
+pub mod bdpt;
 pub mod bench;
 pub mod bsdf;
 pub mod cli;
