@@ -54,6 +54,10 @@ pub struct RenderArgs {
     /// sS_tT_unweighted.exr for every strategy (s light vertices, t camera vertices) into DIR.
     #[arg(long, value_name = "DIR")]
     pub bdpt_strategies: Option<PathBuf>,
+    /// Stop after about this many seconds of rendering (wall clock, passes are whole);
+    /// the image is the mean of the passes done. spp still caps the passes.
+    #[arg(long, value_name = "SECONDS")]
+    pub time_limit: Option<f64>,
     /// No progress bar and no summary table.
     #[arg(short, long)]
     pub quiet: bool,
@@ -113,6 +117,11 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
             bail!("--max-depth must be -1 (unbounded) or at least 0, got {d}");
         }
         scene.settings.max_depth = d;
+    }
+    if let Some(t) = args.time_limit {
+        if !(t > 0.0 && t.is_finite()) {
+            bail!("--time-limit must be a positive number of seconds, got {t}");
+        }
     }
     if let Some((w, h)) = args.size {
         scene.width = w;
@@ -176,6 +185,7 @@ fn render_command(args: &RenderArgs) -> Result<()> {
     })?;
     renderer.show_progress = !args.quiet;
     renderer.record_strategies = args.bdpt_strategies.is_some();
+    renderer.time_limit = args.time_limit;
     let out = renderer.render(&scene, args.seed, &mut trace)?;
     trace.cpu("write image", || {
         io::write_image(&output, &out.image, scene.settings.gamma)

@@ -114,6 +114,10 @@ pub struct Renderer {
     pub show_progress: bool,
     /// BDPT: also return each (s,t) strategy's weighted and unweighted images.
     pub record_strategies: bool,
+    /// Stop after the first batch of passes that ends this many seconds (wall clock) after
+    /// the first pass started; the image is then the mean of the passes done. The scene's
+    /// spp still caps the passes. For equal-time comparisons.
+    pub time_limit: Option<f64>,
     /// Caps the BDPT light-vertex buffer below the device's limit (tests use it to force
     /// many small tiles).
     pub vertex_buffer_limit: Option<u64>,
@@ -150,6 +154,7 @@ impl Renderer {
             show_progress: false,
             record_strategies: false,
             vertex_buffer_limit: None,
+            time_limit: None,
         })
     }
 
@@ -296,9 +301,16 @@ impl Renderer {
                 })
         })?;
 
-        let spp = scene.settings.spp.max(1);
-        let dispatch_seconds =
-            self.dispatch_passes(pipeline, set, kernel, width, height, rows, spp, trace)?;
+        let (dispatch_seconds, spp) = self.dispatch_passes(
+            pipeline,
+            set,
+            kernel,
+            width,
+            height,
+            rows,
+            scene.settings.spp.max(1),
+            trace,
+        )?;
 
         let (film_data, stat_data, splat_data, strategy_data) =
             trace.cpu("readback", || -> Result<_> {
@@ -363,8 +375,9 @@ impl Renderer {
         })
     }
 
-    /// Dispatch `spp` passes of one sample per pixel, several per submission, with GPU
-    /// timestamps around each dispatch and a progress bar over passes.
+    /// Dispatch `spp` passes of one sample per pixel (fewer if `time_limit` runs out),
+    /// several per submission, with GPU timestamps around each dispatch and a progress
+    /// bar over passes. Returns the time in dispatches and the passes done.
     #[allow(clippy::too_many_arguments)]
     fn dispatch_passes(
         &mut self,
@@ -376,7 +389,7 @@ impl Renderer {
         band_rows: u32,
         spp: u32,
         trace: &mut Trace,
-    ) -> Result<f64> {
+    ) -> Result<(f64, u32)> {
         let device = self.device.clone();
         // A pass is split into bands of `band_rows` rows (see band_rows()) so that no
         // single dispatch runs for long (lavapipe traces roughly a million samples a
@@ -402,7 +415,14 @@ impl Renderer {
         let mut done = 0u32;
         let mut batch = 1u32;
         let mut dispatch_seconds = 0.0;
+        let start = Instant::now();
         while done < spp {
+            if self
+                .time_limit
+                .is_some_and(|t| done > 0 && start.elapsed().as_secs_f64() >= t)
+            {
+                break;
+            }
             let n = batch.min(spp - done);
             let stage = format!("running {kernel} passes {}..{}", done, done + n);
             let cmd = device.begin_commands(&stage)?;
@@ -485,7 +505,7 @@ impl Renderer {
         if let Some(bar) = progress {
             bar.finish_and_clear();
         }
-        Ok(dispatch_seconds)
+        Ok((dispatch_seconds, done))
     }
 }
 

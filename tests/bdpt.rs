@@ -210,3 +210,28 @@ fn bdpt_is_deterministic_per_seed_and_tiling_does_not_change_the_image() {
         "tiled render differs from the untiled one"
     );
 }
+
+#[test]
+fn bdpt_renders_every_project_and_course_scene() {
+    let mut paths = walk(&repo().join("scenes"));
+    let course = walk(&repo().join("../shared/cse168-scenes"));
+    assert!(
+        course.len() >= 15,
+        "expected the 15 course scenes beside the checkout (../shared), found {}",
+        course.len()
+    );
+    paths.extend(course);
+    paths.sort();
+    for path in paths {
+        let s = lightpath::scene::parse_file(&path).expect("scene parses");
+        let mut s = with_integrator(s, IntegratorKind::Bdpt, 2);
+        s.width = 16;
+        s.height = 12;
+        let m = render(&s, 0, Bvh).mean();
+        assert!(
+            m.iter().all(|v| v.is_finite() && *v >= 0.0) && m.iter().any(|v| *v > 0.0),
+            "{}: mean {m:?}",
+            path.display()
+        );
+    }
+}

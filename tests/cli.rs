@@ -180,3 +180,39 @@ fn devices_lists_the_device_and_bad_device_choice_is_an_error() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-gpu"));
     assert_eq!(files_in(&d), vec!["ok.test"]);
 }
+
+#[test]
+fn bdpt_strategy_images_are_written_and_need_bdpt() {
+    let d = scratch("strategies");
+    std::fs::write(d.join("s.test"), GOOD).unwrap();
+    // Not with another integrator: an error before anything is written.
+    let out = lightpath(
+        &["render", "s.test", "-o", "out.exr", "-q", "--bdpt-strategies", "st"],
+        &d,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("--bdpt-strategies needs the bdpt integrator"), "message: {err}");
+    assert_eq!(files_in(&d), vec!["s.test"]);
+    // A bad time limit is refused before rendering.
+    let out = lightpath(&["render", "s.test", "-o", "out.exr", "-q", "--time-limit", "0"], &d);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("--time-limit"), "message: {err}");
+    assert_eq!(files_in(&d), vec!["s.test"]);
+    // maxdepth 2: (2 + 1)(2 + 4) / 2 = 9 strategies, a weighted and an unweighted image each.
+    let out = lightpath(
+        &[
+            "render", "s.test", "-o", "out.exr", "-q", "--integrator", "bdpt", "--max-depth", "2",
+            "--bdpt-strategies", "st",
+        ],
+        &d,
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let files = files_in(&d.join("st"));
+    assert_eq!(files.len(), 18, "{files:?}");
+    for (s, t) in [(0, 2), (1, 1), (0, 4), (2, 2), (3, 1)] {
+        assert!(files.contains(&format!("s{s}_t{t}.exr")), "{files:?}");
+        assert!(files.contains(&format!("s{s}_t{t}_unweighted.exr")), "{files:?}");
+    }
+}

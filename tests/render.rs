@@ -298,21 +298,6 @@ fn every_course_scene_renders_at_small_size() {
     assert!(count >= 15, "expected the 15 course scenes, found {count}");
 }
 
-fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
-    let mut out = Vec::new();
-    if let Ok(entries) = std::fs::read_dir(dir) {
-        for e in entries.flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                out.extend(walk(&p));
-            } else if p.extension().is_some_and(|x| x == "test") {
-                out.push(p);
-            }
-        }
-    }
-    out
-}
-
 #[test]
 fn two_lights_with_a_point_light_nee_on_and_mis_agree() {
     // A point light cannot be hit by BSDF sampling, so only on and mis apply.

@@ -126,3 +126,19 @@ pub fn exact(value: [f64; 3], regions: usize) -> Estimate {
         stderr: vec![[0.0; 3]; regions],
     }
 }
+
+/// Every .test file under dir, recursively.
+pub fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                out.extend(walk(&p));
+            } else if p.extension().is_some_and(|x| x == "test") {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
