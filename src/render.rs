@@ -460,19 +460,20 @@ impl Renderer {
                             1,
                         );
                         timestamps.end(cmd, span);
+                        // Every dispatch is ordered after the previous one: passes
+                        // accumulate into the same film pixels, and the bands of a BDPT
+                        // pass reuse one light-vertex buffer.
+                        let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
+                        memory_barrier(
+                            &device,
+                            cmd,
+                            (compute, vk::AccessFlags::SHADER_WRITE),
+                            (
+                                compute,
+                                vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
+                            ),
+                        );
                     }
-                    // Passes accumulate into the film (and BDPT's bands reuse the vertex
-                    // buffer): order them.
-                    let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
-                    memory_barrier(
-                        &device,
-                        cmd,
-                        (compute, vk::AccessFlags::SHADER_WRITE),
-                        (
-                            compute,
-                            vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
-                        ),
-                    );
                 }
             }
             let submit_us = trace.now_us();
