@@ -14,6 +14,8 @@
 //
 // Films: film[pixel] (camera strategies, written only by the pixel's own invocation) and
 // splat[] (t = 1 strategies, float atomics). The image is (film + splat) / spp.
+// A contribution that comes out NaN or infinite is left out and counted in
+// stats[STAT_NONFINITE] (per contribution, not per sample).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_atomic_float : require
@@ -100,15 +102,25 @@ void record_strategy(uint s, uint t, uint pixel, vec3 weighted, vec3 unweighted)
     }
 }
 
+// Add one strategy's MIS-weighted contribution to the camera film's running sum L,
+// unless it is NaN or infinite (then it is counted and left out, and the sample's other
+// strategies still count).
+void add_camera(inout vec3 L, uint s, uint t, uint pixel, vec3 unweighted, float weight) {
+    vec3 v = unweighted * weight;
+    if (!finite3(v) || !finite3(unweighted)) { nonfinite++; return; }
+    L += v;
+    record_strategy(s, t, pixel, v, unweighted);
+}
+
 void add_splat(uvec2 px, uint s, vec3 unweighted, float weight) {
     vec3 v = unweighted * weight;
-    if (!finite3(v)) { nonfinite++; return; }
-    if (v == vec3(0.0)) return;
+    if (!finite3(v) || !finite3(unweighted)) { nonfinite++; return; }
     uint pixel = px.y * scene.dims.x + px.x;
+    record_strategy(s, 1u, pixel, v, unweighted);
+    if (v == vec3(0.0)) return;
     atomicAdd(splat[pixel * 4u + 0u], v.x);
     atomicAdd(splat[pixel * 4u + 1u], v.y);
     atomicAdd(splat[pixel * 4u + 2u], v.z);
-    record_strategy(s, 1u, pixel, v, unweighted);
 }
 
 // t = 1 from a light vertex on a surface: p, n (toward wi), material, wi toward the
@@ -247,10 +259,7 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
                 float pdf_emit;
                 emitter_emission_pdfs(s.emitter, s.p, s.ng, wo, pdf_pos, pdf_emit);
                 float w_cam = mis(pdf_pos) * dvcm + mis(pdf_emit) * dvc;
-                vec3 c = beta * Le;
-                float weight = 1.0 / (1.0 + w_cam);
-                L += weight * c;
-                record_strategy(0u, k + 1u, pixel_index, weight * c, c);
+                add_camera(L, 0u, k + 1u, pixel_index, beta * Le, 1.0 / (1.0 + w_cam));
             }
         }
         if (k > max_scatter) break;
@@ -286,11 +295,7 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
                         float dist = length(to);
                         vis = !trace_occluded(ro, to / dist, dist);
                     }
-                    if (vis) {
-                        vec3 c = beta * f * ls.L * (cos_z / ls.pdf);
-                        L += weight * c;
-                        record_strategy(1u, k + 1u, pixel_index, weight * c, c);
-                    }
+                    if (vis) add_camera(L, 1u, k + 1u, pixel_index, beta * f * ls.L * (cos_z / ls.pdf), weight);
                 }
             }
         }
@@ -320,8 +325,7 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
             float w_cam = mis(light_dir * cos_z / d2) * (dvcm + dvc * mis(cam_rev));
             float weight = 1.0 / (w_light + 1.0 + w_cam);
             if (!visible(s.p, n, y.p.xyz, y.n.xyz)) continue;
-            L += weight * c;
-            record_strategy(j + 1u, k + 1u, pixel_index, weight * c, c);
+            add_camera(L, j + 1u, k + 1u, pixel_index, c, weight);
         }
 
         // Extend the camera subpath.
@@ -357,12 +361,7 @@ void main() {
     for (uint i = 0u; i < pass_params.pass.y; ++i) {
         Rng rng = rng_init(scene.direct.z, index, pass_params.pass.x + i);
         uint stored = light_subpath(base, rng);
-        vec3 L = camera_subpath(pixel, base, stored, rng);
-        if (finite3(L)) {
-            sum += L;
-        } else {
-            nonfinite++;
-        }
+        sum += camera_subpath(pixel, base, stored, rng);
     }
     if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
     film[index] += vec4(sum, float(rays_traced));

@@ -10,13 +10,25 @@ use crate::bsdf::{BsdfParams, SampleMode};
 use glam::Vec3;
 use std::f32::consts::PI;
 
-/// A path x_0 .. x_k: x_0 on an area light, x_1 .. x_{k-1} on surfaces, x_k the camera.
+/// The emitter at the start of a path, with the light-subpath sampling of lights.glsl.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightKind {
+    /// Cosine-weighted emission; two-sided emitters pick a side with probability 1/2.
+    Area { two_sided: bool },
+    /// Uniform emission over the sphere; cannot be hit.
+    Point,
+    /// Parallel rays from a disk with this area pdf (1 / (π R²)); cannot be hit.
+    Directional { disk_pdf: f32 },
+}
+
+/// A path x_0 .. x_k: x_0 on a light, x_1 .. x_{k-1} on surfaces, x_k the camera.
 #[derive(Clone, Debug)]
 pub struct MisPath {
+    pub light: LightKind,
     pub light_p: Vec3,
-    /// The light's unit normal, on the side it emits toward x_1 (one-sided light).
+    /// Area lights: the unit normal (either side for two-sided emitters).
     pub light_n: Vec3,
-    /// pick probability × area pdf of the light point.
+    /// pick probability × area pdf of the light point (delta lights: pick probability).
     pub light_pdf_pos: f32,
     pub surfaces: Vec<(Vec3, Vec3, BsdfParams)>,
     pub eye: Vec3,
@@ -56,8 +68,15 @@ impl MisPath {
         (self.pos(a) - self.pos(b)).length_squared()
     }
 
-    /// |cos| at vertex i (light or surface) toward vertex j.
+    fn delta_light(&self) -> bool {
+        !matches!(self.light, LightKind::Area { .. })
+    }
+
+    /// |cos| at vertex i (light or surface) toward vertex j; 1 at a delta light.
     fn cos(&self, i: usize, j: usize) -> f32 {
+        if i == 0 && self.delta_light() {
+            return 1.0;
+        }
         let n = if i == 0 {
             self.light_n
         } else {
@@ -80,17 +99,42 @@ impl MisPath {
         1.0 / (self.pixel_area * c * c * c)
     }
 
+    /// pdf_pos × the pdf of emitting toward x_j (directional: pick × disk pdf).
     fn pdf_emit_toward(&self, j: usize) -> f32 {
-        self.light_pdf_pos * self.cos(0, j) / PI
+        match self.light {
+            LightKind::Area { two_sided } => {
+                let sides = if two_sided { 0.5 } else { 1.0 };
+                self.light_pdf_pos * self.cos(0, j) / PI * sides
+            }
+            LightKind::Point => self.light_pdf_pos / (4.0 * PI),
+            LightKind::Directional { disk_pdf } => self.light_pdf_pos * disk_pdf,
+        }
+    }
+
+    /// Squared distance of x_0 and x_1 as the pdfs see it: 1 for a directional light,
+    /// whose rays are parallel.
+    fn first_dist2(&self) -> f32 {
+        match self.light {
+            LightKind::Directional { .. } => 1.0,
+            _ => self.dist2(0, 1),
+        }
     }
 
     /// dVCM and dVC of light vertex x_last, as the light subpath carries them.
     fn light_quantities(&self, last: usize) -> (f32, f32) {
         let pdf_emit = self.pdf_emit_toward(1);
         let mut dvcm = mis(self.light_pdf_pos / pdf_emit);
-        let mut dvc = mis(self.cos(0, 1) / pdf_emit);
+        let mut dvc = if self.delta_light() {
+            0.0
+        } else {
+            mis(self.cos(0, 1) / pdf_emit)
+        };
         for i in 1..=last {
-            let d2 = self.dist2(i - 1, i);
+            let d2 = if i == 1 {
+                self.first_dist2()
+            } else {
+                self.dist2(i - 1, i)
+            };
             let cos_in = self.cos(i, i - 1);
             dvcm *= mis(d2) / mis(cos_in);
             dvc /= mis(cos_in);
@@ -130,7 +174,10 @@ impl MisPath {
         let k = self.k();
         let n = self.light_paths;
         if s == 0 {
-            // The camera subpath hits the light.
+            // The camera subpath hits the light (never a delta light).
+            if self.delta_light() {
+                return 0.0;
+            }
             let (dvcm, dvc) = self.camera_quantities(0);
             let w_cam = mis(self.light_pdf_pos) * dvcm + mis(self.pdf_emit_toward(1)) * dvc;
             return 1.0 / (1.0 + w_cam);
@@ -140,6 +187,10 @@ impl MisPath {
             let cos_y = self.cos(k - 1, k);
             let pdf_cam_a = self.camera_pdf_w(k - 1) * cos_y / self.dist2(k - 1, k);
             if k == 1 {
+                // The light point seen by the camera (delta lights are not drawn).
+                if self.delta_light() {
+                    return 0.0;
+                }
                 return 1.0 / (1.0 + mis(pdf_cam_a / (n * self.light_pdf_pos)));
             }
             let (dvcm, dvc) = self.light_quantities(k - 1);
@@ -149,13 +200,17 @@ impl MisPath {
         if s == 1 {
             // A light sample at camera vertex x_1.
             let (dvcm, dvc) = self.camera_quantities(1);
-            let d2 = self.dist2(0, 1);
+            let d2 = self.first_dist2();
             let cos_l = self.cos(0, 1);
             let cos_z = self.cos(1, 0);
             let light_pdf_w = self.light_pdf_pos * d2 / cos_l;
             let dir = self.pdf(1, 2, 0);
             let rev = self.pdf(1, 0, 2);
-            let w_light = mis(dir / light_pdf_w);
+            let w_light = if self.delta_light() {
+                0.0
+            } else {
+                mis(dir / light_pdf_w)
+            };
             let w_cam = mis(self.pdf_emit_toward(1) * cos_z / (self.light_pdf_pos * d2))
                 * (dvcm + dvc * mis(rev));
             return 1.0 / (w_light + 1.0 + w_cam);
@@ -183,7 +238,10 @@ impl MisPath {
             let area = |from: usize| self.cos(i, from) as f64 / self.dist2(i, from) as f64;
             match i {
                 0 => self.light_pdf_pos as f64,
-                1 => (self.cos(0, 1) / PI) as f64 * area(0),
+                1 => {
+                    let dir_pdf = (self.pdf_emit_toward(1) / self.light_pdf_pos) as f64;
+                    dir_pdf * self.cos(1, 0) as f64 / self.first_dist2() as f64
+                }
                 _ => self.pdf(i - 1, i - 2, i) as f64 * area(i - 1),
             }
         };
@@ -197,6 +255,9 @@ impl MisPath {
             }
         };
         let p = |s: usize| -> f64 {
+            if s == 0 && self.delta_light() {
+                return 0.0; // a delta light cannot be hit
+            }
             let light: f64 = (0..s).map(fwd).product();
             let camera: f64 = (s..k).map(rev).product();
             // Light tracing runs light_paths samples per pixel estimate.
@@ -248,7 +309,7 @@ mod tests {
 
     /// A random path with k segments whose every vertex sees its neighbours from the
     /// front, and whose second-to-last vertex is in front of the camera.
-    fn random_path(rng: &mut Rng, k: usize, mode: SampleMode) -> MisPath {
+    fn random_path(rng: &mut Rng, k: usize, mode: SampleMode, light: LightKind) -> MisPath {
         loop {
             let points: Vec<Vec3> = (0..=k).map(|_| rng.vec(-2.0, 2.0)).collect();
             if (1..=k).any(|i| (points[i] - points[i - 1]).length() < 0.3) {
@@ -267,7 +328,7 @@ mod tests {
                     (points[i], n, random_bsdf(rng))
                 })
                 .collect();
-            let light_n = (unit(points[0], points[1]) + 0.8 * rng.vec(-1.0, 1.0)).normalize();
+            let mut light_n = (unit(points[0], points[1]) + 0.8 * rng.vec(-1.0, 1.0)).normalize();
             let forward = (unit(points[k], points[k - 1]) + 0.4 * rng.vec(-1.0, 1.0)).normalize();
             if !ok
                 || light_n.dot(unit(points[0], points[1])) < 0.05
@@ -275,11 +336,20 @@ mod tests {
             {
                 continue;
             }
+            if light == (LightKind::Area { two_sided: true }) && rng.next() < 0.5 {
+                light_n = -light_n;
+            }
             let side = 2.0 * (0.4f32).tan() / 48.0;
+            let delta = !matches!(light, LightKind::Area { .. });
             return MisPath {
+                light,
                 light_p: points[0],
                 light_n,
-                light_pdf_pos: rng.range(0.1, 10.0),
+                light_pdf_pos: if delta {
+                    rng.range(0.05, 1.0)
+                } else {
+                    rng.range(0.1, 10.0)
+                },
                 surfaces,
                 eye: points[k],
                 forward,
@@ -295,14 +365,23 @@ mod tests {
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         let mut worst_sum = 0.0f64;
         let mut some_light_tracing_weight = false;
-        for case in 0..3000 {
-            let k = 1 + case % 7;
-            let mode = if case % 3 == 0 {
-                SampleMode::Cosine
-            } else {
-                SampleMode::Brdf
+        for case in 0..4000 {
+            let mode = [SampleMode::Brdf, SampleMode::Cosine, SampleMode::Hemisphere][case % 3];
+            let light = match case % 4 {
+                0 => LightKind::Area { two_sided: false },
+                1 => LightKind::Area { two_sided: true },
+                2 => LightKind::Point,
+                _ => LightKind::Directional {
+                    disk_pdf: 1.0 / (PI * rng.range(2.0, 5.0).powi(2)),
+                },
             };
-            let path = random_path(&mut rng, k, mode);
+            // A delta light seen directly by the camera (k = 1) is not drawn.
+            let k = if matches!(light, LightKind::Area { .. }) {
+                1 + case % 7
+            } else {
+                2 + case % 6
+            };
+            let path = random_path(&mut rng, k, mode, light);
             let mut sum = 0.0f64;
             for s in 0..=k {
                 let w = path.weight_recursive(s) as f64;

@@ -200,19 +200,24 @@ impl Renderer {
             .min(VERTEX_BUFFER_BUDGET)
             .min(self.vertex_buffer_limit.unwrap_or(u64::MAX));
         let rows = band_rows(width, height, vertex_bytes, vertex_limit)?;
-        let strategies = if bdpt && self.record_strategies {
+        let record = bdpt && self.record_strategies;
+        let strategy_count = if record {
+            (max_scatter as u64 + 1) * (max_scatter as u64 + 4) / 2
+        } else {
+            0
+        };
+        let strategy_bytes = strategy_count * 2 * film_bytes;
+        if strategy_bytes > limit {
+            bail!(
+                "recording {strategy_count} BDPT strategies of a {width}x{height} image needs {strategy_bytes} bytes, more than {}'s storage-buffer range ({limit} bytes); use a smaller --size or --max-depth",
+                self.device.info.name
+            );
+        }
+        let strategies = if record {
             bdpt_strategies(max_scatter)
         } else {
             Vec::new()
         };
-        let strategy_bytes = strategies.len() as u64 * 2 * film_bytes;
-        if strategy_bytes > limit {
-            bail!(
-                "recording {} BDPT strategies of a {width}x{height} image needs {strategy_bytes} bytes, more than {}'s storage-buffer range ({limit} bytes); use a smaller --size or --max-depth",
-                strategies.len(),
-                self.device.info.name
-            );
-        }
         let mut scene = scene.clone();
         let bvh = trace.cpu("BVH build", || crate::accel::prepare(&mut scene))?;
         let gpu_scene = trace.cpu("scene upload", || {

@@ -129,8 +129,6 @@ float emitter_pdf_solid_angle(uint e, vec3 ref, vec3 p, vec3 ng) {
 //             from a disk of the scene's bounding radius, pdf_emit = pick / (pi R^2).
 //   cos_l:    |cos| between the normal and the direction (1 for delta lights).
 
-bool emitter_is_delta(uint e) { return emitters[e].info.x >= EMITTER_POINT; }
-
 struct LightEmission {
     vec3 p;       // origin of the ray
     vec3 n;       // unit normal (area lights; zero for delta lights)
