@@ -1,6 +1,7 @@
-//! `lightpath bench`: path-tracing speed on the Cornell box for each visibility
-//! backend, as samples/s and rays/s, with ratios against a reference measured in the
-//! same run (the BVH backend, and Mitsuba 3's CPU path tracer when it is installed).
+//! `lightpath bench`: path-tracing and BDPT speed on the Cornell box for each
+//! visibility backend, as samples/s and rays/s, with ratios against a reference
+//! measured in the same run (the first row: the BVH backend's path tracer, or Mitsuba
+//! 3's CPU path tracer when it is asked for).
 use crate::render::{AccelChoice, Renderer};
 use crate::scene;
 use crate::trace::Trace;
@@ -24,6 +25,9 @@ pub struct BenchArgs {
     /// Renders per measurement (the median is reported).
     #[arg(long, default_value_t = 3)]
     pub repeats: u32,
+    /// Integrators to measure, in order (pathtracer, bdpt).
+    #[arg(long, value_delimiter = ',', default_value = "pathtracer,bdpt")]
+    pub integrators: Vec<String>,
     /// Also measure Mitsuba 3 (python3 with the `mitsuba` package, variant llvm_ad_rgb).
     #[arg(long)]
     pub mitsuba: bool,
@@ -40,6 +44,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     scene.width = args.size;
     scene.height = args.size;
     scene.settings.spp = args.spp;
+    let mut integrators = Vec::new();
+    for name in &args.integrators {
+        match scene::IntegratorKind::from_name(name) {
+            Some(k @ (scene::IntegratorKind::PathTracer | scene::IntegratorKind::Bdpt)) => {
+                integrators.push(k)
+            }
+            _ => anyhow::bail!("--integrators: expected pathtracer and/or bdpt, got {name:?}"),
+        }
+    }
     let mut results = Vec::new();
     for accel in [AccelChoice::Bvh, AccelChoice::RayQuery] {
         let mut renderer = match Renderer::new(args.device.as_deref(), accel) {
@@ -49,34 +62,43 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 continue;
             }
         };
-        let mut trace = Trace::new();
-        // A first short render warms up pipelines and caches (lavapipe JITs kernels at
-        // their first dispatch).
-        let mut warm = scene.clone();
-        warm.settings.spp = 1;
-        renderer.render(&warm, 1, &mut trace)?;
-        // The median of a few renders: a shared CPU machine is noisy.
-        let mut runs = Vec::new();
-        for seed in 0..args.repeats.max(1) {
-            let out = renderer.render(&scene, seed, &mut trace)?;
-            let samples = out.samples_per_pixel as f64 * scene.width as f64 * scene.height as f64;
-            runs.push((
-                samples / out.dispatch_seconds,
-                out.rays / out.dispatch_seconds,
-                out.backend,
-            ));
+        for &integrator in &integrators {
+            let mut scene = scene.clone();
+            scene.settings.integrator = integrator;
+            let mut trace = Trace::new();
+            // A first short render warms up pipelines and caches (lavapipe JITs kernels
+            // at their first dispatch).
+            let mut warm = scene.clone();
+            warm.settings.spp = 1;
+            renderer.render(&warm, 1, &mut trace)?;
+            // The median of a few renders: a shared CPU machine is noisy.
+            let mut runs = Vec::new();
+            for seed in 0..args.repeats.max(1) {
+                let out = renderer.render(&scene, seed, &mut trace)?;
+                let samples =
+                    out.samples_per_pixel as f64 * scene.width as f64 * scene.height as f64;
+                runs.push((
+                    samples / out.dispatch_seconds,
+                    out.rays / out.dispatch_seconds,
+                    out.backend,
+                ));
+            }
+            runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let (sps, rps, backend) = runs[runs.len() / 2];
+            let short = match integrator {
+                scene::IntegratorKind::Bdpt => "bdpt",
+                _ => "pt",
+            };
+            results.push(BenchResult {
+                name: format!(
+                    "lightpath {short}, {} ({})",
+                    backend.name(),
+                    renderer.device.info.name
+                ),
+                samples_per_second: sps,
+                rays_per_second: Some(rps),
+            });
         }
-        runs.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let (sps, rps, backend) = runs[runs.len() / 2];
-        results.push(BenchResult {
-            name: format!(
-                "lightpath pt, {} ({})",
-                backend.name(),
-                renderer.device.info.name
-            ),
-            samples_per_second: sps,
-            rays_per_second: Some(rps),
-        });
     }
     if args.mitsuba {
         let mut runs = Vec::new();

@@ -260,15 +260,15 @@ fn compare_command(a: &Path, b: &Path) -> Result<()> {
     let ia = io::read_exr(a)?;
     let ib = io::read_exr(b)?;
     let c = io::compare(&ia, &ib)?;
-    println!(
-        "mean A: {:.6} {:.6} {:.6}",
-        c.mean_a[0], c.mean_a[1], c.mean_a[2]
+    let text = format!(
+        "mean A: {:.6} {:.6} {:.6}\nmean B: {:.6} {:.6} {:.6}\nRMSE: {:.6}\nrelMSE: {:.6}\n",
+        c.mean_a[0], c.mean_a[1], c.mean_a[2], c.mean_b[0], c.mean_b[1], c.mean_b[2], c.rmse, c.relmse
     );
-    println!(
-        "mean B: {:.6} {:.6} {:.6}",
-        c.mean_b[0], c.mean_b[1], c.mean_b[2]
-    );
-    println!("RMSE: {:.6}", c.rmse);
-    println!("relMSE: {:.6}", c.relmse);
+    // A reader that stops early (`| head -1`) is not an error.
+    use std::io::Write;
+    match std::io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => return Err(e.into()),
+        _ => {}
+    }
     Ok(())
 }
