@@ -406,6 +406,9 @@ mod tests {
             );
         }
         assert!(worst_sum < 2e-3);
-        assert!(some_light_tracing_weight, "the paths never favour light tracing");
+        assert!(
+            some_light_tracing_weight,
+            "the paths never favour light tracing"
+        );
     }
 }

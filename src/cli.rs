@@ -195,7 +195,11 @@ fn render_command(args: &RenderArgs) -> Result<()> {
             for st in &out.strategies {
                 let name = format!("s{}_t{}", st.s, st.t);
                 io::write_image(&dir.join(format!("{name}.exr")), &st.weighted, 1.0)?;
-                io::write_image(&dir.join(format!("{name}_unweighted.exr")), &st.unweighted, 1.0)?;
+                io::write_image(
+                    &dir.join(format!("{name}_unweighted.exr")),
+                    &st.unweighted,
+                    1.0,
+                )?;
             }
             Ok(())
         })?;
@@ -262,7 +266,14 @@ fn compare_command(a: &Path, b: &Path) -> Result<()> {
     let c = io::compare(&ia, &ib)?;
     let text = format!(
         "mean A: {:.6} {:.6} {:.6}\nmean B: {:.6} {:.6} {:.6}\nRMSE: {:.6}\nrelMSE: {:.6}\n",
-        c.mean_a[0], c.mean_a[1], c.mean_a[2], c.mean_b[0], c.mean_b[1], c.mean_b[2], c.rmse, c.relmse
+        c.mean_a[0],
+        c.mean_a[1],
+        c.mean_a[2],
+        c.mean_b[0],
+        c.mean_b[1],
+        c.mean_b[2],
+        c.rmse,
+        c.relmse
     );
     // A reader that stops early (`| head -1`) is not an error.
     use std::io::Write;

@@ -82,8 +82,7 @@ const VERTEX_BUFFER_BUDGET: u64 = 1 << 30;
 /// Rows per band (tile) of a pass: at most about BAND_PIXELS pixels, whole workgroup rows
 /// where possible, and no more pixels than `per_pixel_bytes` lets fit in `limit` bytes.
 pub fn band_rows(width: u32, height: u32, per_pixel_bytes: u64, limit: u64) -> Result<u32> {
-    let by_dispatch =
-        ((BAND_PIXELS / width.max(1)) / WORKGROUP_SIZE_Y).max(1) * WORKGROUP_SIZE_Y;
+    let by_dispatch = ((BAND_PIXELS / width.max(1)) / WORKGROUP_SIZE_Y).max(1) * WORKGROUP_SIZE_Y;
     let mut rows = by_dispatch;
     if per_pixel_bytes > 0 {
         let by_memory = limit / (per_pixel_bytes * width as u64);
@@ -221,7 +220,14 @@ impl Renderer {
         let mut scene = scene.clone();
         let bvh = trace.cpu("BVH build", || crate::accel::prepare(&mut scene))?;
         let gpu_scene = trace.cpu("scene upload", || {
-            GpuScene::new(&self.device, &scene, &bvh, self.backend(), seed, !strategies.is_empty())
+            GpuScene::new(
+                &self.device,
+                &scene,
+                &bvh,
+                self.backend(),
+                seed,
+                !strategies.is_empty(),
+            )
         })?;
         let rq = if self.backend() == Backend::RayQuery {
             let spheres: Vec<_> = scene.spheres.iter().map(|s| s.object_to_world).collect();
@@ -256,14 +262,24 @@ impl Renderer {
         let (splat, vertices, strategy_film) = trace.cpu("BDPT buffers", || -> Result<_> {
             let small = 16;
             Ok((
-                Buffer::zeroed(&self.device, "splat film", if bdpt { film_bytes } else { small }, usage)?,
+                Buffer::zeroed(
+                    &self.device,
+                    "splat film",
+                    if bdpt { film_bytes } else { small },
+                    usage,
+                )?,
                 Buffer::device_local(
                     &self.device,
                     "BDPT light vertices",
                     (rows as u64 * width as u64 * vertex_bytes).max(small),
                     vk::BufferUsageFlags::STORAGE_BUFFER,
                 )?,
-                Buffer::zeroed(&self.device, "strategy films", strategy_bytes.max(small), usage)?,
+                Buffer::zeroed(
+                    &self.device,
+                    "strategy films",
+                    strategy_bytes.max(small),
+                    usage,
+                )?,
             ))
         })?;
         let set = gpu_scene.descriptor_set(
@@ -322,7 +338,11 @@ impl Renderer {
                 Ok((
                     film.download(film_bytes)?,
                     stats.download(4 * STAT_COUNT as u64)?,
-                    if bdpt { Some(splat.download(film_bytes)?) } else { None },
+                    if bdpt {
+                        Some(splat.download(film_bytes)?)
+                    } else {
+                        None
+                    },
                     if strategies.is_empty() {
                         None
                     } else {
@@ -955,7 +975,7 @@ mod tests {
     #[test]
     fn bdpt_bands_fit_the_storage_buffer_range() {
         let range = 128 << 20; // lavapipe
-        // 1920x1080 at maxdepth 10: 9 stored vertices (576 bytes) per pixel.
+                               // 1920x1080 at maxdepth 10: 9 stored vertices (576 bytes) per pixel.
         let per_pixel = bdpt_vertex_bytes_per_pixel(10);
         assert_eq!(per_pixel, 9 * 64);
         let rows = band_rows(1920, 1080, per_pixel, range).unwrap();

@@ -45,18 +45,36 @@ fn render_full(scene: &Scene, seed: u32, accel: AccelChoice, strategies: bool) -
 
 #[test]
 fn bdpt_matches_the_path_tracer_on_the_cornell_box() {
-    assert_bdpt_matches_pt("cornell box", sized("cornell-box.test", 24, 24, 4), 256, 64, 4);
+    assert_bdpt_matches_pt(
+        "cornell box",
+        sized("cornell-box.test", 24, 24, 4),
+        256,
+        64,
+        4,
+    );
 }
 
 #[test]
 fn bdpt_matches_the_path_tracer_on_a_glossy_scene() {
     // GGX and Phong spheres on a GGX floor.
-    assert_bdpt_matches_pt("glossy", sized("cornell-glossy.test", 24, 24, 3), 256, 64, 4);
+    assert_bdpt_matches_pt(
+        "glossy",
+        sized("cornell-glossy.test", 24, 24, 3),
+        256,
+        64,
+        4,
+    );
 }
 
 #[test]
 fn bdpt_matches_the_path_tracer_with_two_area_lights_and_a_point_light() {
-    assert_bdpt_matches_pt("two lights", sized("two-lights.test", 24, 24, 3), 256, 64, 4);
+    assert_bdpt_matches_pt(
+        "two lights",
+        sized("two-lights.test", 24, 24, 3),
+        256,
+        64,
+        4,
+    );
 }
 
 #[test]
@@ -113,7 +131,11 @@ fn sum_images<'a>(images: impl Iterator<Item = &'a Image>, like: &Image) -> Imag
 
 #[test]
 fn weighted_strategy_images_sum_to_the_image_and_light_tracing_alone_matches_pt() {
-    let scene = with_integrator(sized("cornell-box.test", 24, 24, 3), IntegratorKind::Bdpt, 64);
+    let scene = with_integrator(
+        sized("cornell-box.test", 24, 24, 3),
+        IntegratorKind::Bdpt,
+        64,
+    );
     let out = render_full(&scene, 7, Bvh, true);
     // (maxdepth + 1)(maxdepth + 4) / 2 strategies.
     assert_eq!(out.strategies.len(), 4 * 7 / 2);
@@ -157,7 +179,13 @@ fn weighted_strategy_images_sum_to_the_image_and_light_tracing_alone_matches_pt(
     let mut pt = with_integrator(scene.clone(), IntegratorKind::PathTracer, 256);
     pt.settings.nee = NextEventEstimation::Mis;
     let reference = estimate(&pt, 4, 3, Bvh);
-    assert_agree("light tracing (t = 1) alone", &light_tracing, &reference, 5.0, 0.01);
+    assert_agree(
+        "light tracing (t = 1) alone",
+        &light_tracing,
+        &reference,
+        5.0,
+        0.01,
+    );
     // And it is not trivially satisfied: light tracing without its s >= 3 strategies
     // (indirect light) falls short of the path tracer.
     let out = render_full(&scene, 7, Bvh, true);
@@ -173,7 +201,11 @@ fn weighted_strategy_images_sum_to_the_image_and_light_tracing_alone_matches_pt(
 
 #[test]
 fn ray_query_and_bvh_bdpt_agree() {
-    let scene = with_integrator(sized("cornell-glossy.test", 24, 24, 3), IntegratorKind::Bdpt, 32);
+    let scene = with_integrator(
+        sized("cornell-glossy.test", 24, 24, 3),
+        IntegratorKind::Bdpt,
+        32,
+    );
     let a = estimate(&scene, 3, 3, RayQuery);
     let b = estimate(&scene, 3, 3, Bvh);
     assert_agree("bdpt ray query vs bvh", &a, &b, 5.0, 0.01);
@@ -189,13 +221,23 @@ fn max_relative_difference(a: &Image, b: &Image) -> f32 {
 
 #[test]
 fn bdpt_is_deterministic_per_seed_and_tiling_does_not_change_the_image() {
-    let scene = with_integrator(sized("cornell-box.test", 40, 27, 5), IntegratorKind::Bdpt, 4);
+    let scene = with_integrator(
+        sized("cornell-box.test", 40, 27, 5),
+        IntegratorKind::Bdpt,
+        4,
+    );
     let a = render_full(&scene, 3, Bvh, false).image;
     let b = render_full(&scene, 3, Bvh, false).image;
     let c = render_full(&scene, 4, Bvh, false).image;
     // Splats are float atomics, whose order may vary: equal up to rounding.
-    assert!(max_relative_difference(&a, &b) < 1e-4, "same seed, different images");
-    assert!(max_relative_difference(&a, &c) > 0.1, "different seeds, same image");
+    assert!(
+        max_relative_difference(&a, &b) < 1e-4,
+        "same seed, different images"
+    );
+    assert!(
+        max_relative_difference(&a, &c) > 0.1,
+        "different seeds, same image"
+    );
     // Tiles of 3 rows (4 stored vertices of 64 bytes per pixel): the kernel must index
     // each tile's vertex slice from the tile's first row.
     let tiled = {

@@ -187,15 +187,37 @@ fn bdpt_strategy_images_are_written_and_need_bdpt() {
     std::fs::write(d.join("s.test"), GOOD).unwrap();
     // Not with another integrator: an error before anything is written.
     let out = lightpath(
-        &["render", "s.test", "-o", "out.exr", "-q", "--bdpt-strategies", "st"],
+        &[
+            "render",
+            "s.test",
+            "-o",
+            "out.exr",
+            "-q",
+            "--bdpt-strategies",
+            "st",
+        ],
         &d,
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(err.contains("--bdpt-strategies needs the bdpt integrator"), "message: {err}");
+    assert!(
+        err.contains("--bdpt-strategies needs the bdpt integrator"),
+        "message: {err}"
+    );
     assert_eq!(files_in(&d), vec!["s.test"]);
     // A bad time limit is refused before rendering.
-    let out = lightpath(&["render", "s.test", "-o", "out.exr", "-q", "--time-limit", "0"], &d);
+    let out = lightpath(
+        &[
+            "render",
+            "s.test",
+            "-o",
+            "out.exr",
+            "-q",
+            "--time-limit",
+            "0",
+        ],
+        &d,
+    );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(err.contains("--time-limit"), "message: {err}");
@@ -203,16 +225,32 @@ fn bdpt_strategy_images_are_written_and_need_bdpt() {
     // maxdepth 2: (2 + 1)(2 + 4) / 2 = 9 strategies, a weighted and an unweighted image each.
     let out = lightpath(
         &[
-            "render", "s.test", "-o", "out.exr", "-q", "--integrator", "bdpt", "--max-depth", "2",
-            "--bdpt-strategies", "st",
+            "render",
+            "s.test",
+            "-o",
+            "out.exr",
+            "-q",
+            "--integrator",
+            "bdpt",
+            "--max-depth",
+            "2",
+            "--bdpt-strategies",
+            "st",
         ],
         &d,
     );
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let files = files_in(&d.join("st"));
     assert_eq!(files.len(), 18, "{files:?}");
     for (s, t) in [(0, 2), (1, 1), (0, 4), (2, 2), (3, 1)] {
         assert!(files.contains(&format!("s{s}_t{t}.exr")), "{files:?}");
-        assert!(files.contains(&format!("s{s}_t{t}_unweighted.exr")), "{files:?}");
+        assert!(
+            files.contains(&format!("s{s}_t{t}_unweighted.exr")),
+            "{files:?}"
+        );
     }
 }
