@@ -66,26 +66,6 @@ float camera_pdf_w(vec3 w) {
     return 1.0 / (pixel_area * c * c * c);
 }
 
-// Where the point p lands on the film. False when it is behind the camera or off the film.
-bool camera_project(vec3 p, out uvec2 pixel, out vec3 to_eye, out float dist) {
-    vec3 d = p - scene.cam_eye.xyz;
-    dist = length(d);
-    pixel = uvec2(0u);
-    to_eye = vec3(0.0);
-    if (!(dist > 0.0)) return false;
-    vec3 w = d / dist;
-    to_eye = -w;
-    float c = dot(w, scene.cam_forward.xyz);
-    if (!(c > 0.0)) return false;
-    float tan_half = scene.cam_eye.w;
-    float sx = dot(w, scene.cam_right.xyz) / (c * tan_half * scene.cam_right.w);
-    float sy = dot(w, scene.cam_up.xyz) / (c * tan_half);
-    vec2 film = vec2(0.5 * (sx + 1.0), 0.5 * (1.0 - sy));
-    if (!(film.x >= 0.0 && film.x < 1.0 && film.y >= 0.0 && film.y < 1.0)) return false;
-    pixel = min(uvec2(film * vec2(scene.dims.xy)), scene.dims.xy - 1u);
-    return true;
-}
-
 bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 
 // Strategy (s, t): s light vertices, t camera vertices (the camera itself included).
@@ -153,10 +133,7 @@ void connect_light_point_to_camera(LightEmission le, uint e) {
     vec3 to_eye;
     float dist;
     if (!camera_project(le.p, px, to_eye, dist)) return;
-    GpuEmitter em = emitters[e];
-    uint material = em.info.x == EMITTER_TRIANGLE ? floatBitsToUint(triangles[em.info.y].v0.w)
-                                                   : spheres[em.info.y].info.x;
-    vec3 Le = emitted_radiance(material, le.n, to_eye);
+    vec3 Le = emitted_radiance(emitter_material(emitters[e]), le.n, to_eye);
     float cos_y = abs(dot(le.n, to_eye));
     if (Le == vec3(0.0) || !(cos_y > 0.0)) return;
     float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
@@ -285,17 +262,7 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
                     float w_cam = mis(pdf_emit * cos_z / (pdf_pos * d2)) * (dvcm + dvc * mis(pdf_rev));
                     float weight = 1.0 / (w_light + 1.0 + w_cam);
                     rays_traced++;
-                    vec3 ro = offset_ray_origin(s.p, n);
-                    bool vis;
-                    if (ls.dist == INF) {
-                        vis = !trace_occluded(ro, ls.wi, INF);
-                    } else {
-                        vec3 target = ls.delta ? ls.p : offset_ray_origin(ls.p, dot(ls.n, -ls.wi) > 0.0 ? ls.n : -ls.n);
-                        vec3 to = target - ro;
-                        float dist = length(to);
-                        vis = !trace_occluded(ro, to / dist, dist);
-                    }
-                    if (vis) add_camera(L, 1u, k + 1u, pixel_index, beta * f * ls.L * (cos_z / ls.pdf), weight);
+                    if (light_sample_visible(s.p, n, ls)) add_camera(L, 1u, k + 1u, pixel_index, beta * f * ls.L * (cos_z / ls.pdf), weight);
                 }
             }
         }

@@ -18,15 +18,9 @@ uint rays_traced = 0u;
 
 bool closest(vec3 o, vec3 d, out Hit hit) { rays_traced++; return trace_closest(o, d, INF, hit); }
 
-// Is the light sample visible from p (offset along n toward the light)?
 bool light_visible(vec3 p, vec3 n, LightSample ls) {
     rays_traced++;
-    vec3 o = offset_ray_origin(p, dot(ls.wi, n) > 0.0 ? n : -n);
-    if (ls.dist == INF) return !trace_occluded(o, ls.wi, INF);
-    vec3 target = ls.delta ? ls.p : offset_ray_origin(ls.p, dot(ls.n, -ls.wi) > 0.0 ? ls.n : -ls.n);
-    vec3 to = target - o;
-    float dist = length(to);
-    return !trace_occluded(o, to / dist, dist);
+    return light_sample_visible(p, n, ls);
 }
 
 // Light sampling at a surface point: f * cos * L / pdf, MIS-weighted when asked.

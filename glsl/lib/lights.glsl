@@ -36,6 +36,30 @@ float emitter_area_pdf(uint e, vec3 p) {
     return sphere_area_pdf(sp, em.p1.x, sphere_to_object_point(sp, p));
 }
 
+// The material of an area emitter (triangle or sphere).
+uint emitter_material(GpuEmitter em) {
+    return em.info.x == EMITTER_TRIANGLE ? floatBitsToUint(triangles[em.info.y].v0.w)
+                                         : spheres[em.info.y].info.x;
+}
+
+// A uniformly distributed point p, with unit normal n, on area emitter em (triangle or
+// sphere). Returns its area pdf (given em was picked).
+float sample_area_emitter_point(GpuEmitter em, vec2 u, out vec3 p, out vec3 n) {
+    if (em.info.x == EMITTER_TRIANGLE) {
+        vec2 b = sample_uniform_triangle(u);
+        vec3 e1 = em.p1.xyz - em.p0.xyz;
+        vec3 e2 = em.p2.xyz - em.p0.xyz;
+        p = em.p0.xyz + b.x * e1 + b.y * e2;
+        n = normalize(cross(e1, e2));
+        return 1.0 / em.p0.w;
+    }
+    GpuSphere sp = spheres[em.info.y];
+    vec3 q = sample_uniform_sphere(u);
+    p = sphere_to_world_point(sp, q);
+    n = normalize(sphere_normal_unnormalized(sp, q));
+    return sphere_area_pdf(sp, em.p1.x, q);
+}
+
 struct LightSample {
     vec3 wi;      // unit direction from the reference point toward the light
     float dist;   // distance to the light point (INF for directional lights)
@@ -57,8 +81,6 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
     ls.dist = 0.0;
     ls.wi = vec3(0.0, 0.0, 1.0);
     ls.p = ref;
-    float area_pdf;
-    uint material;
     if (em.info.x == EMITTER_POINT) {
         vec3 to = em.p0.xyz - ref;
         float d2 = dot(to, to);
@@ -79,23 +101,8 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
         ls.delta = true;
         return true;
     }
-    if (em.info.x == EMITTER_TRIANGLE) {
-        vec2 b = sample_uniform_triangle(u);
-        vec3 e1 = em.p1.xyz - em.p0.xyz;
-        vec3 e2 = em.p2.xyz - em.p0.xyz;
-        ls.p = em.p0.xyz + b.x * e1 + b.y * e2;
-        ls.n = normalize(cross(e1, e2));
-        area_pdf = 1.0 / em.p0.w;
-        material = floatBitsToUint(triangles[em.info.y].v0.w);
-    } else {
-        GpuSphere sp = spheres[em.info.y];
-        vec3 q = sample_uniform_sphere(u);
-        ls.p = sphere_to_world_point(sp, q);
-        vec3 nu = sphere_normal_unnormalized(sp, q);
-        ls.n = normalize(nu);
-        area_pdf = 1.0 / (4.0 * PI * em.p1.x * length(nu));
-        material = sp.info.x;
-    }
+    float area_pdf = sample_area_emitter_point(em, u, ls.p, ls.n);
+    uint material = emitter_material(em);
     vec3 to = ls.p - ref;
     float d2 = dot(to, to);
     if (d2 == 0.0) return false;
@@ -106,6 +113,16 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
     ls.L = emitted_radiance(material, ls.n, -ls.wi);
     ls.pdf = pick * area_pdf * d2 / cos_l;
     return ls.L != vec3(0.0);
+}
+
+// Is the light sample visible from p (offset along n toward the light)?
+bool light_sample_visible(vec3 p, vec3 n, LightSample ls) {
+    vec3 o = offset_ray_origin(p, dot(ls.wi, n) > 0.0 ? n : -n);
+    if (ls.dist == INF) return !trace_occluded(o, ls.wi, INF);
+    vec3 target = ls.delta ? ls.p : offset_ray_origin(ls.p, dot(ls.n, -ls.wi) > 0.0 ? ls.n : -ls.n);
+    vec3 to = target - o;
+    float dist = length(to);
+    return !trace_occluded(o, to / dist, dist);
 }
 
 // Solid-angle pdf (pick included) with which sample_emitter would have produced the
@@ -172,25 +189,8 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
         le.pdf_emit = pick / (PI * r * r);
         return pick > 0.0;
     }
-    uint material;
-    float area_pdf;
-    if (em.info.x == EMITTER_TRIANGLE) {
-        vec2 bc = sample_uniform_triangle(u_pos);
-        vec3 e1 = em.p1.xyz - em.p0.xyz;
-        vec3 e2 = em.p2.xyz - em.p0.xyz;
-        le.p = em.p0.xyz + bc.x * e1 + bc.y * e2;
-        le.n = normalize(cross(e1, e2));
-        area_pdf = 1.0 / em.p0.w;
-        material = floatBitsToUint(triangles[em.info.y].v0.w);
-    } else {
-        GpuSphere sp = spheres[em.info.y];
-        vec3 q = sample_uniform_sphere(u_pos);
-        le.p = sphere_to_world_point(sp, q);
-        vec3 nu = sphere_normal_unnormalized(sp, q);
-        le.n = normalize(nu);
-        area_pdf = 1.0 / (4.0 * PI * em.p1.x * length(nu));
-        material = sp.info.x;
-    }
+    float area_pdf = sample_area_emitter_point(em, u_pos, le.p, le.n);
+    uint material = emitter_material(em);
     bool two_sided = em.info.z != 0u;
     vec3 side = (two_sided && u_dir.x < 0.5) ? -le.n : le.n;
     vec3 local = sample_cosine_hemisphere(u_dir.yz);

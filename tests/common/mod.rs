@@ -87,8 +87,13 @@ pub fn estimate(scene: &Scene, seeds: u32, grid: u32, accel: AccelChoice) -> Est
     let runs: Vec<Vec<[f64; 3]>> = (0..seeds)
         .map(|s| region_means(&render(scene, 1000 + s, accel), grid))
         .collect();
+    estimate_from_runs(&runs)
+}
+
+/// Mean and standard error of every region over independent runs' region means.
+pub fn estimate_from_runs(runs: &[Vec<[f64; 3]>]) -> Estimate {
     let n = runs[0].len();
-    let k = seeds as f64;
+    let k = runs.len() as f64;
     let mut mean = vec![[0.0; 3]; n];
     let mut stderr = vec![[0.0; 3]; n];
     for r in 0..n {
