@@ -2,6 +2,7 @@
 # Installs the system packages lightpath needs on Debian 12, only when missing:
 #   - the Vulkan loader and Mesa's lavapipe with ray query (bookworm-backports when the
 #     system Mesa is older than 24),
+#   - the Khronos validation layer (--validate and tests/validation.rs),
 #   - cmake, python3 and a C++ compiler for building shaderc from source.
 # The package mirror is taken from the machine's own apt sources.
 set -euo pipefail
@@ -16,6 +17,8 @@ command -v python3 >/dev/null || need+=(python3)
 command -v ninja >/dev/null || need+=(ninja-build)
 dpkg -s libvulkan1 >/dev/null 2>&1 || need+=(libvulkan1)
 dpkg -s vulkan-tools >/dev/null 2>&1 || need+=(vulkan-tools)
+# The validation layer, for --validate and the validation test.
+dpkg -s vulkan-validationlayers >/dev/null 2>&1 || need+=(vulkan-validationlayers)
 
 mesa_version() { dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || true; }
 mesa_major() { mesa_version | sed -E 's/^([0-9]+:)?([0-9]+).*/\2/'; }

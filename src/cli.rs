@@ -58,6 +58,11 @@ pub struct RenderArgs {
     /// the image is the mean of the passes done. spp still caps the passes.
     #[arg(long, value_name = "SECONDS")]
     pub time_limit: Option<f64>,
+    /// Run under the Khronos validation layer with synchronization validation (needs
+    /// vulkan-validationlayers); any error it reports fails the render, before the
+    /// image is written.
+    #[arg(long)]
+    pub validate: bool,
     /// No progress bar and no summary table.
     #[arg(short, long)]
     pub quiet: bool,
@@ -181,12 +186,23 @@ fn render_command(args: &RenderArgs) -> Result<()> {
         io::check_writable(&dir.join("s0_t2.exr"))?;
     }
     let mut renderer = trace.cpu("device and kernels", || {
-        Renderer::new(args.device.as_deref(), accel)
+        Renderer::open(args.device.as_deref(), accel, args.validate)
     })?;
     renderer.show_progress = !args.quiet;
     renderer.record_strategies = args.bdpt_strategies.is_some();
     renderer.time_limit = args.time_limit;
     let out = renderer.render(&scene, args.seed, &mut trace)?;
+    if let Some(v) = renderer.validation() {
+        if v.errors > 0 {
+            bail!(
+                "Vulkan validation reported {} errors and {} warnings; the first: {}",
+                v.errors,
+                v.warnings,
+                v.messages.first().map(String::as_str).unwrap_or("?")
+            );
+        }
+        eprintln!("Vulkan validation: no errors, {} warnings", v.warnings);
+    }
     trace.cpu("write image", || {
         io::write_image(&output, &out.image, scene.settings.gamma)
     })?;

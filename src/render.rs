@@ -124,7 +124,21 @@ pub struct Renderer {
 
 impl Renderer {
     pub fn new(device_name: Option<&str>, accel: AccelChoice) -> Result<Renderer> {
-        let device = Arc::new(Device::open(device_name, accel != AccelChoice::Bvh)?);
+        Renderer::open(device_name, accel, false)
+    }
+
+    /// With `validation`, everything runs under the Khronos validation layer with
+    /// synchronization validation; [`Renderer::validation`] tells what it reported.
+    pub fn open(
+        device_name: Option<&str>,
+        accel: AccelChoice,
+        validation: bool,
+    ) -> Result<Renderer> {
+        let device = Arc::new(Device::open(
+            device_name,
+            accel != AccelChoice::Bvh,
+            validation,
+        )?);
         let backend = match accel {
             AccelChoice::Bvh => Backend::Bvh,
             AccelChoice::RayQuery => {
@@ -159,6 +173,12 @@ impl Renderer {
 
     pub fn backend(&self) -> Backend {
         self.kernels.backend
+    }
+
+    /// What the validation layer has reported since the device was opened; `None` when
+    /// it was opened without validation.
+    pub fn validation(&self) -> Option<crate::gpu::ValidationReport> {
+        self.device.instance.validation()
     }
 
     /// Render `scene` (its settings already overridden by the command line) with `seed`.

@@ -134,11 +134,25 @@ fn render_writes_images_trace_and_compare_reads_them() {
     );
     let out = lightpath(
         &[
-            "render", "ok.test", "-o", "b.png", "--seed", "3", "-q", "--accel", "bvh",
+            "render",
+            "ok.test",
+            "-o",
+            "b.png",
+            "--seed",
+            "3",
+            "-q",
+            "--accel",
+            "bvh",
+            "--validate",
         ],
         &d,
     );
-    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("Vulkan validation: no errors, 0 warnings"),
+        "--validate: {err}"
+    );
     assert_eq!(files_in(&d), vec!["a.exr", "b.png", "ok.test", "t.json"]);
     let trace: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("t.json")).unwrap()).unwrap();

@@ -12,6 +12,7 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::ffi::CStr;
 use std::mem::ManuallyDrop;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 
 /// A Vulkan failure, with the stage of the renderer that hit it.
@@ -105,14 +106,93 @@ const RAY_QUERY_EXTENSIONS: [&CStr; 3] = [
     ash::khr::deferred_host_operations::NAME,
 ];
 
+/// The Khronos validation layer, which `--validate` and the validation tests enable.
+pub const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// What the validation layer reported through the debug messenger.
+#[derive(Default)]
+pub struct ValidationLog {
+    errors: AtomicU32,
+    warnings: AtomicU32,
+    messages: Mutex<Vec<String>>,
+}
+
+/// Counts of validation messages so far, and the first few of them.
+#[derive(Clone, Debug, Default)]
+pub struct ValidationReport {
+    pub errors: u32,
+    pub warnings: u32,
+    pub messages: Vec<String>,
+}
+
+impl ValidationLog {
+    const KEPT: usize = 20;
+
+    pub fn report(&self) -> ValidationReport {
+        ValidationReport {
+            errors: self.errors.load(Ordering::Relaxed),
+            warnings: self.warnings.load(Ordering::Relaxed),
+            messages: self.messages.lock().map(|m| m.clone()).unwrap_or_default(),
+        }
+    }
+}
+
+unsafe extern "system" fn validation_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _kind: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut std::ffi::c_void,
+) -> vk::Bool32 {
+    if user.is_null() || data.is_null() {
+        return vk::FALSE;
+    }
+    let log = &*(user as *const ValidationLog);
+    let data = &*data;
+    let text = if data.p_message.is_null() {
+        String::from("(no message)")
+    } else {
+        CStr::from_ptr(data.p_message)
+            .to_string_lossy()
+            .into_owned()
+    };
+    let label = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        log.errors.fetch_add(1, Ordering::Relaxed);
+        "error"
+    } else {
+        log.warnings.fetch_add(1, Ordering::Relaxed);
+        "warning"
+    };
+    eprintln!("vulkan validation {label}: {text}");
+    if let Ok(mut m) = log.messages.lock() {
+        if m.len() < ValidationLog::KEPT {
+            m.push(format!("{label}: {text}"));
+        }
+    }
+    vk::FALSE
+}
+
+struct Messenger {
+    loader: ash::ext::debug_utils::Instance,
+    handle: vk::DebugUtilsMessengerEXT,
+    log: Box<ValidationLog>,
+}
+
 /// The Vulkan instance alone, for listing devices.
 pub struct Instance {
     pub entry: ash::Entry,
     pub raw: ash::Instance,
+    messenger: Option<Messenger>,
 }
 
 impl Instance {
     pub fn new() -> GpuResult<Instance> {
+        Instance::create(false)
+    }
+
+    /// With `validation`, the Khronos validation layer runs with synchronization
+    /// validation on, and every error or warning it reports is printed and counted
+    /// (see [`Instance::validation`]). It is an error when the layer is not installed.
+    pub fn create(validation: bool) -> GpuResult<Instance> {
         let entry = unsafe { ash::Entry::load() }.map_err(|e| {
             other_error(
                 "loading the Vulkan loader",
@@ -122,21 +202,101 @@ impl Instance {
         let app = vk::ApplicationInfo::default()
             .application_name(c"lightpath")
             .api_version(vk::API_VERSION_1_2);
-        let extensions = [ash::khr::portability_enumeration::NAME.as_ptr()];
         let available = unsafe { entry.enumerate_instance_extension_properties(None) }
             .stage("listing instance extensions")?;
-        let has_portability = available
-            .iter()
-            .any(|e| e.extension_name_as_c_str() == Ok(ash::khr::portability_enumeration::NAME));
-        let mut info = vk::InstanceCreateInfo::default().application_info(&app);
+        let has_ext = |name: &CStr| {
+            available
+                .iter()
+                .any(|e| e.extension_name_as_c_str() == Ok(name))
+        };
+        let has_portability = has_ext(ash::khr::portability_enumeration::NAME);
+        let mut extensions = Vec::new();
         if has_portability {
+            extensions.push(ash::khr::portability_enumeration::NAME.as_ptr());
+        }
+        let layers = [VALIDATION_LAYER.as_ptr()];
+        let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut features =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+        let log = Box::<ValidationLog>::default();
+        let user = &*log as *const ValidationLog as *mut std::ffi::c_void;
+        let messenger_info = || {
+            vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(validation_callback))
+                .user_data(user)
+        };
+        let mut instance_messenger = messenger_info();
+        if validation {
+            let layer_props = unsafe { entry.enumerate_instance_layer_properties() }
+                .stage("listing instance layers")?;
+            if !layer_props
+                .iter()
+                .any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER))
+            {
+                return Err(other_error(
+                    "enabling Vulkan validation",
+                    "the layer VK_LAYER_KHRONOS_validation is not installed (Debian: vulkan-validationlayers; scripts/setup-system.sh installs it)",
+                ));
+            }
+            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+            // VkValidationFeaturesEXT (synchronization validation) is this extension's,
+            // which the layer provides.
+            extensions.push(ash::ext::validation_features::NAME.as_ptr());
+        }
+        let mut info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_extension_names(&extensions);
+        if has_portability {
+            info = info.flags(vk::InstanceCreateFlags::ENUMERATE_PORTABILITY_KHR);
+        }
+        if validation {
+            // Chained to the instance info, the messenger also reports on instance
+            // creation and destruction.
             info = info
-                .enabled_extension_names(&extensions)
-                .flags(vk::InstanceCreateFlags::ENUMERATE_PORTABILITY_KHR);
+                .enabled_layer_names(&layers)
+                .push_next(&mut features)
+                .push_next(&mut instance_messenger);
         }
         let raw =
             unsafe { entry.create_instance(&info, None) }.stage("creating the Vulkan instance")?;
-        Ok(Instance { entry, raw })
+        let messenger = if validation {
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &raw);
+            match unsafe { loader.create_debug_utils_messenger(&messenger_info(), None) } {
+                Ok(handle) => Some(Messenger {
+                    loader,
+                    handle,
+                    log,
+                }),
+                Err(e) => {
+                    unsafe { raw.destroy_instance(None) };
+                    return Err(GpuError::Vulkan {
+                        stage: "creating the validation messenger".into(),
+                        result: e,
+                    });
+                }
+            }
+        } else {
+            None
+        };
+        Ok(Instance {
+            entry,
+            raw,
+            messenger,
+        })
+    }
+
+    /// What the validation layer reported so far; `None` without validation.
+    pub fn validation(&self) -> Option<ValidationReport> {
+        self.messenger.as_ref().map(|m| m.log.report())
     }
 
     /// Every physical device with what the renderer needs to know of it.
@@ -222,7 +382,17 @@ impl Instance {
 
 impl Drop for Instance {
     fn drop(&mut self) {
-        unsafe { self.raw.destroy_instance(None) };
+        unsafe {
+            if let Some(m) = self.messenger.take() {
+                m.loader.destroy_debug_utils_messenger(m.handle, None);
+                // The layer may report on instance destruction through the chained
+                // messenger, which points at the log: keep it alive until then.
+                self.raw.destroy_instance(None);
+                drop(m.log);
+                return;
+            }
+            self.raw.destroy_instance(None);
+        }
     }
 }
 
@@ -290,8 +460,9 @@ pub struct Device {
 
 impl Device {
     /// Open a device. `want_ray_query` enables the ray-query extensions when present.
-    pub fn open(wanted: Option<&str>, want_ray_query: bool) -> GpuResult<Device> {
-        let instance = Instance::new()?;
+    /// `validation` runs it under the Khronos validation layer (see [`Instance::create`]).
+    pub fn open(wanted: Option<&str>, want_ray_query: bool, validation: bool) -> GpuResult<Device> {
+        let instance = Instance::create(validation)?;
         let devices = instance.devices()?;
         let index = choose_device(&devices, wanted)?;
         let (physical, info) = devices[index].clone();

@@ -1,0 +1,81 @@
+//! Every kernel and every host path (uploads, acceleration-structure builds, passes in
+//! bands, BDPT tiles and strategy images, readback) under the Khronos validation layer
+//! with synchronization validation: nothing may be reported. Needs the layer
+//! (Debian: vulkan-validationlayers, which scripts/setup-system.sh installs).
+mod common;
+
+use ash::vk;
+use common::*;
+use lightpath::render::{AccelChoice, Renderer};
+use lightpath::scene::{IntegratorKind, NextEventEstimation};
+use lightpath::trace::Trace;
+
+fn open_validated(accel: AccelChoice) -> Renderer {
+    Renderer::open(None, accel, true).unwrap_or_else(|e| {
+        panic!(
+            "this test needs a Vulkan device and the Khronos validation layer ({accel:?} backend): {e:#}\n\
+             Install them with scripts/setup-system.sh (mesa-vulkan-drivers, vulkan-validationlayers)"
+        )
+    })
+}
+
+#[test]
+fn every_integrator_and_backend_runs_clean_under_the_validation_layer() {
+    for accel in [AccelChoice::Bvh, AccelChoice::RayQuery] {
+        let mut r = open_validated(accel);
+        // Spheres (AABB instances with ray query), quads, a point light, GGX and Phong.
+        for name in ["cornell-glossy.test", "two-lights.test"] {
+            for integrator in [
+                IntegratorKind::PathTracer,
+                IntegratorKind::Direct,
+                IntegratorKind::AnalyticDirect,
+                IntegratorKind::Bdpt,
+            ] {
+                let mut s = load(name);
+                s.width = 24;
+                s.height = 16;
+                s.settings.spp = 3;
+                s.settings.max_depth = 4;
+                s.settings.integrator = integrator;
+                s.settings.nee = NextEventEstimation::Mis;
+                r.render(&s, 1, &mut Trace::new())
+                    .unwrap_or_else(|e| panic!("{name} {integrator:?} {accel:?}: {e:#}"));
+            }
+        }
+        // BDPT with strategy images, in tiles of 2 rows.
+        let mut s = load("cornell-box.test");
+        s.width = 24;
+        s.height = 16;
+        s.settings.spp = 2;
+        s.settings.max_depth = 4;
+        s.settings.integrator = IntegratorKind::Bdpt;
+        r.record_strategies = true;
+        r.vertex_buffer_limit = Some(24 * 2 * 3 * 64);
+        r.render(&s, 2, &mut Trace::new())
+            .unwrap_or_else(|e| panic!("tiled BDPT with strategies {accel:?}: {e:#}"));
+
+        let v = r.validation().expect("validation was requested");
+        assert!(
+            v.errors == 0 && v.warnings == 0,
+            "{accel:?}: the validation layer reported {} errors and {} warnings:\n{}",
+            v.errors,
+            v.warnings,
+            v.messages.join("\n")
+        );
+
+        // The layer is live and its reports are counted: an invalid call (a buffer of
+        // size 0) is one error.
+        let info = vk::BufferCreateInfo::default()
+            .size(0)
+            .usage(vk::BufferUsageFlags::STORAGE_BUFFER);
+        if let Ok(b) = unsafe { r.device.raw.create_buffer(&info, None) } {
+            unsafe { r.device.raw.destroy_buffer(b, None) };
+        }
+        let v = r.validation().expect("validation was requested");
+        assert_eq!(
+            v.errors, 1,
+            "{accel:?}: an invalid vkCreateBuffer was not reported by the validation layer"
+        );
+        assert!(v.messages[0].contains("VUID-VkBufferCreateInfo-size"));
+    }
+}
