@@ -69,10 +69,16 @@ float camera_pdf_w(vec3 w) {
 bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 
 // Strategy (s, t): s light vertices, t camera vertices (the camera itself included).
+// Only the group of strategies [first, first + count) that the host asked for is
+// recorded (scene.direct.w = first << 16 | count; 0: none), at group-relative indices:
+// when all strategies do not fit one buffer, the host re-renders the same samples once
+// per group.
 void record_strategy(uint s, uint t, uint pixel, vec3 weighted, vec3 unweighted) {
-    if (scene.direct.w == 0u) return;
+    uint count = scene.direct.w & 0xffffu;
+    if (count == 0u) return;
     uint n = s + t - 2u;
-    uint strategy = n * (n + 3u) / 2u + s;
+    uint strategy = n * (n + 3u) / 2u + s - (scene.direct.w >> 16);
+    if (strategy >= count) return;   // (strategies before the group wrap around to large values)
     uint npix = scene.dims.x * scene.dims.y;
     uint i = ((strategy * 2u) * npix + pixel) * 4u;
     uint j = ((strategy * 2u + 1u) * npix + pixel) * 4u;

@@ -70,6 +70,43 @@ pub fn bdpt_strategies(max_scatter: u32) -> Vec<(u32, u32)> {
         .collect()
 }
 
+/// Host memory lightpath allows for BDPT strategy images (RGB f32, two per strategy).
+const STRATEGY_HOST_BUDGET: u64 = 8 << 30;
+
+/// How many strategies' images (weighted and unweighted, vec4 per pixel) one storage
+/// buffer of `range` bytes holds for a `width` × `height` image: all `count` of them
+/// when they fit, else a group of them (the render then repeats its passes once per
+/// group). 0 when `count` is 0. Errors when one strategy does not fit, or when all of
+/// them would take more than STRATEGY_HOST_BUDGET on the host.
+pub fn strategy_group_size(
+    count: u64,
+    width: u32,
+    height: u32,
+    range: u64,
+    device: &str,
+) -> Result<u32> {
+    if count == 0 {
+        return Ok(0);
+    }
+    let pixels = width as u64 * height as u64;
+    let host = count * 2 * pixels * 12;
+    if host > STRATEGY_HOST_BUDGET {
+        bail!(
+            "the images of {count} BDPT strategies at {width}x{height} would take {:.1} GiB of memory (at most {} GiB); use a smaller --size or --max-depth",
+            host as f64 / (1u64 << 30) as f64,
+            STRATEGY_HOST_BUDGET >> 30
+        );
+    }
+    let per_strategy = 2 * pixels * 16;
+    let group = (range / per_strategy).min(count).min(0xffff);
+    if group == 0 {
+        bail!(
+            "one BDPT strategy's images at {width}x{height} need {per_strategy} bytes, more than {device}'s storage-buffer range ({range} bytes); use a smaller --size"
+        );
+    }
+    Ok(group as u32)
+}
+
 /// Bytes per pixel of a BDPT pass's light-vertex buffer.
 pub fn bdpt_vertex_bytes_per_pixel(max_scatter: u32) -> u64 {
     (max_scatter.max(2) - 1) as u64 * std::mem::size_of::<GpuPathVertex>() as u64
@@ -120,6 +157,9 @@ pub struct Renderer {
     /// Caps the BDPT light-vertex buffer below the device's limit (tests use it to force
     /// many small tiles).
     pub vertex_buffer_limit: Option<u64>,
+    /// Caps the BDPT strategy-image buffer below the device's limit (tests use it to
+    /// force recording in several groups).
+    pub strategy_buffer_limit: Option<u64>,
 }
 
 impl Renderer {
@@ -167,6 +207,7 @@ impl Renderer {
             show_progress: false,
             record_strategies: false,
             vertex_buffer_limit: None,
+            strategy_buffer_limit: None,
             time_limit: None,
         })
     }
@@ -220,23 +261,21 @@ impl Renderer {
             .min(self.vertex_buffer_limit.unwrap_or(u64::MAX));
         let rows = band_rows(width, height, vertex_bytes, vertex_limit)?;
         let record = bdpt && self.record_strategies;
-        let strategy_count = if record {
-            (max_scatter as u64 + 1) * (max_scatter as u64 + 4) / 2
-        } else {
-            0
-        };
-        let strategy_bytes = strategy_count * 2 * film_bytes;
-        if strategy_bytes > limit {
-            bail!(
-                "recording {strategy_count} BDPT strategies of a {width}x{height} image needs {strategy_bytes} bytes, more than {}'s storage-buffer range ({limit} bytes); use a smaller --size or --max-depth",
-                self.device.info.name
-            );
-        }
         let strategies = if record {
             bdpt_strategies(max_scatter)
         } else {
             Vec::new()
         };
+        // Strategy images are recorded in groups that fit one storage buffer; each group
+        // after the first re-renders the same samples (same seed, same passes).
+        let strategy_group = strategy_group_size(
+            strategies.len() as u64,
+            width,
+            height,
+            limit.min(self.strategy_buffer_limit.unwrap_or(u64::MAX)),
+            &self.device.info.name,
+        )?;
+        let strategy_bytes = strategy_group as u64 * 2 * film_bytes;
         let mut scene = scene.clone();
         let bvh = trace.cpu("BVH build", || crate::accel::prepare(&mut scene))?;
         let gpu_scene = trace.cpu("scene upload", || {
@@ -246,7 +285,7 @@ impl Renderer {
                 &bvh,
                 self.backend(),
                 seed,
-                !strategies.is_empty(),
+                strategy_group,
             )
         })?;
         let rq = if self.backend() == Backend::RayQuery {
@@ -352,6 +391,7 @@ impl Renderer {
             scene.settings.spp.max(1),
             trace,
         )?;
+        let group_len = |first: usize| strategy_group.min(strategies.len() as u32 - first as u32);
 
         let (film_data, stat_data, splat_data, strategy_data) =
             trace.cpu("readback", || -> Result<_> {
@@ -366,10 +406,65 @@ impl Renderer {
                     if strategies.is_empty() {
                         None
                     } else {
-                        Some(strategy_film.download(strategy_bytes)?)
+                        Some(strategy_film.download(group_len(0) as u64 * 2 * film_bytes)?)
                     },
                 ))
             })?;
+        // The other groups of strategy images: the same passes again, recording the
+        // next group (the film and splat film they also add to were read already).
+        let mut strategy_data: Vec<Vec<u8>> = strategy_data.into_iter().collect();
+        let mut first = group_len(0) as usize;
+        while !strategies.is_empty() && first < strategies.len() {
+            let count = group_len(first);
+            let mut params = gpu_scene.params;
+            params.direct[3] = ((first as u32) << 16) | count;
+            self.device
+                .run_commands("selecting the next group of BDPT strategies", |cmd| {
+                    let d = &self.device.raw;
+                    let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
+                    let transfer = vk::PipelineStageFlags::TRANSFER;
+                    memory_barrier(
+                        &self.device,
+                        cmd,
+                        (
+                            compute,
+                            vk::AccessFlags::SHADER_READ
+                                | vk::AccessFlags::SHADER_WRITE
+                                | vk::AccessFlags::UNIFORM_READ,
+                        ),
+                        (transfer, vk::AccessFlags::TRANSFER_WRITE),
+                    );
+                    unsafe {
+                        d.cmd_update_buffer(
+                            cmd,
+                            gpu_scene.scene_params.raw,
+                            0,
+                            bytemuck::bytes_of(&params),
+                        );
+                        d.cmd_fill_buffer(cmd, strategy_film.raw, 0, vk::WHOLE_SIZE, 0);
+                    }
+                    memory_barrier(
+                        &self.device,
+                        cmd,
+                        (transfer, vk::AccessFlags::TRANSFER_WRITE),
+                        (
+                            compute,
+                            vk::AccessFlags::SHADER_READ
+                                | vk::AccessFlags::SHADER_WRITE
+                                | vk::AccessFlags::UNIFORM_READ,
+                        ),
+                    );
+                })?;
+            let time_limit = self.time_limit.take();
+            let again =
+                self.dispatch_passes(pipeline, set, kernel, width, height, rows, spp, trace);
+            self.time_limit = time_limit;
+            again?;
+            strategy_data.push(trace.cpu("readback", || {
+                strategy_film.download(count as u64 * 2 * film_bytes)
+            })?);
+            first += count as usize;
+        }
         let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
         let stat: &[u32] = bytemuck::cast_slice(&stat_data);
         let inv = 1.0 / spp as f32;
@@ -391,23 +486,21 @@ impl Renderer {
                 }
             }
         }
-        let strategies = match &strategy_data {
-            Some(data) => {
+        let npix = (width * height) as usize;
+        let strategies = strategy_data
+            .iter()
+            .flat_map(|data| {
                 let all: &[[f32; 4]] = bytemuck::cast_slice(data);
-                let npix = (width * height) as usize;
-                strategies
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &(s, t))| StrategyImages {
-                        s,
-                        t,
-                        weighted: to_image(&all[2 * i * npix..(2 * i + 1) * npix]),
-                        unweighted: to_image(&all[(2 * i + 1) * npix..(2 * i + 2) * npix]),
-                    })
-                    .collect()
-            }
-            None => Vec::new(),
-        };
+                all.chunks_exact(2 * npix)
+            })
+            .zip(&strategies)
+            .map(|(both, &(s, t))| StrategyImages {
+                s,
+                t,
+                weighted: to_image(&both[..npix]),
+                unweighted: to_image(&both[npix..]),
+            })
+            .collect();
         let rays = film.iter().map(|p| p[3] as f64).sum();
         Ok(RenderOutput {
             image,
@@ -557,6 +650,8 @@ impl Renderer {
 
 /// The scene's GPU buffers.
 pub struct GpuScene {
+    /// What `scene_params` holds.
+    pub params: SceneParams,
     pub scene_params: Buffer,
     pub triangles: Buffer,
     pub spheres: Buffer,
@@ -799,7 +894,7 @@ impl GpuScene {
         bvh: &Bvh,
         backend: Backend,
         seed: u32,
-        record_strategies: bool,
+        strategy_group: u32,
     ) -> Result<GpuScene> {
         let table = emitter_table(scene);
         let bits = f32::from_bits;
@@ -850,7 +945,8 @@ impl GpuScene {
             })
             .collect();
         let mut params = scene_params(scene, seed, table.emitters.len() as u32);
-        params.direct[3] = record_strategies as u32;
+        // The first group of strategy images to record (none when 0).
+        params.direct[3] = strategy_group;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let triangle_usage = if backend == Backend::RayQuery {
             storage
@@ -893,6 +989,7 @@ impl GpuScene {
             (None, None)
         };
         Ok(GpuScene {
+            params,
             scene_params: Buffer::with_data(
                 device,
                 "scene parameters",
@@ -1026,6 +1123,31 @@ mod tests {
             let n = s + t - 2;
             assert_eq!(i as u32, n * (n + 3) / 2 + s);
         }
+    }
+
+    #[test]
+    fn strategy_images_are_grouped_to_fit_the_storage_buffer_range() {
+        let lavapipe = 128 << 20;
+        // 480x480 at maxdepth 5: 27 strategies of 2 × 3.7 MB; 18 fit in 128 MiB.
+        assert_eq!(
+            strategy_group_size(27, 480, 480, lavapipe, "d").unwrap(),
+            18
+        );
+        // All of them when they fit, none when none are asked for.
+        assert_eq!(strategy_group_size(27, 64, 64, lavapipe, "d").unwrap(), 27);
+        assert_eq!(
+            strategy_group_size(0, 4096, 4096, lavapipe, "d").unwrap(),
+            0
+        );
+        // 1080p at maxdepth 10: 77 strategies, 2 per buffer.
+        let g = strategy_group_size(77, 1920, 1080, lavapipe, "d").unwrap();
+        assert_eq!(g, 2);
+        assert!(g as u64 * 2 * 1920 * 1080 * 16 <= lavapipe);
+        // One strategy larger than the range, or too many images for the host: errors.
+        let e = strategy_group_size(3, 4096, 4096, lavapipe, "d").unwrap_err();
+        assert!(e.to_string().contains("storage-buffer range"), "{e}");
+        let e = strategy_group_size(594, 1920, 1080, 4 << 30, "d").unwrap_err();
+        assert!(e.to_string().contains("GiB of memory"), "{e}");
     }
 
     #[test]

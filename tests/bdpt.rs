@@ -148,6 +148,30 @@ fn weighted_strategy_images_sum_to_the_image_and_light_tracing_alone_matches_pt(
             );
         }
     }
+    // Recorded in groups of 3 strategies (the same samples rendered once per group, as
+    // when all of them do not fit one storage buffer): the same images.
+    let grouped = {
+        let mut r = renderer(Bvh);
+        r.record_strategies = true;
+        r.strategy_buffer_limit = Some(3 * 2 * 24 * 24 * 16);
+        let out = r.render(&scene, 7, &mut Trace::new());
+        r.record_strategies = false;
+        r.strategy_buffer_limit = None;
+        out.expect("grouped strategy render")
+    };
+    assert!(max_relative_difference(&grouped.image, &out.image) < 1e-4);
+    assert_eq!(grouped.strategies.len(), out.strategies.len());
+    for (g, a) in grouped.strategies.iter().zip(&out.strategies) {
+        assert_eq!((g.s, g.t), (a.s, a.t));
+        for (x, y) in [(&g.weighted, &a.weighted), (&g.unweighted, &a.unweighted)] {
+            assert!(
+                max_relative_difference(x, y) < 1e-4,
+                "s={} t={}: grouped recording differs",
+                g.s,
+                g.t
+            );
+        }
+    }
     // Light tracing alone: the unweighted t = 1 strategies (every s) estimate the whole
     // image, direct and indirect light, of this diffuse scene.
     let mut lt = Vec::new();

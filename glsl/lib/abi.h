@@ -107,7 +107,7 @@ struct SceneParams {
     uvec4 dims;          // x width, y height, z triangles, w spheres
     uvec4 counts;        // x emitters, y max scattering vertices, z 1 if maxdepth is -1, w total spp
     uvec4 options;       // x nee mode, y russian roulette, z importance sampling, w integrator
-    uvec4 direct;        // x light samples, y stratify, z seed, w 1 to record BDPT strategies
+    uvec4 direct;        // x light samples, y stratify, z seed, w BDPT strategies to record: first << 16 | count (0: none)
 };
 
 // A vertex of a BDPT light subpath (stored per pixel, read back by the camera subpath).
