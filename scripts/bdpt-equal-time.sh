@@ -9,6 +9,7 @@
 #
 # Output files go to $OUT (default /tmp/lightpath-equal-time); an existing reference is
 # reused. The path tracer uses the scene's settings (NEE with MIS, BRDF sampling, RR).
+# LIGHTPATH_BIN=path runs that binary instead of ./lp.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 SIZE="${SIZE:-128x128}"
@@ -18,7 +19,8 @@ REF_SPP="${REF_SPP:-2048}"
 SCENES="${SCENES:-cornell-occlusion cornell-slab}"
 OUT="${OUT:-/tmp/lightpath-equal-time}"
 mkdir -p "$OUT"
-lp() { "$root/lp" "$@"; }
+# LIGHTPATH_BIN: a lightpath binary to use instead of ./lp (which rebuilds first).
+lp() { if [ -n "${LIGHTPATH_BIN:-}" ]; then "$LIGHTPATH_BIN" "$@"; else "$root/lp" "$@"; fi; }
 
 echo "| scene | integrator | time limit (s) | spp reached | Msamples/s | relMSE (mean of $TRIALS) |"
 echo "|---|---|---|---|---|---|"

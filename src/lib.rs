@@ -1,11 +1,12 @@
 //! lightpath: a GPU renderer on raw Vulkan. Path tracing, bidirectional path tracing
 //! and multiplexed Metropolis light transport, converging to the same image.
 pub mod accel;
-pub mod bdpt;
 pub mod bench;
 pub mod bsdf;
 pub mod cli;
 pub mod gpu;
+pub mod gpu_scene;
+pub mod integrators;
 pub mod io;
 pub mod render;
 pub mod scene;
