@@ -155,7 +155,7 @@ void connect_light_point_to_camera(LightEmission le, uint e) {
 // at light_vertices[base + i - 1]. Returns the number stored.
 uint light_subpath(uint base, inout Rng rng) {
     if (scene.counts.x == 0u) return 0u;
-    uint e = pick_emitter(rng_next(rng));
+    uint e = pick_emitter(rng_block(rng).x);
     vec4 u = rng_to_unit(rng_block(rng));
     LightEmission le;
     if (!sample_light_emission(e, u.xy, vec3(u.z, rng_next2(rng)), le)) return 0u;
@@ -176,7 +176,8 @@ uint light_subpath(uint base, inout Rng rng) {
         Surface s = surface_at(hit, o, d);
         vec3 wi = -d;   // toward the previous vertex
         float cos_in = abs(dot(s.ng, wi));
-        if (!(cos_in > 0.0)) break;
+        // Grazing hits end the subpath: cos_in^2 (a MIS factor) must not underflow to 0.
+        if (!(cos_in > 1e-6)) break;
         if (!(i == 1u && infinite)) dvcm *= mis(hit.t * hit.t);
         dvcm /= mis(cos_in);
         dvc /= mis(cos_in);
@@ -229,7 +230,8 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
         Surface s = surface_at(hit, o, d);
         vec3 wo = -d;
         float cos_in = abs(dot(s.ng, wo));
-        if (!(cos_in > 0.0)) break;
+        // Grazing hits end the subpath: cos_in^2 (a MIS factor) must not underflow to 0.
+        if (!(cos_in > 1e-6)) break;
         dvcm *= mis(hit.t * hit.t) / mis(cos_in);
         dvc /= mis(cos_in);
         vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
@@ -251,7 +253,7 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
 
         // s = 1: a fresh sample on a light.
         if (scene.counts.x > 0u) {
-            uint e = pick_emitter(rng_next(rng));
+            uint e = pick_emitter(rng_block(rng).x);
             vec2 u = rng_next2(rng);
             LightSample ls;
             if (sample_emitter(e, s.p, u, ls) && ls.pdf > 0.0) {

@@ -75,7 +75,7 @@ vec3 path_sample(uvec2 pixel, inout Rng rng) {
         vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
         uint kind = uint(m.params.z);
         if (nee != NEE_OFF && have_emitters) {
-            uint e = pick_emitter(rng_next(rng));
+            uint e = pick_emitter(rng_block(rng).x);
             L += beta * estimate_direct(m, s.p, n, wo, e, rng_next2(rng), nee == NEE_MIS, mode);
         }
         // With NEE on, emission found by the next bounce would not count: stop here.
@@ -118,7 +118,7 @@ vec3 direct_sample(uvec2 pixel, inout Rng rng) {
     uint strata = scene.direct.y != 0u ? uint(floor(sqrt(float(count)) + 1e-3)) : 0u;
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < count; ++k) {
-        uint e = pick_emitter(rng_next(rng));
+        uint e = pick_emitter(rng_block(rng).x);
         vec2 u = rng_next2(rng);
         if (k < strata * strata) u = (vec2(float(k % strata), float(k / strata)) + u) / float(strata);
         sum += estimate_direct(m, s.p, n, wo, e, u, false, SAMPLE_BRDF);

@@ -34,7 +34,8 @@ pub struct GpuScene {
 /// with selection probabilities proportional to power.
 pub struct EmitterTable {
     pub emitters: Vec<GpuEmitter>,
-    pub cdf: Vec<f32>,
+    /// End of each emitter's range of 32-bit random values (see `pick_emitter`).
+    pub cdf: Vec<u32>,
     /// Per triangle and per sphere: index of its emitter, or NO_EMITTER.
     pub triangle_emitter: Vec<u32>,
     pub sphere_emitter: Vec<u32>,
@@ -164,20 +165,30 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
     }
     let total: f64 = power.iter().map(|&p| p.max(0.0) as f64).sum();
     let n = emitters.len();
+    // Each emitter owns a range of the 2^32 values of a random integer, of a length
+    // proportional to its power; its pick pdf is its range's exact share. (A float CDF
+    // picked with a 24-bit uniform would be off by up to 2^-24 absolute: 1% for each of
+    // 10^5 equal emitters, and emitters below that never picked though weighted.)
+    const RANGE: f64 = 4294967296.0;
     let mut cdf = Vec::with_capacity(n);
     let mut acc = 0.0f64;
-    for (e, &p) in emitters.iter_mut().zip(&power) {
-        let prob = if total > 0.0 {
+    let mut prev_end = 0u64;
+    for (i, (e, &p)) in emitters.iter_mut().zip(&power).enumerate() {
+        acc += if total > 0.0 {
             p.max(0.0) as f64 / total
         } else {
             1.0 / n as f64
         };
-        e.radiance[3] = prob as f32;
-        acc += prob;
-        cdf.push(acc as f32);
-    }
-    if let Some(last) = cdf.last_mut() {
-        *last = 1.0;
+        let end = if i + 1 == n {
+            1u64 << 32
+        } else {
+            ((acc * RANGE).round() as u64).clamp(prev_end, 1u64 << 32)
+        };
+        e.radiance[3] = ((end - prev_end) as f64 / RANGE) as f32;
+        // The kernel never reads the last entry (it takes the last emitter when x is
+        // past every other end).
+        cdf.push(end.min(u32::MAX as u64) as u32);
+        prev_end = end;
     }
     EmitterTable {
         emitters,
@@ -185,6 +196,21 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
         triangle_emitter,
         sphere_emitter,
     }
+}
+
+/// CPU mirror of lights.glsl's `pick_emitter`: the first i with x < cdf[i], else the
+/// last emitter.
+pub fn pick_emitter(cdf: &[u32], x: u32) -> usize {
+    let (mut lo, mut hi) = (0, cdf.len() - 1);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if x < cdf[mid] {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
 }
 
 pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams {
@@ -430,7 +456,8 @@ mod tests {
         assert_eq!(t.emitters.len(), 2 + 2 + 1 + 1);
         let probs: Vec<f32> = t.emitters.iter().map(|e| e.radiance[3]).collect();
         assert!((probs.iter().sum::<f32>() - 1.0).abs() < 1e-5);
-        assert_eq!(*t.cdf.last().unwrap(), 1.0);
+        assert_eq!(*t.cdf.last().unwrap(), u32::MAX);
+        assert_pick_pdfs_are_the_ranges(&t);
         // Quad 1: area 1, L 2, one-sided → power 2π; quad 2: area 4, L 1 → 4π;
         // point: 4π·4 = 16π; sphere r 0.5, two-sided (but closed): area π, L 1 → π·π.
         let pi = std::f32::consts::PI;
@@ -446,6 +473,68 @@ mod tests {
             "|det| of a 0.5 scale"
         );
         assert_eq!(t.triangle_emitter, vec![0, 1, 2, 3]);
+    }
+
+    /// Each emitter's pick pdf is exactly its share of the 2^32 random values that
+    /// `pick_emitter` maps to it (checked at the ends of every range).
+    fn assert_pick_pdfs_are_the_ranges(t: &EmitterTable) {
+        let mut start = 0u64;
+        for (i, e) in t.emitters.iter().enumerate() {
+            let end = if i + 1 == t.cdf.len() {
+                1u64 << 32
+            } else {
+                t.cdf[i] as u64
+            };
+            let share = (end - start) as f64 / 4294967296.0;
+            assert!(
+                (e.radiance[3] as f64 - share).abs() <= 1e-7 * share,
+                "emitter {i}: pdf {} for a share {share}",
+                e.radiance[3]
+            );
+            if end > start {
+                assert_eq!(pick_emitter(&t.cdf, start as u32), i);
+                assert_eq!(pick_emitter(&t.cdf, (end - 1) as u32), i);
+            }
+            start = end;
+        }
+    }
+
+    #[test]
+    fn emitters_too_dim_for_the_pick_range_are_never_picked_and_have_pdf_zero() {
+        // A quad 1e-12 as bright as the others: less than one of the 2^32 values.
+        let s = parse_str(
+            "quadLight 0 1 0  1 0 0  0 0 1  1 1 1\n\
+             quadLight 5 1 0  1 0 0  0 0 1  1e-12 1e-12 1e-12\n\
+             quadLight 9 1 0  1 0 0  0 0 1  1 1 1\n",
+            "t",
+        )
+        .unwrap();
+        let t = emitter_table(&s);
+        assert_eq!(t.emitters.len(), 6);
+        assert_eq!(t.emitters[2].radiance[3], 0.0);
+        assert_eq!(t.emitters[3].radiance[3], 0.0);
+        assert!((t.emitters[0].radiance[3] - 0.25).abs() < 1e-7);
+        assert_pick_pdfs_are_the_ranges(&t);
+        // Around the dim quad's (empty) ranges, neighbours are picked.
+        let boundary = t.cdf[1];
+        assert_eq!(pick_emitter(&t.cdf, boundary - 1), 1);
+        assert_eq!(pick_emitter(&t.cdf, boundary), 4);
+        // Many equal emitters: shares equal within 1e-4 relative (a float CDF with 24-bit
+        // uniforms would be off by up to 1% each).
+        let mut text = String::new();
+        for _ in 0..50_000 {
+            text += "quadLight 0 0 0  0.01 0 0  0 0 0.01  1 1 1\n";
+        }
+        let t = emitter_table(&parse_str(&text, "many").unwrap());
+        assert_eq!(t.emitters.len(), 100_000);
+        for e in &t.emitters {
+            assert!(
+                (e.radiance[3] as f64 * 1e5 - 1.0).abs() < 1e-4,
+                "{}",
+                e.radiance[3]
+            );
+        }
+        assert_pick_pdfs_are_the_ranges(&t);
     }
 
     #[test]

@@ -8,7 +8,7 @@ layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer TriangleBuf
 layout(std430, set = 0, binding = BINDING_SPHERES) readonly buffer SphereBuffer { GpuSphere spheres[]; };
 layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer MaterialBuffer { GpuMaterial materials[]; };
 layout(std430, set = 0, binding = BINDING_EMITTERS) readonly buffer EmitterBuffer { GpuEmitter emitters[]; };
-layout(std430, set = 0, binding = BINDING_EMITTER_CDF) readonly buffer EmitterCdfBuffer { float emitter_cdf[]; };
+layout(std430, set = 0, binding = BINDING_EMITTER_CDF) readonly buffer EmitterCdfBuffer { uint emitter_cdf[]; };
 layout(std430, set = 0, binding = BINDING_FILM) buffer FilmBuffer { vec4 film[]; };
 layout(std430, set = 0, binding = BINDING_STATS) buffer StatsBuffer { uint stats[]; };
 

@@ -4,13 +4,17 @@
 #ifndef LIGHTS_GLSL
 #define LIGHTS_GLSL
 
-// Pick an emitter by power: the first i with u < cdf[i].
-uint pick_emitter(float u) {
+// Pick an emitter by power with a uniform 32-bit integer x: the first i with
+// x < cdf[i] (the last emitter when none). cdf[i] is the end of emitter i's range of
+// the 2^32 values, so it is picked with probability exactly (cdf[i] - cdf[i-1]) / 2^32,
+// the pick pdf the host stores in radiance.w (an emitter too dim for one value of the
+// range is never picked and has pdf 0, so no estimator counts on it).
+uint pick_emitter(uint x) {
     uint lo = 0u;
     uint hi = scene.counts.x - 1u;
     while (lo < hi) {
         uint mid = (lo + hi) >> 1;
-        if (u < emitter_cdf[mid]) hi = mid; else lo = mid + 1u;
+        if (x < emitter_cdf[mid]) hi = mid; else lo = mid + 1u;
     }
     return lo;
 }
