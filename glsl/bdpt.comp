@@ -215,6 +215,13 @@ uint light_subpath(uint base, inout Rng rng) {
 
 // The camera subpath with s = 0, s = 1 and s >= 2 strategies at each vertex. Returns
 // the pixel's camera-film contribution.
+//
+// maxdepth -1: paths of up to max_scatter (BDPT_UNBOUNDED_DEPTH_CAP) scattering vertices
+// get every strategy. Longer ones, which only the camera subpath reaches (light
+// subpaths are stored, so bounded), go on with Russian roulette up to the path tracer's
+// UNBOUNDED_DEPTH_CAP and combine the two strategies left to them, s = 0 and s = 1, by
+// the power heuristic, as the path tracer does. Path length splits path space, so the
+// two regimes add up to the whole, unbiased.
 vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
     uint pixel_index = pixel.y * scene.dims.x + pixel.x;
     vec3 o = scene.cam_eye.xyz;
@@ -223,7 +230,11 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
     vec3 beta = vec3(1.0);
     float dvcm = mis(light_paths / camera_pdf_w(d));
     float dvc = 0.0;
-    for (uint k = 1u; k <= max_scatter + 1u; ++k) {
+    bool unbounded = scene.counts.z != 0u;
+    uint max_vertices = unbounded ? UNBOUNDED_DEPTH_CAP : max_scatter;
+    float prev_pdf_w = 0.0;   // beyond max_scatter: the BSDF pdf of the last bounce
+    vec3 prev_p = o;
+    for (uint k = 1u; k <= max_vertices + 1u; ++k) {
         // The vertex z_k; strategies here have t = k + 1.
         Hit hit;
         if (!closest(o, d, hit)) break;
@@ -232,22 +243,34 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
         float cos_in = abs(dot(s.ng, wo));
         // Grazing hits end the subpath: cos_in^2 (a MIS factor) must not underflow to 0.
         if (!(cos_in > 1e-6)) break;
-        dvcm *= mis(hit.t * hit.t) / mis(cos_in);
-        dvc /= mis(cos_in);
+        // Paths through this vertex with every strategy: s = 0 here has k - 1 scattering
+        // vertices, s = 1 has k, s >= 2 more.
+        bool all_s0 = k - 1u <= max_scatter;
+        bool all_s1 = k <= max_scatter;
+        if (all_s0) {
+            dvcm *= mis(hit.t * hit.t) / mis(cos_in);
+            dvc /= mis(cos_in);
+        }
         vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
 
         // s = 0: the camera subpath found an emitter.
         if (s.emitter != NO_EMITTER) {
             vec3 Le = emitted_radiance(s.material, s.ng, wo);
             if (Le != vec3(0.0)) {
-                float pdf_pos;
-                float pdf_emit;
-                emitter_emission_pdfs(s.emitter, s.p, s.ng, wo, pdf_pos, pdf_emit);
-                float w_cam = mis(pdf_pos) * dvcm + mis(pdf_emit) * dvc;
-                add_camera(L, 0u, k + 1u, pixel_index, beta * Le, 1.0 / (1.0 + w_cam));
+                float weight;
+                if (all_s0) {
+                    float pdf_pos;
+                    float pdf_emit;
+                    emitter_emission_pdfs(s.emitter, s.p, s.ng, wo, pdf_pos, pdf_emit);
+                    float w_cam = mis(pdf_pos) * dvcm + mis(pdf_emit) * dvc;
+                    weight = 1.0 / (1.0 + w_cam);
+                } else {
+                    weight = power_heuristic(prev_pdf_w, emitter_pdf_solid_angle(s.emitter, prev_p, s.p, s.ng));
+                }
+                add_camera(L, 0u, k + 1u, pixel_index, beta * Le, weight);
             }
         }
-        if (k > max_scatter) break;
+        if (k > max_vertices) break;
         GpuMaterial m = materials[s.material];
         uint kind = uint(m.params.z);
 
@@ -261,14 +284,19 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
                 vec3 f = cos_z > 0.0 ? bsdf_eval(kind, m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, ls.wi) : vec3(0.0);
                 if (f != vec3(0.0)) {
                     float pdf_dir = bsdf_pdf(sample_mode, kind, m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, ls.wi);
-                    float pdf_rev = bsdf_pdf(sample_mode, kind, m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, ls.wi, wo);
-                    float pdf_pos;
-                    float pdf_emit;
-                    emitter_emission_pdfs(e, ls.p, ls.n, -ls.wi, pdf_pos, pdf_emit);
-                    float d2 = ls.dist == INF ? 1.0 : ls.dist * ls.dist;
-                    float w_light = ls.delta ? 0.0 : mis(pdf_dir / ls.pdf);
-                    float w_cam = mis(pdf_emit * cos_z / (pdf_pos * d2)) * (dvcm + dvc * mis(pdf_rev));
-                    float weight = 1.0 / (w_light + 1.0 + w_cam);
+                    float weight;
+                    if (all_s1) {
+                        float pdf_rev = bsdf_pdf(sample_mode, kind, m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, ls.wi, wo);
+                        float pdf_pos;
+                        float pdf_emit;
+                        emitter_emission_pdfs(e, ls.p, ls.n, -ls.wi, pdf_pos, pdf_emit);
+                        float d2 = ls.dist == INF ? 1.0 : ls.dist * ls.dist;
+                        float w_light = ls.delta ? 0.0 : mis(pdf_dir / ls.pdf);
+                        float w_cam = mis(pdf_emit * cos_z / (pdf_pos * d2)) * (dvcm + dvc * mis(pdf_rev));
+                        weight = 1.0 / (w_light + 1.0 + w_cam);
+                    } else {
+                        weight = ls.delta ? 1.0 : power_heuristic(ls.pdf, pdf_dir);
+                    }
                     rays_traced++;
                     if (light_sample_visible(s.p, n, ls)) add_camera(L, 1u, k + 1u, pixel_index, beta * f * ls.L * (cos_z / ls.pdf), weight);
                 }
@@ -276,7 +304,7 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
         }
 
         // s >= 2: connect to the stored light vertices y_1 .. y_j with j + k <= max_scatter.
-        uint last = min(stored, max_scatter - k);
+        uint last = k < max_scatter ? min(stored, max_scatter - k) : 0u;
         for (uint j = 1u; j <= last; ++j) {
             GpuPathVertex y = light_vertices[base + j - 1u];
             vec3 to = y.p.xyz - s.p;
@@ -312,8 +340,17 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored, inout Rng rng) {
         float cos_out = dot(n, wn);
         beta *= f * (cos_out / pdf_fwd);
         if (beta == vec3(0.0)) break;
-        dvc = mis(cos_out / pdf_fwd) * (dvc * mis(pdf_rev) + dvcm);
-        dvcm = mis(1.0 / pdf_fwd);
+        if (k > max_scatter) {
+            // Every path through the next vertex is longer than max_scatter: roulette.
+            float survive = min(1.0, max(beta.x, max(beta.y, beta.z)));
+            if (rng_next(rng) >= survive) break;
+            beta /= survive;
+        } else {
+            dvc = mis(cos_out / pdf_fwd) * (dvc * mis(pdf_rev) + dvcm);
+            dvcm = mis(1.0 / pdf_fwd);
+        }
+        prev_pdf_w = pdf_fwd;
+        prev_p = s.p;
         o = offset_ray_origin(s.p, n);
         d = wn;
     }

@@ -163,7 +163,12 @@ fn render_command(args: &RenderArgs) -> Result<()> {
         .with_context(|| format!("--accel {:?}: expected auto, rayquery or bvh", args.accel))?;
     let mut scene = trace.cpu("parse", || scene::parse_file(&args.scene))?;
     apply_overrides(&mut scene, args)?;
-    if scene.settings.max_depth < 0 && !scene.settings.russian_roulette {
+    // (BDPT always uses Russian roulette beyond its cap, so the warning is the path
+    // tracer's.)
+    if scene.settings.max_depth < 0
+        && !scene.settings.russian_roulette
+        && scene.settings.integrator == IntegratorKind::PathTracer
+    {
         eprintln!(
             "warning: maxdepth -1 without russianroulette: paths end only at the cap of {} vertices",
             crate::gpu::abi::UNBOUNDED_DEPTH_CAP

@@ -243,12 +243,7 @@ pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams
             scene.triangles.len() as u32,
             scene.spheres.len() as u32,
         ],
-        counts: [
-            emitter_count,
-            max_depth,
-            (s.max_depth < 0 && !bdpt) as u32,
-            s.spp,
-        ],
+        counts: [emitter_count, max_depth, (s.max_depth < 0) as u32, s.spp],
         options: [
             match s.nee {
                 NextEventEstimation::Off => NEE_OFF,

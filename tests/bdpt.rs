@@ -93,18 +93,29 @@ fn bdpt_matches_the_path_tracer_with_directional_point_and_ellipsoid_lights() {
 
 #[test]
 fn bdpt_furnace_matches_the_closed_form() {
-    // Le Σ ρ^k: 1.875 at maxdepth 3; maxdepth -1 runs to BDPT's cap of 32 vertices,
-    // 2 (1 - 0.5^33) ≈ 2.
-    for (depth, expected) in [(3, 1.875), (-1, 2.0)] {
+    // Le Σ ρ^k with ρ = 0.5: 1.875 at maxdepth 3, 2 at maxdepth -1. With ρ = 0.9 and
+    // maxdepth -1, Le / (1 - ρ) = 10: every strategy runs up to BDPT's cap of 32
+    // vertices and the camera subpath goes on beyond it with Russian roulette; stopping
+    // at the cap would give 10 (1 - 0.9^33) ≈ 9.69.
+    // (Russian roulette makes the last case noisier: more seeds and samples, fewer
+    // regions.)
+    for (albedo, depth, expected, spp, seeds, grid) in [
+        (0.5, 3, 1.875, 16, 3, 2),
+        (0.5, -1, 2.0, 16, 3, 2),
+        (0.9, -1, 10.0, 32, 8, 1),
+    ] {
         let mut s = load("furnace.test");
         s.width = 16;
         s.height = 16;
         s.settings.max_depth = depth;
-        let s = with_integrator(s, IntegratorKind::Bdpt, 16);
-        let a = estimate(&s, 3, 2, Bvh);
+        for m in &mut s.materials {
+            m.diffuse = glam::Vec3::splat(albedo);
+        }
+        let s = with_integrator(s, IntegratorKind::Bdpt, spp);
+        let a = estimate(&s, seeds, grid, Bvh);
         let n = a.mean.len();
         assert_agree(
-            &format!("bdpt furnace, maxdepth {depth}"),
+            &format!("bdpt furnace, albedo {albedo}, maxdepth {depth}"),
             &a,
             &exact([expected; 3], n),
             5.0,
