@@ -45,8 +45,9 @@
 #define STAT_NONFINITE 0
 #define STAT_COUNT 4
 
-// BDPT: scattering vertices allowed when maxdepth is -1 (BDPT has no Russian roulette;
-// light-subpath vertices are stored per pixel, so the bound sets the buffer size).
+// BDPT with maxdepth -1: paths of up to this many scattering vertices get every
+// strategy (light-subpath vertices are stored per pixel, so the bound sets the buffer
+// size); longer ones continue on the camera side only, with Russian roulette.
 #define BDPT_UNBOUNDED_DEPTH_CAP 32
 
 // Marks "no emitter" in per-primitive emitter indices.

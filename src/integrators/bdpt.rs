@@ -76,7 +76,8 @@ pub fn bdpt_vertex_bytes_per_pixel(max_scatter: u32) -> u64 {
 /// device's storage-buffer range.
 pub(crate) const VERTEX_BUFFER_BUDGET: u64 = 1 << 30;
 
-/// BDPT's bound on scattering vertices: maxdepth, or BDPT_UNBOUNDED_DEPTH_CAP for -1.
+/// BDPT's bound on the scattering vertices of paths that get every strategy: maxdepth,
+/// or BDPT_UNBOUNDED_DEPTH_CAP for -1 (longer paths then continue on the camera side).
 pub fn bdpt_max_scatter(scene: &Scene) -> u32 {
     if scene.settings.max_depth < 0 {
         BDPT_UNBOUNDED_DEPTH_CAP
