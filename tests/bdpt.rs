@@ -78,7 +78,7 @@ fn bdpt_matches_the_path_tracer_with_two_area_lights_and_a_point_light() {
 }
 
 #[test]
-fn bdpt_matches_the_path_tracer_with_directional_point_and_ellipsoid_lights() {
+fn bdpt_matches_the_path_tracer_with_directional_point_ellipsoid_and_triangle_lights() {
     let scene = parse(
         "size 24 24\ncamera 0 3 4  0 0 0  0 1 0  50\nmaxdepth 3\n\
          vertex -2 0 -2\nvertex 2 0 -2\nvertex 2 0 2\nvertex -2 0 2\n\
@@ -86,9 +86,11 @@ fn bdpt_matches_the_path_tracer_with_directional_point_and_ellipsoid_lights() {
          brdf ggx\nroughness 0.3\nspecular 0.3 0.3 0.3\ndiffuse 0.3 0.7 0.4\nsphere 0 0.5 0 0.5\n\
          brdf phong\nspecular 0 0 0\n\
          directional 0.3 1 0.2  1.5 1.4 1.3\npoint 1 1.5 1  2 2 2\n\
-         emission 2 1 1\npushTransform\ntranslate -1 0.6 1\nscale 0.3 0.15 0.2\nsphere 0 0 0 1\npopTransform\n",
+         emission 2 1 1\npushTransform\ntranslate -1 0.6 1\nscale 0.3 0.15 0.2\nsphere 0 0 0 1\npopTransform\n\
+         emission 1 2 1\nvertex 1.2 0.05 -1\nvertex 1.2 1.2 -0.5\nvertex 1.2 0.05 0\ntri 4 5 6\n",
     );
-    assert_bdpt_matches_pt("delta and ellipsoid lights", scene, 256, 64, 4);
+    // (The standing triangle emits from both sides onto the floor.)
+    assert_bdpt_matches_pt("delta, ellipsoid and triangle lights", scene, 256, 64, 4);
 }
 
 #[test]
