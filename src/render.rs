@@ -82,6 +82,18 @@ pub fn band_rows(width: u32, height: u32, per_pixel_bytes: u64, limit: u64) -> R
 /// Pixels per dispatch: a pass over a larger image is split into bands of rows.
 const BAND_PIXELS: u32 = 1 << 18;
 
+/// What a render's passes dispatch: a kernel's pipeline and descriptor set over a
+/// `width` × `height` image, in bands of `band_rows` rows.
+#[derive(Clone, Copy)]
+pub(crate) struct Passes<'a> {
+    pub pipeline: vk::Pipeline,
+    pub set: vk::DescriptorSet,
+    pub kernel: &'a str,
+    pub width: u32,
+    pub height: u32,
+    pub band_rows: u32,
+}
+
 /// An open device with its kernels for one backend; renders any number of scenes.
 pub struct Renderer {
     pub device: Arc<Device>,
@@ -320,16 +332,16 @@ impl Renderer {
                 })
         })?;
 
-        let (dispatch_seconds, spp) = self.dispatch_passes(
+        let passes = Passes {
             pipeline,
             set,
             kernel,
             width,
             height,
-            rows,
-            scene.settings.spp.max(1),
-            trace,
-        )?;
+            band_rows: rows,
+        };
+        let (dispatch_seconds, spp) =
+            self.dispatch_passes(passes, scene.settings.spp.max(1), trace)?;
         // Strategies recorded by these passes (all of them, or the first group).
         let first_group = strategy_group.min(strategies.len() as u32);
 
@@ -356,12 +368,7 @@ impl Renderer {
                 StrategyGroupPass {
                     gpu_scene: &gpu_scene,
                     strategy_film: &strategy_film,
-                    pipeline,
-                    set,
-                    kernel,
-                    width,
-                    height,
-                    rows,
+                    passes,
                     spp,
                 },
                 first_group,
@@ -421,18 +428,20 @@ impl Renderer {
     /// Dispatch `spp` passes of one sample per pixel (fewer if `time_limit` runs out),
     /// several per submission, with GPU timestamps around each dispatch and a progress
     /// bar over passes. Returns the time in dispatches and the passes done.
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn dispatch_passes(
         &mut self,
-        pipeline: vk::Pipeline,
-        set: vk::DescriptorSet,
-        kernel: &str,
-        width: u32,
-        height: u32,
-        band_rows: u32,
+        passes: Passes,
         spp: u32,
         trace: &mut Trace,
     ) -> Result<(f64, u32)> {
+        let Passes {
+            pipeline,
+            set,
+            kernel,
+            width,
+            height,
+            band_rows,
+        } = passes;
         let device = self.device.clone();
         // A pass is split into bands of `band_rows` rows (see band_rows()) so that no
         // single dispatch runs for long (lavapipe traces roughly a million samples a

@@ -6,7 +6,7 @@ use crate::gpu::abi::*;
 use crate::gpu::buffer::{memory_barrier, Buffer};
 use crate::gpu_scene::GpuScene;
 use crate::io::Image;
-use crate::render::Renderer;
+use crate::render::{Passes, Renderer};
 use crate::scene::Scene;
 use crate::trace::Trace;
 use anyhow::{bail, Result};
@@ -87,16 +87,11 @@ pub fn bdpt_max_scatter(scene: &Scene) -> u32 {
 }
 
 /// What the extra passes of `record_other_strategy_groups` render with: the first
-/// render's buffers, pipeline and pass layout.
+/// render's buffers, passes and pass count.
 pub(crate) struct StrategyGroupPass<'a> {
     pub gpu_scene: &'a GpuScene,
     pub strategy_film: &'a Buffer,
-    pub pipeline: vk::Pipeline,
-    pub set: vk::DescriptorSet,
-    pub kernel: &'a str,
-    pub width: u32,
-    pub height: u32,
-    pub rows: u32,
+    pub passes: Passes<'a>,
     pub spp: u32,
 }
 
@@ -114,7 +109,7 @@ impl Renderer {
         total: u32,
         trace: &mut Trace,
     ) -> Result<Vec<Vec<u8>>> {
-        let film_bytes = p.width as u64 * p.height as u64 * 16;
+        let film_bytes = p.passes.width as u64 * p.passes.height as u64 * 16;
         let mut out = Vec::new();
         let mut first = first;
         while first < total {
@@ -154,9 +149,7 @@ impl Renderer {
             })?;
             // Exactly the first render's passes, whatever the time limit.
             let time_limit = self.time_limit.take();
-            let again = self.dispatch_passes(
-                p.pipeline, p.set, p.kernel, p.width, p.height, p.rows, p.spp, trace,
-            );
+            let again = self.dispatch_passes(p.passes, p.spp, trace);
             self.time_limit = time_limit;
             again?;
             out.push(trace.cpu("readback", || {
