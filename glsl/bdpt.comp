@@ -369,6 +369,10 @@ void main() {
     // This invocation's slice of the light-vertex buffer (which holds one band).
     uint stride = max(max_scatter, 2u) - 1u;
     uint base = ((pixel.y - pass_params.pass.z) * scene.dims.x + pixel.x) * stride;
+    if (base + stride > uint(light_vertices.length())) {
+        atomicAdd(stats[STAT_OUT_OF_RANGE], 1u);
+        return;
+    }
     vec3 sum = vec3(0.0);
     for (uint i = 0u; i < pass_params.pass.y; ++i) {
         Rng rng = rng_init(scene.direct.z, index, pass_params.pass.x + i);

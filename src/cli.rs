@@ -58,9 +58,10 @@ pub struct RenderArgs {
     /// the image is the mean of the passes done. spp still caps the passes.
     #[arg(long, value_name = "SECONDS")]
     pub time_limit: Option<f64>,
-    /// Run under the Khronos validation layer with synchronization validation (needs
-    /// vulkan-validationlayers); any error it reports fails the render, before the
-    /// image is written.
+    /// Run under the Khronos validation layer: API usage, synchronization, and
+    /// GPU-assisted validation of the kernels' buffer accesses (needs
+    /// vulkan-validationlayers; instrumented kernels compile slowly the first time).
+    /// Any error it reports fails the render, before the image is written.
     #[arg(long)]
     pub validate: bool,
     /// No progress bar and no summary table.
@@ -191,7 +192,15 @@ fn render_command(args: &RenderArgs) -> Result<()> {
         io::check_writable(&dir.join("s0_t2.exr"))?;
     }
     let mut renderer = trace.cpu("device and kernels", || {
-        Renderer::open(args.device.as_deref(), accel, args.validate)
+        Renderer::open(
+            args.device.as_deref(),
+            accel,
+            if args.validate {
+                crate::render::Validation::Full
+            } else {
+                crate::render::Validation::Off
+            },
+        )
     })?;
     renderer.show_progress = !args.quiet;
     renderer.record_strategies = args.bdpt_strategies.is_some();

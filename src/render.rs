@@ -8,6 +8,7 @@ use crate::gpu::buffer::{memory_barrier, Buffer};
 use crate::gpu::kernels::{Backend, Kernels};
 use crate::gpu::timing::Timestamps;
 use crate::gpu::Device;
+pub use crate::gpu::Validation;
 use crate::gpu_scene::GpuScene;
 pub use crate::integrators::bdpt::StrategyImages;
 use crate::integrators::bdpt::{
@@ -115,15 +116,15 @@ pub struct Renderer {
 
 impl Renderer {
     pub fn new(device_name: Option<&str>, accel: AccelChoice) -> Result<Renderer> {
-        Renderer::open(device_name, accel, false)
+        Renderer::open(device_name, accel, Validation::Off)
     }
 
-    /// With `validation`, everything runs under the Khronos validation layer with
-    /// synchronization validation; [`Renderer::validation`] tells what it reported.
+    /// With `validation`, everything runs under the Khronos validation layer (see
+    /// [`Validation`]); [`Renderer::validation`] tells what it reported.
     pub fn open(
         device_name: Option<&str>,
         accel: AccelChoice,
-        validation: bool,
+        validation: Validation,
     ) -> Result<Renderer> {
         let device = Arc::new(Device::open(
             device_name,
@@ -379,6 +380,12 @@ impl Renderer {
         }
         let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
         let stat: &[u32] = bytemuck::cast_slice(&stat_data);
+        if stat[STAT_OUT_OF_RANGE as usize] > 0 {
+            bail!(
+                "internal error: {} {kernel} invocations found their slice of a per-pixel buffer past its end (band of {rows} rows)",
+                stat[STAT_OUT_OF_RANGE as usize]
+            );
+        }
         let inv = 1.0 / spp as f32;
         let to_image = |data: &[[f32; 4]]| Image {
             width,

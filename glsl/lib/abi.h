@@ -43,6 +43,9 @@
 
 // Slots of the stats buffer (uint counters).
 #define STAT_NONFINITE 0
+// Invocations whose slice of a per-pixel buffer would pass the buffer's end (a bug of
+// the host's tiling: the host fails the render when it is not 0).
+#define STAT_OUT_OF_RANGE 1
 #define STAT_COUNT 4
 
 // BDPT with maxdepth -1: paths of up to this many scattering vertices get every

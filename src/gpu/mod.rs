@@ -109,6 +109,19 @@ const RAY_QUERY_EXTENSIONS: [&CStr; 3] = [
 /// The Khronos validation layer, which `--validate` and the validation tests enable.
 pub const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
+/// How much of the Khronos validation layer a device runs under.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Validation {
+    /// No layer.
+    Off,
+    /// API usage and synchronization validation.
+    Api,
+    /// `Api`, plus GPU-assisted validation: kernels are instrumented to report
+    /// out-of-bounds buffer accesses. (Lavapipe compiles the instrumented kernels
+    /// slowly the first time: about two minutes for `bdpt`.)
+    Full,
+}
+
 /// What the validation layer reported through the debug messenger.
 #[derive(Default)]
 pub struct ValidationLog {
@@ -186,13 +199,14 @@ pub struct Instance {
 
 impl Instance {
     pub fn new() -> GpuResult<Instance> {
-        Instance::create(false)
+        Instance::create(Validation::Off)
     }
 
-    /// With `validation`, the Khronos validation layer runs with synchronization
-    /// validation on, and every error or warning it reports is printed and counted
-    /// (see [`Instance::validation`]). It is an error when the layer is not installed.
-    pub fn create(validation: bool) -> GpuResult<Instance> {
+    /// Under `validation` other than `Off`, the Khronos validation layer runs (with
+    /// synchronization validation, and GPU-assisted validation for `Full`), and every
+    /// error or warning it reports is printed and counted (see
+    /// [`Instance::validation`]). It is an error when the layer is not installed.
+    pub fn create(validation: Validation) -> GpuResult<Instance> {
         let entry = unsafe { ash::Entry::load() }.map_err(|e| {
             other_error(
                 "loading the Vulkan loader",
@@ -215,9 +229,18 @@ impl Instance {
             extensions.push(ash::khr::portability_enumeration::NAME.as_ptr());
         }
         let layers = [VALIDATION_LAYER.as_ptr()];
-        let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
-        let mut features =
-            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+        let enabled_features = [
+            vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION,
+            vk::ValidationFeatureEnableEXT::GPU_ASSISTED,
+        ];
+        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(
+            if validation == Validation::Full {
+                &enabled_features
+            } else {
+                &enabled_features[..1]
+            },
+        );
+        let validation = validation != Validation::Off;
         let log = Box::<ValidationLog>::default();
         let user = &*log as *const ValidationLog as *mut std::ffi::c_void;
         let messenger_info = || {
@@ -461,7 +484,11 @@ pub struct Device {
 impl Device {
     /// Open a device. `want_ray_query` enables the ray-query extensions when present.
     /// `validation` runs it under the Khronos validation layer (see [`Instance::create`]).
-    pub fn open(wanted: Option<&str>, want_ray_query: bool, validation: bool) -> GpuResult<Device> {
+    pub fn open(
+        wanted: Option<&str>,
+        want_ray_query: bool,
+        validation: Validation,
+    ) -> GpuResult<Device> {
         let instance = Instance::create(validation)?;
         let devices = instance.devices()?;
         let index = choose_device(&devices, wanted)?;
