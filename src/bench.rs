@@ -10,9 +10,10 @@ use std::path::PathBuf;
 
 #[derive(clap::Args, Clone, Debug)]
 pub struct BenchArgs {
-    /// The scene to measure.
-    #[arg(long, default_value = "scenes/cornell-box.test")]
-    pub scene: PathBuf,
+    /// The scene to measure (default: the project's Cornell box, built into the binary,
+    /// so that `lightpath bench` runs from any directory).
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
     /// Image size.
     #[arg(long, default_value_t = 256)]
     pub size: u32,
@@ -39,8 +40,22 @@ pub struct BenchResult {
     pub rays_per_second: Option<f64>,
 }
 
+/// The default scene of `bench`.
+const CORNELL_BOX: &str = include_str!("../scenes/cornell-box.test");
+
+/// The scene's file: the one asked for, or the built-in Cornell box's source file
+/// (for scripts that read it).
+fn scene_path(args: &BenchArgs) -> PathBuf {
+    args.scene.clone().unwrap_or_else(|| {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.test")
+    })
+}
+
 pub fn run(args: &BenchArgs) -> Result<()> {
-    let mut scene = scene::parse_file(&args.scene)?;
+    let mut scene = match &args.scene {
+        Some(path) => scene::parse_file(path)?,
+        None => scene::parse_str(CORNELL_BOX, "scenes/cornell-box.test (built in)")?,
+    };
     scene.width = args.size;
     scene.height = args.size;
     scene.settings.spp = args.spp;
@@ -126,7 +141,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .unwrap_or(1.0);
     println!(
         "scene {} at {}x{}, {} spp, maxdepth {}",
-        args.scene.display(),
+        scene_path(args).display(),
         args.size,
         args.size,
         args.spp,
@@ -165,7 +180,7 @@ fn mitsuba_samples_per_second(args: &BenchArgs) -> Result<f64> {
     let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/mitsuba_bench.py");
     let out = std::process::Command::new("python3")
         .arg(&script)
-        .arg(&args.scene)
+        .arg(scene_path(args))
         .arg(args.size.to_string())
         .arg(args.spp.to_string())
         .output()

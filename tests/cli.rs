@@ -173,6 +173,36 @@ fn render_writes_images_trace_and_compare_reads_them() {
 }
 
 #[test]
+fn bench_runs_from_any_directory_with_its_built_in_scene() {
+    // (A scratch directory has no scenes/ folder.)
+    let d = scratch("bench");
+    let out = lightpath(
+        &[
+            "bench",
+            "--size",
+            "16",
+            "--spp",
+            "1",
+            "--repeats",
+            "1",
+            "--integrators",
+            "pathtracer,bdpt",
+        ],
+        &d,
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for row in ["lightpath pt, bvh", "lightpath bdpt, bvh", "Msamples/s"] {
+        assert!(text.contains(row), "{row:?} missing: {text}");
+    }
+    fails_with(&["bench", "--integrators", "direct"], &d, &["direct"]);
+}
+
+#[test]
 fn devices_lists_the_device_and_bad_device_choice_is_an_error() {
     let d = scratch("devices");
     let out = lightpath(&["devices"], &d);
