@@ -274,7 +274,7 @@ impl GpuScene {
         bvh: &Bvh,
         backend: Backend,
         seed: u32,
-        strategy_group: u32,
+        strategy_selection: u32,
     ) -> Result<GpuScene> {
         let table = emitter_table(scene);
         let bits = f32::from_bits;
@@ -325,8 +325,8 @@ impl GpuScene {
             })
             .collect();
         let mut params = scene_params(scene, seed, table.emitters.len() as u32);
-        // The first group of strategy images to record (none when 0).
-        params.direct[3] = strategy_group;
+        // The strategy images to record (see integrators::bdpt::strategy_selection).
+        params.direct[3] = strategy_selection;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let triangle_usage = if backend == Backend::RayQuery {
             storage

@@ -13,7 +13,7 @@ use crate::gpu_scene::GpuScene;
 pub use crate::integrators::bdpt::StrategyImages;
 use crate::integrators::bdpt::{
     bdpt_max_scatter, bdpt_strategies, bdpt_vertex_bytes_per_pixel, strategy_group_size,
-    StrategyGroupPass, VERTEX_BUFFER_BUDGET,
+    strategy_selection, StrategyGroupPass, VERTEX_BUFFER_BUDGET,
 };
 use crate::io::Image;
 use crate::scene::{IntegratorKind, Scene};
@@ -237,7 +237,7 @@ impl Renderer {
                 &bvh,
                 self.backend(),
                 seed,
-                strategy_group,
+                strategy_selection(0, strategy_group),
             )
         })?;
         let rq = if self.backend() == Backend::RayQuery {
@@ -343,8 +343,6 @@ impl Renderer {
         };
         let (dispatch_seconds, spp) =
             self.dispatch_passes(passes, scene.settings.spp.max(1), trace)?;
-        // Strategies recorded by these passes (all of them, or the first group).
-        let first_group = strategy_group.min(strategies.len() as u32);
 
         let (film_data, stat_data, splat_data, strategy_data) =
             trace.cpu("readback", || -> Result<_> {
@@ -359,7 +357,7 @@ impl Renderer {
                     if strategies.is_empty() {
                         None
                     } else {
-                        Some(strategy_film.download(first_group as u64 * 2 * film_bytes)?)
+                        Some(strategy_film.download(strategy_bytes)?)
                     },
                 ))
             })?;
@@ -372,7 +370,7 @@ impl Renderer {
                     passes,
                     spp,
                 },
-                first_group,
+                strategy_group,
                 strategy_group,
                 strategies.len() as u32,
                 trace,

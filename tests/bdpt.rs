@@ -5,7 +5,9 @@ mod common;
 
 use common::*;
 use lightpath::io::Image;
-use lightpath::render::{AccelChoice, AccelChoice::Bvh, AccelChoice::RayQuery, RenderOutput};
+use lightpath::render::{
+    AccelChoice, AccelChoice::Bvh, AccelChoice::RayQuery, RenderOutput, Renderer,
+};
 use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene};
 use lightpath::trace::Trace;
 
@@ -33,12 +35,26 @@ fn assert_bdpt_matches_pt(what: &str, scene: Scene, pt_spp: u32, bdpt_spp: u32, 
     assert_agree(what, &a, &b, 5.0, 0.01);
 }
 
-fn render_full(scene: &Scene, seed: u32, accel: AccelChoice, strategies: bool) -> RenderOutput {
+/// Render with the shared renderer configured by `configure` (strategy images, test
+/// limits), which is put back to its defaults afterwards.
+fn render_with(
+    scene: &Scene,
+    seed: u32,
+    accel: AccelChoice,
+    configure: impl FnOnce(&mut Renderer),
+) -> anyhow::Result<RenderOutput> {
     let mut r = renderer(accel);
-    r.record_strategies = strategies;
+    configure(&mut r);
     let out = r.render(scene, seed, &mut Trace::new());
     r.record_strategies = false;
-    let out = out.expect("render");
+    r.vertex_buffer_limit = None;
+    r.strategy_buffer_limit = None;
+    out
+}
+
+fn render_full(scene: &Scene, seed: u32, accel: AccelChoice, strategies: bool) -> RenderOutput {
+    let out =
+        render_with(scene, seed, accel, |r| r.record_strategies = strategies).expect("render");
     assert_eq!(out.nonfinite_samples, 0, "NaN/Inf samples");
     out
 }
@@ -163,15 +179,11 @@ fn weighted_strategy_images_sum_to_the_image_and_light_tracing_alone_matches_pt(
     }
     // Recorded in groups of 3 strategies (the same samples rendered once per group, as
     // when all of them do not fit one storage buffer): the same images.
-    let grouped = {
-        let mut r = renderer(Bvh);
+    let grouped = render_with(&scene, 7, Bvh, |r| {
         r.record_strategies = true;
         r.strategy_buffer_limit = Some(3 * 2 * 24 * 24 * 16);
-        let out = r.render(&scene, 7, &mut Trace::new());
-        r.record_strategies = false;
-        r.strategy_buffer_limit = None;
-        out.expect("grouped strategy render")
-    };
+    })
+    .expect("grouped strategy render");
     assert!(max_relative_difference(&grouped.image, &out.image) < 1e-4);
     assert_eq!(grouped.strategies.len(), out.strategies.len());
     for (g, a) in grouped.strategies.iter().zip(&out.strategies) {
@@ -264,13 +276,11 @@ fn bdpt_is_deterministic_per_seed_and_tiling_does_not_change_the_image() {
     );
     // Tiles of 3 rows (4 stored vertices of 64 bytes per pixel): the kernel must index
     // each tile's vertex slice from the tile's first row.
-    let tiled = {
-        let mut r = renderer(Bvh);
-        r.vertex_buffer_limit = Some(40 * 3 * 4 * 64);
-        let out = r.render(&scene, 3, &mut Trace::new());
-        r.vertex_buffer_limit = None;
-        out.expect("tiled render").image
-    };
+    let tiled = render_with(&scene, 3, Bvh, |r| {
+        r.vertex_buffer_limit = Some(40 * 3 * 4 * 64)
+    })
+    .expect("tiled render")
+    .image;
     assert!(
         max_relative_difference(&tiled, &a) < 1e-4,
         "tiled render differs from the untiled one"
