@@ -38,8 +38,7 @@ ONLY = [w for w in os.environ.get("ONLY", "").split(",") if w]
 
 def scenes():
     out = sorted((root / "scenes").glob("*.test"))
-    course = root.parent / "shared" / "cse168-scenes"
-    out += sorted(course.rglob("*.test"))
+    out += sorted((root / "scenes" / "course").rglob("*.test"))
     return [p for p in out if not ONLY or any(w in str(p) for w in ONLY)]
 
 
@@ -102,7 +101,7 @@ def main():
                 rel = (a - b) / b if b != 0 else 0.0
                 if worst is None or abs(z) > abs(worst[0]):
                     worst = (z, rel, a, b, "rgb"[c])
-            name = scene.relative_to(root.parent) if "shared" in str(scene) else scene.relative_to(root)
+            name = scene.relative_to(root)
             rows.append((str(name), depth, worst))
             print(f"{name}: done", file=sys.stderr)
     print("| scene | maxdepth | channel | PT mean | BDPT mean | BDPT/PT − 1 | z |")

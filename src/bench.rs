@@ -26,7 +26,8 @@ pub struct BenchArgs {
     /// Renders per measurement (the median is reported).
     #[arg(long, default_value_t = 3)]
     pub repeats: u32,
-    /// Integrators to measure, in order (pathtracer, bdpt).
+    /// Integrators to measure, in order (pathtracer, bdpt, mmlt; MMLT's rate counts
+    /// mutations of its chain dispatches).
     #[arg(long, value_delimiter = ',', default_value = "pathtracer,bdpt")]
     pub integrators: Vec<String>,
     /// Also measure Mitsuba 3 (python3 with the `mitsuba` package, variant llvm_ad_rgb).
@@ -62,10 +63,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let mut integrators = Vec::new();
     for name in &args.integrators {
         match scene::IntegratorKind::from_name(name) {
-            Some(k @ (scene::IntegratorKind::PathTracer | scene::IntegratorKind::Bdpt)) => {
-                integrators.push(k)
+            Some(
+                k @ (scene::IntegratorKind::PathTracer
+                | scene::IntegratorKind::Bdpt
+                | scene::IntegratorKind::Mmlt),
+            ) => integrators.push(k),
+            _ => {
+                anyhow::bail!("--integrators: expected pathtracer, bdpt and/or mmlt, got {name:?}")
             }
-            _ => anyhow::bail!("--integrators: expected pathtracer and/or bdpt, got {name:?}"),
         }
     }
     let mut results = Vec::new();
@@ -92,16 +97,18 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 let out = renderer.render(&scene, seed, &mut trace)?;
                 let samples =
                     out.samples_per_pixel as f64 * scene.width as f64 * scene.height as f64;
-                runs.push((
-                    samples / out.dispatch_seconds,
-                    out.rays / out.dispatch_seconds,
-                    out.backend,
-                ));
+                // MMLT: mutations per second of its chain dispatches.
+                let per_second = match &out.mmlt {
+                    Some(m) => m.mutations_per_second(),
+                    None => samples / out.dispatch_seconds,
+                };
+                runs.push((per_second, out.rays / out.dispatch_seconds, out.backend));
             }
             runs.sort_by(|a, b| a.0.total_cmp(&b.0));
             let (sps, rps, backend) = runs[runs.len() / 2];
             let short = match integrator {
                 scene::IntegratorKind::Bdpt => "bdpt",
+                scene::IntegratorKind::Mmlt => "mmlt (mutations)",
                 _ => "pt",
             };
             results.push(BenchResult {

@@ -38,7 +38,7 @@ pub struct RenderArgs {
     /// Image size, WxH.
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// Integrator: pathtracer, bdpt, direct, analyticdirect.
+    /// Integrator: pathtracer, bdpt, mmlt, direct, analyticdirect.
     #[arg(long)]
     pub integrator: Option<String>,
     /// Visibility backend: auto, rayquery or bvh.
@@ -54,6 +54,23 @@ pub struct RenderArgs {
     /// sS_tT_unweighted.exr for every strategy (s light vertices, t camera vertices) into DIR.
     #[arg(long, value_name = "DIR")]
     pub bdpt_strategies: Option<PathBuf>,
+    /// MMLT debug output: write dN.exr, the contribution of paths with N scattering
+    /// vertices, for every depth of the chains into DIR (they sum to the image, less the
+    /// bdpt tail of maxdepth -1).
+    #[arg(long, value_name = "DIR")]
+    pub mmlt_depths: Option<PathBuf>,
+    /// MMLT: bootstrap samples per depth (default 100 000, fewer beyond 6 depths).
+    #[arg(long, value_name = "N")]
+    pub mmlt_bootstrap: Option<u32>,
+    /// MMLT: number of Markov chains (default 4096 on a CPU device, 65 536 on a GPU).
+    #[arg(long, value_name = "N")]
+    pub mmlt_chains: Option<u32>,
+    /// MMLT: standard deviation of a small step in primary sample space (default 0.01).
+    #[arg(long, value_name = "SIGMA")]
+    pub mmlt_sigma: Option<f32>,
+    /// MMLT: probability of a large step (default 0.3).
+    #[arg(long, value_name = "P")]
+    pub mmlt_large_step: Option<f32>,
     /// Stop after about this many seconds of rendering (wall clock, passes are whole);
     /// the image is the mean of the passes done. spp still caps the passes.
     #[arg(long, value_name = "SECONDS")]
@@ -133,6 +150,31 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
         scene.width = w;
         scene.height = h;
     }
+    let m = &mut scene.settings.mmlt;
+    if let Some(n) = args.mmlt_bootstrap {
+        if n == 0 {
+            bail!("--mmlt-bootstrap must be at least 1");
+        }
+        m.bootstrap = Some(n);
+    }
+    if let Some(n) = args.mmlt_chains {
+        if n == 0 {
+            bail!("--mmlt-chains must be at least 1");
+        }
+        m.chains = Some(n);
+    }
+    if let Some(sigma) = args.mmlt_sigma {
+        if !(sigma > 0.0 && sigma <= 1.0) {
+            bail!("--mmlt-sigma must be in (0, 1], got {sigma}");
+        }
+        m.sigma = sigma;
+    }
+    if let Some(p) = args.mmlt_large_step {
+        if !(0.0..=1.0).contains(&p) {
+            bail!("--mmlt-large-step must be in [0, 1], got {p}");
+        }
+        m.large_step = p;
+    }
     if let Some(name) = &args.integrator {
         scene.settings.integrator = IntegratorKind::from_name(name).with_context(|| {
             format!(
@@ -191,6 +233,17 @@ fn render_command(args: &RenderArgs) -> Result<()> {
             .with_context(|| format!("--bdpt-strategies: cannot create {}", dir.display()))?;
         io::check_writable(&dir.join("s0_t2.exr"))?;
     }
+    if let Some(dir) = &args.mmlt_depths {
+        if scene.settings.integrator != IntegratorKind::Mmlt {
+            bail!(
+                "--mmlt-depths needs the mmlt integrator (this render uses {})",
+                scene.settings.integrator.name()
+            );
+        }
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--mmlt-depths: cannot create {}", dir.display()))?;
+        io::check_writable(&dir.join("d0.exr"))?;
+    }
     let mut renderer = trace.cpu("device and kernels", || {
         Renderer::open(
             args.device.as_deref(),
@@ -204,6 +257,7 @@ fn render_command(args: &RenderArgs) -> Result<()> {
     })?;
     renderer.show_progress = !args.quiet;
     renderer.record_strategies = args.bdpt_strategies.is_some();
+    renderer.record_depths = args.mmlt_depths.is_some();
     renderer.time_limit = args.time_limit;
     let out = renderer.render(&scene, args.seed, &mut trace)?;
     if let Some(v) = renderer.validation() {
@@ -233,6 +287,22 @@ fn render_command(args: &RenderArgs) -> Result<()> {
             }
             Ok(())
         })?;
+    }
+    if let (Some(dir), Some(m)) = (&args.mmlt_depths, &out.mmlt) {
+        trace.cpu("write depth images", || -> Result<()> {
+            for (d, img) in m.depth_images.iter().enumerate() {
+                io::write_image(&dir.join(format!("d{d}.exr")), img, 1.0)?;
+            }
+            Ok(())
+        })?;
+    }
+    if let Some(m) = &out.mmlt {
+        if m.b == 0.0 {
+            eprintln!("mmlt: the bootstrap found no path that carries light: the image is black");
+        }
+        if !args.quiet {
+            eprint!("{}", m.summary());
+        }
     }
     if out.nonfinite_samples > 0 {
         eprintln!(

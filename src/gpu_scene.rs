@@ -220,7 +220,7 @@ pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams
     let up = right.cross(forward);
     let s = &scene.settings;
     let (center, radius) = scene_bounds(scene);
-    let bdpt = s.integrator == IntegratorKind::Bdpt;
+    let bdpt = matches!(s.integrator, IntegratorKind::Bdpt | IntegratorKind::Mmlt);
     let max_depth = if bdpt {
         bdpt_max_scatter(scene)
     } else {
@@ -264,6 +264,17 @@ pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams
             },
         ],
         direct: [s.light_samples.max(1), s.light_stratify as u32, seed, 0],
+        // MMLT with maxdepth -1: its bdpt tail adds only paths beyond the chains' cap.
+        bdpt: [
+            0,
+            if s.integrator == IntegratorKind::Mmlt && s.max_depth < 0 {
+                BDPT_UNBOUNDED_DEPTH_CAP + 1
+            } else {
+                0
+            },
+            0,
+            0,
+        ],
     }
 }
 
@@ -326,7 +337,7 @@ impl GpuScene {
             .collect();
         let mut params = scene_params(scene, seed, table.emitters.len() as u32);
         // The strategy images to record (see integrators::bdpt::strategy_selection).
-        params.direct[3] = strategy_selection;
+        params.bdpt[0] = strategy_selection;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let triangle_usage = if backend == Backend::RayQuery {
             storage

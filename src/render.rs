@@ -15,6 +15,7 @@ use crate::integrators::bdpt::{
     bdpt_max_scatter, bdpt_strategies, bdpt_vertex_bytes_per_pixel, strategy_group_size,
     strategy_selection, StrategyGroupPass, VERTEX_BUFFER_BUDGET,
 };
+pub use crate::integrators::mmlt::MmltReport;
 use crate::io::Image;
 use crate::scene::{IntegratorKind, Scene};
 use crate::trace::Trace;
@@ -54,6 +55,15 @@ pub struct RenderOutput {
     pub backend: Backend,
     /// BDPT with `record_strategies`: every (s,t) strategy's images.
     pub strategies: Vec<StrategyImages>,
+    /// MMLT: its normalization, chain statistics and (with `record_depths`) per-depth
+    /// images.
+    pub mmlt: Option<MmltReport>,
+}
+
+/// A scene made ready for the device: its visibility structure and buffers.
+pub(crate) struct Prepared {
+    pub gpu_scene: GpuScene,
+    pub rq: Option<rayquery::RayQueryScene>,
 }
 
 /// Rows per band (tile) of a pass: at most about BAND_PIXELS pixels, whole workgroup rows
@@ -112,6 +122,8 @@ pub struct Renderer {
     /// Caps the BDPT strategy-image buffer below the device's limit (tests use it to
     /// force recording in several groups).
     pub strategy_buffer_limit: Option<u64>,
+    /// MMLT: also return each depth's contribution image.
+    pub record_depths: bool,
 }
 
 impl Renderer {
@@ -161,6 +173,7 @@ impl Renderer {
             vertex_buffer_limit: None,
             strategy_buffer_limit: None,
             time_limit: None,
+            record_depths: false,
         })
     }
 
@@ -180,26 +193,17 @@ impl Renderer {
             IntegratorKind::PathTracer | IntegratorKind::Direct => "pt",
             IntegratorKind::AnalyticDirect => "analytic",
             IntegratorKind::Bdpt => "bdpt",
+            IntegratorKind::Mmlt => return self.render_mmlt(scene, seed, trace),
             other => bail!(
                 "integrator '{}' is not available in this version of lightpath",
                 other.name()
             ),
         };
         let (width, height) = (scene.width, scene.height);
-        let film_bytes = width as u64 * height as u64 * 16;
-        if film_bytes > self.device.info.max_storage_buffer_range {
-            bail!(
-                "a {width}x{height} film needs {film_bytes} bytes, more than {}'s storage-buffer range ({} bytes); render a smaller --size",
-                self.device.info.name,
-                self.device.info.max_storage_buffer_range
-            );
-        }
+        let film_bytes = self.film_bytes(width, height)?;
         let bdpt = kernel == "bdpt";
-        if bdpt && !self.device.info.atomic_float {
-            bail!(
-                "bdpt splats light-tracing samples with float atomics, and {} has no VK_EXT_shader_atomic_float (shaderBufferFloat32AtomicAdd)",
-                self.device.info.name
-            );
+        if bdpt {
+            self.require_float_atomics("bdpt splats light-tracing samples")?;
         }
         let limit = self.device.info.max_storage_buffer_range;
         let max_scatter = bdpt_max_scatter(scene);
@@ -228,31 +232,8 @@ impl Renderer {
             &self.device.info.name,
         )?;
         let strategy_bytes = strategy_group as u64 * 2 * film_bytes;
-        let mut scene = scene.clone();
-        let bvh = trace.cpu("BVH build", || crate::accel::prepare(&mut scene))?;
-        let gpu_scene = trace.cpu("scene upload", || {
-            GpuScene::new(
-                &self.device,
-                &scene,
-                &bvh,
-                self.backend(),
-                seed,
-                strategy_selection(0, strategy_group),
-            )
-        })?;
-        let rq = if self.backend() == Backend::RayQuery {
-            let spheres: Vec<_> = scene.spheres.iter().map(|s| s.object_to_world).collect();
-            Some(trace.cpu("acceleration structure build", || {
-                rayquery::build_scene(
-                    &self.device,
-                    &gpu_scene.triangles,
-                    scene.triangles.len() as u32,
-                    &spheres,
-                )
-            })?)
-        } else {
-            None
-        };
+        let Prepared { gpu_scene, rq, .. } =
+            self.prepare(scene, seed, strategy_selection(0, strategy_group), trace)?;
         let pipeline = trace.cpu("pipeline creation", || self.kernels.pipeline(kernel))?;
         let film = trace.cpu("film allocation", || {
             Buffer::zeroed(
@@ -293,6 +274,8 @@ impl Renderer {
                 )?,
             ))
         })?;
+        // MMLT's buffers, which these kernels never touch.
+        let unused = Buffer::zeroed(&self.device, "unused", 16, usage)?;
         let set = gpu_scene.descriptor_set(
             &self.kernels,
             &[
@@ -301,37 +284,14 @@ impl Renderer {
                 (BINDING_SPLAT, &splat),
                 (BINDING_PATH_VERTICES, &vertices),
                 (BINDING_STRATEGIES, &strategy_film),
+                (BINDING_CHAIN_SAMPLES, &unused),
+                (BINDING_CHAINS, &unused),
+                (BINDING_BOOTSTRAP, &unused),
             ],
             rq.as_ref(),
         )?;
-
-        // Drivers that compile lazily (lavapipe JITs a kernel at its first dispatch:
-        // ~25 s for `pt` with a cold Mesa shader cache) do it here, in a stage of its own,
-        // rather than inside the first timed pass. Zero samples: the film is unchanged.
-        trace.cpu("kernel warm-up", || {
-            self.device
-                .run_commands("warming up the kernel", |cmd| unsafe {
-                    let d = &self.device.raw;
-                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                    d.cmd_bind_descriptor_sets(
-                        cmd,
-                        vk::PipelineBindPoint::COMPUTE,
-                        self.kernels.layout,
-                        0,
-                        &[set],
-                        &[],
-                    );
-                    let params = PassParams { pass: [0, 0, 0, 1] };
-                    d.cmd_push_constants(
-                        cmd,
-                        self.kernels.layout,
-                        vk::ShaderStageFlags::COMPUTE,
-                        0,
-                        bytemuck::bytes_of(&params),
-                    );
-                    d.cmd_dispatch(cmd, 1, 1, 1);
-                })
-        })?;
+        let params = PassParams { pass: [0, 0, 0, 1] };
+        self.warm_up(pipeline, set, bytemuck::bytes_of(&params), trace)?;
 
         let passes = Passes {
             pipeline,
@@ -427,7 +387,105 @@ impl Renderer {
             dispatch_seconds,
             backend: self.backend(),
             strategies,
+            mmlt: None,
         })
+    }
+
+    /// Bytes of a `width` × `height` film (vec4 per pixel), checked against the device's
+    /// storage-buffer range.
+    pub(crate) fn film_bytes(&self, width: u32, height: u32) -> Result<u64> {
+        let film_bytes = width as u64 * height as u64 * 16;
+        if film_bytes > self.device.info.max_storage_buffer_range {
+            bail!(
+                "a {width}x{height} film needs {film_bytes} bytes, more than {}'s storage-buffer range ({} bytes); render a smaller --size",
+                self.device.info.name,
+                self.device.info.max_storage_buffer_range
+            );
+        }
+        Ok(film_bytes)
+    }
+
+    pub(crate) fn require_float_atomics(&self, what: &str) -> Result<()> {
+        if !self.device.info.atomic_float {
+            bail!(
+                "{what} with float atomics, and {} has no VK_EXT_shader_atomic_float (shaderBufferFloat32AtomicAdd)",
+                self.device.info.name
+            );
+        }
+        Ok(())
+    }
+
+    /// What every render does before its dispatches: the visibility structure (BVH, or
+    /// BLAS/TLAS for ray query), the scene's device buffers.
+    pub(crate) fn prepare(
+        &mut self,
+        scene: &Scene,
+        seed: u32,
+        strategy_selection: u32,
+        trace: &mut Trace,
+    ) -> Result<Prepared> {
+        let mut scene = scene.clone();
+        let bvh = trace.cpu("BVH build", || crate::accel::prepare(&mut scene))?;
+        let gpu_scene = trace.cpu("scene upload", || {
+            GpuScene::new(
+                &self.device,
+                &scene,
+                &bvh,
+                self.backend(),
+                seed,
+                strategy_selection,
+            )
+        })?;
+        let rq = if self.backend() == Backend::RayQuery {
+            let spheres: Vec<_> = scene.spheres.iter().map(|s| s.object_to_world).collect();
+            Some(trace.cpu("acceleration structure build", || {
+                rayquery::build_scene(
+                    &self.device,
+                    &gpu_scene.triangles,
+                    scene.triangles.len() as u32,
+                    &spheres,
+                )
+            })?)
+        } else {
+            None
+        };
+        Ok(Prepared { gpu_scene, rq })
+    }
+
+    /// Drivers that compile lazily (lavapipe JITs a kernel at its first dispatch: ~25 s
+    /// for `pt` with a cold Mesa shader cache) do it here, in a stage of its own, rather
+    /// than inside the first timed dispatch. `push` must make the kernel do no work.
+    pub(crate) fn warm_up(
+        &self,
+        pipeline: vk::Pipeline,
+        set: vk::DescriptorSet,
+        push: &[u8],
+        trace: &mut Trace,
+    ) -> Result<()> {
+        trace.cpu("kernel warm-up", || {
+            self.device
+                .run_commands("warming up the kernel", |cmd| unsafe {
+                    let d = &self.device.raw;
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                    d.cmd_bind_descriptor_sets(
+                        cmd,
+                        vk::PipelineBindPoint::COMPUTE,
+                        self.kernels.layout,
+                        0,
+                        &[set],
+                        &[],
+                    );
+                    d.cmd_push_constants(
+                        cmd,
+                        self.kernels.layout,
+                        vk::ShaderStageFlags::COMPUTE,
+                        0,
+                        push,
+                    );
+                    d.cmd_dispatch(cmd, 1, 1, 1);
+                })
+        })?;
+        Ok(())
     }
 
     /// Dispatch `spp` passes of one sample per pixel (fewer if `time_limit` runs out),

@@ -289,14 +289,14 @@ fn bdpt_is_deterministic_per_seed_and_tiling_does_not_change_the_image() {
 
 #[test]
 fn bdpt_renders_every_project_and_course_scene() {
+    // scenes/ holds the project's scenes and, under scenes/course/, the course's.
     let mut paths = walk(&repo().join("scenes"));
-    let course = walk(&repo().join("../shared/cse168-scenes"));
+    let course = walk(&repo().join("scenes/course"));
     assert!(
-        course.len() >= 15,
-        "expected the 15 course scenes beside the checkout (../shared), found {}",
+        course.len() >= 14,
+        "expected the 14 course scenes under scenes/course, found {}",
         course.len()
     );
-    paths.extend(course);
     paths.sort();
     for path in paths {
         let s = lightpath::scene::parse_file(&path).expect("scene parses");

@@ -304,3 +304,95 @@ fn bdpt_strategy_images_are_written_and_need_bdpt() {
         );
     }
 }
+
+#[test]
+fn mmlt_writes_depth_images_prints_its_statistics_and_checks_its_options() {
+    let d = scratch("mmlt");
+    std::fs::write(d.join("s.test"), GOOD).unwrap();
+    let mmlt = |extra: &[&str]| -> Vec<String> {
+        let mut a: Vec<String> = ["render", "s.test", "-o", "out.exr", "--integrator", "mmlt"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    // Options out of range are refused before anything is written.
+    for (bad, message) in [
+        (&["--mmlt-sigma", "0"][..], "--mmlt-sigma"),
+        (&["--mmlt-large-step", "1.5"][..], "--mmlt-large-step"),
+        (&["--mmlt-chains", "0"][..], "--mmlt-chains"),
+        (&["--mmlt-bootstrap", "0"][..], "--mmlt-bootstrap"),
+        (&["--mmlt-chains", "4000000000"][..], "chains"),
+    ] {
+        let args = mmlt(bad);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        fails_with(&args, &d, &[message]);
+        assert_eq!(files_in(&d), vec!["s.test"]);
+    }
+    fails_with(
+        &["render", "s.test", "-o", "out.exr", "--mmlt-depths", "dd"],
+        &d,
+        &["--mmlt-depths needs the mmlt integrator"],
+    );
+    assert_eq!(files_in(&d), vec!["s.test"]);
+    // maxdepth 2: depths 0, 1, 2, and the statistics on stderr.
+    let args = mmlt(&[
+        "--max-depth",
+        "2",
+        "--spp",
+        "4",
+        "--mmlt-chains",
+        "64",
+        "--mmlt-bootstrap",
+        "1000",
+        "--mmlt-depths",
+        "dd",
+    ]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = lightpath(&args, &d);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert_eq!(files_in(&d.join("dd")), vec!["d0.exr", "d1.exr", "d2.exr"]);
+    for needle in ["mmlt: b = ", "64 chains", "3000 samples", "large accepted"] {
+        assert!(err.contains(needle), "expected {needle:?} in: {err}");
+    }
+}
+
+#[test]
+fn mmlt_with_no_light_writes_a_black_image_says_so_and_succeeds() {
+    let d = scratch("mmlt-dark");
+    // A point light behind the only surface, which faces the camera.
+    std::fs::write(
+        d.join("dark.test"),
+        "size 8 8\ncamera 0 0 3 0 0 0 0 1 0 45\nvertex -1 -1 0\nvertex 1 -1 0\nvertex 0 1 0\n\
+         vertex -9 -9 -1\nvertex 9 -9 -1\nvertex 0 9 -1\ndiffuse 0.5 0.5 0.5\ntri 0 1 2\n\
+         tri 3 4 5\npoint 0 0 -5 1 1 1\n",
+    )
+    .unwrap();
+    let out = lightpath(
+        &[
+            "render",
+            "dark.test",
+            "-o",
+            "dark.exr",
+            "-q",
+            "--integrator",
+            "mmlt",
+            "--mmlt-chains",
+            "64",
+            "--mmlt-bootstrap",
+            "500",
+        ],
+        &d,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("no path that carries light"), "{err}");
+    let cmp = lightpath(&["compare", "dark.exr", "dark.exr"], &d);
+    let text = String::from_utf8_lossy(&cmp.stdout);
+    assert!(
+        text.contains("mean A: 0.000000 0.000000 0.000000"),
+        "{text}"
+    );
+}

@@ -60,6 +60,25 @@ fn every_integrator_and_backend_runs_clean_under_the_validation_layer() {
         r.vertex_buffer_limit = Some(24 * 2 * 3 * 64);
         r.render(&s, 2, &mut Trace::new())
             .unwrap_or_else(|e| panic!("tiled BDPT with strategies {accel:?}: {e:#}"));
+        r.record_strategies = false;
+        r.vertex_buffer_limit = None;
+
+        // MMLT with depth images, and at maxdepth -1 (chains and its bdpt tail).
+        let mut s = load("cornell-glossy.test");
+        s.width = 24;
+        s.height = 16;
+        s.settings.spp = 2;
+        s.settings.max_depth = 3;
+        s.settings.integrator = IntegratorKind::Mmlt;
+        s.settings.mmlt.chains = Some(64);
+        s.settings.mmlt.bootstrap = Some(256);
+        r.record_depths = true;
+        r.render(&s, 3, &mut Trace::new())
+            .unwrap_or_else(|e| panic!("MMLT with depth images {accel:?}: {e:#}"));
+        r.record_depths = false;
+        s.settings.max_depth = -1;
+        r.render(&s, 4, &mut Trace::new())
+            .unwrap_or_else(|e| panic!("MMLT at maxdepth -1 {accel:?}: {e:#}"));
 
         let v = r.validation().expect("validation was requested");
         assert!(

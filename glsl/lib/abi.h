@@ -23,6 +23,9 @@
 #define BINDING_SPLAT 10
 #define BINDING_PATH_VERTICES 11
 #define BINDING_STRATEGIES 12
+#define BINDING_CHAIN_SAMPLES 13
+#define BINDING_CHAINS 14
+#define BINDING_BOOTSTRAP 15
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -46,7 +49,21 @@
 // Invocations whose slice of a per-pixel buffer would pass the buffer's end (a bug of
 // the host's tiling: the host fails the render when it is not 0).
 #define STAT_OUT_OF_RANGE 1
+// MMLT chain starts whose first path's target differs from its bootstrap sample's (a
+// bug: the host fails the render when it is not 0).
+#define STAT_START_MISMATCH 2
+// Rays traced by MMLT's bootstrap (chains count theirs in GpuChain.start.y).
+#define STAT_MMLT_RAYS 3
 #define STAT_COUNT 4
+
+// MMLT dispatch modes (MmltParams.run.x).
+#define MMLT_MODE_BOOTSTRAP 0
+#define MMLT_MODE_START 1
+#define MMLT_MODE_CHAINS 2
+// Threads per MMLT workgroup (one bootstrap sample or one chain each).
+#define MMLT_WORKGROUP_SIZE 64
+// Primary-sample streams of an MMLT chain.
+#define MMLT_STREAM_COUNT 3
 
 // BDPT with maxdepth -1: paths of up to this many scattering vertices get every
 // strategy (light-subpath vertices are stored per pixel, so the bound sets the buffer
@@ -111,7 +128,8 @@ struct SceneParams {
     uvec4 dims;          // x width, y height, z triangles, w spheres
     uvec4 counts;        // x emitters, y max scattering vertices, z 1 if maxdepth is -1, w total spp
     uvec4 options;       // x nee mode, y russian roulette, z importance sampling, w integrator
-    uvec4 direct;        // x light samples, y stratify, z seed, w BDPT strategies to record: first << 16 | count (0: none)
+    uvec4 direct;        // x light samples, y stratify, z seed, w unused
+    uvec4 bdpt;          // x BDPT strategies to record: first << 16 | count (0: none), y add only paths of at least this many scattering vertices (MMLT's tail)
 };
 
 // A vertex of a BDPT light subpath (stored per pixel, read back by the camera subpath).
@@ -127,6 +145,24 @@ struct GpuPathVertex {
 // Per-dispatch constants.
 struct PassParams {
     uvec4 pass;          // x first sample index of the pass, y samples in the pass, z first row, w end row of the band
+};
+
+// MMLT's per-dispatch constants (push constants of mmlt.comp).
+struct MmltParams {
+    uvec4 run;           // x mode (MMLT_MODE_*), y first item (bootstrap sample or chain), z items, w mutations per chain
+    uvec4 sizes;         // x chains, y bootstrap samples per depth, z depths (D + 1), w 1: record per-depth images
+    uvec4 streams;       // x camera numbers, y light numbers, z connection numbers, w numbers per chain (their sum)
+    vec4 mutation;       // x sigma of a small step, y large-step probability
+};
+
+// An MMLT chain. Its primary numbers are in the chain-sample buffer, dimension-major:
+// number i of chain c at i * chains + c, as uvec4(value (32-bit fixed point in [0,1)),
+// last-modified step, backup value, backup step).
+struct GpuChain {
+    vec4 current;        // xyz contribution C of the current path, w its target f = luminance(C)
+    uvec4 state;         // x pixel of the current path, y depth, z step (accepted mutations), w step of the last accepted large step
+    uvec4 counts;        // x large steps proposed, y accepted, z small steps proposed, w accepted
+    uvec4 start;         // x the bootstrap sample it started from (index within its depth), y rays traced
 };
 #endif
 

@@ -12,7 +12,9 @@ layout(std430, set = 0, binding = BINDING_EMITTER_CDF) readonly buffer EmitterCd
 layout(std430, set = 0, binding = BINDING_FILM) buffer FilmBuffer { vec4 film[]; };
 layout(std430, set = 0, binding = BINDING_STATS) buffer StatsBuffer { uint stats[]; };
 
+#ifndef OWN_PUSH_CONSTANTS
 layout(push_constant) uniform PassBlock { PassParams pass_params; };
+#endif
 
 const float INF = 1.0 / 0.0;
 #endif

@@ -58,6 +58,7 @@ pub struct SceneParams {
     pub counts: [u32; 4],
     pub options: [u32; 4],
     pub direct: [u32; 4],
+    pub bdpt: [u32; 4],
 }
 
 #[repr(C)]
@@ -73,6 +74,24 @@ pub struct GpuPathVertex {
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct PassParams {
     pub pass: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct MmltParams {
+    pub run: [u32; 4],
+    pub sizes: [u32; 4],
+    pub streams: [u32; 4],
+    pub mutation: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuChain {
+    pub current: [f32; 4],
+    pub state: [u32; 4],
+    pub counts: [u32; 4],
+    pub start: [u32; 4],
 }
 
 pub use crate::accel::bvh::BvhNode;
@@ -103,10 +122,13 @@ pub fn layouts() -> Vec<StructLayout> {
             dims,
             counts,
             options,
-            direct
+            direct,
+            bdpt
         ),
         layout!(GpuPathVertex, p, n, wi, beta),
         layout!(PassParams, pass),
+        layout!(MmltParams, run, sizes, streams, mutation),
+        layout!(GpuChain, current, state, counts, start),
     ]
 }
 
@@ -114,7 +136,7 @@ const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuEmitter>() == 80);
-const _: () = assert!(std::mem::size_of::<SceneParams>() == 144);
+const _: () = assert!(std::mem::size_of::<SceneParams>() == 160);
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 64);
 

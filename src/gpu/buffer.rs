@@ -158,6 +158,57 @@ impl Buffer {
         Ok(buffer)
     }
 
+    /// Copy `data` into the start of this device-local buffer (made with TRANSFER_DST),
+    /// ordered after every earlier command and before every later one.
+    pub fn upload(&self, data: &[u8]) -> GpuResult<()> {
+        if data.is_empty() {
+            return Ok(());
+        }
+        let device = &self.device;
+        let stage = format!("uploading into '{}'", self.name);
+        if data.len() as u64 > self.size {
+            return Err(other_error(&stage, "data larger than the buffer"));
+        }
+        let mut staging = Buffer::new(
+            device,
+            &format!("{} (staging)", self.name),
+            data.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        staging.write(data)?;
+        device.run_commands(&stage, |cmd| unsafe {
+            writes_visible_to_later_commands(
+                device,
+                cmd,
+                vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
+            );
+            device.raw.cmd_copy_buffer(
+                cmd,
+                staging.raw,
+                self.raw,
+                &[vk::BufferCopy::default().size(data.len() as u64)],
+            );
+            writes_visible_to_later_commands(device, cmd, vk::AccessFlags::TRANSFER_WRITE);
+        })
+    }
+
+    /// Fill the whole buffer with zeros, ordered after every earlier command.
+    pub fn clear(&self) -> GpuResult<()> {
+        let device = &self.device;
+        device.run_commands(&format!("clearing '{}'", self.name), |cmd| unsafe {
+            writes_visible_to_later_commands(
+                device,
+                cmd,
+                vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
+            );
+            device
+                .raw
+                .cmd_fill_buffer(cmd, self.raw, 0, vk::WHOLE_SIZE, 0);
+            writes_visible_to_later_commands(device, cmd, vk::AccessFlags::TRANSFER_WRITE);
+        })
+    }
+
     /// A zero-filled device-local buffer.
     pub fn zeroed(
         device: &Arc<Device>,

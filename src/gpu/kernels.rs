@@ -47,6 +47,9 @@ pub fn bindings(backend: Backend) -> Vec<(u32, vk::DescriptorType)> {
         (BINDING_SPLAT, storage),
         (BINDING_PATH_VERTICES, storage),
         (BINDING_STRATEGIES, storage),
+        (BINDING_CHAIN_SAMPLES, storage),
+        (BINDING_CHAINS, storage),
+        (BINDING_BOOTSTRAP, storage),
     ];
     match backend {
         Backend::RayQuery => b.push((BINDING_TLAS, vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)),
@@ -56,6 +59,11 @@ pub fn bindings(backend: Backend) -> Vec<(u32, vk::DescriptorType)> {
         }
     }
     b
+}
+
+/// The push-constant range every kernel shares: the largest per-dispatch struct.
+pub fn push_constant_bytes() -> u32 {
+    std::mem::size_of::<PassParams>().max(std::mem::size_of::<MmltParams>()) as u32
 }
 
 pub struct Kernels {
@@ -90,7 +98,7 @@ impl Kernels {
         let set_layouts = [set_layout];
         let push = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            .size(std::mem::size_of::<PassParams>() as u32)];
+            .size(push_constant_bytes())];
         let layout = unsafe {
             device.raw.create_pipeline_layout(
                 &vk::PipelineLayoutCreateInfo::default()

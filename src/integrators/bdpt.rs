@@ -86,7 +86,7 @@ pub fn bdpt_max_scatter(scene: &Scene) -> u32 {
     }
 }
 
-/// SceneParams.direct.w: record the images of strategies first .. first + count (by
+/// SceneParams.bdpt.x: record the images of strategies first .. first + count (by
 /// the kernel's index; count 0: none).
 pub fn strategy_selection(first: u32, count: u32) -> u32 {
     (first << 16) | count
@@ -121,7 +121,7 @@ impl Renderer {
         while first < total {
             let count = group.min(total - first);
             let mut params = p.gpu_scene.params;
-            params.direct[3] = strategy_selection(first, count);
+            params.bdpt[0] = strategy_selection(first, count);
             let device = self.device.clone();
             device.run_commands("selecting the next group of BDPT strategies", |cmd| {
                 let compute = vk::PipelineStageFlags::COMPUTE_SHADER;

@@ -2,3 +2,5 @@
 //! dispatch loop, and CPU mirrors of their GPU math.
 pub mod bdpt;
 pub mod bdpt_mis;
+pub mod mmlt;
+pub mod mmlt_sampler;

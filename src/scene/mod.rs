@@ -170,6 +170,32 @@ pub struct Settings {
     pub light_samples: u32,
     pub light_stratify: bool,
     pub gamma: f32,
+    pub mmlt: MmltSettings,
+}
+
+/// MMLT's settings (scene commands `mmltbootstrap`, `mmltchains`, `mmltsigma`,
+/// `mmltlargestep`; command-line `--mmlt-*`). `None`: the device-dependent default.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MmltSettings {
+    /// Bootstrap samples per depth.
+    pub bootstrap: Option<u32>,
+    /// Independent Markov chains.
+    pub chains: Option<u32>,
+    /// Standard deviation of a small step's Gaussian offset in primary sample space.
+    pub sigma: f32,
+    /// Probability that a mutation is a large step (all numbers fresh).
+    pub large_step: f32,
+}
+
+impl Default for MmltSettings {
+    fn default() -> Self {
+        MmltSettings {
+            bootstrap: None,
+            chains: None,
+            sigma: 0.01,
+            large_step: 0.3,
+        }
+    }
 }
 
 impl Default for Settings {
@@ -184,6 +210,7 @@ impl Default for Settings {
             light_samples: 1,
             light_stratify: false,
             gamma: 1.0,
+            mmlt: MmltSettings::default(),
         }
     }
 }

@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# Equal-time comparison of the path tracer and BDPT on the showcase scenes.
+# Equal-time comparison of the integrators on the showcase scenes.
 # For each scene: a long BDPT reference render, then TRIALS renders per integrator, each
-# stopped after TIME seconds of rendering (--time-limit), and their relMSE against the
-# reference (lightpath compare: mean of (a-b)^2 / (b^2 + 0.01)). Prints a Markdown table.
+# stopped after TIME seconds of rendering (--time-limit; MMLT's includes its bootstrap
+# and chain starts), and their relMSE against the reference (lightpath compare: mean of
+# (a-b)^2 / (b^2 + 0.01)). Prints a Markdown table.
 #
-#   scripts/bdpt-equal-time.sh                  # 128x128, 20 s, 3 trials, 2048-spp reference
-#   SIZE=64x64 TIME=5 REF_SPP=512 scripts/bdpt-equal-time.sh
+#   scripts/equal-time.sh                  # 128x128, 20 s, 3 trials, 2048-spp reference
+#   SIZE=64x64 TIME=5 REF_SPP=512 scripts/equal-time.sh
+#   INTEGRATORS=mmlt MMLT_OPTS="--mmlt-chains 1024" scripts/equal-time.sh
 #
 # Output files go to $OUT (default /tmp/lightpath-equal-time); an existing reference is
 # reused. The path tracer uses the scene's settings (NEE with MIS, BRDF sampling, RR).
@@ -17,12 +19,14 @@ TIME="${TIME:-20}"
 TRIALS="${TRIALS:-3}"
 REF_SPP="${REF_SPP:-2048}"
 SCENES="${SCENES:-cornell-occlusion cornell-slab}"
+INTEGRATORS="${INTEGRATORS:-pathtracer bdpt mmlt}"
+MMLT_OPTS="${MMLT_OPTS:-}"
 OUT="${OUT:-/tmp/lightpath-equal-time}"
 mkdir -p "$OUT"
 # LIGHTPATH_BIN: a lightpath binary to use instead of ./lp (which rebuilds first).
 lp() { if [ -n "${LIGHTPATH_BIN:-}" ]; then "$LIGHTPATH_BIN" "$@"; else "$root/lp" "$@"; fi; }
 
-echo "| scene | integrator | time limit (s) | spp reached | Msamples/s | relMSE (mean of $TRIALS) |"
+echo "| scene | integrator | time limit (s) | spp (mutations per pixel) reached | Msamples/s | relMSE (mean of $TRIALS) |"
 echo "|---|---|---|---|---|---|"
 for scene in $SCENES; do
   ref="$OUT/$scene-ref-$SIZE.exr"
@@ -30,13 +34,15 @@ for scene in $SCENES; do
     lp render "$root/scenes/$scene.test" --integrator bdpt --size "$SIZE" --spp "$REF_SPP" \
       --seed 4242 -o "$ref" 2>"$OUT/$scene-ref.log"
   fi
-  for integrator in pathtracer bdpt; do
+  for integrator in $INTEGRATORS; do
     sum=0; spp=0; rate=0
+    opts=()
+    if [ "$integrator" = mmlt ]; then read -r -a opts <<<"$MMLT_OPTS"; fi
     for trial in $(seq 1 "$TRIALS"); do
       img="$OUT/$scene-$integrator-$trial.exr"
       log="$OUT/$scene-$integrator-$trial.log"
       lp render "$root/scenes/$scene.test" --integrator "$integrator" --size "$SIZE" \
-        --spp 1000000 --time-limit "$TIME" --seed "$trial" -o "$img" 2>"$log"
+        --spp 1000000 --time-limit "$TIME" --seed "$trial" -o "$img" "${opts[@]}" 2>"$log"
       line=$(grep -E " spp, .* Msamples/s" "$log")
       spp=$(echo "$line" | sed -E 's/.* ([0-9]+) spp,.*/\1/')
       rate=$(echo "$line" | sed -E 's/.*, ([0-9.]+) Msamples\/s.*/\1/')

@@ -1,0 +1,373 @@
+// Bidirectional path tracing's physics, written once and driven two ways: bdpt.comp
+// walks whole subpaths and combines every (s,t) strategy; mmlt.comp evaluates one
+// strategy per sample. Subpath walks, the four kinds of connection and their MIS
+// weights live here.
+//
+// MIS: power heuristic over every strategy of a path, computed recursively without
+// storing whole paths (the dVCM/dVC quantities of Georgiev's "Implementing vertex
+// connection and merging", 2012, restricted to connections). Every pdf is squared on
+// the way in (mis()), so the stored quantities are already power-heuristic sums.
+// N = light_paths light subpaths run per pass (bdpt: width * height), so light tracing
+// (t = 1) has N samples per pixel estimate: it divides its contribution by N and its
+// MIS ratios carry N. MMLT keeps the same N so that its weights are bdpt's.
+//
+// Randomness comes only through the sampler interface, which the including kernel
+// defines before this file (sampler_pcg.glsl or sampler_pss.glsl):
+//   uint sample_u32(uint stream); float sample_1d(uint stream);
+//   vec2 sample_2d(uint stream);  vec3 sample_3d(uint stream);
+// with streams STREAM_CAMERA (camera walk), STREAM_LIGHT (light walk) and
+// STREAM_CONNECT (the s = 1 light sample).
+//
+// The including kernel sets these before use:
+#ifndef BDPT_GLSL
+#define BDPT_GLSL
+
+uint rays_traced = 0u;
+uint max_scatter;      // scattering vertices of the longest path that gets every strategy
+float light_paths;     // N
+float pixel_area;      // a pixel's area on the image plane at distance 1
+uint sample_mode;      // importancesampling
+
+void bdpt_init_globals() {
+    max_scatter = scene.counts.y;
+    light_paths = float(scene.dims.x) * float(scene.dims.y);
+    float pixel_side = 2.0 * scene.cam_eye.w / float(scene.dims.y);
+    pixel_area = pixel_side * pixel_side;
+    sample_mode = scene.options.z;
+}
+
+float mis(float x) { return x * x; }
+
+bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
+
+bool closest(vec3 o, vec3 d, out Hit hit) { rays_traced++; return trace_closest(o, d, INF, hit); }
+
+// Is the segment between two surface points a and b (normals na, nb on the sides the
+// segment leaves from) unoccluded?
+bool visible(vec3 a, vec3 na, vec3 b, vec3 nb) {
+    rays_traced++;
+    vec3 o = offset_ray_origin(a, na);
+    vec3 target = offset_ray_origin(b, nb);
+    vec3 to = target - o;
+    float dist = length(to);
+    if (!(dist > 0.0)) return true;
+    return !trace_occluded(o, to / dist, dist);
+}
+
+// Solid-angle pdf with which the camera samples direction w (unit, from the eye) for a
+// given pixel: 1 / (pixel_area cos^3(theta)).
+float camera_pdf_w(vec3 w) {
+    float c = dot(w, scene.cam_forward.xyz);
+    return 1.0 / (pixel_area * c * c * c);
+}
+
+// A material's BSDF as bdpt uses it (wo toward the viewer side of the walk, wi the
+// other direction; n on the side of the arriving path).
+vec3 material_eval(GpuMaterial m, vec3 n, vec3 wo, vec3 wi) {
+    return bsdf_eval(uint(m.params.z), m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, wi);
+}
+float material_pdf(GpuMaterial m, vec3 n, vec3 wo, vec3 wi) {
+    return bsdf_pdf(sample_mode, uint(m.params.z), m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, wi);
+}
+bool material_sample(GpuMaterial m, vec3 n, vec3 wo, vec3 u, out vec3 wi, out float pdf) {
+    return bsdf_sample(sample_mode, uint(m.params.z), m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, u, wi, pdf);
+}
+
+// A surface vertex of a subpath, with what later connections need.
+struct PathVertex {
+    vec3 p;
+    uint material;
+    vec3 n;          // unit normal on the side the path arrived from
+    float dvcm;      // MIS running sums at this vertex
+    vec3 w;          // unit direction toward the previous vertex
+    float dvc;
+    vec3 beta;       // throughput up to (not including) this vertex's BSDF
+    uint emitter;    // NO_EMITTER unless the surface emits
+    vec3 ng;         // geometric normal as the surface has it (emission sides)
+};
+
+// A subpath being walked: the next ray and the running throughput and MIS sums.
+struct Walk {
+    vec3 o;
+    vec3 d;
+    vec3 beta;
+    float dvcm;
+    float dvc;
+    uint vertices;     // surface vertices found so far
+    bool infinite;     // light walks from a directional light
+    float prev_pdf_w;  // camera walks beyond max_scatter: the last bounce's BSDF pdf
+    vec3 prev_p;       // ... and the vertex it left from
+};
+
+PathVertex vertex_at(Walk w, Surface s, vec3 toward_prev) {
+    PathVertex v;
+    v.p = s.p;
+    v.material = s.material;
+    v.n = dot(s.ng, toward_prev) < 0.0 ? -s.ng : s.ng;
+    v.w = toward_prev;
+    v.beta = w.beta;
+    v.dvcm = w.dvcm;
+    v.dvc = w.dvc;
+    v.emitter = s.emitter;
+    v.ng = s.ng;
+    return v;
+}
+
+// ---- light subpaths ---------------------------------------------------------------
+
+// Start a light subpath: pick a light by power (light stream), place a point and a
+// direction on it. False when there is no light or it emits nothing this way.
+bool light_walk_start(out Walk w, out LightEmission le, out uint e) {
+    w.o = vec3(0.0);
+    w.d = vec3(0.0, 0.0, 1.0);
+    w.beta = vec3(0.0);
+    w.dvcm = 0.0;
+    w.dvc = 0.0;
+    w.vertices = 0u;
+    w.infinite = false;
+    w.prev_pdf_w = 0.0;
+    w.prev_p = vec3(0.0);
+    e = 0u;
+    if (scene.counts.x == 0u) return false;
+    e = pick_emitter(sample_u32(STREAM_LIGHT));
+    vec2 u_pos = sample_2d(STREAM_LIGHT);
+    vec3 u_dir = sample_3d(STREAM_LIGHT);
+    if (!sample_light_emission(e, u_pos, u_dir, le)) return false;
+    bool delta = le.kind >= EMITTER_POINT;
+    w.beta = le.Le * (le.cos_l / le.pdf_emit);
+    w.dvcm = mis(le.pdf_pos / le.pdf_emit);
+    w.dvc = delta ? 0.0 : mis(le.cos_l / le.pdf_emit);
+    w.infinite = le.kind == EMITTER_DIRECTIONAL;
+    w.o = delta ? le.p : offset_ray_origin(le.p, dot(le.n, le.dir) > 0.0 ? le.n : -le.n);
+    w.d = le.dir;
+    return true;
+}
+
+// The next surface vertex of a light subpath (y_i, i = w.vertices after the call).
+// False when the ray escapes or grazes the surface (cos^2 in the MIS sums must not
+// underflow to 0).
+bool light_walk_next(inout Walk w, out PathVertex v) {
+    Hit hit;
+    if (!closest(w.o, w.d, hit)) return false;
+    Surface s = surface_at(hit, w.o, w.d);
+    vec3 wi = -w.d;
+    float cos_in = abs(dot(s.ng, wi));
+    if (!(cos_in > 1e-6)) return false;
+    if (!(w.vertices == 0u && w.infinite)) w.dvcm *= mis(hit.t * hit.t);
+    w.dvcm /= mis(cos_in);
+    w.dvc /= mis(cos_in);
+    w.vertices++;
+    v = vertex_at(w, s, wi);
+    return true;
+}
+
+// Continue a light subpath from its vertex v by sampling the BSDF (light stream).
+bool light_walk_extend(inout Walk w, PathVertex v) {
+    GpuMaterial m = materials[v.material];
+    vec3 wn;
+    float pdf_fwd;
+    if (!material_sample(m, v.n, v.w, sample_3d(STREAM_LIGHT), wn, pdf_fwd)) return false;
+    float pdf_rev = material_pdf(m, v.n, wn, v.w);
+    vec3 f = material_eval(m, v.n, v.w, wn);
+    float cos_out = dot(v.n, wn);
+    w.beta = v.beta * f * (cos_out / pdf_fwd);
+    if (w.beta == vec3(0.0)) return false;
+    w.dvc = mis(cos_out / pdf_fwd) * (v.dvc * mis(pdf_rev) + v.dvcm);
+    w.dvcm = mis(1.0 / pdf_fwd);
+    w.o = offset_ray_origin(v.p, v.n);
+    w.d = wn;
+    return true;
+}
+
+// ---- camera subpaths --------------------------------------------------------------
+
+// Start a camera subpath through the film position `film` in [0,1)^2 (whole image).
+void camera_walk_start(vec2 film, out Walk w) {
+    w.o = scene.cam_eye.xyz;
+    w.d = camera_ray_direction_film(film);
+    w.beta = vec3(1.0);
+    w.dvcm = mis(light_paths / camera_pdf_w(w.d));
+    w.dvc = 0.0;
+    w.vertices = 0u;
+    w.infinite = false;
+    w.prev_pdf_w = 0.0;
+    w.prev_p = w.o;
+}
+
+// The next surface vertex z_k of a camera subpath (k = w.vertices after the call;
+// strategies there have t = k + 1). The MIS sums stop being updated past max_scatter,
+// where only s = 0 and s = 1 remain (bdpt's beyond-the-cap regime).
+bool camera_walk_next(inout Walk w, out PathVertex v) {
+    Hit hit;
+    if (!closest(w.o, w.d, hit)) return false;
+    Surface s = surface_at(hit, w.o, w.d);
+    vec3 wo = -w.d;
+    float cos_in = abs(dot(s.ng, wo));
+    if (!(cos_in > 1e-6)) return false;
+    w.vertices++;
+    if (w.vertices - 1u <= max_scatter) {
+        w.dvcm *= mis(hit.t * hit.t) / mis(cos_in);
+        w.dvc /= mis(cos_in);
+    }
+    v = vertex_at(w, s, wo);
+    return true;
+}
+
+// Continue a camera subpath from its vertex v by sampling the BSDF (camera stream).
+// Beyond max_scatter every longer path is in the roulette regime.
+bool camera_walk_extend(inout Walk w, PathVertex v) {
+    GpuMaterial m = materials[v.material];
+    vec3 wn;
+    float pdf_fwd;
+    if (!material_sample(m, v.n, v.w, sample_3d(STREAM_CAMERA), wn, pdf_fwd)) return false;
+    float pdf_rev = material_pdf(m, v.n, wn, v.w);
+    vec3 f = material_eval(m, v.n, v.w, wn);
+    float cos_out = dot(v.n, wn);
+    w.beta = v.beta * f * (cos_out / pdf_fwd);
+    if (w.beta == vec3(0.0)) return false;
+    if (w.vertices > max_scatter) {
+        float survive = min(1.0, max(w.beta.x, max(w.beta.y, w.beta.z)));
+        if (sample_1d(STREAM_CAMERA) >= survive) return false;
+        w.beta /= survive;
+    } else {
+        w.dvc = mis(cos_out / pdf_fwd) * (v.dvc * mis(pdf_rev) + v.dvcm);
+        w.dvcm = mis(1.0 / pdf_fwd);
+    }
+    w.prev_pdf_w = pdf_fwd;
+    w.prev_p = v.p;
+    w.o = offset_ray_origin(v.p, v.n);
+    w.d = wn;
+    return true;
+}
+
+// ---- strategies: each returns its unweighted contribution and its MIS weight ------
+
+// s = 0 at the camera vertex z (the walk's last): the camera subpath found an emitter.
+bool strategy_emitter_hit(Walk w, PathVertex z, out vec3 value, out float weight) {
+    value = vec3(0.0);
+    weight = 0.0;
+    if (z.emitter == NO_EMITTER) return false;
+    vec3 Le = emitted_radiance(z.material, z.ng, z.w);
+    if (Le == vec3(0.0)) return false;
+    if (w.vertices - 1u <= max_scatter) {
+        float pdf_pos;
+        float pdf_emit;
+        emitter_emission_pdfs(z.emitter, z.p, z.ng, z.w, pdf_pos, pdf_emit);
+        float w_cam = mis(pdf_pos) * z.dvcm + mis(pdf_emit) * z.dvc;
+        weight = 1.0 / (1.0 + w_cam);
+    } else {
+        weight = power_heuristic(w.prev_pdf_w, emitter_pdf_solid_angle(z.emitter, w.prev_p, z.p, z.ng));
+    }
+    value = z.beta * Le;
+    return true;
+}
+
+// s = 1 at the camera vertex z (the walk's last): a fresh sample on a light, picked
+// and placed with the connection stream. Traces the shadow ray.
+bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weight) {
+    value = vec3(0.0);
+    weight = 0.0;
+    if (scene.counts.x == 0u) return false;
+    uint e = pick_emitter(sample_u32(STREAM_CONNECT));
+    vec2 u = sample_2d(STREAM_CONNECT);
+    LightSample ls;
+    if (!sample_emitter(e, z.p, u, ls) || !(ls.pdf > 0.0)) return false;
+    float cos_z = dot(z.n, ls.wi);
+    if (!(cos_z > 0.0)) return false;
+    GpuMaterial m = materials[z.material];
+    vec3 f = material_eval(m, z.n, z.w, ls.wi);
+    if (f == vec3(0.0)) return false;
+    float pdf_dir = material_pdf(m, z.n, z.w, ls.wi);
+    if (w.vertices <= max_scatter) {
+        float pdf_rev = material_pdf(m, z.n, ls.wi, z.w);
+        float pdf_pos;
+        float pdf_emit;
+        emitter_emission_pdfs(e, ls.p, ls.n, -ls.wi, pdf_pos, pdf_emit);
+        float d2 = ls.dist == INF ? 1.0 : ls.dist * ls.dist;
+        float w_light = ls.delta ? 0.0 : mis(pdf_dir / ls.pdf);
+        float w_cam = mis(pdf_emit * cos_z / (pdf_pos * d2)) * (z.dvcm + z.dvc * mis(pdf_rev));
+        weight = 1.0 / (w_light + 1.0 + w_cam);
+    } else {
+        weight = ls.delta ? 1.0 : power_heuristic(ls.pdf, pdf_dir);
+    }
+    rays_traced++;
+    if (!light_sample_visible(z.p, z.n, ls)) return false;
+    value = z.beta * f * ls.L * (cos_z / ls.pdf);
+    return true;
+}
+
+// t = 1 from the light vertex y: the camera sees it. `px` is the pixel it lands on.
+bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out float weight) {
+    value = vec3(0.0);
+    weight = 0.0;
+    vec3 to_eye;
+    float dist;
+    if (!camera_project(y.p, px, to_eye, dist)) return false;
+    float cos_y = dot(y.n, to_eye);
+    if (!(cos_y > 0.0)) return false;
+    GpuMaterial m = materials[y.material];
+    vec3 f = material_eval(m, y.n, to_eye, y.w);
+    if (f == vec3(0.0)) return false;
+    float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
+    float pdf_rev = material_pdf(m, y.n, to_eye, y.w);
+    float w_light = mis(pdf_cam_a / light_paths) * (y.dvcm + y.dvc * mis(pdf_rev));
+    weight = 1.0 / (1.0 + w_light);
+    rays_traced++;
+    vec3 o = offset_ray_origin(y.p, y.n);
+    if (trace_occluded(o, to_eye, length(scene.cam_eye.xyz - o))) return false;
+    value = y.beta * f * (pdf_cam_a / light_paths);
+    return true;
+}
+
+// s = 1, t = 1: the point a light subpath started from, seen by the camera. (Delta
+// lights are not visible to the camera, as in the path tracer.)
+bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 value, out float weight) {
+    value = vec3(0.0);
+    weight = 0.0;
+    px = uvec2(0u);
+    if (le.kind >= EMITTER_POINT) return false;
+    vec3 to_eye;
+    float dist;
+    if (!camera_project(le.p, px, to_eye, dist)) return false;
+    vec3 Le = emitted_radiance(emitter_material(emitters[e]), le.n, to_eye);
+    float cos_y = abs(dot(le.n, to_eye));
+    if (Le == vec3(0.0) || !(cos_y > 0.0)) return false;
+    float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
+    float ratio = pdf_cam_a / (light_paths * le.pdf_pos);   // camera hitting it (s = 0) vs this
+    weight = 1.0 / (1.0 + mis(ratio));
+    rays_traced++;
+    vec3 o = offset_ray_origin(le.p, dot(le.n, to_eye) > 0.0 ? le.n : -le.n);
+    if (trace_occluded(o, to_eye, length(scene.cam_eye.xyz - o))) return false;
+    value = Le * ratio;
+    return true;
+}
+
+// s >= 2, t >= 2: connect the camera vertex z to the light vertex y.
+bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float weight) {
+    value = vec3(0.0);
+    weight = 0.0;
+    vec3 to = y.p - z.p;
+    float d2 = dot(to, to);
+    if (!(d2 > 0.0)) return false;
+    vec3 dir = to * inversesqrt(d2);
+    float cos_z = dot(z.n, dir);
+    float cos_y = -dot(y.n, dir);
+    if (!(cos_z > 0.0) || !(cos_y > 0.0)) return false;
+    GpuMaterial m = materials[z.material];
+    GpuMaterial my = materials[y.material];
+    vec3 f_z = material_eval(m, z.n, z.w, dir);
+    vec3 f_y = material_eval(my, y.n, -dir, y.w);
+    vec3 c = z.beta * f_z * f_y * y.beta * (cos_z * cos_y / d2);
+    if (c == vec3(0.0)) return false;
+    float cam_dir = material_pdf(m, z.n, z.w, dir);
+    float cam_rev = material_pdf(m, z.n, dir, z.w);
+    float light_dir = material_pdf(my, y.n, y.w, -dir);
+    float light_rev = material_pdf(my, y.n, -dir, y.w);
+    float w_light = mis(cam_dir * cos_y / d2) * (y.dvcm + y.dvc * mis(light_rev));
+    float w_cam = mis(light_dir * cos_z / d2) * (z.dvcm + z.dvc * mis(cam_rev));
+    weight = 1.0 / (w_light + 1.0 + w_cam);
+    if (!visible(z.p, z.n, y.p, y.n)) return false;
+    value = c;
+    return true;
+}
+#endif

@@ -1,0 +1,241 @@
+// Multiplexed Metropolis light transport (Hachisuka, Kaplanyan & Dachsbacher 2014) over
+// primary sample space (Kelemen et al. 2002), one invocation per bootstrap sample or
+// per chain. Three kinds of dispatch (MmltParams.run.x):
+//   MMLT_MODE_BOOTSTRAP  sample `item` of the bootstrap: depth item / per_depth, its
+//                        numbers hashed from (index, depth, seed); writes its target f.
+//   MMLT_MODE_START      chain `item`: copies its bootstrap sample's numbers into the
+//                        chain state and evaluates its path through the same function,
+//                        so the chain starts exactly on that sample.
+//   MMLT_MODE_CHAINS     chain `item` makes run.w Metropolis-Hastings proposals.
+//
+// A path of depth d is one strategy (s,t) of bdpt, chosen by the first camera number
+// among the d + 2 that bdpt combines for that depth (s = 0..d+1, t = d+2-s), with
+// exactly bdpt's MIS weight (lib/bdpt.glsl, N = width * height light paths). Its
+// contribution C = weighted value * (d + 2) and its target f = luminance(C). The
+// film position is uniform over the whole image; t = 1 paths land where their light
+// vertex projects. Each proposal splats a * C'/f' at its pixel and (1 - a) * C/f at the
+// current one (the latter accumulated while the chain stays and splatted when it moves
+// or the dispatch ends), by float atomics; the host scales the splat film by
+// b * width * height / mutations.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_atomic_float : require
+
+#include "abi.h"
+layout(local_size_x = MMLT_WORKGROUP_SIZE) in;
+#define OWN_PUSH_CONSTANTS
+#include "bindings.glsl"
+layout(push_constant) uniform MmltBlock { MmltParams params; };
+#include "sampling.glsl"
+#include "bsdf.glsl"
+#include "trace.glsl"
+#include "lights.glsl"
+#include "camera.glsl"
+#include "sampler_pss.glsl"
+#include "bdpt.glsl"
+
+layout(std430, set = 0, binding = BINDING_SPLAT) buffer SplatBuffer { float splat[]; };
+// --mmlt-depths: one vec4 film per depth, [depth][pixel].
+layout(std430, set = 0, binding = BINDING_STRATEGIES) buffer DepthFilmBuffer { float depth_film[]; };
+layout(std430, set = 0, binding = BINDING_CHAINS) buffer ChainBuffer { GpuChain chains[]; };
+layout(std430, set = 0, binding = BINDING_BOOTSTRAP) buffer BootstrapBuffer { float bootstrap_f[]; };
+
+uint nonfinite = 0u;
+
+float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+
+// One path of `depth` scattering vertices from the sampler's numbers: its contribution
+// C (MIS-weighted, times the number of strategies) and the pixel it lands on. (Each
+// walk and each connection appears once in this function: lavapipe's compiler inlines
+// everything, and every copy of a walk costs compile time and memory.)
+vec3 mmlt_path(uint depth, out uint pixel) {
+    uint strategies = depth + 2u;
+    uint s = min(uint(sample_1d(STREAM_CAMERA) * float(strategies)), depth + 1u);
+    uint t = strategies - s;
+    vec2 film = sample_2d(STREAM_CAMERA);
+    uvec2 px = min(uvec2(film * vec2(scene.dims.xy)), scene.dims.xy - 1u);
+    vec3 value = vec3(0.0);
+    float weight = 0.0;
+    bool found = false;
+
+    // The light subpath's last vertex y_{s-1}, for s >= 2 (and the light point for
+    // s = 1, t = 1).
+    Walk lw;
+    LightEmission le;
+    uint e = 0u;
+    PathVertex y;
+    bool lit = false;
+    if (t == 1u || s >= 2u) {
+        lit = light_walk_start(lw, le, e);
+        for (uint i = 1u; lit && i < s; ++i) {
+            lit = (i == 1u || light_walk_extend(lw, y)) && light_walk_next(lw, y);
+        }
+    }
+    if (t == 1u) {
+        // Light tracing: the light subpath seen by the camera.
+        if (lit) {
+            if (s == 1u) {
+                found = strategy_light_point_seen(le, e, px, value, weight);
+            } else {
+                found = strategy_camera_connection(y, px, value, weight);
+            }
+        }
+    } else if (s < 2u || lit) {
+        // A camera subpath of t vertices (the camera and t - 1 surface vertices).
+        Walk cw;
+        camera_walk_start(film, cw);
+        PathVertex z;
+        bool alive = true;
+        for (uint k = 1u; alive && k < t; ++k) {
+            alive = (k == 1u || camera_walk_extend(cw, z)) && camera_walk_next(cw, z);
+        }
+        if (alive) {
+            if (s == 0u) {
+                found = strategy_emitter_hit(cw, z, value, weight);
+            } else if (s == 1u) {
+                found = strategy_light_sample(cw, z, value, weight);
+            } else {
+                found = strategy_connection(z, y, value, weight);
+            }
+        }
+    }
+    pixel = px.y * scene.dims.x + px.x;
+    return found ? value * (weight * float(strategies)) : vec3(0.0);
+}
+
+// mmlt_path with its target; a NaN or infinite contribution counts as f = 0 (and is
+// counted).
+vec3 mmlt_sample(uint depth, out uint pixel, out float f) {
+    pss_begin_path();
+    vec3 c = mmlt_path(depth, pixel);
+    f = luminance(c);
+    if (!finite3(c) || isnan(f) || isinf(f)) {
+        nonfinite++;
+        c = vec3(0.0);
+        f = 0.0;
+    }
+    if (!(f > 0.0)) {
+        c = vec3(0.0);
+        f = 0.0;
+    }
+    return c;
+}
+
+void splat_add(uint pixel, uint depth, vec3 v) {
+    if (v == vec3(0.0)) return;
+    atomicAdd(splat[pixel * 4u + 0u], v.x);
+    atomicAdd(splat[pixel * 4u + 1u], v.y);
+    atomicAdd(splat[pixel * 4u + 2u], v.z);
+    if (params.sizes.w != 0u) {
+        uint i = (depth * scene.dims.x * scene.dims.y + pixel) * 4u;
+        atomicAdd(depth_film[i + 0u], v.x);
+        atomicAdd(depth_film[i + 1u], v.y);
+        atomicAdd(depth_film[i + 2u], v.z);
+    }
+}
+
+void main() {
+    uint id = gl_GlobalInvocationID.x;
+    if (id >= params.run.z) return;
+    uint item = params.run.y + id;
+    bdpt_init_globals();
+    pss_seed = scene.direct.z;
+    pss_chains = params.sizes.x;
+    pss_sigma = params.mutation.x;
+    pss_base[0] = 0u;
+    pss_base[1] = params.streams.x;
+    pss_base[2] = params.streams.x + params.streams.y;
+    pss_capacity[0] = params.streams.x;
+    pss_capacity[1] = params.streams.y;
+    pss_capacity[2] = params.streams.z;
+    pss_chain = item;
+    pss_proposal = 0u;
+    uint mode = params.run.x;
+
+    // Every mode evaluates paths at the one call of mmlt_sample below.
+    GpuChain ch = GpuChain(vec4(0.0), uvec4(0u), uvec4(0u), uvec4(0u));
+    uint depth;
+    uint iterations = 1u;
+    if (mode == MMLT_MODE_BOOTSTRAP) {
+        pss_mode = PSS_FROM_KEY;
+        depth = item / params.sizes.y;
+        pss_key_depth = depth;
+        pss_key_index = item % params.sizes.y;
+    } else if (mode == MMLT_MODE_START) {
+        // Copy the bootstrap sample's numbers into the chain, then evaluate them.
+        ch = chains[item];
+        depth = ch.state.y;
+        for (uint dim = 0u; dim < params.streams.w; ++dim) {
+            uint v = pss_key_number(ch.start.x, depth, dim);
+            chain_samples[dim * pss_chains + item] = uvec4(v, 0u, v, 0u);
+        }
+        pss_mode = PSS_READ;
+    } else {
+        ch = chains[item];
+        depth = ch.state.y;
+        pss_mode = PSS_MUTATE;
+        iterations = params.run.w;
+    }
+    vec3 C = ch.current.xyz;
+    float f = ch.current.w;
+    uint pixel = ch.state.x;
+    uint step = ch.state.z;
+    uint last_large = ch.state.w;
+    float pending = 0.0;   // the current path's splat weight not yet splatted
+    for (uint k = 0u; k < iterations; ++k) {
+        if (mode == MMLT_MODE_CHAINS) {
+            pss_proposal = ch.counts.x + ch.counts.z;
+            pss_step = step + 1u;
+            pss_last_large = last_large;
+            pss_large = pss_unit(pss_hash(PSS_TAG_DECIDE, 0u).x) < params.mutation.y;
+        }
+        uint pixel2;
+        float f2;
+        vec3 C2 = mmlt_sample(depth, pixel2, f2);
+        if (mode == MMLT_MODE_BOOTSTRAP) {
+            bootstrap_f[item] = f2;
+        } else if (mode == MMLT_MODE_START) {
+            if (f2 != bootstrap_f[depth * params.sizes.y + ch.start.x]) atomicAdd(stats[STAT_START_MISMATCH], 1u);
+            C = C2;
+            f = f2;
+            pixel = pixel2;
+            step = 0u;
+            last_large = 0u;
+            ch.counts = uvec4(0u);
+            ch.start.y = 0u;
+        } else {
+            // A chain on f = 0 (only where the bootstrap found nothing) accepts anything.
+            float a = f > 0.0 ? min(1.0, f2 / f) : 1.0;
+            if (f2 > 0.0) splat_add(pixel2, depth, C2 * (a / f2));
+            if (f > 0.0) pending += 1.0 - a;
+            bool accept = pss_unit(pss_hash(PSS_TAG_DECIDE, 1u).x) < a;
+            if (pss_large) ch.counts.x++; else ch.counts.z++;
+            if (accept) {
+                if (pending > 0.0) splat_add(pixel, depth, C * (pending / f));
+                pending = 0.0;
+                C = C2;
+                f = f2;
+                pixel = pixel2;
+                step = pss_step;
+                if (pss_large) {
+                    last_large = pss_step;
+                    ch.counts.y++;
+                } else {
+                    ch.counts.w++;
+                }
+            } else {
+                pss_reject();
+            }
+        }
+    }
+    if (mode == MMLT_MODE_BOOTSTRAP) {
+        atomicAdd(stats[STAT_MMLT_RAYS], rays_traced);
+    } else {
+        if (pending > 0.0 && f > 0.0) splat_add(pixel, depth, C * (pending / f));
+        ch.current = vec4(C, f);
+        ch.state = uvec4(pixel, depth, step, last_large);
+        ch.start.y += rays_traced;
+        chains[item] = ch;
+    }
+    if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
+}
