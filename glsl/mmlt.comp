@@ -121,6 +121,22 @@ vec3 mmlt_sample(uint depth, out uint pixel, out float f) {
     return c;
 }
 
+// The sampler probe's synthetic path (tests compare the chain state it leaves with the
+// CPU mirror, src/integrators/mmlt_sampler.rs): it asks each stream for a hash-chosen
+// count of numbers and its target is a hash, so accept/reject decisions are known to the
+// CPU without evaluating paths.
+vec3 probe_sample(out uint pixel, out float f) {
+    pss_begin_path();
+    uvec4 h = pcg4d(uvec4(pss_chain, pss_proposal, pss_seed, 0x20000000u));
+    uint counts[3] = uint[3](1u + h.x % pss_capacity[0], h.y % (pss_capacity[1] + 1u), h.z % (pss_capacity[2] + 1u));
+    for (uint s = 0u; s < 3u; ++s) {
+        for (uint i = 0u; i < counts[s]; ++i) sample_u32(s);
+    }
+    pixel = 0u;
+    f = pss_unit(h.w) + 0.01;
+    return vec3(0.0);
+}
+
 void splat_add(uint pixel, uint depth, vec3 v) {
     if (v == vec3(0.0)) return;
     atomicAdd(splat[pixel * 4u + 0u], v.x);
@@ -150,7 +166,9 @@ void main() {
     pss_capacity[2] = params.streams.z;
     pss_chain = item;
     pss_proposal = 0u;
-    uint mode = params.run.x;
+    // The sampler probe (tests only) runs the start and chain modes on a synthetic path.
+    bool probe = params.run.x >= MMLT_MODE_PROBE_START;
+    uint mode = probe ? params.run.x - (MMLT_MODE_PROBE_START - MMLT_MODE_START) : params.run.x;
 
     // Every mode evaluates paths at the one call of mmlt_sample below.
     GpuChain ch = GpuChain(vec4(0.0), uvec4(0u), uvec4(0u), uvec4(0u));
@@ -191,11 +209,11 @@ void main() {
         }
         uint pixel2;
         float f2;
-        vec3 C2 = mmlt_sample(depth, pixel2, f2);
+        vec3 C2 = probe ? probe_sample(pixel2, f2) : mmlt_sample(depth, pixel2, f2);
         if (mode == MMLT_MODE_BOOTSTRAP) {
             bootstrap_f[item] = f2;
         } else if (mode == MMLT_MODE_START) {
-            if (f2 != bootstrap_f[depth * params.sizes.y + ch.start.x]) atomicAdd(stats[STAT_START_MISMATCH], 1u);
+            if (!probe && f2 != bootstrap_f[depth * params.sizes.y + ch.start.x]) atomicAdd(stats[STAT_START_MISMATCH], 1u);
             C = C2;
             f = f2;
             pixel = pixel2;

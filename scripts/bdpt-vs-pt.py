@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""BDPT against the path tracer on every project and course scene, at small size.
+"""BDPT (or MMLT) against the path tracer on every project and course scene, at small size.
 
 For each scene, SEEDS independent renders per integrator; the image mean of each render
 (per channel) gives a mean and a standard error per integrator, and the table reports,
@@ -12,6 +12,8 @@ The path tracer runs with NEE + MIS; scenes with `maxdepth -1` run at MAXDEPTH f
     scripts/bdpt-vs-pt.py                       # 64 pixels wide, 4 seeds
     WIDTH=48 SEEDS=6 PT_SPP=512 BDPT_SPP=128 scripts/bdpt-vs-pt.py
     ONLY=slab,two-lights SEEDS=12 scripts/bdpt-vs-pt.py   # scenes whose path has one of these
+    INTEGRATOR=mmlt SEEDS=6 scripts/bdpt-vs-pt.py          # MMLT (BDPT_SPP mutations per
+                                                           # pixel, MMLT_OPTS) instead of BDPT
 
 Needs a release build (./lp builds one); uses $CARGO_TARGET_DIR like ./lp.
 """
@@ -34,6 +36,10 @@ PT_SPP = int(os.environ.get("PT_SPP", "256"))
 BDPT_SPP = int(os.environ.get("BDPT_SPP", "64"))
 MAXDEPTH = int(os.environ.get("MAXDEPTH", "8"))
 ONLY = [w for w in os.environ.get("ONLY", "").split(",") if w]
+OTHER = os.environ.get("INTEGRATOR", "bdpt")
+OTHER_OPTS = os.environ.get(
+    "MMLT_OPTS", "--mmlt-chains 512 --mmlt-bootstrap 8192" if OTHER == "mmlt" else ""
+).split()
 
 
 def scenes():
@@ -81,21 +87,22 @@ def main():
             copy = tmp / scene.name
             copy.write_text(text + "\nnexteventestimation mis\n")
             means = {}
-            for integrator, spp in (("pathtracer", PT_SPP), ("bdpt", BDPT_SPP)):
+            for integrator, spp in (("pathtracer", PT_SPP), (OTHER, BDPT_SPP)):
                 per_seed = []
                 for seed in range(SEEDS):
                     img = tmp / f"{integrator}-{seed}.exr"
+                    extra = OTHER_OPTS if integrator == OTHER else []
                     subprocess.run(
                         [binary, "render", copy, "-o", img, "-q", "--integrator", integrator,
                          "--size", f"{WIDTH}x{height}", "--spp", str(spp),
-                         "--max-depth", str(depth), "--seed", str(seed + 1)],
+                         "--max-depth", str(depth), "--seed", str(seed + 1)] + extra,
                         check=True,
                     )
                     per_seed.append(image_mean(img))
                 means[integrator] = [stats([m[c] for m in per_seed]) for c in range(3)]
             worst = None
             for c in range(3):
-                (a, sa), (b, sb) = means["bdpt"][c], means["pathtracer"][c]
+                (a, sa), (b, sb) = means[OTHER][c], means["pathtracer"][c]
                 se = math.sqrt(sa * sa + sb * sb)
                 z = (a - b) / se if se > 0 else 0.0
                 rel = (a - b) / b if b != 0 else 0.0
@@ -104,7 +111,8 @@ def main():
             name = scene.relative_to(root)
             rows.append((str(name), depth, worst))
             print(f"{name}: done", file=sys.stderr)
-    print("| scene | maxdepth | channel | PT mean | BDPT mean | BDPT/PT − 1 | z |")
+    o = OTHER.upper()
+    print(f"| scene | maxdepth | channel | PT mean | {o} mean | {o}/PT − 1 | z |")
     print("|---|---|---|---|---|---|---|")
     for name, depth, (z, rel, a, b, channel) in rows:
         print(f"| {name} | {depth} | {channel} | {b:.4f} | {a:.4f} | {rel:+.2%} | {z:+.2f} |")

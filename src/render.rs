@@ -1,7 +1,8 @@
 //! From a parsed scene to an image: the device and kernels of a backend, the buffers of
 //! a render, acceleration structures, and the dispatch loop (passes in bands, batched
 //! submissions, GPU timestamps) shared by every integrator. The scene's own buffers are
-//! in `gpu_scene`; BDPT's host-side sizes and extra passes in `integrators::bdpt`.
+//! in `gpu_scene`; each integrator's buffers, dispatch plan and resolve in
+//! `integrators` (pt, bdpt, mmlt).
 use crate::accel::rayquery;
 use crate::gpu::abi::*;
 use crate::gpu::buffer::{memory_barrier, Buffer};
@@ -11,10 +12,6 @@ use crate::gpu::Device;
 pub use crate::gpu::Validation;
 use crate::gpu_scene::GpuScene;
 pub use crate::integrators::bdpt::StrategyImages;
-use crate::integrators::bdpt::{
-    bdpt_max_scatter, bdpt_strategies, bdpt_vertex_bytes_per_pixel, strategy_group_size,
-    strategy_selection, StrategyGroupPass, VERTEX_BUFFER_BUDGET,
-};
 pub use crate::integrators::mmlt::MmltReport;
 use crate::io::Image;
 use crate::scene::{IntegratorKind, Scene};
@@ -90,6 +87,30 @@ pub fn band_rows(width: u32, height: u32, per_pixel_bytes: u64, limit: u64) -> R
     Ok(rows.min(height.max(1)))
 }
 
+/// Every binding of set 0 that an integrator may fill (the rest are the scene's).
+const OUTPUT_BINDINGS: [u32; 8] = [
+    BINDING_FILM,
+    BINDING_STATS,
+    BINDING_SPLAT,
+    BINDING_PATH_VERTICES,
+    BINDING_STRATEGIES,
+    BINDING_CHAIN_SAMPLES,
+    BINDING_CHAINS,
+    BINDING_BOOTSTRAP,
+];
+
+/// A film of vec4s (w: rays) as an image, each channel times `scale`.
+pub(crate) fn film_image(data: &[[f32; 4]], width: u32, height: u32, scale: f32) -> Image {
+    Image {
+        width,
+        height,
+        pixels: data
+            .iter()
+            .map(|p| [p[0] * scale, p[1] * scale, p[2] * scale])
+            .collect(),
+    }
+}
+
 /// Pixels per dispatch: a pass over a larger image is split into bands of rows.
 const BAND_PIXELS: u32 = 1 << 18;
 
@@ -124,6 +145,8 @@ pub struct Renderer {
     pub strategy_buffer_limit: Option<u64>,
     /// MMLT: also return each depth's contribution image.
     pub record_depths: bool,
+    /// Bound at the output bindings a render's kernels do not use.
+    unused: Buffer,
 }
 
 impl Renderer {
@@ -165,7 +188,9 @@ impl Renderer {
             }
         };
         let kernels = Kernels::new(&device, backend)?;
+        let unused = Buffer::zeroed(&device, "unused", 16, vk::BufferUsageFlags::STORAGE_BUFFER)?;
         Ok(Renderer {
+            unused,
             device,
             kernels,
             show_progress: false,
@@ -188,207 +213,63 @@ impl Renderer {
     }
 
     /// Render `scene` (its settings already overridden by the command line) with `seed`.
+    /// Each integrator's host side (buffers, dispatch plan, resolve) is in
+    /// `crate::integrators`; what they share is here.
     pub fn render(&mut self, scene: &Scene, seed: u32, trace: &mut Trace) -> Result<RenderOutput> {
-        let kernel: &'static str = match scene.settings.integrator {
-            IntegratorKind::PathTracer | IntegratorKind::Direct => "pt",
-            IntegratorKind::AnalyticDirect => "analytic",
-            IntegratorKind::Bdpt => "bdpt",
-            IntegratorKind::Mmlt => return self.render_mmlt(scene, seed, trace),
+        match scene.settings.integrator {
+            IntegratorKind::PathTracer | IntegratorKind::Direct => {
+                self.render_pt(scene, seed, "pt", trace)
+            }
+            IntegratorKind::AnalyticDirect => self.render_pt(scene, seed, "analytic", trace),
+            IntegratorKind::Bdpt => self.render_bdpt(scene, seed, trace),
+            IntegratorKind::Mmlt => self.render_mmlt(scene, seed, trace),
             other => bail!(
                 "integrator '{}' is not available in this version of lightpath",
                 other.name()
             ),
-        };
-        let (width, height) = (scene.width, scene.height);
-        let film_bytes = self.film_bytes(width, height)?;
-        let bdpt = kernel == "bdpt";
-        if bdpt {
-            self.require_float_atomics("bdpt splats light-tracing samples")?;
         }
-        let limit = self.device.info.max_storage_buffer_range;
-        let max_scatter = bdpt_max_scatter(scene);
-        let vertex_bytes = if bdpt {
-            bdpt_vertex_bytes_per_pixel(max_scatter)
-        } else {
-            0
-        };
-        let vertex_limit = limit
-            .min(VERTEX_BUFFER_BUDGET)
-            .min(self.vertex_buffer_limit.unwrap_or(u64::MAX));
-        let rows = band_rows(width, height, vertex_bytes, vertex_limit)?;
-        let record = bdpt && self.record_strategies;
-        let strategies = if record {
-            bdpt_strategies(max_scatter)
-        } else {
-            Vec::new()
-        };
-        // Strategy images are recorded in groups that fit one storage buffer; each group
-        // after the first re-renders the same samples (same seed, same passes).
-        let strategy_group = strategy_group_size(
-            strategies.len() as u64,
-            width,
-            height,
-            limit.min(self.strategy_buffer_limit.unwrap_or(u64::MAX)),
-            &self.device.info.name,
-        )?;
-        let strategy_bytes = strategy_group as u64 * 2 * film_bytes;
-        let Prepared { gpu_scene, rq, .. } =
-            self.prepare(scene, seed, strategy_selection(0, strategy_group), trace)?;
-        let pipeline = trace.cpu("pipeline creation", || self.kernels.pipeline(kernel))?;
-        let film = trace.cpu("film allocation", || {
-            Buffer::zeroed(
-                &self.device,
-                "film",
-                film_bytes,
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-            )
-        })?;
-        let stats = Buffer::zeroed(
+    }
+
+    /// A zero-filled storage buffer the host can read back.
+    pub(crate) fn storage_buffer(&self, name: &str, bytes: u64) -> Result<Buffer> {
+        Ok(Buffer::zeroed(
             &self.device,
-            "stats",
-            4 * STAT_COUNT as u64,
+            name,
+            bytes,
             vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-        )?;
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-        // BDPT's buffers (a few bytes each for the other kernels, which never touch them).
-        let (splat, vertices, strategy_film) = trace.cpu("BDPT buffers", || -> Result<_> {
-            let small = 16;
-            Ok((
-                Buffer::zeroed(
-                    &self.device,
-                    "splat film",
-                    if bdpt { film_bytes } else { small },
-                    usage,
-                )?,
-                Buffer::device_local(
-                    &self.device,
-                    "BDPT light vertices",
-                    (rows as u64 * width as u64 * vertex_bytes).max(small),
-                    vk::BufferUsageFlags::STORAGE_BUFFER,
-                )?,
-                Buffer::zeroed(
-                    &self.device,
-                    "strategy films",
-                    strategy_bytes.max(small),
-                    usage,
-                )?,
-            ))
-        })?;
-        // MMLT's buffers, which these kernels never touch.
-        let unused = Buffer::zeroed(&self.device, "unused", 16, usage)?;
-        let set = gpu_scene.descriptor_set(
-            &self.kernels,
-            &[
-                (BINDING_FILM, &film),
-                (BINDING_STATS, &stats),
-                (BINDING_SPLAT, &splat),
-                (BINDING_PATH_VERTICES, &vertices),
-                (BINDING_STRATEGIES, &strategy_film),
-                (BINDING_CHAIN_SAMPLES, &unused),
-                (BINDING_CHAINS, &unused),
-                (BINDING_BOOTSTRAP, &unused),
-            ],
-            rq.as_ref(),
-        )?;
-        let params = PassParams { pass: [0, 0, 0, 1] };
-        self.warm_up(pipeline, set, bytemuck::bytes_of(&params), trace)?;
+        )?)
+    }
 
-        let passes = Passes {
-            pipeline,
-            set,
-            kernel,
-            width,
-            height,
-            band_rows: rows,
-        };
-        let (dispatch_seconds, spp) =
-            self.dispatch_passes(passes, scene.settings.spp.max(1), trace)?;
-
-        let (film_data, stat_data, splat_data, strategy_data) =
-            trace.cpu("readback", || -> Result<_> {
-                Ok((
-                    film.download(film_bytes)?,
-                    stats.download(4 * STAT_COUNT as u64)?,
-                    if bdpt {
-                        Some(splat.download(film_bytes)?)
-                    } else {
-                        None
-                    },
-                    if strategies.is_empty() {
-                        None
-                    } else {
-                        Some(strategy_film.download(strategy_bytes)?)
-                    },
-                ))
-            })?;
-        let mut strategy_data: Vec<Vec<u8>> = strategy_data.into_iter().collect();
-        if !strategies.is_empty() {
-            strategy_data.extend(self.record_other_strategy_groups(
-                StrategyGroupPass {
-                    gpu_scene: &gpu_scene,
-                    strategy_film: &strategy_film,
-                    passes,
-                    spp,
-                },
-                strategy_group,
-                strategy_group,
-                strategies.len() as u32,
-                trace,
-            )?);
+    /// The descriptor set of a render: the scene's buffers, the integrator's `outputs`,
+    /// and a small unused buffer at every output binding the integrator's kernels do not
+    /// touch.
+    pub(crate) fn descriptor_set(
+        &self,
+        gpu_scene: &GpuScene,
+        outputs: &[(u32, &Buffer)],
+        rq: Option<&rayquery::RayQueryScene>,
+    ) -> Result<vk::DescriptorSet> {
+        let mut all: Vec<(u32, &Buffer)> = outputs.to_vec();
+        for binding in OUTPUT_BINDINGS {
+            if !outputs.iter().any(|(b, _)| *b == binding) {
+                all.push((binding, &self.unused));
+            }
         }
-        let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
-        let stat: &[u32] = bytemuck::cast_slice(&stat_data);
+        gpu_scene.descriptor_set(&self.kernels, &all, rq)
+    }
+
+    /// The stats buffer's counters, failing the render on an internal error the kernel
+    /// reported.
+    pub(crate) fn read_stats(&self, stats: &Buffer, kernel: &str) -> Result<Vec<u32>> {
+        let data = stats.download(4 * STAT_COUNT as u64)?;
+        let stat: Vec<u32> = bytemuck::cast_slice(&data).to_vec();
         if stat[STAT_OUT_OF_RANGE as usize] > 0 {
             bail!(
-                "internal error: {} {kernel} invocations found their slice of a per-pixel buffer past its end (band of {rows} rows)",
+                "internal error: {} {kernel} invocations found their slice of a per-pixel buffer past its end",
                 stat[STAT_OUT_OF_RANGE as usize]
             );
         }
-        let inv = 1.0 / spp as f32;
-        let to_image = |data: &[[f32; 4]]| Image {
-            width,
-            height,
-            pixels: data
-                .iter()
-                .map(|p| [p[0] * inv, p[1] * inv, p[2] * inv])
-                .collect(),
-        };
-        let mut image = to_image(film);
-        if let Some(splat) = &splat_data {
-            // The image is camera film / spp + splat film / spp.
-            let splat: &[[f32; 4]] = bytemuck::cast_slice(splat);
-            for (p, q) in image.pixels.iter_mut().zip(splat) {
-                for c in 0..3 {
-                    p[c] += q[c] * inv;
-                }
-            }
-        }
-        let npix = (width * height) as usize;
-        let strategies = strategy_data
-            .iter()
-            .flat_map(|data| {
-                let all: &[[f32; 4]] = bytemuck::cast_slice(data);
-                all.chunks_exact(2 * npix)
-            })
-            .zip(&strategies)
-            .map(|(both, &(s, t))| StrategyImages {
-                s,
-                t,
-                weighted: to_image(&both[..npix]),
-                unweighted: to_image(&both[npix..]),
-            })
-            .collect();
-        let rays = film.iter().map(|p| p[3] as f64).sum();
-        Ok(RenderOutput {
-            image,
-            nonfinite_samples: stat[STAT_NONFINITE as usize] as u64,
-            rays,
-            samples_per_pixel: spp,
-            dispatch_seconds,
-            backend: self.backend(),
-            strategies,
-            mmlt: None,
-        })
+        Ok(stat)
     }
 
     /// Bytes of a `width` × `height` film (vec4 per pixel), checked against the device's
@@ -488,12 +369,14 @@ impl Renderer {
         Ok(())
     }
 
-    /// Dispatch `spp` passes of one sample per pixel (fewer if `time_limit` runs out),
+    /// Dispatch `spp` passes of one sample per pixel, the first with pass index `first`
+    /// (fewer if `time_limit` runs out),
     /// several per submission, with GPU timestamps around each dispatch and a progress
     /// bar over passes. Returns the time in dispatches and the passes done.
     pub(crate) fn dispatch_passes(
         &mut self,
         passes: Passes,
+        first: u32,
         spp: u32,
         trace: &mut Trace,
     ) -> Result<(f64, u32)> {
@@ -558,7 +441,7 @@ impl Renderer {
                     for &y0 in &bands {
                         let rows = band_rows.min(height - y0);
                         let params = PassParams {
-                            pass: [done + i, 1, y0, y0 + rows],
+                            pass: [first + done + i, 1, y0, y0 + rows],
                         };
                         device.raw.cmd_push_constants(
                             cmd,
@@ -628,6 +511,7 @@ impl Renderer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::integrators::bdpt::bdpt_vertex_bytes_per_pixel;
 
     #[test]
     fn bdpt_bands_fit_the_storage_buffer_range() {

@@ -294,23 +294,85 @@ fn mmlt_at_maxdepth_minus_one_matches_bdpt_on_a_course_scene() {
 }
 
 #[test]
-fn mmlt_renders_every_project_and_course_scene() {
+fn mmlt_renders_every_project_and_course_scene_on_both_backends() {
     let mut paths = walk(&repo().join("scenes"));
     paths.sort();
     assert!(paths.len() >= 20, "{} scenes", paths.len());
-    for path in paths {
-        let s = lightpath::scene::parse_file(&path).expect("scene parses");
-        let mut s = mmlt(s, 2);
-        s.width = 16;
-        s.height = 12;
-        s.settings.mmlt.chains = Some(64);
-        s.settings.mmlt.bootstrap = Some(256);
-        let out = render_mmlt(&s, 0, Bvh, false);
-        let m = out.image.mean();
-        assert!(
-            m.iter().all(|v| v.is_finite() && *v >= 0.0) && m.iter().any(|v| *v > 0.0),
-            "{}: mean {m:?}",
-            path.display()
-        );
+    for accel in [Bvh, RayQuery] {
+        for path in &paths {
+            let s = lightpath::scene::parse_file(path).expect("scene parses");
+            let mut s = mmlt(s, 2);
+            s.width = 16;
+            s.height = 12;
+            s.settings.mmlt.chains = Some(64);
+            s.settings.mmlt.bootstrap = Some(256);
+            let out = render_mmlt(&s, 0, accel, false);
+            let m = out.image.mean();
+            assert!(
+                m.iter().all(|v| v.is_finite() && *v >= 0.0) && m.iter().any(|v| *v > 0.0),
+                "{} ({accel:?}): mean {m:?}",
+                path.display()
+            );
+        }
     }
+}
+
+#[test]
+fn the_device_sampler_matches_its_cpu_mirror() {
+    use lightpath::integrators::mmlt_sampler::{probe_chain, stream_sizes, unit, ChainSampler};
+    let (chains, depth_cap, proposals, seed, sigma, large_step) =
+        (256u32, 3u32, 40u32, 17u32, 0.01f32, 0.3f32);
+    let (numbers, state) = renderer(Bvh)
+        .mmlt_sampler_probe(chains, depth_cap, proposals, seed, sigma, large_step)
+        .expect("sampler probe");
+    let sizes = stream_sizes(depth_cap);
+    let dims: u32 = sizes.iter().sum();
+    let (mut accepted, mut large) = (0u64, 0u64);
+    for c in 0..chains {
+        let mut cpu = ChainSampler::start(seed, c, sigma, sizes, c, depth_cap);
+        let f = probe_chain(&mut cpu, large_step, proposals);
+        let gpu = &state[c as usize];
+        assert_eq!(gpu.current[3], f, "chain {c}: target");
+        assert_eq!(
+            (gpu.state[2], gpu.state[3]),
+            (cpu.step, cpu.last_large),
+            "chain {c}: step and last large step"
+        );
+        assert_eq!(
+            gpu.counts[0] + gpu.counts[2],
+            proposals,
+            "chain {c}: proposals"
+        );
+        accepted += cpu.step as u64;
+        large += gpu.counts[0] as u64;
+        for d in 0..dims {
+            let g = numbers[(d * chains + c) as usize];
+            let x = cpu.numbers[d as usize];
+            // Steps exactly; values up to the float rounding of the Gaussian.
+            assert_eq!(
+                (g[1], g[3]),
+                (x.modified, x.backup_modified),
+                "chain {c} number {d}: steps"
+            );
+            for (a, b) in [(g[0], x.value), (g[2], x.backup_value)] {
+                let diff = (a.wrapping_sub(b) as i32).unsigned_abs();
+                assert!(
+                    diff < 1 << 12,
+                    "chain {c} number {d}: device {} vs mirror {}",
+                    unit(a),
+                    unit(b)
+                );
+            }
+        }
+    }
+    // The probe exercised both outcomes and both kinds of step.
+    let total = chains as u64 * proposals as u64;
+    assert!(
+        accepted > total / 4 && accepted < total,
+        "{accepted} of {total} accepted"
+    );
+    assert!(
+        large > total / 5 && large < total / 2,
+        "{large} large steps of {total}"
+    );
 }

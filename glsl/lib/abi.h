@@ -60,6 +60,10 @@
 #define MMLT_MODE_BOOTSTRAP 0
 #define MMLT_MODE_START 1
 #define MMLT_MODE_CHAINS 2
+// The start and chain modes on a synthetic path (tests of the sampler against its CPU
+// mirror).
+#define MMLT_MODE_PROBE_START 3
+#define MMLT_MODE_PROBE_CHAINS 4
 // Threads per MMLT workgroup (one bootstrap sample or one chain each).
 #define MMLT_WORKGROUP_SIZE 64
 // Primary-sample streams of an MMLT chain.

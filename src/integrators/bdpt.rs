@@ -1,12 +1,12 @@
 //! Host side of bidirectional path tracing: the strategy list, the sizes of its
-//! per-pixel light-vertex buffer and of its strategy images, and the extra passes that
-//! record strategy images in groups. (The dispatch itself is `Renderer::render`'s; the
+//! per-pixel light-vertex buffer and of its strategy images, its render (passes in
+//! bands, resolve), and the extra passes that record strategy images in groups. (The
 //! kernel is glsl/bdpt.comp; the CPU mirror of its MIS weights is `bdpt_mis`.)
 use crate::gpu::abi::*;
 use crate::gpu::buffer::{memory_barrier, Buffer};
 use crate::gpu_scene::GpuScene;
 use crate::io::Image;
-use crate::render::{Passes, Renderer};
+use crate::render::{band_rows, film_image, Passes, Prepared, RenderOutput, Renderer};
 use crate::scene::Scene;
 use crate::trace::Trace;
 use anyhow::{bail, Result};
@@ -102,6 +102,151 @@ pub(crate) struct StrategyGroupPass<'a> {
 }
 
 impl Renderer {
+    /// Render with BDPT: passes of glsl/bdpt.comp in bands whose light vertices fit the
+    /// device, then (with `record_strategies`) the same passes once per further group
+    /// of strategy images; image = (camera film + splat film) / spp.
+    pub(crate) fn render_bdpt(
+        &mut self,
+        scene: &Scene,
+        seed: u32,
+        trace: &mut Trace,
+    ) -> Result<RenderOutput> {
+        let kernel = "bdpt";
+        let (width, height) = (scene.width, scene.height);
+        let film_bytes = self.film_bytes(width, height)?;
+        self.require_float_atomics("bdpt splats light-tracing samples")?;
+        let limit = self.device.info.max_storage_buffer_range;
+        let max_scatter = bdpt_max_scatter(scene);
+        let vertex_bytes = bdpt_vertex_bytes_per_pixel(max_scatter);
+        let vertex_limit = limit
+            .min(VERTEX_BUFFER_BUDGET)
+            .min(self.vertex_buffer_limit.unwrap_or(u64::MAX));
+        let rows = band_rows(width, height, vertex_bytes, vertex_limit)?;
+        let strategies = if self.record_strategies {
+            bdpt_strategies(max_scatter)
+        } else {
+            Vec::new()
+        };
+        // Strategy images are recorded in groups that fit one storage buffer; each group
+        // after the first re-renders the same samples (same seed, same passes).
+        let strategy_group = strategy_group_size(
+            strategies.len() as u64,
+            width,
+            height,
+            limit.min(self.strategy_buffer_limit.unwrap_or(u64::MAX)),
+            &self.device.info.name,
+        )?;
+        let strategy_bytes = strategy_group as u64 * 2 * film_bytes;
+        let Prepared { gpu_scene, rq, .. } =
+            self.prepare(scene, seed, strategy_selection(0, strategy_group), trace)?;
+        let pipeline = trace.cpu("pipeline creation", || self.kernels.pipeline(kernel))?;
+        let (film, stats, splat, vertices, strategy_film) =
+            trace.cpu("BDPT buffers", || -> Result<_> {
+                Ok((
+                    self.storage_buffer("film", film_bytes)?,
+                    self.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
+                    self.storage_buffer("splat film", film_bytes)?,
+                    Buffer::device_local(
+                        &self.device,
+                        "BDPT light vertices",
+                        (rows as u64 * width as u64 * vertex_bytes).max(16),
+                        vk::BufferUsageFlags::STORAGE_BUFFER,
+                    )?,
+                    self.storage_buffer("strategy films", strategy_bytes.max(16))?,
+                ))
+            })?;
+        let set = self.descriptor_set(
+            &gpu_scene,
+            &[
+                (BINDING_FILM, &film),
+                (BINDING_STATS, &stats),
+                (BINDING_SPLAT, &splat),
+                (BINDING_PATH_VERTICES, &vertices),
+                (BINDING_STRATEGIES, &strategy_film),
+            ],
+            rq.as_ref(),
+        )?;
+        let params = PassParams { pass: [0, 0, 0, 1] };
+        self.warm_up(pipeline, set, bytemuck::bytes_of(&params), trace)?;
+
+        let passes = Passes {
+            pipeline,
+            set,
+            kernel,
+            width,
+            height,
+            band_rows: rows,
+        };
+        let (dispatch_seconds, spp) =
+            self.dispatch_passes(passes, 0, scene.settings.spp.max(1), trace)?;
+
+        let (film_data, stat, splat_data, strategy_data) =
+            trace.cpu("readback", || -> Result<_> {
+                Ok((
+                    film.download(film_bytes)?,
+                    self.read_stats(&stats, kernel)?,
+                    splat.download(film_bytes)?,
+                    if strategies.is_empty() {
+                        None
+                    } else {
+                        Some(strategy_film.download(strategy_bytes)?)
+                    },
+                ))
+            })?;
+        let mut strategy_data: Vec<Vec<u8>> = strategy_data.into_iter().collect();
+        if !strategies.is_empty() {
+            strategy_data.extend(self.record_other_strategy_groups(
+                StrategyGroupPass {
+                    gpu_scene: &gpu_scene,
+                    strategy_film: &strategy_film,
+                    passes,
+                    spp,
+                },
+                strategy_group,
+                strategy_group,
+                strategies.len() as u32,
+                trace,
+            )?);
+        }
+        let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
+        let inv = 1.0 / spp as f32;
+        let to_image = |data: &[[f32; 4]]| film_image(data, width, height, inv);
+        // The image is camera film / spp + splat film / spp.
+        let mut image = to_image(film);
+        let splat: &[[f32; 4]] = bytemuck::cast_slice(&splat_data);
+        for (p, q) in image.pixels.iter_mut().zip(splat) {
+            for c in 0..3 {
+                p[c] += q[c] * inv;
+            }
+        }
+        let npix = (width * height) as usize;
+        let strategies = strategy_data
+            .iter()
+            .flat_map(|data| {
+                let all: &[[f32; 4]] = bytemuck::cast_slice(data);
+                all.chunks_exact(2 * npix)
+            })
+            .zip(&strategies)
+            .map(|(both, &(s, t))| StrategyImages {
+                s,
+                t,
+                weighted: to_image(&both[..npix]),
+                unweighted: to_image(&both[npix..]),
+            })
+            .collect();
+        let rays = film.iter().map(|p| p[3] as f64).sum();
+        Ok(RenderOutput {
+            image,
+            nonfinite_samples: stat[STAT_NONFINITE as usize] as u64,
+            rays,
+            samples_per_pixel: spp,
+            dispatch_seconds,
+            backend: self.backend(),
+            strategies,
+            mmlt: None,
+        })
+    }
+
     /// After a render that recorded the first `first` strategies: the same passes
     /// again (same seed and pass indices, so the same samples) once per further group
     /// of at most `group` strategies, until all `total` are recorded. Returns each
@@ -155,7 +300,7 @@ impl Renderer {
             })?;
             // Exactly the first render's passes, whatever the time limit.
             let time_limit = self.time_limit.take();
-            let again = self.dispatch_passes(p.passes, p.spp, trace);
+            let again = self.dispatch_passes(p.passes, 0, p.spp, trace);
             self.time_limit = time_limit;
             again?;
             out.push(trace.cpu("readback", || {

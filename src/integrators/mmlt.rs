@@ -4,17 +4,18 @@
 //! proportion to the bootstrap targets, the chain dispatches, and the resolve
 //! image = splat film × b × width × height / mutations.
 //!
-//! Stages, each timed in the trace: (maxdepth -1 only) `bdpt` tail passes for paths
-//! longer than the chains' cap → `mmlt bootstrap` dispatches → `mmlt chain starts` (a
+//! Stages, each timed in the trace: `mmlt bootstrap` dispatches → `mmlt chain starts` (a
 //! CDF on the host in f64) → `mmlt chain start` dispatch → `mmlt chains` dispatches of
-//! K mutations per chain, K adapted so that a submission takes about a quarter second.
+//! K mutations per chain, K adapted so that a submission takes about a quarter second;
+//! with maxdepth -1, `bdpt pass`es for the paths longer than the chains' cap between
+//! them.
 use super::bdpt::bdpt_max_scatter;
 use super::mmlt_sampler::{pcg4d, stream_sizes};
 use crate::gpu::abi::*;
 use crate::gpu::buffer::{memory_barrier, Buffer};
 use crate::gpu::timing::Timestamps;
 use crate::io::Image;
-use crate::render::{band_rows, Passes, Prepared, RenderOutput, Renderer};
+use crate::render::{band_rows, film_image, Passes, Prepared, RenderOutput, Renderer};
 use crate::scene::Scene;
 use crate::trace::Trace;
 use anyhow::{bail, Result};
@@ -62,7 +63,8 @@ pub struct MmltPlan {
     pub large_step: f32,
     /// Mutations the render aims for: spp × width × height.
     pub target_mutations: u64,
-    /// maxdepth -1: bdpt passes for the paths beyond depth_cap.
+    /// maxdepth -1: at most this many bdpt passes for the paths beyond depth_cap (one
+    /// per 8 mutations per pixel, at least one).
     pub tail_passes: u32,
 }
 
@@ -263,7 +265,7 @@ impl MmltReport {
                 String::new()
             }
         );
-        s += "  depth   share of b   chains   large accepted   small accepted\n";
+        s += "  depth   share of b   chains (share)      large accepted   small accepted\n";
         for d in &self.depths {
             let rate = |a: u64, p: u64| {
                 if p == 0 {
@@ -273,7 +275,7 @@ impl MmltReport {
                 }
             };
             s += &format!(
-                "  {:>5}   {:>9.2}%   {:>6}   {:>14}   {:>14}\n",
+                "  {:>5}   {:>9.2}%   {:>6} ({:>5.1}%)   {:>14}   {:>14}\n",
                 d.depth,
                 if self.b > 0.0 {
                     100.0 * d.b / self.b
@@ -281,6 +283,7 @@ impl MmltReport {
                     0.0
                 },
                 d.chains,
+                100.0 * d.chains as f64 / self.chains.max(1) as f64,
                 rate(d.large_accepted, d.large_proposed),
                 rate(d.small_accepted, d.small_proposed)
             );
@@ -310,52 +313,40 @@ impl Renderer {
         )?;
         let depths = plan.depths();
         let Prepared { gpu_scene, rq, .. } = self.prepare(scene, seed, 0, trace)?;
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
         let boot_count = plan.bootstrap_samples();
-        let (film, splat, stats, chain_samples, chain_buffer, bootstrap, depth_film, unused) =
+        let (film, splat, stats, chain_samples, chain_buffer, bootstrap, depth_film) =
             trace.cpu("MMLT buffers", || -> Result<_> {
                 Ok((
-                    Buffer::zeroed(&self.device, "film", film_bytes, usage)?,
-                    Buffer::zeroed(&self.device, "splat film", film_bytes, usage)?,
-                    Buffer::zeroed(&self.device, "stats", 4 * STAT_COUNT as u64, usage)?,
+                    self.storage_buffer("film", film_bytes)?,
+                    self.storage_buffer("splat film", film_bytes)?,
+                    self.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
                     Buffer::device_local(
                         &self.device,
                         "MMLT chain primary samples",
                         plan.chains as u64 * plan.numbers as u64 * 16,
                         vk::BufferUsageFlags::STORAGE_BUFFER,
                     )?,
-                    Buffer::zeroed(
-                        &self.device,
+                    self.storage_buffer(
                         "MMLT chains",
                         plan.chains as u64 * std::mem::size_of::<GpuChain>() as u64,
-                        usage,
                     )?,
-                    Buffer::zeroed(
-                        &self.device,
-                        "MMLT bootstrap targets",
-                        boot_count * 4,
-                        usage,
-                    )?,
-                    Buffer::zeroed(
-                        &self.device,
+                    self.storage_buffer("MMLT bootstrap targets", boot_count * 4)?,
+                    self.storage_buffer(
                         "MMLT depth films",
                         if self.record_depths {
                             depths as u64 * film_bytes
                         } else {
                             16
                         },
-                        usage,
                     )?,
-                    Buffer::zeroed(&self.device, "unused", 16, usage)?,
                 ))
             })?;
-        let set = gpu_scene.descriptor_set(
-            &self.kernels,
+        let set = self.descriptor_set(
+            &gpu_scene,
             &[
                 (BINDING_FILM, &film),
                 (BINDING_STATS, &stats),
                 (BINDING_SPLAT, &splat),
-                (BINDING_PATH_VERTICES, &unused),
                 (BINDING_STRATEGIES, &depth_film),
                 (BINDING_CHAIN_SAMPLES, &chain_samples),
                 (BINDING_CHAINS, &chain_buffer),
@@ -384,43 +375,41 @@ impl Renderer {
         let start = Instant::now();
 
         // maxdepth -1: paths longer than the chains' cap come from bdpt's own estimator,
-        // restricted to them (SceneParams.bdpt.y), added to the image.
-        let mut tail_image = None;
-        let mut tail_rays = 0.0;
-        if plan.tail_passes > 0 {
+        // restricted to them (SceneParams.bdpt.y), added to the image. Its passes are
+        // interleaved with the chain dispatches (one per 8 mutations per pixel, at least
+        // one) so that a time limit ends both together. The chains' cap is bdpt's, so
+        // the tail has no light subpaths and never writes the splat film the chains use.
+        let tail = if plan.tail_passes > 0 {
             let bdpt = trace.cpu("pipeline creation", || self.kernels.pipeline("bdpt"))?;
             let push = PassParams { pass: [0, 0, 0, 1] };
             self.warm_up(bdpt, set, bytemuck::bytes_of(&push), trace)?;
-            let passes = Passes {
+            Some(Passes {
                 pipeline: bdpt,
                 set,
                 kernel: "bdpt",
                 width,
                 height,
                 band_rows: band_rows(width, height, 0, u64::MAX)?,
-            };
-            let time_limit = self.time_limit.take();
-            let done = self.dispatch_passes(passes, plan.tail_passes, trace);
-            self.time_limit = time_limit;
-            let (_, done) = done?;
-            let (f, sp) = trace.cpu("readback", || -> Result<_> {
-                Ok((film.download(film_bytes)?, splat.download(film_bytes)?))
-            })?;
-            let f: &[[f32; 4]] = bytemuck::cast_slice(&f);
-            let sp: &[[f32; 4]] = bytemuck::cast_slice(&sp);
-            let inv = 1.0 / done as f32;
-            tail_image = Some(Image {
-                width,
-                height,
-                pixels: f
-                    .iter()
-                    .zip(sp)
-                    .map(|(a, b)| [0, 1, 2].map(|c| (a[c] + b[c]) * inv))
-                    .collect(),
-            });
-            tail_rays = f.iter().map(|p| p[3] as f64).sum();
-            trace.cpu("clear films", || splat.clear())?;
-        }
+            })
+        } else {
+            None
+        };
+        let mut tail_done = 0u32;
+        let mut tail_seconds = 0.0;
+        let mut run_tail = |r: &mut Renderer, wanted: u32, trace: &mut Trace| -> Result<()> {
+            if let Some(passes) = tail {
+                let wanted = wanted.clamp(1, plan.tail_passes);
+                if wanted > tail_done {
+                    let time_limit = r.time_limit.take();
+                    let done = r.dispatch_passes(passes, tail_done, wanted - tail_done, trace);
+                    r.time_limit = time_limit;
+                    let (seconds, n) = done?;
+                    tail_seconds += seconds;
+                    tail_done += n;
+                }
+            }
+            Ok(())
+        };
 
         // Bootstrap: depths × per_depth samples, each one strategy of its depth.
         let batches: Vec<MmltParams> = (0..boot_count)
@@ -451,7 +440,6 @@ impl Renderer {
             bootstrap_samples: boot_count,
             chains: plan.chains,
             bootstrap_seconds,
-            tail_passes: plan.tail_passes,
             depths: means
                 .iter()
                 .enumerate()
@@ -464,6 +452,7 @@ impl Renderer {
             ..Default::default()
         };
 
+        let mut tail_rays = 0.0;
         let mut image = Image {
             width,
             height,
@@ -471,6 +460,7 @@ impl Renderer {
         };
         let mut mutations_done = 0u64;
         let mut chain_seconds = 0.0;
+        run_tail(self, 1, trace)?;
         if b > 0.0 {
             // Chain starts in proportion to the bootstrap targets.
             let starts = trace.cpu("mmlt chain starts", || {
@@ -518,6 +508,8 @@ impl Renderer {
                 chain_seconds += self.mmlt_dispatches(pipeline, set, &[p], "mmlt chains", trace)?;
                 let wall = t0.elapsed().as_secs_f64();
                 done += n;
+                let per_pixel = done * plan.chains as u64 / npix;
+                run_tail(self, (per_pixel / 8).min(u32::MAX as u64) as u32, trace)?;
                 if let Some(bar) = &progress {
                     bar.set_position(done * plan.chains as u64);
                 }
@@ -534,12 +526,21 @@ impl Renderer {
         }
         report.mutations = mutations_done;
         report.chain_seconds = chain_seconds;
+        report.tail_passes = tail_done;
+        let tail_image = if tail_done > 0 {
+            let f = trace.cpu("readback", || film.download(film_bytes))?;
+            let f: &[[f32; 4]] = bytemuck::cast_slice(&f);
+            tail_rays = f.iter().map(|p| p[3] as f64).sum();
+            Some(film_image(f, width, height, 1.0 / tail_done as f32))
+        } else {
+            None
+        };
 
-        let (splat_data, stat_data, chain_data, depth_data) =
+        let (splat_data, stat, chain_data, depth_data) =
             trace.cpu("readback", || -> Result<_> {
                 Ok((
                     splat.download(film_bytes)?,
-                    stats.download(4 * STAT_COUNT as u64)?,
+                    self.read_stats(&stats, "mmlt")?,
                     chain_buffer
                         .download(plan.chains as u64 * std::mem::size_of::<GpuChain>() as u64)?,
                     if self.record_depths {
@@ -549,7 +550,6 @@ impl Renderer {
                     },
                 ))
             })?;
-        let stat: &[u32] = bytemuck::cast_slice(&stat_data);
         if stat[STAT_START_MISMATCH as usize] > 0 {
             bail!(
                 "internal error: {} MMLT chains did not start on their bootstrap sample's path",
@@ -575,14 +575,7 @@ impl Renderer {
         } else {
             0.0
         };
-        let to_image = |data: &[[f32; 4]]| Image {
-            width,
-            height,
-            pixels: data
-                .iter()
-                .map(|p| [p[0] * scale, p[1] * scale, p[2] * scale])
-                .collect(),
-        };
+        let to_image = |data: &[[f32; 4]]| film_image(data, width, height, scale);
         if mutations_done > 0 {
             image = to_image(bytemuck::cast_slice(&splat_data));
         }
@@ -603,11 +596,80 @@ impl Renderer {
             nonfinite_samples: stat[STAT_NONFINITE as usize] as u64,
             rays,
             samples_per_pixel: spp,
-            dispatch_seconds: bootstrap_seconds + chain_seconds,
+            dispatch_seconds: bootstrap_seconds + chain_seconds + tail_seconds,
             backend: self.backend(),
             strategies: Vec::new(),
             mmlt: Some(report),
         })
+    }
+
+    /// Tests of the sampler against its CPU mirror: `chains` chains (chain c started on
+    /// bootstrap sample c of depth `depth_cap`) make `proposals` proposals on
+    /// mmlt.comp's synthetic probe path. Returns every chain's primary numbers
+    /// (dimension-major, as the kernel keeps them) and the chains' state.
+    pub fn mmlt_sampler_probe(
+        &mut self,
+        chains: u32,
+        depth_cap: u32,
+        proposals: u32,
+        seed: u32,
+        sigma: f32,
+        large_step: f32,
+    ) -> Result<(Vec<[u32; 4]>, Vec<GpuChain>)> {
+        let mut scene = crate::scene::parse_str(
+            "size 4 4\nvertex 0 0 -1\nvertex 1 0 -1\nvertex 0 1 -1\ntri 0 1 2\n",
+            "sampler probe",
+        )?;
+        scene.settings.max_depth = depth_cap as i32;
+        let mut trace = Trace::new();
+        let Prepared { gpu_scene, rq } = self.prepare(&scene, seed, 0, &mut trace)?;
+        let streams = stream_sizes(depth_cap);
+        let numbers: u32 = streams.iter().sum();
+        let samples = Buffer::device_local(
+            &self.device,
+            "probe primary samples",
+            chains as u64 * numbers as u64 * 16,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+        )?;
+        let init: Vec<GpuChain> = (0..chains)
+            .map(|c| GpuChain {
+                state: [0, depth_cap, 0, 0],
+                start: [c, 0, 0, 0],
+                ..Default::default()
+            })
+            .collect();
+        let chain_buffer = self.storage_buffer(
+            "probe chains",
+            chains as u64 * std::mem::size_of::<GpuChain>() as u64,
+        )?;
+        chain_buffer.upload(bytemuck::cast_slice(&init))?;
+        let stats = self.storage_buffer("stats", 4 * STAT_COUNT as u64)?;
+        let set = self.descriptor_set(
+            &gpu_scene,
+            &[
+                (BINDING_STATS, &stats),
+                (BINDING_CHAIN_SAMPLES, &samples),
+                (BINDING_CHAINS, &chain_buffer),
+            ],
+            rq.as_ref(),
+        )?;
+        let pipeline = self.kernels.pipeline("mmlt")?;
+        let mut p = MmltParams {
+            run: [MMLT_MODE_PROBE_START, 0, chains, 0],
+            sizes: [chains, 1, depth_cap + 1, 0],
+            streams: [streams[0], streams[1], streams[2], numbers],
+            mutation: [sigma, large_step, 0.0, 0.0],
+        };
+        self.mmlt_dispatches(pipeline, set, &[p], "probe start", &mut trace)?;
+        p.run = [MMLT_MODE_PROBE_CHAINS, 0, chains, proposals];
+        self.mmlt_dispatches(pipeline, set, &[p], "probe chains", &mut trace)?;
+        let numbers_data = samples.download(chains as u64 * numbers as u64 * 16)?;
+        let chain_data =
+            chain_buffer.download(chains as u64 * std::mem::size_of::<GpuChain>() as u64)?;
+        Ok((
+            bytemuck::cast_slice(&numbers_data).to_vec(),
+            bytemuck::cast_slice(&chain_data).to_vec(),
+        ))
     }
 
     /// Record `list` as one submission of MMLT dispatches (a barrier after each), timed

@@ -225,6 +225,44 @@ impl ChainSampler {
     }
 }
 
+/// mmlt.comp's sampler probe: its synthetic path asks each stream for a hash-chosen
+/// count of numbers (mutating them unless the chain is only read, as at its start) and
+/// returns a hashed target.
+pub fn probe_path(c: &mut ChainSampler, mutate: bool) -> f32 {
+    let h = pcg4d([c.chain, c.proposals, c.seed, 0x2000_0000]);
+    let counts = [
+        1 + h[0] % c.capacity[0],
+        h[1] % (c.capacity[1] + 1),
+        h[2] % (c.capacity[2] + 1),
+    ];
+    if mutate {
+        for (stream, &n) in counts.iter().enumerate() {
+            for _ in 0..n {
+                c.next(stream);
+            }
+        }
+    }
+    unit(h[3]) + 0.01
+}
+
+/// What MMLT_MODE_PROBE_START then `proposals` MMLT_MODE_PROBE_CHAINS proposals do to
+/// a chain, on the CPU. Returns the chain's final target.
+pub fn probe_chain(c: &mut ChainSampler, large_step: f32, proposals: u32) -> f32 {
+    let mut f = probe_path(c, false);
+    for _ in 0..proposals {
+        c.begin(large_step);
+        let f2 = probe_path(c, true);
+        let a = if f > 0.0 { (f2 / f).min(1.0) } else { 1.0 };
+        if c.accept_uniform() < a {
+            c.accept();
+            f = f2;
+        } else {
+            c.reject();
+        }
+    }
+    f
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

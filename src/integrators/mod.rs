@@ -4,3 +4,4 @@ pub mod bdpt;
 pub mod bdpt_mis;
 pub mod mmlt;
 pub mod mmlt_sampler;
+pub mod pt;
