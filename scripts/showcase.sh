@@ -32,7 +32,7 @@ for scene in "${scenes[@]}"; do
       --time-limit "$TIME" --seed 1 -o "$png" 2>"$log"
     spp=$(grep -E " spp, " "$log" | sed -E 's/.* ([0-9]+) spp,.*/\1/')
     unit=spp; [ "$integrator" = mmlt ] && unit="mutations/px"
-    args+=("$png" "$name · $integrator · ${TIME}s, $spp $unit")
+    args+=("$png" "$name" "$integrator, ${TIME} s: $spp $unit")
   done
 done
 
@@ -40,21 +40,21 @@ python3 - "$OUTPUT" "${#integrators[@]}" "${args[@]}" <<'PY'
 import sys
 from PIL import Image, ImageDraw, ImageFont
 out, cols, rest = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
-cells = [(rest[i], rest[i + 1]) for i in range(0, len(rest), 2)]
+cells = [(rest[i], rest[i + 1] + "\n" + rest[i + 2]) for i in range(0, len(rest), 3)]
 images = [Image.open(p).convert("RGB") for p, _ in cells]
 w, h = images[0].size
-label = 22
+label = 32
 rows = (len(images) + cols - 1) // cols
 grid = Image.new("RGB", (cols * w, rows * (h + label)), "white")
 draw = ImageDraw.Draw(grid)
 try:
-    font = ImageFont.load_default(size=12)
+    font = ImageFont.load_default(size=11)
 except TypeError:
     font = ImageFont.load_default()
 for i, (img, (_, text)) in enumerate(zip(images, cells)):
     x, y = (i % cols) * w, (i // cols) * (h + label)
     grid.paste(img, (x, y + label))
-    draw.text((x + 4, y + 4), text, fill="black", font=font)
+    draw.multiline_text((x + 4, y + 2), text, fill="black", font=font, spacing=2)
 grid.save(out)
 print(f"wrote {out}: {rows} scenes x {cols} integrators, {w}x{h} each")
 PY
