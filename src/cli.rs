@@ -92,8 +92,18 @@ enum Command {
     Render(RenderArgs),
     /// List Vulkan devices with their driver, ray-query support and limits.
     Devices,
-    /// Compare image A against reference B: mean per channel, RMSE, relMSE (ε = 0.01).
+    /// Compare image A against reference B: mean per channel, RMSE, relMSE (ε = 0.01),
+    /// and how each was rendered (from its metadata).
     Compare { a: PathBuf, b: PathBuf },
+    /// Average EXR renders of the same scene and settings made with different seeds,
+    /// weighted by their samples per pixel (refuses inputs that do not belong together).
+    Merge {
+        /// The merged image (.exr).
+        output: PathBuf,
+        /// The renders to merge (.exr, from `lightpath render`).
+        #[arg(required = true, num_args = 2..)]
+        inputs: Vec<PathBuf>,
+    },
     /// Measure path-tracing speed on the Cornell box for each backend.
     Bench(crate::bench::BenchArgs),
 }
@@ -116,6 +126,7 @@ pub fn main() -> i32 {
         Command::Render(args) => render_command(&args),
         Command::Devices => devices_command(),
         Command::Compare { a, b } => compare_command(&a, &b),
+        Command::Merge { output, inputs } => merge_command(&output, &inputs),
         Command::Bench(args) => crate::bench::run(&args),
     };
     match result {
@@ -205,6 +216,9 @@ fn render_command(args: &RenderArgs) -> Result<()> {
     let accel = AccelChoice::from_name(&args.accel)
         .with_context(|| format!("--accel {:?}: expected auto, rayquery or bvh", args.accel))?;
     let mut scene = trace.cpu("parse", || scene::parse_file(&args.scene))?;
+    // Its contents' hash goes into the image's metadata.
+    let scene_bytes = std::fs::read(&args.scene)
+        .with_context(|| format!("cannot read {}", args.scene.display()))?;
     apply_overrides(&mut scene, args)?;
     // (BDPT always uses Russian roulette beyond its cap, so the warning is the path
     // tracer's.)
@@ -259,7 +273,24 @@ fn render_command(args: &RenderArgs) -> Result<()> {
     renderer.record_strategies = args.bdpt_strategies.is_some();
     renderer.record_depths = args.mmlt_depths.is_some();
     renderer.time_limit = args.time_limit;
+    let started = std::time::Instant::now();
     let out = renderer.render(&scene, args.seed, &mut trace)?;
+    let info = io::RenderInfo {
+        integrator: scene.settings.integrator.name().to_string(),
+        samples_per_pixel: out.samples_per_pixel as u64,
+        seeds: vec![args.seed],
+        max_depth: scene.settings.max_depth,
+        backend: out.backend.name().to_string(),
+        device: renderer.device.info.name.clone(),
+        render_seconds: started.elapsed().as_secs_f64(),
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        scene_file: args
+            .scene
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default(),
+        scene_hash: io::sha256_hex(&scene_bytes),
+    };
     if let Some(v) = renderer.validation() {
         if v.errors > 0 {
             bail!(
@@ -272,7 +303,7 @@ fn render_command(args: &RenderArgs) -> Result<()> {
         eprintln!("Vulkan validation: no errors, {} warnings", v.warnings);
     }
     trace.cpu("write image", || {
-        io::write_image(&output, &out.image, scene.settings.gamma)
+        io::write_image_with_info(&output, &out.image, scene.settings.gamma, Some(&info))
     })?;
     if let Some(dir) = &args.bdpt_strategies {
         trace.cpu("write strategy images", || -> Result<()> {
@@ -360,12 +391,32 @@ fn devices_command() -> Result<()> {
     Ok(())
 }
 
+fn merge_command(output: &Path, inputs: &[PathBuf]) -> Result<()> {
+    if !matches!(io::format_of(output)?, io::Format::Exr) {
+        bail!("{}: merge writes an EXR (.exr)", output.display());
+    }
+    io::check_writable(output)?;
+    let mut read = Vec::new();
+    for path in inputs {
+        let (image, info) = io::read_exr_with_info(path)?;
+        read.push((path.clone(), image, info));
+    }
+    let (image, info) = io::merge(&read)?;
+    io::write_image_with_info(output, &image, 1.0, Some(&info))?;
+    eprintln!("{}: {}", output.display(), info.summary());
+    Ok(())
+}
+
 fn compare_command(a: &Path, b: &Path) -> Result<()> {
-    let ia = io::read_exr(a)?;
-    let ib = io::read_exr(b)?;
+    let (ia, info_a) = io::read_exr_with_info(a)?;
+    let (ib, info_b) = io::read_exr_with_info(b)?;
     let c = io::compare(&ia, &ib)?;
+    let describe = |info: &Option<io::RenderInfo>| match info {
+        Some(i) => i.summary(),
+        None => "no lightpath metadata".to_string(),
+    };
     let text = format!(
-        "mean A: {:.6} {:.6} {:.6}\nmean B: {:.6} {:.6} {:.6}\nRMSE: {:.6}\nrelMSE: {:.6}\n",
+        "mean A: {:.6} {:.6} {:.6}\nmean B: {:.6} {:.6} {:.6}\nRMSE: {:.6}\nrelMSE: {:.6}\nA: {}\nB: {}\n",
         c.mean_a[0],
         c.mean_a[1],
         c.mean_a[2],
@@ -373,7 +424,9 @@ fn compare_command(a: &Path, b: &Path) -> Result<()> {
         c.mean_b[1],
         c.mean_b[2],
         c.rmse,
-        c.relmse
+        c.relmse,
+        describe(&info_a),
+        describe(&info_b)
     );
     // A reader that stops early (`| head -1`) is not an error.
     use std::io::Write;

@@ -396,3 +396,274 @@ fn mmlt_with_no_light_writes_a_black_image_says_so_and_succeeds() {
         "{text}"
     );
 }
+
+/// Render `scene` in `d` with extra arguments, expecting success.
+fn render_ok(d: &Path, args: &[&str]) {
+    let out = lightpath(args, d);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn exr_metadata_records_how_the_image_was_made() {
+    let d = scratch("metadata");
+    std::fs::write(d.join("m.test"), GOOD).unwrap();
+    render_ok(
+        &d,
+        &[
+            "render",
+            "m.test",
+            "-o",
+            "m.exr",
+            "-q",
+            "--spp",
+            "3",
+            "--seed",
+            "7",
+            "--max-depth",
+            "2",
+            "--integrator",
+            "bdpt",
+        ],
+    );
+    let (_, info) = lightpath::io::read_exr_with_info(&d.join("m.exr")).expect("read");
+    let info = info.expect("lightpath metadata");
+    assert_eq!(info.integrator, "bdpt");
+    assert_eq!(info.samples_per_pixel, 3);
+    assert_eq!(info.seeds, vec![7]);
+    assert_eq!(info.max_depth, 2);
+    assert_eq!(info.scene_file, "m.test");
+    assert_eq!(info.scene_hash, lightpath::io::sha256_hex(GOOD.as_bytes()));
+    assert_eq!(info.version, env!("CARGO_PKG_VERSION"));
+    assert!(["bvh", "rayquery"].contains(&info.backend.as_str()));
+    assert!(!info.device.is_empty() && info.render_seconds > 0.0);
+    // compare prints it.
+    let out = lightpath(&["compare", "m.exr", "m.exr"], &d);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("A: bdpt of m.test") && text.contains("3 spp, seed 7"),
+        "{text}"
+    );
+}
+
+#[test]
+fn merge_of_seed_split_renders_is_the_render_of_all_their_samples() {
+    let d = scratch("merge");
+    // A furnace-free scene with noise: a diffuse floor lit by an area light.
+    std::fs::write(
+        d.join("s.test"),
+        "size 16 16\ncamera 0 2 3 0 0 0 0 1 0 50\nmaxdepth 3\nintegrator pathtracer\n\
+         nexteventestimation mis\nvertex -2 0 -2\nvertex 2 0 -2\nvertex 2 0 2\nvertex -2 0 2\n\
+         diffuse 0.7 0.7 0.7\ntri 0 2 1\ntri 0 3 2\nsphere 0 0.5 0 0.5\n\
+         quadLight -0.5 2 -0.5 0 0 1 1 0 0 4 4 4\n",
+    )
+    .unwrap();
+    let n = 8;
+    let mut inputs = Vec::new();
+    for seed in 1..=4 {
+        let name = format!("part{seed}.exr");
+        render_ok(
+            &d,
+            &[
+                "render",
+                "s.test",
+                "-o",
+                &name,
+                "-q",
+                "--spp",
+                &n.to_string(),
+                "--seed",
+                &seed.to_string(),
+            ],
+        );
+        inputs.push(name);
+    }
+    let mut args = vec!["merge", "merged.exr"];
+    args.extend(inputs.iter().map(String::as_str));
+    render_ok(&d, &args);
+    let (merged, info) = lightpath::io::read_exr_with_info(&d.join("merged.exr")).unwrap();
+    let info = info.expect("merged metadata");
+    assert_eq!(info.samples_per_pixel, 4 * n as u64);
+    assert_eq!(info.seeds, vec![1, 2, 3, 4]);
+    // Exactly the mean of the parts (equal weights).
+    let parts: Vec<_> = inputs
+        .iter()
+        .map(|p| lightpath::io::read_exr(&d.join(p)).unwrap())
+        .collect();
+    assert!(
+        parts[0].mean()[1] > 0.05,
+        "the test scene is dark: {:?}",
+        parts[0].mean()
+    );
+    for (i, p) in merged.pixels.iter().enumerate() {
+        for (c, v) in p.iter().enumerate() {
+            let mean = parts.iter().map(|q| q.pixels[i][c]).sum::<f32>() / 4.0;
+            assert!((v - mean).abs() <= 1e-5 * mean.abs() + 1e-7);
+        }
+    }
+    // Unequal sample counts weigh by samples: 8 spp and 24 spp give (8 a + 24 b) / 32.
+    render_ok(
+        &d,
+        &[
+            "render", "s.test", "-o", "more.exr", "-q", "--spp", "24", "--seed", "50",
+        ],
+    );
+    render_ok(&d, &["merge", "weighted.exr", "part1.exr", "more.exr"]);
+    let more = lightpath::io::read_exr(&d.join("more.exr")).unwrap();
+    let weighted = lightpath::io::read_exr(&d.join("weighted.exr")).unwrap();
+    for (i, p) in weighted.pixels.iter().enumerate() {
+        for (c, v) in p.iter().enumerate() {
+            let expect = (8.0 * parts[0].pixels[i][c] + 24.0 * more.pixels[i][c]) / 32.0;
+            assert!(
+                (v - expect).abs() <= 1e-5 * expect.abs() + 1e-7,
+                "{v} vs {expect}"
+            );
+        }
+    }
+    // Statistically one render of 4n spp: 4x4 block means agree within 5 standard
+    // errors (each part's block-mean spread gives the error of a render of n spp).
+    render_ok(
+        &d,
+        &[
+            "render",
+            "s.test",
+            "-o",
+            "whole.exr",
+            "-q",
+            "--spp",
+            &(4 * n).to_string(),
+            "--seed",
+            "99",
+        ],
+    );
+    let whole = lightpath::io::read_exr(&d.join("whole.exr")).unwrap();
+    for by in 0..4 {
+        for bx in 0..4 {
+            let block = |img: &lightpath::io::Image| {
+                img.region_mean(bx * 4, by * 4, bx * 4 + 4, by * 4 + 4)
+            };
+            let part_means: Vec<_> = parts.iter().map(|p| block(p)[1]).collect();
+            let m = part_means.iter().sum::<f64>() / 4.0;
+            let var = part_means.iter().map(|v| (v - m).powi(2)).sum::<f64>() / 3.0;
+            // The merged mean and the 4n-spp render have the same variance var / 4.
+            let se = (2.0 * var / 4.0).sqrt();
+            let (a, b) = (block(&merged)[1], block(&whole)[1]);
+            assert!(
+                (a - b).abs() <= 5.0 * se + 1e-3 * b.abs(),
+                "block ({bx},{by}): merged {a} vs {b} (se {se})"
+            );
+        }
+    }
+
+    // Refusals: a clear message and no output.
+    fails_with(
+        &["merge", "bad.exr", "part1.exr", "part1.exr"],
+        &d,
+        &["seed 1"],
+    );
+    render_ok(
+        &d,
+        &[
+            "render",
+            "s.test",
+            "-o",
+            "bdpt.exr",
+            "-q",
+            "--spp",
+            "2",
+            "--seed",
+            "5",
+            "--integrator",
+            "bdpt",
+        ],
+    );
+    fails_with(
+        &["merge", "bad.exr", "part1.exr", "bdpt.exr"],
+        &d,
+        &["integrator"],
+    );
+    render_ok(
+        &d,
+        &[
+            "render",
+            "s.test",
+            "-o",
+            "small.exr",
+            "-q",
+            "--spp",
+            "2",
+            "--seed",
+            "6",
+            "--size",
+            "8x8",
+        ],
+    );
+    fails_with(
+        &["merge", "bad.exr", "part1.exr", "small.exr"],
+        &d,
+        &["size"],
+    );
+    render_ok(
+        &d,
+        &[
+            "render",
+            "s.test",
+            "-o",
+            "deep.exr",
+            "-q",
+            "--spp",
+            "2",
+            "--seed",
+            "8",
+            "--max-depth",
+            "1",
+        ],
+    );
+    fails_with(
+        &["merge", "bad.exr", "part1.exr", "deep.exr"],
+        &d,
+        &["maxdepth"],
+    );
+    std::fs::write(
+        d.join("t.test"),
+        format!(
+            "{}\n# another scene\n",
+            std::fs::read_to_string(d.join("s.test")).unwrap()
+        ),
+    )
+    .unwrap();
+    render_ok(
+        &d,
+        &[
+            "render",
+            "t.test",
+            "-o",
+            "other.exr",
+            "-q",
+            "--spp",
+            "2",
+            "--seed",
+            "9",
+        ],
+    );
+    fails_with(
+        &["merge", "bad.exr", "part1.exr", "other.exr"],
+        &d,
+        &["scene"],
+    );
+    lightpath::io::write_image(&d.join("plain.exr"), &parts[0], 1.0).unwrap();
+    fails_with(
+        &["merge", "bad.exr", "part1.exr", "plain.exr"],
+        &d,
+        &["no lightpath metadata"],
+    );
+    fails_with(
+        &["merge", "bad.png", "part1.exr", "part2.exr"],
+        &d,
+        &[".exr"],
+    );
+    assert!(!d.join("bad.exr").exists() && !d.join("bad.png").exists());
+}
