@@ -157,6 +157,13 @@ const INTEGRATORS: [IntegratorKind; 6] = [
 /// `maxverts` reserves at most this many vertices up front (it is only a hint).
 const MAX_VERTEX_RESERVE: usize = 1 << 22;
 
+/// The largest image side a scene may ask for (a film of 65536² would already exceed
+/// every device's storage-buffer range; the renderer refuses what does not fit).
+const MAX_IMAGE_SIDE: u32 = 1 << 16;
+
+/// The deepest pushTransform nesting a scene may have.
+const MAX_TRANSFORM_NESTING: usize = 1 << 16;
+
 /// One non-empty line: its keyword and up to [`MAX_ARGS`] arguments.
 struct Command<'a> {
     file: &'a str,
@@ -420,6 +427,12 @@ impl Parser {
             "size" => {
                 self.scene.width = cmd.uint(0, 1)?;
                 self.scene.height = cmd.uint(1, 1)?;
+                if self.scene.width > MAX_IMAGE_SIDE || self.scene.height > MAX_IMAGE_SIDE {
+                    return Err(cmd.error(format!(
+                        "width and height must be at most {MAX_IMAGE_SIDE}, got {}x{}",
+                        self.scene.width, self.scene.height
+                    )));
+                }
             }
             "output" => self.scene.output = Some(cmd.args[0].to_owned()),
             "camera" => self.scene.camera = camera(cmd)?,
@@ -450,7 +463,14 @@ impl Parser {
                 self.transform *= Mat4::from_axis_angle(axis, degrees.to_radians());
             }
             "scale" => self.transform *= Mat4::from_scale(cmd.vec3(0)?),
-            "pushTransform" => self.saved_transforms.push(self.transform),
+            "pushTransform" => {
+                if self.saved_transforms.len() >= MAX_TRANSFORM_NESTING {
+                    return Err(cmd.error(format!(
+                        "pushTransform nested deeper than {MAX_TRANSFORM_NESTING}"
+                    )));
+                }
+                self.saved_transforms.push(self.transform)
+            }
             "popTransform" => {
                 let Some(saved) = self.saved_transforms.pop() else {
                     return Err(cmd.error("no matching pushTransform (nothing to pop)"));
