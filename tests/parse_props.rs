@@ -167,3 +167,110 @@ fn absurd_sizes_and_nesting_get_clear_errors_not_allocations() {
     let ok = format!("{}sphere 0 0 0 1\n", "pushTransform\n".repeat(60_000));
     parse_str(&ok, "deep-ok.test").unwrap();
 }
+
+fn scratch(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("lightpath-obj-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(d.join("meshes")).unwrap();
+    d
+}
+
+#[test]
+fn obj_meshes_load_under_the_transform_with_the_material_relative_to_the_scene() {
+    let d = scratch("load");
+    // A unit square as a quad face (triangulated) and a triangle with v/vt/vn refs.
+    std::fs::write(
+        d.join("meshes/square.obj"),
+        "o square\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n\
+         f 1 2 3 4\nf -4/1/1 -3/1/1 -1/1/1\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("s.test"),
+        "diffuse 0.2 0.4 0.6\ntranslate 10 0 0\nscale 2 2 2\nobj meshes/square.obj\n",
+    )
+    .unwrap();
+    let s = lightpath::scene::parse_file(&d.join("s.test")).expect("scene with obj");
+    assert_eq!(s.triangles.len(), 3);
+    let m = &s.materials[s.triangles[0].material as usize];
+    assert_eq!(m.diffuse, glam::Vec3::new(0.2, 0.4, 0.6));
+    // Every vertex went through translate(10) · scale(2).
+    for t in &s.triangles {
+        for v in t.v {
+            assert!(
+                [10.0, 12.0].contains(&v.x) && [0.0, 2.0].contains(&v.y),
+                "{v}"
+            );
+        }
+    }
+    let area: f32 = s
+        .triangles
+        .iter()
+        .map(|t| 0.5 * (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length())
+        .sum();
+    assert!((area - 6.0).abs() < 1e-5, "area {area}"); // the square (4) and half of it
+}
+
+#[test]
+fn obj_errors_name_the_obj_file_and_line() {
+    let d = scratch("errors");
+    let check = |obj: &str, needles: &[&str]| {
+        std::fs::write(d.join("meshes/bad.obj"), obj).unwrap();
+        std::fs::write(d.join("s.test"), "size 4 4\n\nobj meshes/bad.obj\n").unwrap();
+        let e = lightpath::scene::parse_file(&d.join("s.test")).unwrap_err();
+        assert_eq!(e.line, 3, "{e}");
+        let text = e.to_string();
+        for n in needles {
+            assert!(text.contains(n), "expected {n:?} in: {text}");
+        }
+    };
+    check(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
+        &["bad.obj", "line 4", "'x'"],
+    );
+    check(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 9\n",
+        &["bad.obj", "line 5", "out of range"],
+    );
+    check("v 0 0 0\nv 1 nan 0\n", &["line 2", "finite"]);
+    check(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
+        &["line 4", "at least 3"],
+    );
+    check("v 0 0 0\n", &["no faces"]);
+    std::fs::write(d.join("s.test"), "obj meshes/missing.obj\n").unwrap();
+    let e = lightpath::scene::parse_file(&d.join("s.test")).unwrap_err();
+    assert!(e.line == 1 && e.to_string().contains("missing.obj"), "{e}");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 500, ..ProptestConfig::default() })]
+
+    #[test]
+    fn mutated_obj_files_load_or_fail_with_a_line(
+        edits in prop::collection::vec((0usize..100, 0usize..40, 0u8..4, token()), 1..8)
+    ) {
+        let mut lines: Vec<String> = include_str!("data/tetrahedron.obj").lines().map(str::to_string).collect();
+        for (at, cut, kind, tok) in edits {
+            let i = at % lines.len();
+            match kind {
+                0 => { let l = &lines[i]; let n = l.len().min(cut); lines[i] = l[..n].to_string(); }
+                1 => { let l = lines[i].clone(); lines.insert(i, l); }
+                2 => {
+                    let mut words: Vec<String> = lines[i].split_whitespace().map(str::to_string).collect();
+                    if !words.is_empty() { let j = cut % words.len(); words[j] = tok; }
+                    lines[i] = words.join(" ");
+                }
+                _ => { lines[i] = format!("{} {tok}", lines[i]); }
+            }
+        }
+        let d = std::env::temp_dir().join(format!("lightpath-obj-prop-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("m.obj"), lines.join("\n")).unwrap();
+        std::fs::write(d.join("s.test"), "obj m.obj\n").unwrap();
+        if let Err(e) = lightpath::scene::parse_file(&d.join("s.test")) {
+            prop_assert_eq!(e.line, 1);
+            prop_assert!(e.message.contains("m.obj"), "{}", e);
+        }
+    }
+}

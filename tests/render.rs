@@ -342,3 +342,47 @@ fn every_pixel_gets_exactly_one_sample_per_pass_at_any_size() {
         }
     }
 }
+
+#[test]
+fn a_large_obj_mesh_renders_on_both_backends() {
+    // A 300 x 300 height-field grid: 180 000 triangles from an OBJ file.
+    let d = std::env::temp_dir().join(format!("lightpath-big-obj-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let n = 300;
+    let mut obj = String::with_capacity(12_000_000);
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, z) = (
+                i as f32 / n as f32 * 4.0 - 2.0,
+                j as f32 / n as f32 * 4.0 - 2.0,
+            );
+            let y = 0.1 * (3.0 * x).sin() * (2.0 * z).cos();
+            obj += &format!("v {x} {y} {z}\n");
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            let (b, c, e) = (a + 1, a + n + 1, a + n + 2);
+            obj += &format!("f {a} {c} {e} {b}\n");
+        }
+    }
+    std::fs::write(d.join("grid.obj"), obj).unwrap();
+    std::fs::write(
+        d.join("s.test"),
+        "size 16 12\ncamera 0 3 4 0 0 0 0 1 0 45\nspp 2\nmaxdepth 2\nintegrator pathtracer\n\
+         nexteventestimation mis\ndiffuse 0.6 0.6 0.6\nobj grid.obj\n\
+         quadLight -0.5 2 -0.5 0 0 1 1 0 0 5 5 5\n",
+    )
+    .unwrap();
+    let s = lightpath::scene::parse_file(&d.join("s.test")).expect("scene with a large obj");
+    assert_eq!(s.triangles.len(), 2 * n * n + 2); // and the quad light's two
+    let a = render(&s, 1, Bvh).mean();
+    let b = render(&s, 1, RayQuery).mean();
+    for c in 0..3 {
+        assert!(
+            a[c] > 0.01 && (a[c] - b[c]).abs() < 0.2 * a[c],
+            "bvh {a:?} vs ray query {b:?}"
+        );
+    }
+}

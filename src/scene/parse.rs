@@ -12,7 +12,7 @@ use super::{
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
 use std::fmt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Why a scene could not be parsed.
 ///
@@ -58,7 +58,8 @@ pub fn parse_file(path: &Path) -> Result<Scene, ParseError> {
         command: String::new(),
         message: format!("cannot read: {err}"),
     })?;
-    let mut scene = parse_str(&text, &name)?;
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut scene = parse_text(&text, &name, base)?;
     scene.source = Some(path.to_path_buf());
     Ok(scene)
 }
@@ -69,9 +70,18 @@ pub fn parse_file(path: &Path) -> Result<Scene, ParseError> {
 /// At the first line with an unknown command, a wrong number of arguments, an
 /// unparsable or out-of-range value, a vertex index out of range or a
 /// `popTransform` with nothing pushed.
+/// `obj` paths are relative to the working directory.
 pub fn parse_str(text: &str, name: &str) -> Result<Scene, ParseError> {
+    parse_text(text, name, PathBuf::new())
+}
+
+/// Parses a scene whose `obj` files are relative to `base`.
+fn parse_text(text: &str, name: &str, base: PathBuf) -> Result<Scene, ParseError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut parser = Parser::default();
+    let mut parser = Parser {
+        base,
+        ..Parser::default()
+    };
     for (index, line) in text.lines().enumerate() {
         let content = match line.find('#') {
             Some(comment) => &line[..comment],
@@ -97,6 +107,93 @@ pub fn parse_str(text: &str, name: &str) -> Result<Scene, ParseError> {
         parser.execute(&command)?;
     }
     Ok(parser.scene)
+}
+
+/// The first line of an OBJ file that lightpath cannot use, with what is wrong: vertex
+/// positions need three finite numbers, faces at least three vertex references within
+/// the file's vertices (1-based, or negative: relative to the vertices before the face),
+/// and texture and normal references likewise.
+fn obj_problem(text: &str) -> Option<(usize, String)> {
+    let count = |key: &str| {
+        text.lines()
+            .filter(|l| l.split_whitespace().next() == Some(key))
+            .count() as i64
+    };
+    let (total_v, total_vt, total_vn) = (count("v"), count("vt"), count("vn"));
+    let (mut v, mut vt, mut vn) = (0i64, 0i64, 0i64);
+    let floats = |args: &[&str], n: usize, what: &str| -> Result<(), String> {
+        if args.len() < n {
+            return Err(format!("{what} needs {n} numbers, got {}", args.len()));
+        }
+        for a in &args[..n] {
+            match a.parse::<f32>() {
+                Ok(x) if x.is_finite() => {}
+                _ => return Err(format!("{what}: expected a finite number, got '{a}'")),
+            }
+        }
+        Ok(())
+    };
+    let index = |token: &str, so_far: i64, total: i64, what: &str| -> Result<(), String> {
+        let i: i64 = token
+            .parse()
+            .map_err(|_| format!("expected a {what} index, got '{token}'"))?;
+        let ok = (i > 0 && i <= total) || (i < 0 && -i <= so_far);
+        if !ok {
+            return Err(format!(
+                "{what} index {i} is out of range ({total} {what}s in the file, {so_far} before this face)"
+            ));
+        }
+        Ok(())
+    };
+    for (n, line) in text.lines().enumerate() {
+        let content = line.split('#').next().unwrap_or("");
+        let words: Vec<&str> = content.split_whitespace().collect();
+        let Some((&key, args)) = words.split_first() else {
+            continue;
+        };
+        let result = match key {
+            "v" => {
+                v += 1;
+                floats(args, 3, "a vertex position")
+            }
+            "vt" => {
+                vt += 1;
+                floats(args, 1, "a texture coordinate")
+            }
+            "vn" => {
+                vn += 1;
+                floats(args, 3, "a normal")
+            }
+            "f" => {
+                if args.len() < 3 {
+                    Err(format!(
+                        "a face needs at least 3 vertices, got {}",
+                        args.len()
+                    ))
+                } else {
+                    args.iter().try_for_each(|r| {
+                        let mut parts = r.split('/');
+                        index(parts.next().unwrap_or(""), v, total_v, "vertex")?;
+                        if let Some(t) = parts.next().filter(|t| !t.is_empty()) {
+                            index(t, vt, total_vt, "texture coordinate")?;
+                        }
+                        if let Some(nn) = parts.next().filter(|t| !t.is_empty()) {
+                            index(nn, vn, total_vn, "normal")?;
+                        }
+                        if parts.next().is_some() {
+                            return Err(format!("malformed vertex reference '{r}'"));
+                        }
+                        Ok(())
+                    })
+                }
+            }
+            _ => Ok(()),
+        };
+        if let Err(what) = result {
+            return Some((n + 1, what));
+        }
+    }
+    None
 }
 
 /// Every command with its arguments, as shown in arity errors. The argument count
@@ -139,6 +236,7 @@ const COMMANDS: &[(&str, &str)] = &[
     ("mmltchains", "N"),
     ("mmltsigma", "s"),
     ("mmltlargestep", "p"),
+    ("obj", "FILE"),
 ];
 
 /// The most arguments any command takes (`quadLight`).
@@ -373,6 +471,8 @@ struct Parser {
     /// `material`'s index in `scene.materials`, once a shape has used it.
     material_index: Option<u32>,
     material_lookup: HashMap<MaterialKey, u32>,
+    /// The directory `obj` paths are relative to.
+    base: PathBuf,
 }
 
 impl Default for Parser {
@@ -385,6 +485,7 @@ impl Default for Parser {
             material: Material::default(),
             material_index: None,
             material_lookup: HashMap::new(),
+            base: PathBuf::new(),
         }
     }
 }
@@ -424,6 +525,7 @@ impl Parser {
         match cmd.name {
             "vertex" => self.vertices.push(cmd.vec3(0)?),
             "tri" => self.tri(cmd)?,
+            "obj" => self.obj(cmd)?,
             "size" => {
                 self.scene.width = cmd.uint(0, 1)?;
                 self.scene.height = cmd.uint(1, 1)?;
@@ -604,6 +706,53 @@ impl Parser {
         }
         let material = self.current_material();
         self.scene.triangles.push(Triangle { v, material });
+        Ok(())
+    }
+
+    /// `obj FILE`: a Wavefront OBJ's faces (triangulated) as triangles under the current
+    /// transform with the current material; the path is relative to the scene file.
+    fn obj(&mut self, cmd: &Command) -> Result<(), ParseError> {
+        let path = self.base.join(cmd.args[0]);
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| cmd.error(format!("cannot read OBJ file {}: {e}", path.display())))?;
+        // tobj says what is wrong but not where: check the lines first.
+        if let Some((line, what)) = obj_problem(&text) {
+            return Err(cmd.error(format!("OBJ file {}, line {line}: {what}", path.display())));
+        }
+        let options = tobj::LoadOptions {
+            triangulate: true,
+            ignore_points: true,
+            ignore_lines: true,
+            ..Default::default()
+        };
+        let (models, _materials) = tobj::load_obj_buf(&mut text.as_bytes(), &options, |_| {
+            Err(tobj::LoadError::OpenFileFailed)
+        })
+        .map_err(|e| cmd.error(format!("OBJ file {}: {e}", path.display())))?;
+        let material = self.current_material();
+        let before = self.scene.triangles.len();
+        for model in &models {
+            let p = &model.mesh.positions;
+            for face in model.mesh.indices.chunks_exact(3) {
+                let mut v = [Vec3::ZERO; 3];
+                for (corner, &i) in v.iter_mut().zip(face) {
+                    let i = i as usize * 3;
+                    let Some(xyz) = p.get(i..i + 3) else {
+                        return Err(cmd.error(format!(
+                            "OBJ file {}: a face refers to a missing vertex",
+                            path.display()
+                        )));
+                    };
+                    *corner = self
+                        .transform
+                        .transform_point3(Vec3::new(xyz[0], xyz[1], xyz[2]));
+                }
+                self.scene.triangles.push(Triangle { v, material });
+            }
+        }
+        if self.scene.triangles.len() == before {
+            return Err(cmd.error(format!("OBJ file {} has no faces", path.display())));
+        }
         Ok(())
     }
 
@@ -1289,6 +1438,7 @@ mod tests {
         "mmltchains 64",
         "mmltsigma 0.02",
         "mmltlargestep 0.5",
+        "obj tests/data/tetrahedron.obj",
     ];
     const PREAMBLE: &str = "vertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\npushTransform\n";
 
