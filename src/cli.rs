@@ -5,7 +5,10 @@ use crate::scene::{self, IntegratorKind, Scene};
 use crate::trace::Trace;
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
+use signal_hook::consts::{SIGINT, SIGTERM};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize};
+use std::sync::Arc;
 
 #[derive(Parser)]
 #[command(
@@ -71,6 +74,10 @@ pub struct RenderArgs {
     /// MMLT: probability of a large step (default 0.3).
     #[arg(long, value_name = "P")]
     pub mmlt_large_step: Option<f32>,
+    /// Rewrite the output image about every SECONDS while rendering (EXR or PNG, through
+    /// a temporary file and a rename), so a killed job leaves its last snapshot.
+    #[arg(long, value_name = "SECONDS")]
+    pub write_partial_images: Option<f64>,
     /// Stop after about this many seconds of rendering (wall clock, passes are whole);
     /// the image is the mean of the passes done. spp still caps the passes.
     #[arg(long, value_name = "SECONDS")]
@@ -86,6 +93,8 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
+// (Parsed once per run: the size of the render variant does not matter.)
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene.
@@ -123,7 +132,10 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 pub fn main() -> i32 {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(args) => render_command(&args),
+        Command::Render(args) => match render_command(&args) {
+            Ok(status) if status != 0 => return status,
+            other => other.map(|_| ()),
+        },
         Command::Devices => devices_command(),
         Command::Compare { a, b } => compare_command(&a, &b),
         Command::Merge { output, inputs } => merge_command(&output, &inputs),
@@ -155,6 +167,11 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
     if let Some(t) = args.time_limit {
         if !(t > 0.0 && t.is_finite()) {
             bail!("--time-limit must be a positive number of seconds, got {t}");
+        }
+    }
+    if let Some(t) = args.write_partial_images {
+        if !(t > 0.0 && t.is_finite()) {
+            bail!("--write-partial-images must be a positive number of seconds, got {t}");
         }
     }
     if let Some((w, h)) = args.size {
@@ -211,7 +228,8 @@ fn output_path(scene: &Scene, args: &RenderArgs) -> PathBuf {
     PathBuf::from(format!("{stem}.png"))
 }
 
-fn render_command(args: &RenderArgs) -> Result<()> {
+/// Render; returns the exit status (0, or 128 + the signal that interrupted it).
+fn render_command(args: &RenderArgs) -> Result<i32> {
     let mut trace = Trace::new();
     let accel = AccelChoice::from_name(&args.accel)
         .with_context(|| format!("--accel {:?}: expected auto, rayquery or bvh", args.accel))?;
@@ -274,15 +292,14 @@ fn render_command(args: &RenderArgs) -> Result<()> {
     renderer.record_depths = args.mmlt_depths.is_some();
     renderer.time_limit = args.time_limit;
     let started = std::time::Instant::now();
-    let out = renderer.render(&scene, args.seed, &mut trace)?;
-    let info = io::RenderInfo {
+    let mut info = io::RenderInfo {
         integrator: scene.settings.integrator.name().to_string(),
-        samples_per_pixel: out.samples_per_pixel as u64,
+        samples_per_pixel: 0,
         seeds: vec![args.seed],
         max_depth: scene.settings.max_depth,
-        backend: out.backend.name().to_string(),
+        backend: renderer.backend().name().to_string(),
         device: renderer.device.info.name.clone(),
-        render_seconds: started.elapsed().as_secs_f64(),
+        render_seconds: 0.0,
         version: env!("CARGO_PKG_VERSION").to_string(),
         scene_file: args
             .scene
@@ -291,6 +308,58 @@ fn render_command(args: &RenderArgs) -> Result<()> {
             .unwrap_or_default(),
         scene_hash: io::sha256_hex(&scene_bytes),
     };
+    // SIGINT and SIGTERM stop the render after the dispatch in flight, and the image of
+    // what was done is written; a second signal ends the process at once (with no
+    // half-written image: images are written to a temporary name and renamed).
+    let interrupt = Arc::new(AtomicUsize::new(0));
+    let stopping = Arc::new(AtomicBool::new(false));
+    for signal in [SIGINT, SIGTERM] {
+        signal_hook::flag::register_conditional_shutdown(signal, 128 + signal, stopping.clone())
+            .context("installing the signal handler")?;
+        signal_hook::flag::register(signal, stopping.clone())
+            .context("installing the signal handler")?;
+        signal_hook::flag::register_usize(signal, interrupt.clone(), signal as usize)
+            .context("installing the signal handler")?;
+    }
+    renderer.interrupt = Some(interrupt);
+    if let Some(every) = args.write_partial_images {
+        let (path, gamma, base) = (output.clone(), scene.settings.gamma, info.clone());
+        renderer.snapshots = Some(crate::render::Snapshots {
+            every,
+            last: None,
+            write: Box::new(move |image, samples| {
+                let info = io::RenderInfo {
+                    samples_per_pixel: samples,
+                    render_seconds: started.elapsed().as_secs_f64(),
+                    ..base.clone()
+                };
+                io::write_image_with_info(&path, image, gamma, Some(&info))
+            }),
+        });
+    }
+    let out = renderer.render(&scene, args.seed, &mut trace)?;
+    info.samples_per_pixel = out.samples_per_pixel as u64;
+    info.backend = out.backend.name().to_string();
+    info.render_seconds = started.elapsed().as_secs_f64();
+    if let Some(signal) = out.interrupted {
+        let name = if signal == SIGINT as usize {
+            "SIGINT"
+        } else {
+            "SIGTERM"
+        };
+        if out.samples_per_pixel == 0 {
+            eprintln!("interrupted by {name} before the first sample: no image written");
+        } else {
+            io::write_image_with_info(&output, &out.image, scene.settings.gamma, Some(&info))?;
+            eprintln!(
+                "interrupted by {name}: wrote {} with {} of {} samples per pixel",
+                output.display(),
+                out.samples_per_pixel,
+                scene.settings.spp
+            );
+        }
+        return Ok(128 + signal as i32);
+    }
     if let Some(v) = renderer.validation() {
         if v.errors > 0 {
             bail!(
@@ -360,7 +429,7 @@ fn render_command(args: &RenderArgs) -> Result<()> {
     if let Some(t) = &args.trace {
         trace.write(t)?;
     }
-    Ok(())
+    Ok(0)
 }
 
 fn devices_command() -> Result<()> {

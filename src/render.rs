@@ -18,6 +18,7 @@ use crate::scene::{IntegratorKind, Scene};
 use crate::trace::Trace;
 use anyhow::{bail, Result};
 use ash::vk;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -55,6 +56,19 @@ pub struct RenderOutput {
     /// MMLT: its normalization, chain statistics and (with `record_depths`) per-depth
     /// images.
     pub mmlt: Option<MmltReport>,
+    /// Stopped early by this signal (see `Renderer::interrupt`).
+    pub interrupted: Option<usize>,
+}
+
+/// Writes a snapshot: the image so far and its samples per pixel.
+pub type SnapshotWriter = Box<dyn FnMut(&Image, u64) -> Result<()> + Send>;
+
+/// Progressive output: every `every` seconds of rendering, `write` gets the image so far
+/// and its samples per pixel (MMLT: mutations per pixel).
+pub struct Snapshots {
+    pub every: f64,
+    pub write: SnapshotWriter,
+    pub last: Option<Instant>,
 }
 
 /// A scene made ready for the device: its visibility structure and buffers.
@@ -145,6 +159,11 @@ pub struct Renderer {
     pub strategy_buffer_limit: Option<u64>,
     /// MMLT: also return each depth's contribution image.
     pub record_depths: bool,
+    /// Raised (to the signal's number) by a SIGINT or SIGTERM handler: every dispatch
+    /// loop stops after the submission in flight, and the render returns what it has.
+    pub interrupt: Option<Arc<AtomicUsize>>,
+    /// Progressive output (`--write-partial-images`).
+    pub snapshots: Option<Snapshots>,
     /// Bound at the output bindings a render's kernels do not use.
     unused: Buffer,
 }
@@ -199,6 +218,8 @@ impl Renderer {
             strategy_buffer_limit: None,
             time_limit: None,
             record_depths: false,
+            interrupt: None,
+            snapshots: None,
         })
     }
 
@@ -296,6 +317,40 @@ impl Renderer {
         Ok(())
     }
 
+    /// The signal that stopped the render, if one did.
+    pub(crate) fn interrupt_signal(&self) -> Option<usize> {
+        self.interrupt
+            .as_ref()
+            .map(|f| f.load(Ordering::Relaxed))
+            .filter(|&s| s != 0)
+    }
+
+    /// Whether a signal asked the render to stop.
+    pub(crate) fn interrupted(&self) -> bool {
+        self.interrupt
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::Relaxed) != 0)
+    }
+
+    /// Whether a progressive snapshot is due (the first after `every` seconds).
+    pub(crate) fn snapshot_due(&mut self) -> bool {
+        match &mut self.snapshots {
+            Some(s) => {
+                let last = *s.last.get_or_insert_with(Instant::now);
+                last.elapsed().as_secs_f64() >= s.every
+            }
+            None => false,
+        }
+    }
+
+    pub(crate) fn write_snapshot(&mut self, image: &Image, samples: u64) -> Result<()> {
+        if let Some(s) = &mut self.snapshots {
+            (s.write)(image, samples)?;
+            s.last = Some(Instant::now());
+        }
+        Ok(())
+    }
+
     /// What every render does before its dispatches: the visibility structure (BVH, or
     /// BLAS/TLAS for ray query), the scene's device buffers.
     pub(crate) fn prepare(
@@ -373,11 +428,16 @@ impl Renderer {
     /// (fewer if `time_limit` runs out),
     /// several per submission, with GPU timestamps around each dispatch and a progress
     /// bar over passes. Returns the time in dispatches and the passes done.
+    ///
+    /// With `resolve` (the image after a number of passes), it also writes the
+    /// progressive snapshots that `snapshots` asks for. It stops early, after the
+    /// submission in flight, when `interrupt` is raised.
     pub(crate) fn dispatch_passes(
         &mut self,
         passes: Passes,
         first: u32,
         spp: u32,
+        resolve: Option<&dyn Fn(u32) -> Result<Image>>,
         trace: &mut Trace,
     ) -> Result<(f64, u32)> {
         let Passes {
@@ -415,9 +475,10 @@ impl Renderer {
         let mut dispatch_seconds = 0.0;
         let start = Instant::now();
         while done < spp {
-            if self
-                .time_limit
-                .is_some_and(|t| done > 0 && start.elapsed().as_secs_f64() >= t)
+            if self.interrupted()
+                || self
+                    .time_limit
+                    .is_some_and(|t| done > 0 && start.elapsed().as_secs_f64() >= t)
             {
                 break;
             }
@@ -490,6 +551,12 @@ impl Renderer {
                 }
             }
             done += n;
+            if let Some(resolve) = resolve {
+                if self.snapshot_due() {
+                    let image = trace.cpu("snapshot", || resolve(done))?;
+                    self.write_snapshot(&image, done as u64)?;
+                }
+            }
             if let Some(bar) = &progress {
                 bar.set_position(done as u64);
             }

@@ -667,3 +667,109 @@ fn merge_of_seed_split_renders_is_the_render_of_all_their_samples() {
     );
     assert!(!d.join("bad.exr").exists() && !d.join("bad.png").exists());
 }
+
+/// Start a long render that writes snapshots every 0.3 s; returns once the first one
+/// is on disk.
+fn start_long_render(d: &Path, integrator: &str, out: &str) -> std::process::Child {
+    let child = Command::new(env!("CARGO_BIN_EXE_lightpath"))
+        .args([
+            "render",
+            "s.test",
+            "-o",
+            out,
+            "-q",
+            "--integrator",
+            integrator,
+            "--spp",
+            "4000000",
+            "--size",
+            "32x32",
+            "--write-partial-images",
+            "0.3",
+        ])
+        .current_dir(d)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("start lightpath");
+    let start = std::time::Instant::now();
+    while !d.join(out).exists() {
+        assert!(
+            start.elapsed().as_secs() < 300,
+            "no snapshot of {out} after 300 s"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    child
+}
+
+fn samples_in(path: &Path) -> u64 {
+    let (_, info) = lightpath::io::read_exr_with_info(path).expect("a complete EXR");
+    info.expect("metadata").samples_per_pixel
+}
+
+#[test]
+fn a_signal_stops_the_render_and_writes_what_was_done() {
+    let d = scratch("signal");
+    // (Next-event estimation: the path tracer reaches the point light only that way.)
+    std::fs::write(
+        d.join("s.test"),
+        format!("{GOOD}maxdepth 3\nnexteventestimation mis\n"),
+    )
+    .unwrap();
+    for (integrator, signal, status) in [
+        ("pathtracer", "-INT", 130),
+        ("bdpt", "-TERM", 143),
+        ("mmlt", "-INT", 130),
+    ] {
+        let out = format!("{integrator}.exr");
+        let mut child = start_long_render(&d, integrator, &out);
+        std::thread::sleep(std::time::Duration::from_millis(700));
+        let snapshot = samples_in(&d.join(&out));
+        assert!(snapshot > 0, "{integrator}: empty snapshot");
+        let killed = Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .expect("kill");
+        assert!(killed.success());
+        // It must stop soon (a render that ignored the signal would run for hours).
+        let start = std::time::Instant::now();
+        while child.try_wait().expect("try_wait").is_none() {
+            if start.elapsed().as_secs() > 60 {
+                let _ = child.kill();
+                panic!("{integrator}: still rendering 60 s after the signal");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        let result = child.wait_with_output().expect("wait");
+        let err = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(status), "{integrator}: {err}");
+        assert!(err.contains("interrupted by SIG"), "{integrator}: {err}");
+        let finished = samples_in(&d.join(&out));
+        assert!(
+            finished >= snapshot && finished < 4_000_000,
+            "{integrator}: {finished} samples after a snapshot of {snapshot}"
+        );
+        let mean = lightpath::io::read_exr(&d.join(&out)).unwrap().mean();
+        assert!(
+            mean.iter().all(|v| v.is_finite() && *v > 0.0),
+            "{integrator}: mean {mean:?}"
+        );
+    }
+}
+
+#[test]
+fn a_killed_render_leaves_its_last_complete_snapshot() {
+    let d = scratch("sigkill");
+    std::fs::write(d.join("s.test"), format!("{GOOD}nexteventestimation on\n")).unwrap();
+    let mut child = start_long_render(&d, "pathtracer", "k.exr");
+    std::thread::sleep(std::time::Duration::from_millis(1000));
+    child.kill().expect("SIGKILL");
+    child.wait().expect("wait");
+    let samples = samples_in(&d.join("k.exr"));
+    assert!(samples > 0 && samples < 4_000_000, "{samples}");
+    let mean = lightpath::io::read_exr(&d.join("k.exr")).unwrap().mean();
+    assert!(
+        mean.iter().all(|v| v.is_finite()) && mean[0] > 0.0,
+        "{mean:?}"
+    );
+}

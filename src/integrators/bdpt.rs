@@ -177,8 +177,20 @@ impl Renderer {
             height,
             band_rows: rows,
         };
+        // image = (camera film + splat film) / spp
+        let resolve = |done: u32| -> Result<Image> {
+            let (f, sp) = (film.download(film_bytes)?, splat.download(film_bytes)?);
+            let mut image = film_image(bytemuck::cast_slice(&f), width, height, 1.0 / done as f32);
+            let sp: &[[f32; 4]] = bytemuck::cast_slice(&sp);
+            for (p, q) in image.pixels.iter_mut().zip(sp) {
+                for c in 0..3 {
+                    p[c] += q[c] / done as f32;
+                }
+            }
+            Ok(image)
+        };
         let (dispatch_seconds, spp) =
-            self.dispatch_passes(passes, 0, scene.settings.spp.max(1), trace)?;
+            self.dispatch_passes(passes, 0, scene.settings.spp.max(1), Some(&resolve), trace)?;
 
         let (film_data, stat, splat_data, strategy_data) =
             trace.cpu("readback", || -> Result<_> {
@@ -194,7 +206,8 @@ impl Renderer {
                 ))
             })?;
         let mut strategy_data: Vec<Vec<u8>> = strategy_data.into_iter().collect();
-        if !strategies.is_empty() {
+        // (An interrupted render keeps the strategy images it has.)
+        if !strategies.is_empty() && !self.interrupted() {
             strategy_data.extend(self.record_other_strategy_groups(
                 StrategyGroupPass {
                     gpu_scene: &gpu_scene,
@@ -209,7 +222,7 @@ impl Renderer {
             )?);
         }
         let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
-        let inv = 1.0 / spp as f32;
+        let inv = 1.0 / spp.max(1) as f32;
         let to_image = |data: &[[f32; 4]]| film_image(data, width, height, inv);
         // The image is camera film / spp + splat film / spp.
         let mut image = to_image(film);
@@ -244,6 +257,7 @@ impl Renderer {
             backend: self.backend(),
             strategies,
             mmlt: None,
+            interrupted: self.interrupt_signal(),
         })
     }
 
@@ -300,9 +314,13 @@ impl Renderer {
             })?;
             // Exactly the first render's passes, whatever the time limit.
             let time_limit = self.time_limit.take();
-            let again = self.dispatch_passes(p.passes, 0, p.spp, trace);
+            let again = self.dispatch_passes(p.passes, 0, p.spp, None, trace);
             self.time_limit = time_limit;
             again?;
+            if self.interrupted() {
+                // This group's passes were cut short: its images are left out.
+                break;
+            }
             out.push(trace.cpu("readback", || {
                 p.strategy_film.download(count as u64 * 2 * film_bytes)
             })?);

@@ -396,19 +396,21 @@ impl Renderer {
         };
         let mut tail_done = 0u32;
         let mut tail_seconds = 0.0;
-        let mut run_tail = |r: &mut Renderer, wanted: u32, trace: &mut Trace| -> Result<()> {
+        // Runs tail passes up to `wanted` (clamped to 1..=plan); returns the passes done.
+        let mut run_tail = |r: &mut Renderer, wanted: u32, trace: &mut Trace| -> Result<u32> {
             if let Some(passes) = tail {
                 let wanted = wanted.clamp(1, plan.tail_passes);
                 if wanted > tail_done {
                     let time_limit = r.time_limit.take();
-                    let done = r.dispatch_passes(passes, tail_done, wanted - tail_done, trace);
+                    let done =
+                        r.dispatch_passes(passes, tail_done, wanted - tail_done, None, trace);
                     r.time_limit = time_limit;
                     let (seconds, n) = done?;
                     tail_seconds += seconds;
                     tail_done += n;
                 }
             }
-            Ok(())
+            Ok(tail_done)
         };
 
         // Bootstrap: depths × per_depth samples, each one strategy of its depth.
@@ -427,6 +429,9 @@ impl Renderer {
             .collect();
         let mut bootstrap_seconds = 0.0;
         for group in batches.chunks(8) {
+            if self.interrupted() {
+                break;
+            }
             bootstrap_seconds +=
                 self.mmlt_dispatches(pipeline, set, group, "mmlt bootstrap", trace)?;
         }
@@ -460,8 +465,10 @@ impl Renderer {
         };
         let mut mutations_done = 0u64;
         let mut chain_seconds = 0.0;
-        run_tail(self, 1, trace)?;
-        if b > 0.0 {
+        if !self.interrupted() {
+            run_tail(self, 1, trace)?;
+        }
+        if b > 0.0 && !self.interrupted() {
             // Chain starts in proportion to the bootstrap targets.
             let starts = trace.cpu("mmlt chain starts", || {
                 pick_chain_starts(targets, plan.chains, seed)
@@ -495,9 +502,10 @@ impl Renderer {
             let mut done = 0u64;
             let mut k = 4u64;
             while done < per_chain {
-                if self
-                    .time_limit
-                    .is_some_and(|t| done > 0 && start.elapsed().as_secs_f64() >= t)
+                if self.interrupted()
+                    || self
+                        .time_limit
+                        .is_some_and(|t| done > 0 && start.elapsed().as_secs_f64() >= t)
                 {
                     break;
                 }
@@ -509,7 +517,26 @@ impl Renderer {
                 let wall = t0.elapsed().as_secs_f64();
                 done += n;
                 let per_pixel = done * plan.chains as u64 / npix;
-                run_tail(self, (per_pixel / 8).min(u32::MAX as u64) as u32, trace)?;
+                let tail_now = run_tail(self, (per_pixel / 8).min(u32::MAX as u64) as u32, trace)?;
+                if self.snapshot_due() {
+                    // The image so far: splat × b × pixels / mutations, plus the tail.
+                    let image = trace.cpu("snapshot", || -> Result<Image> {
+                        let scale = (b * npix as f64 / (done * plan.chains as u64) as f64) as f32;
+                        let sp = splat.download(film_bytes)?;
+                        let mut image = film_image(bytemuck::cast_slice(&sp), width, height, scale);
+                        if tail_now > 0 {
+                            let f = film.download(film_bytes)?;
+                            let f: &[[f32; 4]] = bytemuck::cast_slice(&f);
+                            for (p, q) in image.pixels.iter_mut().zip(f) {
+                                for c in 0..3 {
+                                    p[c] += q[c] / tail_now as f32;
+                                }
+                            }
+                        }
+                        Ok(image)
+                    })?;
+                    self.write_snapshot(&image, per_pixel)?;
+                }
                 if let Some(bar) = &progress {
                     bar.set_position(done * plan.chains as u64);
                 }
@@ -600,6 +627,7 @@ impl Renderer {
             backend: self.backend(),
             strategies: Vec::new(),
             mmlt: Some(report),
+            interrupted: self.interrupt_signal(),
         })
     }
 

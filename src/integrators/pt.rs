@@ -2,6 +2,7 @@
 //! `analyticdirect` (glsl/analytic.comp). Passes of one sample per pixel in bands, each
 //! pixel written by its own invocation; image = film / spp.
 use crate::gpu::abi::*;
+use crate::io::Image;
 use crate::render::{band_rows, film_image, Passes, Prepared, RenderOutput, Renderer};
 use crate::scene::Scene;
 use crate::trace::Trace;
@@ -42,14 +43,23 @@ impl Renderer {
             height,
             band_rows: rows,
         };
+        let resolve = |done: u32| -> Result<Image> {
+            let data = film.download(film_bytes)?;
+            Ok(film_image(
+                bytemuck::cast_slice(&data),
+                width,
+                height,
+                1.0 / done as f32,
+            ))
+        };
         let (dispatch_seconds, spp) =
-            self.dispatch_passes(passes, 0, scene.settings.spp.max(1), trace)?;
+            self.dispatch_passes(passes, 0, scene.settings.spp.max(1), Some(&resolve), trace)?;
         let (film_data, stat) = trace.cpu("readback", || -> Result<_> {
             Ok((film.download(film_bytes)?, self.read_stats(&stats, kernel)?))
         })?;
         let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
         Ok(RenderOutput {
-            image: film_image(film, width, height, 1.0 / spp as f32),
+            image: film_image(film, width, height, 1.0 / spp.max(1) as f32),
             nonfinite_samples: stat[STAT_NONFINITE as usize] as u64,
             rays: film.iter().map(|p| p[3] as f64).sum(),
             samples_per_pixel: spp,
@@ -57,6 +67,7 @@ impl Renderer {
             backend: self.backend(),
             strategies: Vec::new(),
             mmlt: None,
+            interrupted: self.interrupt_signal(),
         })
     }
 }
