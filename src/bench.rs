@@ -154,8 +154,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         args.spp,
         scene.settings.max_depth
     );
+    let width = results.iter().map(|r| r.name.len()).max().unwrap_or(0).max(60);
     println!(
-        "{:<60} {:>12} {:>8} {:>12} {:>8}",
+        "{:<width$} {:>12} {:>8} {:>12} {:>8}",
         "renderer", "Msamples/s", "ratio", "Mrays/s", "ratio"
     );
     for r in &results {
@@ -167,7 +168,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             None => ("-".into(), "-".into()),
         };
         println!(
-            "{:<60} {:>12.4} {:>8.2} {:>12} {:>8}",
+            "{:<width$} {:>12.4} {:>8.2} {:>12} {:>8}",
             r.name,
             r.samples_per_second / 1e6,
             r.samples_per_second / reference,
@@ -176,7 +177,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         );
     }
     println!(
-        "(medians of {} renders; samples/s ratios against the first row, rays/s ratios against the first row that counts rays; all measured in this run)",
+        "(medians of {} renders; samples/s ratios against the first row, rays/s ratios against the first row that counts rays; MMLT's samples are mutations of its chain dispatches; all measured in this run)",
         args.repeats.max(1)
     );
     Ok(())
