@@ -154,7 +154,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         args.spp,
         scene.settings.max_depth
     );
-    let width = results.iter().map(|r| r.name.len()).max().unwrap_or(0).max(60);
+    let width = results
+        .iter()
+        .map(|r| r.name.len())
+        .max()
+        .unwrap_or(0)
+        .max(60);
     println!(
         "{:<width$} {:>12} {:>8} {:>12} {:>8}",
         "renderer", "Msamples/s", "ratio", "Mrays/s", "ratio"
