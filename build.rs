@@ -30,79 +30,90 @@ fn main() {
         println!("cargo:rerun-if-changed={}", kernel.display());
         let name = kernel.file_stem().unwrap().to_string_lossy().to_string();
         let source = fs::read_to_string(kernel).expect("read kernel");
-        for (suffix, define) in BACKENDS {
-            let mut options = shaderc::CompileOptions::new().expect("shaderc options");
-            options.set_target_env(
-                shaderc::TargetEnv::Vulkan,
-                shaderc::EnvVersion::Vulkan1_2 as u32,
-            );
-            options.set_target_spirv(shaderc::SpirvVersion::V1_5);
-            options.set_optimization_level(shaderc::OptimizationLevel::Performance);
-            options.set_generate_debug_info();
-            options.add_macro_definition(define, Some("1"));
-            let lib = glsl.join("lib");
-            let root_for_names = root.clone();
-            options.set_include_callback(move |requested, _kind, requester, _depth| {
-                let requester_dir = root_for_names.join(
-                    Path::new(requester)
-                        .parent()
-                        .map(Path::to_path_buf)
-                        .unwrap_or_default(),
+        let base = name.clone();
+        for (variant, variant_define) in variants(&base) {
+            let name = if variant.is_empty() {
+                base.clone()
+            } else {
+                format!("{base}+{variant}")
+            };
+            for (suffix, define) in BACKENDS {
+                let mut options = shaderc::CompileOptions::new().expect("shaderc options");
+                options.set_target_env(
+                    shaderc::TargetEnv::Vulkan,
+                    shaderc::EnvVersion::Vulkan1_2 as u32,
                 );
-                let candidates = [lib.join(requested), requester_dir.join(requested)];
-                for path in candidates {
-                    if let Ok(content) = fs::read_to_string(&path) {
-                        println!("cargo:rerun-if-changed={}", path.display());
-                        // Names relative to the repository keep the SPIR-V (its debug
-                        // info) the same in every clone, so drivers' shader caches hold.
-                        let resolved_name = path
-                            .strip_prefix(&root_for_names)
-                            .unwrap_or(&path)
-                            .display()
-                            .to_string();
-                        return Ok(shaderc::ResolvedInclude {
-                            resolved_name,
-                            content,
-                        });
-                    }
+                options.set_target_spirv(shaderc::SpirvVersion::V1_5);
+                options.set_optimization_level(shaderc::OptimizationLevel::Performance);
+                options.set_generate_debug_info();
+                options.add_macro_definition(define, Some("1"));
+                if let Some(d) = variant_define {
+                    options.add_macro_definition(d, Some("1"));
                 }
-                Err(format!(
-                    "cannot find include '{requested}' (looked in glsl/lib and beside {requester})"
-                ))
-            });
-            match compiler.compile_into_spirv(
-                &source,
-                shaderc::ShaderKind::Compute,
-                &kernel
-                    .strip_prefix(&root)
-                    .unwrap_or(kernel)
-                    .display()
-                    .to_string(),
-                "main",
-                Some(&options),
-            ) {
-                Ok(artifact) => {
-                    if artifact.get_num_warnings() > 0 {
-                        for line in artifact.get_warning_messages().lines() {
-                            println!("cargo:warning={line}");
+                let lib = glsl.join("lib");
+                let root_for_names = root.clone();
+                options.set_include_callback(move |requested, _kind, requester, _depth| {
+                    let requester_dir = root_for_names.join(
+                        Path::new(requester)
+                            .parent()
+                            .map(Path::to_path_buf)
+                            .unwrap_or_default(),
+                    );
+                    let candidates = [lib.join(requested), requester_dir.join(requested)];
+                    for path in candidates {
+                        if let Ok(content) = fs::read_to_string(&path) {
+                            println!("cargo:rerun-if-changed={}", path.display());
+                            // Names relative to the repository keep the SPIR-V (its debug
+                            // info) the same in every clone, so drivers' shader caches hold.
+                            let resolved_name = path
+                                .strip_prefix(&root_for_names)
+                                .unwrap_or(&path)
+                                .display()
+                                .to_string();
+                            return Ok(shaderc::ResolvedInclude {
+                                resolved_name,
+                                content,
+                            });
                         }
                     }
-                    let spv = out.join(format!("{name}.{suffix}.spv"));
-                    fs::write(&spv, artifact.as_binary_u8()).expect("write spv");
-                    table.push_str(&format!(
+                    Err(format!(
+                    "cannot find include '{requested}' (looked in glsl/lib and beside {requester})"
+                ))
+                });
+                match compiler.compile_into_spirv(
+                    &source,
+                    shaderc::ShaderKind::Compute,
+                    &kernel
+                        .strip_prefix(&root)
+                        .unwrap_or(kernel)
+                        .display()
+                        .to_string(),
+                    "main",
+                    Some(&options),
+                ) {
+                    Ok(artifact) => {
+                        if artifact.get_num_warnings() > 0 {
+                            for line in artifact.get_warning_messages().lines() {
+                                println!("cargo:warning={line}");
+                            }
+                        }
+                        let spv = out.join(format!("{name}.{suffix}.spv"));
+                        fs::write(&spv, artifact.as_binary_u8()).expect("write spv");
+                        table.push_str(&format!(
                         "    ({name:?}, {suffix:?}, include_bytes!(concat!(env!(\"OUT_DIR\"), \"/{name}.{suffix}.spv\"))),\n"
                     ));
-                }
-                Err(e) => {
-                    // shaderc's messages already read "file:line: error: ...".
-                    eprintln!(
-                        "GLSL error in {} ({suffix} backend):\n{e}",
-                        kernel.display()
-                    );
-                    for line in e.to_string().lines() {
-                        println!("cargo:warning={line}");
                     }
-                    failed = true;
+                    Err(e) => {
+                        // shaderc's messages already read "file:line: error: ...".
+                        eprintln!(
+                            "GLSL error in {} ({suffix} backend):\n{e}",
+                            kernel.display()
+                        );
+                        for line in e.to_string().lines() {
+                            println!("cargo:warning={line}");
+                        }
+                        failed = true;
+                    }
                 }
             }
         }
@@ -112,6 +123,22 @@ fn main() {
         panic!("GLSL compilation failed; see the errors above (file:line)");
     }
     fs::write(out.join("kernels.rs"), table).expect("write kernels.rs");
+}
+
+/// The variants each kernel is compiled in: the kernel itself, and for the path tracer
+/// and BDPT the profiling variants of `lightpath profile`, each of which does one stage
+/// twice (see glsl/lib/profile.glsl): (name suffix, define).
+fn variants(kernel: &str) -> Vec<(&'static str, Option<&'static str>)> {
+    let mut v = vec![("", None)];
+    if kernel == "pt" || kernel == "bdpt" {
+        v.extend([
+            ("x2trace", Some("PROFILE_X2_TRACE")),
+            ("x2rng", Some("PROFILE_X2_RNG")),
+            ("x2bsdf", Some("PROFILE_X2_BSDF")),
+            ("x2light", Some("PROFILE_X2_LIGHT")),
+        ]);
+    }
+    v
 }
 
 /// `#define NAME 123` / `#define NAME 123u` lines of abi.h become `pub const NAME: u32`.

@@ -115,6 +115,8 @@ enum Command {
     },
     /// Measure path-tracing speed on the Cornell box for each backend.
     Bench(crate::bench::BenchArgs),
+    /// Where a pass's device time goes, by ablation (each stage done twice).
+    Profile(crate::profile::ProfileArgs),
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -140,6 +142,7 @@ pub fn main() -> i32 {
         Command::Compare { a, b } => compare_command(&a, &b),
         Command::Merge { output, inputs } => merge_command(&output, &inputs),
         Command::Bench(args) => crate::bench::run(&args),
+        Command::Profile(args) => crate::profile::run(&args),
     };
     match result {
         Ok(()) => 0,

@@ -164,6 +164,9 @@ pub struct Renderer {
     pub interrupt: Option<Arc<AtomicUsize>>,
     /// Progressive output (`--write-partial-images`).
     pub snapshots: Option<Snapshots>,
+    /// `lightpath profile`: render the pt and bdpt passes with this profiling variant of
+    /// their kernel ("x2trace", "x2rng", "x2bsdf", "x2light": one stage done twice).
+    pub profile_variant: Option<&'static str>,
     /// Bound at the output bindings a render's kernels do not use.
     unused: Buffer,
 }
@@ -220,6 +223,7 @@ impl Renderer {
             record_depths: false,
             interrupt: None,
             snapshots: None,
+            profile_variant: None,
         })
     }
 
@@ -323,6 +327,22 @@ impl Renderer {
             .as_ref()
             .map(|f| f.load(Ordering::Relaxed))
             .filter(|&s| s != 0)
+    }
+
+    /// The pipeline of a pass kernel, or of its profiling variant (`profile_variant`).
+    pub(crate) fn pass_pipeline(&mut self, kernel: &'static str) -> Result<vk::Pipeline> {
+        let name = match self.profile_variant {
+            Some(v) => {
+                let wanted = format!("{kernel}+{v}");
+                crate::gpu::kernels::KERNELS
+                    .iter()
+                    .map(|(k, _, _)| *k)
+                    .find(|k| *k == wanted)
+                    .ok_or_else(|| anyhow::anyhow!("no profiling variant {wanted} was compiled"))?
+            }
+            None => kernel,
+        };
+        Ok(self.kernels.pipeline(name)?)
     }
 
     /// Whether a signal asked the render to stop.

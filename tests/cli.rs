@@ -771,3 +771,44 @@ fn a_killed_render_leaves_its_last_complete_snapshot() {
         "{mean:?}"
     );
 }
+
+#[test]
+fn profile_reports_every_stage() {
+    let d = scratch("profile");
+    let out = lightpath(
+        &[
+            "profile",
+            "--integrators",
+            "pathtracer",
+            "--size",
+            "16",
+            "--spp",
+            "1",
+            "--repeats",
+            "1",
+        ],
+        &d,
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for needle in [
+        "pathtracer:",
+        "ms per pass",
+        "visibility",
+        "random numbers",
+        "BSDF",
+        "light sampling",
+        "the rest",
+    ] {
+        assert!(text.contains(needle), "expected {needle:?} in: {text}");
+    }
+    fails_with(
+        &["profile", "--integrators", "mmlt"],
+        &d,
+        &["pathtracer and/or bdpt"],
+    );
+}

@@ -386,3 +386,24 @@ fn a_large_obj_mesh_renders_on_both_backends() {
         );
     }
 }
+
+#[test]
+fn profiling_variants_render_the_same_image() {
+    // `lightpath profile` times kernels that do one stage twice and discard the second
+    // result: their images must be the plain kernel's, or the timing would measure
+    // different paths.
+    let mut s = small_cornell();
+    s.settings.spp = 2;
+    let base = render(&s, 11, Bvh);
+    for (stage, variant) in lightpath::profile::STAGES {
+        let mut r = renderer(Bvh);
+        r.profile_variant = Some(variant);
+        let out = r.render(&s, 11, &mut lightpath::trace::Trace::new());
+        r.profile_variant = None;
+        let img = out.expect("profiling variant renders").image;
+        assert!(
+            img.pixels == base.pixels,
+            "{stage} ({variant}): the image differs from the plain kernel's"
+        );
+    }
+}

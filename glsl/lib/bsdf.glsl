@@ -133,6 +133,14 @@ vec3 sample_phong_lobe(vec2 u, float s) {
     return vec3(sin_t * cos(phi), sin_t * sin(phi), cos_t);
 }
 
+// lightpath profile: PROFILE_X2_BSDF evaluates, samples and weighs every BSDF twice
+// (the extra time is the BSDF's share of a pass; see src/profile.rs).
+#ifdef PROFILE_X2_BSDF
+#define bsdf_eval bsdf_eval_once
+#define bsdf_pdf bsdf_pdf_once
+#define bsdf_sample bsdf_sample_once
+#endif
+
 vec3 bsdf_eval(uint kind, vec3 kd, vec3 ks, float shininess, float roughness, vec3 n, vec3 wo,
                vec3 wi) {
     float ci = dot(n, wi);
@@ -190,5 +198,37 @@ bool bsdf_sample(uint mode, uint kind, vec3 kd, vec3 ks, float shininess, float 
     pdf = bsdf_pdf(mode, kind, kd, ks, shininess, roughness, n, wo, wi);
     return pdf > 0.0 && !isinf(pdf);
 }
+
+#ifdef PROFILE_X2_BSDF
+#undef bsdf_eval
+#undef bsdf_pdf
+#undef bsdf_sample
+// The second call's inputs differ by an ulp and its result is kept only in a case that
+// never happens (a negative value), so the compiler must compute both.
+vec3 bsdf_eval(uint kind, vec3 kd, vec3 ks, float shininess, float roughness, vec3 n, vec3 wo,
+               vec3 wi) {
+    vec3 b = bsdf_eval_once(kind, kd, ks, shininess, roughness, n, wo, wi * 1.0000001);
+    vec3 a = bsdf_eval_once(kind, kd, ks, shininess, roughness, n, wo, wi);
+    return b.x == -1.0 ? b : a;
+}
+float bsdf_pdf(uint mode, uint kind, vec3 kd, vec3 ks, float shininess, float roughness, vec3 n,
+               vec3 wo, vec3 wi) {
+    float b = bsdf_pdf_once(mode, kind, kd, ks, shininess, roughness, n, wo, wi * 1.0000001);
+    float a = bsdf_pdf_once(mode, kind, kd, ks, shininess, roughness, n, wo, wi);
+    return b == -1.0 ? b : a;
+}
+bool bsdf_sample(uint mode, uint kind, vec3 kd, vec3 ks, float shininess, float roughness,
+                 vec3 n, vec3 wo, vec3 u, out vec3 wi, out float pdf) {
+    vec3 wi2;
+    float pdf2;
+    bool b = bsdf_sample_once(mode, kind, kd, ks, shininess, roughness, n, wo * 1.0000001, u, wi2, pdf2);
+    bool a = bsdf_sample_once(mode, kind, kd, ks, shininess, roughness, n, wo, u, wi, pdf);
+    if (b && pdf2 == -1.0) {
+        wi = wi2;
+        pdf = pdf2;
+    }
+    return a;
+}
+#endif
 
 #endif

@@ -74,6 +74,10 @@ struct LightSample {
     vec3 n;
 };
 
+#ifdef PROFILE_X2_LIGHT
+// lightpath profile: every light sample is drawn twice (see the wrapper below).
+#define sample_emitter sample_emitter_once
+#endif
 // Sample a point on emitter e as seen from ref. Returns false for no contribution.
 bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
     GpuEmitter em = emitters[e];
@@ -118,6 +122,17 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
     ls.pdf = pick * area_pdf * d2 / cos_l;
     return ls.L != vec3(0.0);
 }
+
+#ifdef PROFILE_X2_LIGHT
+#undef sample_emitter
+bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
+    LightSample other;
+    bool b = sample_emitter_once(e, ref, u.yx, other);
+    bool a = sample_emitter_once(e, ref, u, ls);
+    if (b && other.pdf == -1.0) ls = other;
+    return a;
+}
+#endif
 
 // Is the light sample visible from p (offset along n toward the light)?
 bool light_sample_visible(vec3 p, vec3 n, LightSample ls) {

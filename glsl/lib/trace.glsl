@@ -7,11 +7,40 @@
 #define TRACE_GLSL
 #include "geometry.glsl"
 
+#ifdef PROFILE_X2_TRACE
+// lightpath profile: every ray is traced twice (the extra time is visibility's share
+// of a pass: traversal and primitive tests).
+#define trace_closest trace_closest_once
+#define trace_occluded trace_occluded_once
+#endif
+
 #if defined(ACCEL_RAYQUERY)
 #include "trace_rayquery.glsl"
 #elif defined(ACCEL_BVH)
 #include "trace_bvh.glsl"
 #else
 #error "define ACCEL_RAYQUERY or ACCEL_BVH"
+#endif
+
+#ifdef PROFILE_X2_TRACE
+#undef trace_closest
+#undef trace_occluded
+// The second ray's origin and extent differ by an ulp and its answer is kept only where the first
+// found nothing and it did (never in practice), so both traversals are computed.
+bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
+    Hit other;
+    bool b = trace_closest_once(o * 1.0000001, d, tmax * 0.99999994, other);
+    bool a = trace_closest_once(o, d, tmax, hit);
+    if (!a && b) {
+        hit = other;
+        return true;
+    }
+    return a;
+}
+bool trace_occluded(vec3 o, vec3 d, float tmax) {
+    bool b = trace_occluded_once(o * 1.0000001, d, tmax * 0.99999994);
+    bool a = trace_occluded_once(o, d, tmax);
+    return a || (b && tmax < 0.0);
+}
 #endif
 #endif

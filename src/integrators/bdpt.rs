@@ -139,7 +139,7 @@ impl Renderer {
         let strategy_bytes = strategy_group as u64 * 2 * film_bytes;
         let Prepared { gpu_scene, rq, .. } =
             self.prepare(scene, seed, strategy_selection(0, strategy_group), trace)?;
-        let pipeline = trace.cpu("pipeline creation", || self.kernels.pipeline(kernel))?;
+        let pipeline = trace.cpu("pipeline creation", || self.pass_pipeline(kernel))?;
         let (film, stats, splat, vertices, strategy_film) =
             trace.cpu("BDPT buffers", || -> Result<_> {
                 Ok((
