@@ -125,6 +125,15 @@ pub(crate) fn film_image(data: &[[f32; 4]], width: u32, height: u32, scale: f32)
     }
 }
 
+/// Add a film of vec4s, each channel times `scale`, to `image`.
+pub(crate) fn add_film(image: &mut Image, data: &[[f32; 4]], scale: f32) {
+    for (p, q) in image.pixels.iter_mut().zip(data) {
+        for c in 0..3 {
+            p[c] += q[c] * scale;
+        }
+    }
+}
+
 /// Pixels per dispatch: a pass over a larger image is split into bands of rows.
 const BAND_PIXELS: u32 = 1 << 18;
 
@@ -352,6 +361,56 @@ impl Renderer {
             .is_some_and(|f| f.load(Ordering::Relaxed) != 0)
     }
 
+    /// Bind a kernel's pipeline and descriptor set on `cmd`.
+    pub(crate) fn bind_kernel(
+        &self,
+        cmd: vk::CommandBuffer,
+        pipeline: vk::Pipeline,
+        set: vk::DescriptorSet,
+    ) {
+        let d = &self.device.raw;
+        unsafe {
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+            d.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.kernels.layout,
+                0,
+                &[set],
+                &[],
+            );
+        }
+    }
+
+    /// Submit `cmd`, wait, and add a GPU span named `span` to the trace for every
+    /// timestamped dispatch in it (one span for the submission when the device has no
+    /// timestamps). Returns the seconds the dispatches took.
+    pub(crate) fn submit_timed(
+        &self,
+        cmd: vk::CommandBuffer,
+        stage: &str,
+        timestamps: &Timestamps,
+        span: &str,
+        trace: &mut Trace,
+    ) -> Result<f64> {
+        let submit_us = trace.now_us();
+        let t0 = Instant::now();
+        self.device.submit_and_wait(cmd, stage)?;
+        let wall = t0.elapsed().as_secs_f64();
+        let times = timestamps.read()?;
+        if times.is_empty() {
+            trace.add_gpu(span, submit_us, wall * 1e6);
+            return Ok(wall);
+        }
+        let origin = times[0].0;
+        let mut seconds = 0.0;
+        for (s, e) in &times {
+            trace.add_gpu(span, submit_us + (s - origin) / 1e3, (e - s) / 1e3);
+            seconds += (e - s) / 1e9;
+        }
+        Ok(seconds)
+    }
+
     /// Whether a progressive snapshot is due (the first after `every` seconds).
     pub(crate) fn snapshot_due(&mut self) -> bool {
         match &mut self.snapshots {
@@ -421,16 +480,8 @@ impl Renderer {
         trace.cpu("kernel warm-up", || {
             self.device
                 .run_commands("warming up the kernel", |cmd| unsafe {
+                    self.bind_kernel(cmd, pipeline, set);
                     let d = &self.device.raw;
-                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                    d.cmd_bind_descriptor_sets(
-                        cmd,
-                        vk::PipelineBindPoint::COMPUTE,
-                        self.kernels.layout,
-                        0,
-                        &[set],
-                        &[],
-                    );
                     d.cmd_push_constants(
                         cmd,
                         self.kernels.layout,
@@ -506,18 +557,8 @@ impl Renderer {
             let stage = format!("running {kernel} passes {}..{}", done, done + n);
             let cmd = device.begin_commands(&stage)?;
             timestamps.reset(cmd);
+            self.bind_kernel(cmd, pipeline, set);
             unsafe {
-                device
-                    .raw
-                    .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                device.raw.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::COMPUTE,
-                    self.kernels.layout,
-                    0,
-                    &[set],
-                    &[],
-                );
                 for i in 0..n {
                     for &y0 in &bands {
                         let rows = band_rows.min(height - y0);
@@ -555,21 +596,9 @@ impl Renderer {
                     }
                 }
             }
-            let submit_us = trace.now_us();
             let t0 = Instant::now();
-            device.submit_and_wait(cmd, &stage)?;
+            dispatch_seconds += self.submit_timed(cmd, &stage, &timestamps, &span_name, trace)?;
             let wall = t0.elapsed().as_secs_f64();
-            let times = timestamps.read()?;
-            if times.is_empty() {
-                trace.add_gpu(&span_name, submit_us, wall * 1e6);
-                dispatch_seconds += wall;
-            } else {
-                let origin = times[0].0;
-                for (s, e) in &times {
-                    trace.add_gpu(&span_name, submit_us + (s - origin) / 1e3, (e - s) / 1e3);
-                    dispatch_seconds += (e - s) / 1e9;
-                }
-            }
             done += n;
             if let Some(resolve) = resolve {
                 if self.snapshot_due() {

@@ -11,20 +11,6 @@ use lightpath::render::{
 use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene};
 use lightpath::trace::Trace;
 
-fn with_integrator(mut s: Scene, integrator: IntegratorKind, spp: u32) -> Scene {
-    s.settings.integrator = integrator;
-    s.settings.spp = spp;
-    s
-}
-
-fn sized(name: &str, w: u32, h: u32, max_depth: i32) -> Scene {
-    let mut s = load(name);
-    s.width = w;
-    s.height = h;
-    s.settings.max_depth = max_depth;
-    s
-}
-
 /// PT (MIS) and BDPT estimates of the same scene agree region by region.
 fn assert_bdpt_matches_pt(what: &str, scene: Scene, pt_spp: u32, bdpt_spp: u32, seeds: u32) {
     let mut pt = with_integrator(scene.clone(), IntegratorKind::PathTracer, pt_spp);
@@ -245,14 +231,6 @@ fn ray_query_and_bvh_bdpt_agree() {
     let a = estimate(&scene, 3, 3, RayQuery);
     let b = estimate(&scene, 3, 3, Bvh);
     assert_agree("bdpt ray query vs bvh", &a, &b, 5.0, 0.01);
-}
-
-fn max_relative_difference(a: &Image, b: &Image) -> f32 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs() / (q[c].abs() + 1e-3)))
-        .fold(0.0, f32::max)
 }
 
 #[test]

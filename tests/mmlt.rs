@@ -21,20 +21,6 @@ fn mmlt(mut s: Scene, mutations_per_pixel: u32) -> Scene {
     s
 }
 
-fn with_integrator(mut s: Scene, integrator: IntegratorKind, spp: u32) -> Scene {
-    s.settings.integrator = integrator;
-    s.settings.spp = spp;
-    s
-}
-
-fn sized(name: &str, w: u32, h: u32, max_depth: i32) -> Scene {
-    let mut s = load(name);
-    s.width = w;
-    s.height = h;
-    s.settings.max_depth = max_depth;
-    s
-}
-
 fn render_mmlt(scene: &Scene, seed: u32, accel: AccelChoice, depths: bool) -> RenderOutput {
     let mut r = renderer(accel);
     r.record_depths = depths;
@@ -203,14 +189,6 @@ fn mmlt_is_deterministic_per_seed_and_seeds_are_independent() {
         "different seeds, same image"
     );
     assert_ne!(ra.b, c.mmlt.unwrap().b);
-}
-
-fn max_relative_difference(a: &Image, b: &Image) -> f32 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs() / (q[c].abs() + 1e-3)))
-        .fold(0.0, f32::max)
 }
 
 #[test]

@@ -6,7 +6,7 @@ use crate::gpu::abi::*;
 use crate::gpu::buffer::{memory_barrier, Buffer};
 use crate::gpu_scene::GpuScene;
 use crate::io::Image;
-use crate::render::{band_rows, film_image, Passes, Prepared, RenderOutput, Renderer};
+use crate::render::{add_film, band_rows, film_image, Passes, Prepared, RenderOutput, Renderer};
 use crate::scene::Scene;
 use crate::trace::Trace;
 use anyhow::{bail, Result};
@@ -180,13 +180,9 @@ impl Renderer {
         // image = (camera film + splat film) / spp
         let resolve = |done: u32| -> Result<Image> {
             let (f, sp) = (film.download(film_bytes)?, splat.download(film_bytes)?);
-            let mut image = film_image(bytemuck::cast_slice(&f), width, height, 1.0 / done as f32);
-            let sp: &[[f32; 4]] = bytemuck::cast_slice(&sp);
-            for (p, q) in image.pixels.iter_mut().zip(sp) {
-                for c in 0..3 {
-                    p[c] += q[c] / done as f32;
-                }
-            }
+            let inv = 1.0 / done as f32;
+            let mut image = film_image(bytemuck::cast_slice(&f), width, height, inv);
+            add_film(&mut image, bytemuck::cast_slice(&sp), inv);
             Ok(image)
         };
         let (dispatch_seconds, spp) =
@@ -226,12 +222,7 @@ impl Renderer {
         let to_image = |data: &[[f32; 4]]| film_image(data, width, height, inv);
         // The image is camera film / spp + splat film / spp.
         let mut image = to_image(film);
-        let splat: &[[f32; 4]] = bytemuck::cast_slice(&splat_data);
-        for (p, q) in image.pixels.iter_mut().zip(splat) {
-            for c in 0..3 {
-                p[c] += q[c] * inv;
-            }
-        }
+        add_film(&mut image, bytemuck::cast_slice(&splat_data), inv);
         let npix = (width * height) as usize;
         let strategies = strategy_data
             .iter()

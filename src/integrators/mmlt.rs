@@ -15,7 +15,7 @@ use crate::gpu::abi::*;
 use crate::gpu::buffer::{memory_barrier, Buffer};
 use crate::gpu::timing::Timestamps;
 use crate::io::Image;
-use crate::render::{band_rows, film_image, Passes, Prepared, RenderOutput, Renderer};
+use crate::render::{add_film, band_rows, film_image, Passes, Prepared, RenderOutput, Renderer};
 use crate::scene::Scene;
 use crate::trace::Trace;
 use anyhow::{bail, Result};
@@ -457,11 +457,31 @@ impl Renderer {
             ..Default::default()
         };
 
-        let mut tail_rays = 0.0;
-        let mut image = Image {
-            width,
-            height,
-            pixels: vec![[0.0; 3]; npix as usize],
+        // image = splat × b × (width × height) / mutations, plus the tail's film / passes;
+        // also the rays the tail traced.
+        let mutation_scale = |mutations: u64| {
+            if mutations > 0 {
+                (b * npix as f64 / mutations as f64) as f32
+            } else {
+                0.0
+            }
+        };
+        let resolve = |mutations: u64, tail: u32| -> Result<(Image, f64)> {
+            let sp = splat.download(film_bytes)?;
+            let mut image = film_image(
+                bytemuck::cast_slice(&sp),
+                width,
+                height,
+                mutation_scale(mutations),
+            );
+            let mut tail_rays = 0.0;
+            if tail > 0 {
+                let f = film.download(film_bytes)?;
+                let f: &[[f32; 4]] = bytemuck::cast_slice(&f);
+                add_film(&mut image, f, 1.0 / tail as f32);
+                tail_rays = f.iter().map(|p| p[3] as f64).sum();
+            }
+            Ok((image, tail_rays))
         };
         let mut mutations_done = 0u64;
         let mut chain_seconds = 0.0;
@@ -519,22 +539,8 @@ impl Renderer {
                 let per_pixel = done * plan.chains as u64 / npix;
                 let tail_now = run_tail(self, (per_pixel / 8).min(u32::MAX as u64) as u32, trace)?;
                 if self.snapshot_due() {
-                    // The image so far: splat × b × pixels / mutations, plus the tail.
-                    let image = trace.cpu("snapshot", || -> Result<Image> {
-                        let scale = (b * npix as f64 / (done * plan.chains as u64) as f64) as f32;
-                        let sp = splat.download(film_bytes)?;
-                        let mut image = film_image(bytemuck::cast_slice(&sp), width, height, scale);
-                        if tail_now > 0 {
-                            let f = film.download(film_bytes)?;
-                            let f: &[[f32; 4]] = bytemuck::cast_slice(&f);
-                            for (p, q) in image.pixels.iter_mut().zip(f) {
-                                for c in 0..3 {
-                                    p[c] += q[c] / tail_now as f32;
-                                }
-                            }
-                        }
-                        Ok(image)
-                    })?;
+                    let (image, _) =
+                        trace.cpu("snapshot", || resolve(done * plan.chains as u64, tail_now))?;
                     self.write_snapshot(&image, per_pixel)?;
                 }
                 if let Some(bar) = &progress {
@@ -554,19 +560,10 @@ impl Renderer {
         report.mutations = mutations_done;
         report.chain_seconds = chain_seconds;
         report.tail_passes = tail_done;
-        let tail_image = if tail_done > 0 {
-            let f = trace.cpu("readback", || film.download(film_bytes))?;
-            let f: &[[f32; 4]] = bytemuck::cast_slice(&f);
-            tail_rays = f.iter().map(|p| p[3] as f64).sum();
-            Some(film_image(f, width, height, 1.0 / tail_done as f32))
-        } else {
-            None
-        };
-
-        let (splat_data, stat, chain_data, depth_data) =
+        let ((image, tail_rays), stat, chain_data, depth_data) =
             trace.cpu("readback", || -> Result<_> {
                 Ok((
-                    splat.download(film_bytes)?,
+                    resolve(mutations_done, tail_done)?,
                     self.read_stats(&stats, "mmlt")?,
                     chain_buffer
                         .download(plan.chains as u64 * std::mem::size_of::<GpuChain>() as u64)?,
@@ -596,26 +593,13 @@ impl Renderer {
                 d.small_accepted += c.counts[3] as u64;
             }
         }
-        // image = splat × b × (width × height) / M
-        let scale = if mutations_done > 0 {
-            (b * npix as f64 / mutations_done as f64) as f32
-        } else {
-            0.0
-        };
-        let to_image = |data: &[[f32; 4]]| film_image(data, width, height, scale);
-        if mutations_done > 0 {
-            image = to_image(bytemuck::cast_slice(&splat_data));
-        }
         if let Some(data) = depth_data {
             let all: &[[f32; 4]] = bytemuck::cast_slice(&data);
-            report.depth_images = all.chunks_exact(npix as usize).map(to_image).collect();
-        }
-        if let Some(tail) = tail_image {
-            for (p, q) in image.pixels.iter_mut().zip(&tail.pixels) {
-                for c in 0..3 {
-                    p[c] += q[c];
-                }
-            }
+            let scale = mutation_scale(mutations_done);
+            report.depth_images = all
+                .chunks_exact(npix as usize)
+                .map(|d| film_image(d, width, height, scale))
+                .collect();
         }
         let spp = (mutations_done / npix.max(1)) as u32;
         Ok(RenderOutput {
@@ -715,18 +699,8 @@ impl Renderer {
         let stage = format!("running {span}");
         let cmd = device.begin_commands(&stage)?;
         timestamps.reset(cmd);
+        self.bind_kernel(cmd, pipeline, set);
         unsafe {
-            device
-                .raw
-                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-            device.raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.kernels.layout,
-                0,
-                &[set],
-                &[],
-            );
             for p in list {
                 device.raw.cmd_push_constants(
                     cmd,
@@ -754,23 +728,7 @@ impl Renderer {
                 );
             }
         }
-        let submit_us = trace.now_us();
-        let t0 = Instant::now();
-        device.submit_and_wait(cmd, &stage)?;
-        let wall = t0.elapsed().as_secs_f64();
-        let times = timestamps.read()?;
-        let mut seconds = 0.0;
-        if times.is_empty() {
-            trace.add_gpu(span, submit_us, wall * 1e6);
-            seconds = wall;
-        } else {
-            let origin = times[0].0;
-            for (s, e) in &times {
-                trace.add_gpu(span, submit_us + (s - origin) / 1e3, (e - s) / 1e3);
-                seconds += (e - s) / 1e9;
-            }
-        }
-        Ok(seconds)
+        self.submit_timed(cmd, &stage, &timestamps, span, trace)
     }
 }
 

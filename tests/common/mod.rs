@@ -4,7 +4,7 @@
 
 use lightpath::io::Image;
 use lightpath::render::{AccelChoice, Renderer};
-use lightpath::scene::{self, Scene};
+use lightpath::scene::{self, IntegratorKind, Scene};
 use lightpath::trace::Trace;
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard, OnceLock};
@@ -146,4 +146,28 @@ pub fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
         }
     }
     out
+}
+
+pub fn with_integrator(mut s: Scene, integrator: IntegratorKind, spp: u32) -> Scene {
+    s.settings.integrator = integrator;
+    s.settings.spp = spp;
+    s
+}
+
+/// A project scene at `w` × `h` with the given maxdepth.
+pub fn sized(name: &str, w: u32, h: u32, max_depth: i32) -> Scene {
+    let mut s = load(name);
+    s.width = w;
+    s.height = h;
+    s.settings.max_depth = max_depth;
+    s
+}
+
+/// The largest per-channel difference of a and b relative to b (+ 1e-3).
+pub fn max_relative_difference(a: &Image, b: &Image) -> f32 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs() / (q[c].abs() + 1e-3)))
+        .fold(0.0, f32::max)
 }
