@@ -161,22 +161,32 @@ bool light_walk_next(inout Walk w, out PathVertex v) {
     return true;
 }
 
-// Continue a light subpath from its vertex v by sampling the BSDF (light stream).
-bool light_walk_extend(inout Walk w, PathVertex v) {
+// Continue a subpath from its vertex v by sampling the BSDF with the numbers u: the
+// throughput, and (update_mis) the MIS sums, follow the new direction.
+bool walk_scatter(inout Walk w, PathVertex v, vec3 u, bool update_mis) {
     GpuMaterial m = materials[v.material];
     vec3 wn;
     float pdf_fwd;
-    if (!material_sample(m, v.n, v.w, sample_3d(STREAM_LIGHT), wn, pdf_fwd)) return false;
+    if (!material_sample(m, v.n, v.w, u, wn, pdf_fwd)) return false;
     float pdf_rev = material_pdf(m, v.n, wn, v.w);
     vec3 f = material_eval(m, v.n, v.w, wn);
     float cos_out = dot(v.n, wn);
     w.beta = v.beta * f * (cos_out / pdf_fwd);
     if (w.beta == vec3(0.0)) return false;
-    w.dvc = mis(cos_out / pdf_fwd) * (v.dvc * mis(pdf_rev) + v.dvcm);
-    w.dvcm = mis(1.0 / pdf_fwd);
+    if (update_mis) {
+        w.dvc = mis(cos_out / pdf_fwd) * (v.dvc * mis(pdf_rev) + v.dvcm);
+        w.dvcm = mis(1.0 / pdf_fwd);
+    }
+    w.prev_pdf_w = pdf_fwd;
+    w.prev_p = v.p;
     w.o = offset_ray_origin(v.p, v.n);
     w.d = wn;
     return true;
+}
+
+// Continue a light subpath from its vertex v (light stream).
+bool light_walk_extend(inout Walk w, PathVertex v) {
+    return walk_scatter(w, v, sample_3d(STREAM_LIGHT), true);
 }
 
 // ---- camera subpaths --------------------------------------------------------------
@@ -213,30 +223,16 @@ bool camera_walk_next(inout Walk w, out PathVertex v) {
     return true;
 }
 
-// Continue a camera subpath from its vertex v by sampling the BSDF (camera stream).
-// Beyond max_scatter every longer path is in the roulette regime.
+// Continue a camera subpath from its vertex v (camera stream). Beyond max_scatter
+// every longer path is in the roulette regime, where the MIS sums are not needed.
 bool camera_walk_extend(inout Walk w, PathVertex v) {
-    GpuMaterial m = materials[v.material];
-    vec3 wn;
-    float pdf_fwd;
-    if (!material_sample(m, v.n, v.w, sample_3d(STREAM_CAMERA), wn, pdf_fwd)) return false;
-    float pdf_rev = material_pdf(m, v.n, wn, v.w);
-    vec3 f = material_eval(m, v.n, v.w, wn);
-    float cos_out = dot(v.n, wn);
-    w.beta = v.beta * f * (cos_out / pdf_fwd);
-    if (w.beta == vec3(0.0)) return false;
-    if (w.vertices > max_scatter) {
+    bool beyond = w.vertices > max_scatter;
+    if (!walk_scatter(w, v, sample_3d(STREAM_CAMERA), !beyond)) return false;
+    if (beyond) {
         float survive = min(1.0, max(w.beta.x, max(w.beta.y, w.beta.z)));
         if (sample_1d(STREAM_CAMERA) >= survive) return false;
         w.beta /= survive;
-    } else {
-        w.dvc = mis(cos_out / pdf_fwd) * (v.dvc * mis(pdf_rev) + v.dvcm);
-        w.dvcm = mis(1.0 / pdf_fwd);
     }
-    w.prev_pdf_w = pdf_fwd;
-    w.prev_p = v.p;
-    w.o = offset_ray_origin(v.p, v.n);
-    w.d = wn;
     return true;
 }
 
