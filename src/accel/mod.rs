@@ -2,8 +2,10 @@
 //! storage buffer, and the source of a coherent triangle order) and the ray-query
 //! BLAS/TLAS.
 pub mod bvh;
+pub mod cwbvh;
 pub mod geometry;
 pub mod rayquery;
+mod testing;
 
 use crate::scene::Scene;
 use bvh::{Aabb, Bvh};
