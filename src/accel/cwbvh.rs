@@ -519,8 +519,8 @@ mod tests {
             }
         }
         check_against_brute_force(&prims, 4000, 31);
-        // Far from the origin, small: quantization steps near an ulp of the position.
-        let prims: Vec<Prim> = random_triangles(&mut rng, 500, 0.1)
+        // Far from the origin, small: quantization steps a few ulps of the position.
+        let prims: Vec<Prim> = random_triangles(&mut rng, 500, 1.0)
             .into_iter()
             .map(|p| match p {
                 Prim::Triangle(v) => {
