@@ -4,7 +4,11 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 /// The traversal backends: (suffix, define).
-const BACKENDS: [(&str, &str); 2] = [("rayquery", "ACCEL_RAYQUERY"), ("bvh", "ACCEL_BVH")];
+const BACKENDS: [(&str, &str); 3] = [
+    ("rayquery", "ACCEL_RAYQUERY"),
+    ("cwbvh", "ACCEL_CWBVH"),
+    ("bvh2", "ACCEL_BVH2"),
+];
 
 fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR"));
@@ -133,6 +137,7 @@ fn variants(kernel: &str) -> Vec<(&'static str, Option<&'static str>)> {
     if kernel == "pt" || kernel == "bdpt" {
         v.extend([
             ("x2trace", Some("PROFILE_X2_TRACE")),
+            ("x2prim", Some("PROFILE_X2_PRIM")),
             ("x2rng", Some("PROFILE_X2_RNG")),
             ("x2bsdf", Some("PROFILE_X2_BSDF")),
             ("x2light", Some("PROFILE_X2_LIGHT")),

@@ -30,6 +30,10 @@ pub struct BenchArgs {
     /// mutations of its chain dispatches).
     #[arg(long, value_delimiter = ',', default_value = "pathtracer,bdpt")]
     pub integrators: Vec<String>,
+    /// Visibility backends to measure, in order (cwbvh, bvh2, rayquery); one the
+    /// device lacks is skipped with a message.
+    #[arg(long, value_delimiter = ',', default_value = "cwbvh,bvh2,rayquery")]
+    pub accels: Vec<String>,
     /// Also measure Mitsuba 3 (python3 with the `mitsuba` package, variant llvm_ad_rgb).
     #[arg(long)]
     pub mitsuba: bool,
@@ -74,7 +78,18 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         }
     }
     let mut results = Vec::new();
-    for accel in [AccelChoice::Bvh, AccelChoice::RayQuery] {
+    let accels: Vec<AccelChoice> = args
+        .accels
+        .iter()
+        .map(|a| {
+            AccelChoice::from_name(a)
+                .filter(|c| *c != AccelChoice::Auto && *c != AccelChoice::Bvh)
+                .ok_or_else(|| {
+                    anyhow::anyhow!("--accels: expected cwbvh, bvh2 and/or rayquery, got {a:?}")
+                })
+        })
+        .collect::<Result<_>>()?;
+    for accel in accels {
         let mut renderer = match Renderer::new(args.device.as_deref(), accel) {
             Ok(r) => r,
             Err(e) => {

@@ -44,7 +44,9 @@ pub struct RenderArgs {
     /// Integrator: pathtracer, bdpt, mmlt, direct, analyticdirect.
     #[arg(long)]
     pub integrator: Option<String>,
-    /// Visibility backend: auto, rayquery or bvh.
+    /// Visibility backend: auto (ray query on GPUs that have it, else the default BVH),
+    /// rayquery, bvh (the default storage-buffer BVH: cwbvh), cwbvh (compressed 8-wide)
+    /// or bvh2 (binary SAH).
     #[arg(long, default_value = "auto")]
     pub accel: String,
     /// Vulkan device, by index or part of its name (see `lightpath devices`).
@@ -234,8 +236,12 @@ fn output_path(scene: &Scene, args: &RenderArgs) -> PathBuf {
 /// Render; returns the exit status (0, or 128 + the signal that interrupted it).
 fn render_command(args: &RenderArgs) -> Result<i32> {
     let mut trace = Trace::new();
-    let accel = AccelChoice::from_name(&args.accel)
-        .with_context(|| format!("--accel {:?}: expected auto, rayquery or bvh", args.accel))?;
+    let accel = AccelChoice::from_name(&args.accel).with_context(|| {
+        format!(
+            "--accel {:?}: expected auto, rayquery, bvh, cwbvh or bvh2",
+            args.accel
+        )
+    })?;
     let mut scene = trace.cpu("parse", || scene::parse_file(&args.scene))?;
     // Its contents' hash goes into the image's metadata.
     let scene_bytes = std::fs::read(&args.scene)

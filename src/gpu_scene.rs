@@ -1,8 +1,8 @@
 //! The scene on the device: triangles in BVH leaf order, spheres, materials, the
 //! emitter table (selection by power) and the uniform scene parameters, with the
 //! descriptor set that binds them for a kernel.
-use crate::accel::bvh::Bvh;
 use crate::accel::rayquery::RayQueryScene;
+use crate::accel::BvhData;
 use crate::gpu::abi::*;
 use crate::gpu::buffer::Buffer;
 use crate::gpu::kernels::{Backend, Kernels};
@@ -282,7 +282,7 @@ impl GpuScene {
     pub fn new(
         device: &Arc<Device>,
         scene: &Scene,
-        bvh: &Bvh,
+        bvh: &BvhData,
         backend: Backend,
         seed: u32,
         strategy_selection: u32,
@@ -350,7 +350,7 @@ impl GpuScene {
         for (name, bytes) in [
             ("triangles", triangles.len() * 48),
             ("spheres", spheres.len() * 112),
-            ("BVH nodes", bvh.nodes.len() * 32),
+            ("BVH nodes", bvh.nodes.len()),
             ("emitters", table.emitters.len() * 80),
         ] {
             if bytes as u64 > limit {
@@ -361,14 +361,9 @@ impl GpuScene {
                 .into());
             }
         }
-        let (bvh_nodes, bvh_prims) = if backend == Backend::Bvh {
+        let (bvh_nodes, bvh_prims) = if backend.bvh_kind().is_some() {
             (
-                Some(Buffer::with_data(
-                    device,
-                    "BVH nodes",
-                    bytemuck::cast_slice(&bvh.nodes),
-                    storage,
-                )?),
+                Some(Buffer::with_data(device, "BVH nodes", &bvh.nodes, storage)?),
                 Some(Buffer::with_data(
                     device,
                     "BVH primitives",

@@ -8,6 +8,7 @@ pub mod gpu;
 pub mod gpu_scene;
 pub mod integrators;
 pub mod io;
+pub mod probe;
 pub mod profile;
 pub mod render;
 pub mod scene;

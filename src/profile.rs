@@ -39,8 +39,12 @@ pub struct ProfileArgs {
 }
 
 /// The stages and their variants, in the order printed.
-pub const STAGES: [(&str, &str); 4] = [
+pub const STAGES: [(&str, &str); 5] = [
     ("visibility (BVH traversal and primitive tests)", "x2trace"),
+    (
+        "of which primitive tests (storage-buffer BVHs only)",
+        "x2prim",
+    ),
     ("random numbers (pcg4d)", "x2rng"),
     ("BSDF evaluation, sampling and pdfs", "x2bsdf"),
     (
@@ -59,10 +63,12 @@ pub fn run(args: &ProfileArgs) -> Result<()> {
     scene.width = args.size;
     scene.height = args.size;
     scene.settings.spp = args.spp.max(1);
-    let accel = match args.accel.as_str() {
-        "bvh" => AccelChoice::Bvh,
-        "rayquery" => AccelChoice::RayQuery,
-        other => bail!("--accel {other:?}: expected bvh or rayquery"),
+    let accel = match AccelChoice::from_name(&args.accel) {
+        Some(a) if a != AccelChoice::Auto => a,
+        _ => bail!(
+            "--accel {:?}: expected bvh, cwbvh, bvh2 or rayquery",
+            args.accel
+        ),
     };
     let mut renderer = Renderer::new(args.device.as_deref(), accel)?;
     println!(

@@ -27,8 +27,15 @@ use std::time::Instant;
 pub enum AccelChoice {
     Auto,
     RayQuery,
+    /// The default storage-buffer BVH ([`DEFAULT_BVH`]).
     Bvh,
+    Cwbvh,
+    Bvh2,
 }
+
+/// The storage-buffer BVH that `--accel bvh` (and `auto` where ray query is not
+/// used) picks: the faster one measured (README, "Performance").
+pub const DEFAULT_BVH: Backend = Backend::Cwbvh;
 
 impl AccelChoice {
     pub fn from_name(s: &str) -> Option<Self> {
@@ -36,8 +43,15 @@ impl AccelChoice {
             "auto" => Some(Self::Auto),
             "rayquery" => Some(Self::RayQuery),
             "bvh" => Some(Self::Bvh),
+            "cwbvh" => Some(Self::Cwbvh),
+            "bvh2" => Some(Self::Bvh2),
             _ => None,
         }
+    }
+
+    /// True for the choices that never use ray query.
+    pub fn is_bvh(self) -> bool {
+        matches!(self, Self::Bvh | Self::Cwbvh | Self::Bvh2)
     }
 }
 
@@ -75,6 +89,9 @@ pub struct Snapshots {
 pub(crate) struct Prepared {
     pub gpu_scene: GpuScene,
     pub rq: Option<rayquery::RayQueryScene>,
+    /// The scene's index of each triangle as the device holds them (see
+    /// [`crate::accel::prepare`]).
+    pub triangle_order: Vec<u32>,
 }
 
 /// Rows per band (tile) of a pass: at most about BAND_PIXELS pixels, whole workgroup rows
@@ -192,13 +209,11 @@ impl Renderer {
         accel: AccelChoice,
         validation: Validation,
     ) -> Result<Renderer> {
-        let device = Arc::new(Device::open(
-            device_name,
-            accel != AccelChoice::Bvh,
-            validation,
-        )?);
+        let device = Arc::new(Device::open(device_name, !accel.is_bvh(), validation)?);
         let backend = match accel {
-            AccelChoice::Bvh => Backend::Bvh,
+            AccelChoice::Bvh => DEFAULT_BVH,
+            AccelChoice::Cwbvh => Backend::Cwbvh,
+            AccelChoice::Bvh2 => Backend::Bvh2,
             AccelChoice::RayQuery => {
                 if !device.ray_query_enabled() {
                     bail!(
@@ -214,7 +229,7 @@ impl Renderer {
                 if device.ray_query_enabled() && device.info.kind != vk::PhysicalDeviceType::CPU {
                     Backend::RayQuery
                 } else {
-                    Backend::Bvh
+                    DEFAULT_BVH
                 }
             }
         };
@@ -440,7 +455,12 @@ impl Renderer {
         trace: &mut Trace,
     ) -> Result<Prepared> {
         let mut scene = scene.clone();
-        let bvh = trace.cpu("BVH build", || crate::accel::prepare(&mut scene))?;
+        // Ray query orders its triangles by the binary BVH, as before the wide one came.
+        let kind = self
+            .backend()
+            .bvh_kind()
+            .unwrap_or(crate::accel::BvhKind::Binary);
+        let bvh = trace.cpu("BVH build", || crate::accel::prepare(&mut scene, kind))?;
         let gpu_scene = trace.cpu("scene upload", || {
             GpuScene::new(
                 &self.device,
@@ -464,7 +484,11 @@ impl Renderer {
         } else {
             None
         };
-        Ok(Prepared { gpu_scene, rq })
+        Ok(Prepared {
+            gpu_scene,
+            rq,
+            triangle_order: bvh.triangle_order,
+        })
     }
 
     /// Drivers that compile lazily (lavapipe JITs a kernel at its first dispatch: ~25 s

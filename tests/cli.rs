@@ -142,7 +142,7 @@ fn render_writes_images_trace_and_compare_reads_them() {
             "3",
             "-q",
             "--accel",
-            "bvh",
+            "bvh2",
             "--validate",
         ],
         &d,
@@ -438,7 +438,7 @@ fn exr_metadata_records_how_the_image_was_made() {
     assert_eq!(info.scene_file, "m.test");
     assert_eq!(info.scene_hash, lightpath::io::sha256_hex(GOOD.as_bytes()));
     assert_eq!(info.version, env!("CARGO_PKG_VERSION"));
-    assert!(["bvh", "rayquery"].contains(&info.backend.as_str()));
+    assert!(["cwbvh", "bvh2", "rayquery"].contains(&info.backend.as_str()));
     assert!(!info.device.is_empty() && info.render_seconds > 0.0);
     // compare prints it.
     let out = lightpath(&["compare", "m.exr", "m.exr"], &d);

@@ -3,7 +3,7 @@
 mod common;
 
 use common::*;
-use lightpath::render::AccelChoice::{Bvh, RayQuery};
+use lightpath::render::AccelChoice::{Bvh, Bvh2, RayQuery};
 use lightpath::scene::{ImportanceSampling, IntegratorKind, NextEventEstimation, Scene};
 
 /// A closed cube (camera inside) whose walls all emit Le = 1 and reflect ρ = 0.5:
@@ -217,34 +217,55 @@ fn glossy_scene_sampling_modes_agree() {
 }
 
 #[test]
-fn ray_query_and_bvh_give_the_same_image() {
-    for scene in [
-        small_cornell(),
-        small("cornell-glossy.test", 4, 5),
-        ellipsoid_furnace(),
+fn every_backend_gives_the_same_image() {
+    let mut dragon = lightpath::scene::parse_file(&repo().join("scenes/course/hw4/dragon.test"))
+        .expect("the dragon parses");
+    dragon.width = 32;
+    dragon.height = 24;
+    dragon.settings.spp = 16;
+    // Each BVH puts the triangles in its own leaf order, and the emitter table follows
+    // it: with the dragon's several area lights the same random number can pick
+    // another light, and from there the paths differ. Fewer pixels match exactly; the
+    // means still do (bvh2 and ray query share an order and match like the others).
+    for (scene, min_same) in [
+        (small_cornell(), 0.97),
+        (small("cornell-glossy.test", 4, 5), 0.97),
+        (ellipsoid_furnace(), 0.97),
+        (dragon, 0.5),
     ] {
+        // The compressed wide BVH (the default `bvh`) against the binary one and ray query.
         let a = render(&scene, 7, Bvh);
-        let b = render(&scene, 7, RayQuery);
-        // Same seed, same paths: only hit-point rounding differs, so almost every pixel
-        // is identical and the means agree tightly.
-        let close = a
-            .pixels
-            .iter()
-            .zip(&b.pixels)
-            .filter(|(p, q)| (0..3).all(|c| (p[c] - q[c]).abs() <= 1e-3 * (1.0 + p[c].abs())))
-            .count();
-        let frac = close as f64 / a.pixels.len() as f64;
-        assert!(
-            frac > 0.97,
-            "only {:.1}% of pixels agree between ray query and BVH",
-            frac * 100.0
-        );
-        let (ma, mb) = (a.mean(), b.mean());
-        for c in 0..3 {
-            assert!(
-                (ma[c] - mb[c]).abs() <= 0.01 * mb[c].abs() + 1e-5,
-                "means differ: {ma:?} vs {mb:?}"
+        for other in [Bvh2, RayQuery] {
+            let b = render(&scene, 7, other);
+            // Same seed, same paths: only hit-point rounding differs, so almost every
+            // pixel is identical and the means agree tightly.
+            let close = a
+                .pixels
+                .iter()
+                .zip(&b.pixels)
+                .filter(|(p, q)| (0..3).all(|c| (p[c] - q[c]).abs() <= 1e-3 * (1.0 + p[c].abs())))
+                .count();
+            let frac = close as f64 / a.pixels.len() as f64;
+            let (ma, mb) = (a.mean(), b.mean());
+            eprintln!(
+                "{}: {:.1}% of pixels the same as with {other:?}, means {ma:?} vs {mb:?}",
+                scene
+                    .source
+                    .as_ref()
+                    .map_or("scene".into(), |p| p.display().to_string()),
+                frac * 100.0
             );
+            assert!(
+                frac > min_same,
+                "only {:.1}% of pixels agree between the compressed BVH and {other:?}",
+                frac * 100.0
+            );
+            for c in 0..3 {
+                assert!(
+                    (ma[c] - mb[c]).abs() <= 0.01 * mb[c].abs() + 1e-5,
+                    "means differ from {other:?}: {ma:?} vs {mb:?}"
+                );
+            }
         }
     }
 }

@@ -1,8 +1,9 @@
 // The one visibility interface of every kernel:
 //   bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit)
 //   bool trace_occluded(vec3 o, vec3 d, float tmax)
-// Rays start at t = 0 (origins are offset off surfaces by the caller). Two
-// implementations, picked by build.rs's define: ray query or the BVH storage buffer.
+// Rays start at t = 0 (origins are offset off surfaces by the caller). Three
+// implementations, picked by build.rs's define: ray query, or one of two BVHs in storage
+// buffers (compressed 8-wide or binary).
 #ifndef TRACE_GLSL
 #define TRACE_GLSL
 #include "geometry.glsl"
@@ -16,10 +17,12 @@
 
 #if defined(ACCEL_RAYQUERY)
 #include "trace_rayquery.glsl"
-#elif defined(ACCEL_BVH)
-#include "trace_bvh.glsl"
+#elif defined(ACCEL_CWBVH)
+#include "trace_cwbvh.glsl"
+#elif defined(ACCEL_BVH2)
+#include "trace_bvh2.glsl"
 #else
-#error "define ACCEL_RAYQUERY or ACCEL_BVH"
+#error "define ACCEL_RAYQUERY, ACCEL_CWBVH or ACCEL_BVH2"
 #endif
 
 #ifdef PROFILE_X2_TRACE

@@ -263,7 +263,7 @@ impl Cwbvh {
         let mut stack = [(0u32, 0u32); STACK_SIZE];
         let mut sp = 0usize;
         // The root, as the one internal child of a virtual node: bit 31 is slot 7 ^ 7.
-        let mut node_group = (0u32, 0x8000_0000u32 | 0);
+        let mut node_group = (0u32, 0x8000_0000u32);
         let mut prim_group = (0u32, 0u32);
         let mut closest = tmax;
         let mut found = None;

@@ -1,23 +1,42 @@
-//! Acceleration structures: the CPU-built SAH BVH (traversed by the kernels from a
-//! storage buffer, and the source of a coherent triangle order) and the ray-query
-//! BLAS/TLAS.
+//! Acceleration structures: the two CPU-built BVHs the kernels traverse from storage
+//! buffers (the compressed 8-wide one and the binary SAH one, which also gives the
+//! ray-query backend its coherent triangle order) and the ray-query BLAS/TLAS.
 pub mod bvh;
 pub mod cwbvh;
 pub mod geometry;
 pub mod rayquery;
-mod testing;
+pub(crate) mod testing;
 
 use crate::scene::Scene;
 use bvh::{Aabb, Bvh};
+use cwbvh::Cwbvh;
 
-/// The deepest BVH the kernels' traversal stack can hold.
+/// The deepest binary BVH the kernels' traversal stack can hold.
 pub const MAX_BVH_DEPTH: usize = 64;
 
-/// Build the BVH over the scene's triangles and spheres, and reorder the scene's
-/// triangles into the BVH's leaf order, so that every backend (and lavapipe's BLAS
-/// builder, which splits index ranges without sorting) sees spatially coherent
-/// geometry. Primitive ids: triangles `0..n`, then spheres `n..n+m`.
-pub fn prepare(scene: &mut Scene) -> anyhow::Result<Bvh> {
+/// Which tree to build: the binary SAH BVH or the compressed 8-wide one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BvhKind {
+    Binary,
+    Compressed,
+}
+
+/// A built tree, as the kernels read it: node bytes and leaf primitive references.
+pub struct BvhData {
+    pub kind: BvhKind,
+    pub nodes: Vec<u8>,
+    pub prim_refs: Vec<u32>,
+    pub node_count: usize,
+    pub depth: usize,
+    /// The scene's index, before reordering, of each triangle (in the new order).
+    pub triangle_order: Vec<u32>,
+}
+
+/// Build the tree over the scene's triangles and spheres, and reorder the scene's
+/// triangles into its leaf order, so that every backend (and lavapipe's BLAS builder,
+/// which splits index ranges without sorting) sees spatially coherent geometry.
+/// Primitive ids: triangles `0..n`, then spheres `n..n+m`.
+pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
     let ntri = scene.triangles.len();
     let mut bounds: Vec<Aabb> = scene
         .triangles
@@ -30,15 +49,52 @@ pub fn prepare(scene: &mut Scene) -> anyhow::Result<Bvh> {
             .iter()
             .map(|s| geometry::sphere_world_bounds(&s.object_to_world)),
     );
-    let mut bvh = Bvh::build(&bounds);
+    let mut data = match kind {
+        BvhKind::Binary => {
+            let bvh = Bvh::build(&bounds);
+            let depth = bvh_depth(&bvh);
+            if depth > MAX_BVH_DEPTH {
+                anyhow::bail!(
+                    "the BVH is {depth} levels deep; the kernels' traversal stack holds {MAX_BVH_DEPTH}"
+                );
+            }
+            BvhData {
+                kind,
+                nodes: bytemuck::cast_slice(&bvh.nodes).to_vec(),
+                node_count: bvh.nodes.len(),
+                prim_refs: bvh.prim_refs,
+                depth,
+                triangle_order: Vec::new(),
+            }
+        }
+        BvhKind::Compressed => {
+            let bvh = Cwbvh::build(&bounds);
+            let depth = bvh.depth();
+            if depth > cwbvh::STACK_SIZE {
+                anyhow::bail!(
+                    "the compressed BVH is {depth} levels deep; the kernels' traversal stack holds {} (try --accel bvh2)",
+                    cwbvh::STACK_SIZE
+                );
+            }
+            BvhData {
+                kind,
+                nodes: bytemuck::cast_slice(&bvh.nodes).to_vec(),
+                node_count: bvh.nodes.len(),
+                prim_refs: bvh.prim_refs,
+                depth,
+                triangle_order: Vec::new(),
+            }
+        }
+    };
     // Leaf order of the triangles.
     let mut new_index = vec![u32::MAX; ntri];
     let mut reordered = Vec::with_capacity(ntri);
-    for &p in &bvh.prim_refs {
+    for &p in &data.prim_refs {
         let p = p as usize;
         if p < ntri && new_index[p] == u32::MAX {
             new_index[p] = reordered.len() as u32;
             reordered.push(scene.triangles[p]);
+            data.triangle_order.push(p as u32);
         }
     }
     if reordered.len() != ntri {
@@ -48,18 +104,12 @@ pub fn prepare(scene: &mut Scene) -> anyhow::Result<Bvh> {
         );
     }
     scene.triangles = reordered;
-    for p in bvh.prim_refs.iter_mut() {
+    for p in data.prim_refs.iter_mut() {
         if (*p as usize) < ntri {
             *p = new_index[*p as usize];
         }
     }
-    let depth = bvh_depth(&bvh);
-    if depth > MAX_BVH_DEPTH {
-        anyhow::bail!(
-            "the BVH is {depth} levels deep; the kernels' traversal stack holds {MAX_BVH_DEPTH}"
-        );
-    }
-    Ok(bvh)
+    Ok(data)
 }
 
 /// Depth of the BVH (the root alone is 1).

@@ -58,7 +58,8 @@ pub(crate) enum Prim {
 
 #[derive(Clone, Debug)]
 pub(crate) struct SpherePrim {
-    world_to_object: Mat4,
+    pub(crate) object_to_world: Mat4,
+    pub(crate) world_to_object: Mat4,
     bounds: Aabb,
 }
 
@@ -84,6 +85,7 @@ impl Prim {
 
 pub(crate) fn sphere(object_to_world: Mat4) -> Prim {
     Prim::Sphere(Box::new(SpherePrim {
+        object_to_world,
         world_to_object: object_to_world.inverse(),
         bounds: sphere_world_bounds(&object_to_world),
     }))
@@ -178,10 +180,10 @@ pub(crate) fn scene_bounds(prims: &[Prim]) -> Aabb {
 }
 
 pub(crate) struct Ray {
-    o: Vec3,
-    d: Vec3,
-    tmin: f32,
-    tmax: f32,
+    pub(crate) o: Vec3,
+    pub(crate) d: Vec3,
+    pub(crate) tmin: f32,
+    pub(crate) tmax: f32,
 }
 
 pub(crate) fn random_ray(rng: &mut Rng, prims: &[Prim], b: &Aabb) -> Ray {

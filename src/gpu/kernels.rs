@@ -12,14 +12,27 @@ include!(concat!(env!("OUT_DIR"), "/kernels.rs"));
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
     RayQuery,
-    Bvh,
+    /// The compressed 8-wide BVH in storage buffers.
+    Cwbvh,
+    /// The binary SAH BVH in storage buffers.
+    Bvh2,
 }
 
 impl Backend {
     pub fn name(self) -> &'static str {
         match self {
             Backend::RayQuery => "rayquery",
-            Backend::Bvh => "bvh",
+            Backend::Cwbvh => "cwbvh",
+            Backend::Bvh2 => "bvh2",
+        }
+    }
+
+    /// The tree the kernels walk from storage buffers; `None` for ray query.
+    pub fn bvh_kind(self) -> Option<crate::accel::BvhKind> {
+        match self {
+            Backend::RayQuery => None,
+            Backend::Cwbvh => Some(crate::accel::BvhKind::Compressed),
+            Backend::Bvh2 => Some(crate::accel::BvhKind::Binary),
         }
     }
 }
@@ -53,7 +66,7 @@ pub fn bindings(backend: Backend) -> Vec<(u32, vk::DescriptorType)> {
     ];
     match backend {
         Backend::RayQuery => b.push((BINDING_TLAS, vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)),
-        Backend::Bvh => {
+        Backend::Cwbvh | Backend::Bvh2 => {
             b.push((BINDING_BVH_NODES, storage));
             b.push((BINDING_BVH_PRIMS, storage));
         }

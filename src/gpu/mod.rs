@@ -533,7 +533,14 @@ impl Device {
             .acceleration_structure(true);
         let mut af = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default()
             .shader_buffer_float32_atomic_add(true);
-        let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut v12);
+        // Off: the kernels index within their buffers, and on a CPU driver it would
+        // bounds-check every storage-buffer gather. LIGHTPATH_ROBUST_BUFFER_ACCESS=1
+        // turns it on, to measure what it costs (README, "Where the time goes").
+        let robust = std::env::var_os("LIGHTPATH_ROBUST_BUFFER_ACCESS").is_some_and(|v| v == "1");
+        let base = vk::PhysicalDeviceFeatures::default().robust_buffer_access(robust);
+        let mut f2 = vk::PhysicalDeviceFeatures2::default()
+            .features(base)
+            .push_next(&mut v12);
         if ray_query {
             f2 = f2.push_next(&mut rq).push_next(&mut asf);
         }

@@ -634,7 +634,7 @@ impl Renderer {
         )?;
         scene.settings.max_depth = depth_cap as i32;
         let mut trace = Trace::new();
-        let Prepared { gpu_scene, rq } = self.prepare(&scene, seed, 0, &mut trace)?;
+        let Prepared { gpu_scene, rq, .. } = self.prepare(&scene, seed, 0, &mut trace)?;
         let streams = stream_sizes(depth_cap);
         let numbers: u32 = streams.iter().sum();
         let samples = Buffer::device_local(

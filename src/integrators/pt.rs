@@ -20,7 +20,7 @@ impl Renderer {
         let (width, height) = (scene.width, scene.height);
         let film_bytes = self.film_bytes(width, height)?;
         let rows = band_rows(width, height, 0, u64::MAX)?;
-        let Prepared { gpu_scene, rq } = self.prepare(scene, seed, 0, trace)?;
+        let Prepared { gpu_scene, rq, .. } = self.prepare(scene, seed, 0, trace)?;
         let pipeline = trace.cpu("pipeline creation", || self.pass_pipeline(kernel))?;
         let (film, stats) = trace.cpu("film allocation", || -> Result<_> {
             Ok((

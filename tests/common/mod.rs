@@ -27,18 +27,15 @@ fn open(accel: AccelChoice) -> Mutex<Renderer> {
 /// The renderer of a backend, shared by every test of the binary (tests take turns).
 pub fn renderer(accel: AccelChoice) -> MutexGuard<'static, Renderer> {
     static BVH: OnceLock<Mutex<Renderer>> = OnceLock::new();
+    static BVH2: OnceLock<Mutex<Renderer>> = OnceLock::new();
     static RQ: OnceLock<Mutex<Renderer>> = OnceLock::new();
-    let cell = match accel {
-        AccelChoice::RayQuery => &RQ,
-        _ => &BVH,
+    // `bvh` is the default storage-buffer BVH, the compressed one.
+    let (cell, accel) = match accel {
+        AccelChoice::RayQuery => (&RQ, AccelChoice::RayQuery),
+        AccelChoice::Bvh2 => (&BVH2, AccelChoice::Bvh2),
+        _ => (&BVH, AccelChoice::Bvh),
     };
-    let m = cell.get_or_init(|| {
-        open(if accel == AccelChoice::RayQuery {
-            AccelChoice::RayQuery
-        } else {
-            AccelChoice::Bvh
-        })
-    });
+    let m = cell.get_or_init(|| open(accel));
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 

@@ -1,21 +1,13 @@
-// Visibility by stack traversal of the CPU-built SAH BVH (CPU mirror: src/accel/bvh.rs).
+// Visibility by stack traversal of the CPU-built binary SAH BVH (`--accel bvh2`; CPU
+// mirror: src/accel/bvh.rs).
 // Node: two vec4: (min, left_or_first bits), (max, count bits); count 0 = internal
 // node whose first child follows it and whose second child is left_or_first.
 struct BvhNode { vec4 min_left; vec4 max_count; };
 
 layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodeBuffer { BvhNode bvh_nodes[]; };
-layout(std430, set = 0, binding = BINDING_BVH_PRIMS) readonly buffer BvhPrimBuffer { uint bvh_prims[]; };
+#include "trace_bvh_common.glsl"
 
 #define BVH_STACK_SIZE 64
-// Mirrors of src/accel/bvh.rs: SLAB_EXIT_SCALE = 1 + 2 gamma(3), MIN_DIR_COMPONENT.
-const float BVH_SLAB_EXIT_SCALE = 1.0 + 2.0 * (3.0 * 5.9604645e-8) / (1.0 - 3.0 * 5.9604645e-8);
-const float BVH_MIN_DIR_COMPONENT = 1e-30;
-
-vec3 bvh_safe_inverse(vec3 d) {
-    vec3 c = mix(d, mix(vec3(-BVH_MIN_DIR_COMPONENT), vec3(BVH_MIN_DIR_COMPONENT), greaterThanEqual(d, vec3(0.0))),
-                 lessThan(abs(d), vec3(BVH_MIN_DIR_COMPONENT)));
-    return 1.0 / c;
-}
 
 // Entry distance of the ray into a node's box, or INF when it misses within [0, tmax].
 float bvh_box_entry(BvhNode node, vec3 o, vec3 inv_d, float tmax) {
@@ -26,16 +18,6 @@ float bvh_box_entry(BvhNode node, vec3 o, vec3 inv_d, float tmax) {
     float enter = max(max(tnear.x, tnear.y), max(tnear.z, 0.0));
     float leave = min(min(min(tfar.x, tfar.y), tfar.z) * BVH_SLAB_EXIT_SCALE, tmax);
     return enter <= leave ? enter : INF;
-}
-
-bool bvh_intersect_prim(uint prim, vec3 o, vec3 d, float tmax, out float t, out vec2 bary) {
-    uint ntri = scene.dims.z;
-    bary = vec2(0.0);
-    if (prim < ntri) {
-        GpuTriangle tri = triangles[prim];
-        return intersect_triangle(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, o, d, 0.0, tmax, t, bary);
-    }
-    return intersect_sphere(spheres[prim - ntri], o, d, 0.0, tmax, t);
 }
 
 bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {

@@ -1,0 +1,44 @@
+// What the two storage-buffer BVH walks share: the primitive references of their
+// leaves, the slab test's constants, and the exact primitive tests.
+layout(std430, set = 0, binding = BINDING_BVH_PRIMS) readonly buffer BvhPrimBuffer { uint bvh_prims[]; };
+
+// Mirrors of src/accel/bvh.rs: SLAB_EXIT_SCALE = 1 + 2 gamma(3), MIN_DIR_COMPONENT.
+const float BVH_SLAB_EXIT_SCALE = 1.0 + 2.0 * (3.0 * 5.9604645e-8) / (1.0 - 3.0 * 5.9604645e-8);
+const float BVH_MIN_DIR_COMPONENT = 1e-30;
+
+vec3 bvh_safe_inverse(vec3 d) {
+    vec3 c = mix(d, mix(vec3(-BVH_MIN_DIR_COMPONENT), vec3(BVH_MIN_DIR_COMPONENT), greaterThanEqual(d, vec3(0.0))),
+                 lessThan(abs(d), vec3(BVH_MIN_DIR_COMPONENT)));
+    return 1.0 / c;
+}
+
+bool bvh_intersect_prim_once(uint prim, vec3 o, vec3 d, float tmax, out float t, out vec2 bary) {
+    uint ntri = scene.dims.z;
+    bary = vec2(0.0);
+    if (prim < ntri) {
+        GpuTriangle tri = triangles[prim];
+        return intersect_triangle(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, o, d, 0.0, tmax, t, bary);
+    }
+    return intersect_sphere(spheres[prim - ntri], o, d, 0.0, tmax, t);
+}
+
+
+// The leaves' primitive test. lightpath profile's PROFILE_X2_PRIM variant does it twice
+// (the second answer is kept only where tmax < 0, never), so the extra time is the
+// primitive tests' share of a pass, apart from traversal.
+bool bvh_intersect_prim(uint prim, vec3 o, vec3 d, float tmax, out float t, out vec2 bary) {
+#ifdef PROFILE_X2_PRIM
+    float t2;
+    vec2 bary2;
+    bool second = bvh_intersect_prim_once(prim, o * 1.0000001, d, tmax * 0.99999994, t2, bary2);
+    bool first = bvh_intersect_prim_once(prim, o, d, tmax, t, bary);
+    if (second && tmax < 0.0) {
+        t = t2;
+        bary = bary2;
+        return true;
+    }
+    return first;
+#else
+    return bvh_intersect_prim_once(prim, o, d, tmax, t, bary);
+#endif
+}

@@ -1,0 +1,111 @@
+// Visibility by traversal of the compressed 8-wide BVH (Ylitie, Karras & Laine 2017;
+// `--accel cwbvh`; CPU mirror, line for line: src/accel/cwbvh.rs).
+//
+// Node (80 bytes, five uvec4):
+//   a: p.xyz (float bits), bytes of w: scale exponents e.x, e.y, e.z, internal-child mask
+//   b: first child node, first primitive reference, meta bytes of slots 0-3, 4-7
+//   c, d, e: x, y, z planes: min of slots 0-3, 4-7, max of slots 0-3, 4-7 (a byte each)
+// A plane decodes to fma(q, 2^(e-127), p), exact to one rounding, and the builder makes
+// every decoded box contain its children, so the slab test below is conservative.
+struct CwbvhNode { uvec4 a; uvec4 b; uvec4 c; uvec4 d; uvec4 e; };
+
+layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodeBuffer { CwbvhNode bvh_nodes[]; };
+#include "trace_bvh_common.glsl"
+
+// Mirror of src/accel/cwbvh.rs STACK_SIZE (the builder caps the depth to it).
+#define CWBVH_STACK_SIZE 32
+
+// The children's hit mask: internal children set bit 24 + (slot ^ octant), leaves one
+// bit per primitive at its offset from the node's first primitive reference.
+uint cwbvh_intersect_node(CwbvhNode node, vec3 o, vec3 inv_d, uint oct_inv4, float tmax) {
+    vec3 p = uintBitsToFloat(node.a.xyz);
+    uint ew = node.a.w;
+    vec3 e = vec3(uintBitsToFloat((ew & 0xffu) << 23), uintBitsToFloat(((ew >> 8) & 0xffu) << 23),
+                  uintBitsToFloat(((ew >> 16) & 0xffu) << 23));
+    uint hitmask = 0u;
+    for (uint half_ = 0u; half_ < 2u; ++half_) {
+        uint meta4 = half_ == 0u ? node.b.z : node.b.w;
+        uint is_inner4 = (meta4 & (meta4 << 1)) & 0x10101010u;
+        uint inner_mask4 = (is_inner4 >> 4) * 0xffu;
+        uint bit_index4 = (meta4 ^ (oct_inv4 & inner_mask4)) & 0x1f1f1f1fu;
+        uint child_bits4 = (meta4 >> 5) & 0x07070707u;
+        uvec3 lo4 = half_ == 0u ? uvec3(node.c.x, node.d.x, node.e.x) : uvec3(node.c.y, node.d.y, node.e.y);
+        uvec3 hi4 = half_ == 0u ? uvec3(node.c.z, node.d.z, node.e.z) : uvec3(node.c.w, node.d.w, node.e.w);
+        for (uint j = 0u; j < 4u; ++j) {
+            uint shift = 8u * j;
+            vec3 lo = fma(vec3((lo4 >> shift) & 0xffu), e, p);
+            vec3 hi = fma(vec3((hi4 >> shift) & 0xffu), e, p);
+            vec3 t0 = (lo - o) * inv_d;
+            vec3 t1 = (hi - o) * inv_d;
+            vec3 tnear = min(t0, t1);
+            vec3 tfar = max(t0, t1);
+            float enter = max(max(tnear.x, tnear.y), max(tnear.z, 0.0));
+            float leave = min(min(min(tfar.x, tfar.y), tfar.z) * BVH_SLAB_EXIT_SCALE, tmax);
+            if (enter <= leave) {
+                uint bits = (child_bits4 >> shift) & 7u;
+                uint index = (bit_index4 >> shift) & 31u;
+                hitmask |= bits << index;
+            }
+        }
+    }
+    return hitmask;
+}
+
+bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
+    vec3 inv_d = bvh_safe_inverse(d);
+    uint oct_inv4 = (d.x < 0.0 ? 0u : 0x04040404u) | (d.y < 0.0 ? 0u : 0x02020202u) |
+                    (d.z < 0.0 ? 0u : 0x01010101u);
+    uvec2 stack[CWBVH_STACK_SIZE];
+    uint sp = 0u;
+    // The root, as the one internal child of a virtual node (bit 31: slot 7 ^ 7).
+    uvec2 node_group = uvec2(0u, 0x80000000u);
+    uvec2 prim_group = uvec2(0u);
+    float closest = tmax;
+    bool found = false;
+    hit.t = 0.0;
+    hit.prim = 0u;
+    hit.bary = vec2(0.0);
+    while (true) {
+        while (prim_group.y != 0u) {
+            uint bit = uint(findMSB(prim_group.y));
+            prim_group.y &= ~(1u << bit);
+            uint prim = bvh_prims[prim_group.x + bit];
+            float t;
+            vec2 bary;
+            if (bvh_intersect_prim(prim, o, d, closest, t, bary)) {
+                closest = t;
+                found = true;
+                hit.t = t;
+                hit.prim = prim;
+                hit.bary = bary;
+                if (any_hit) return true;
+            }
+        }
+        if ((node_group.y & 0xff000000u) != 0u) {
+            uint hits = node_group.y;
+            uint bit = uint(findMSB(hits));
+            node_group.y &= ~(1u << bit);
+            if ((node_group.y & 0xff000000u) != 0u && sp < CWBVH_STACK_SIZE) stack[sp++] = node_group;
+            uint slot = (bit - 24u) ^ (oct_inv4 & 0xffu);
+            uint relative = bitCount(hits & ~(0xffffffffu << slot));
+            CwbvhNode node = bvh_nodes[node_group.x + relative];
+            uint hitmask = cwbvh_intersect_node(node, o, inv_d, oct_inv4, closest);
+            node_group = uvec2(node.b.x, (hitmask & 0xff000000u) | (node.a.w >> 24));
+            prim_group = uvec2(node.b.y, hitmask & 0x00ffffffu);
+        }
+        if (prim_group.y == 0u && (node_group.y & 0xff000000u) == 0u) {
+            if (sp == 0u) break;
+            node_group = stack[--sp];
+        }
+    }
+    return found;
+}
+
+bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
+    return bvh_traverse(o, d, tmax, false, hit);
+}
+
+bool trace_occluded(vec3 o, vec3 d, float tmax) {
+    Hit hit;
+    return bvh_traverse(o, d, tmax, true, hit);
+}
