@@ -23,7 +23,7 @@ pub struct BenchArgs {
     /// Vulkan device, by index or part of its name.
     #[arg(long)]
     pub device: Option<String>,
-    /// Renders per measurement (the median is reported).
+    /// Rounds: each renders every row once (rows interleaved); the median is reported.
     #[arg(long, default_value_t = 3)]
     pub repeats: u32,
     /// Integrators to measure, in order (pathtracer, bdpt, mmlt; MMLT's rate counts
@@ -77,7 +77,6 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             }
         }
     }
-    let mut results = Vec::new();
     let accels: Vec<AccelChoice> = args
         .accels
         .iter()
@@ -89,69 +88,76 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 })
         })
         .collect::<Result<_>>()?;
+    // Every (backend, integrator) row, each warmed up once (lavapipe JITs a kernel at
+    // its first dispatch).
+    let mut renderers = Vec::new();
     for accel in accels {
-        let mut renderer = match Renderer::new(args.device.as_deref(), accel) {
-            Ok(r) => r,
-            Err(e) => {
-                eprintln!("skipping {accel:?}: {e:#}");
-                continue;
-            }
-        };
-        for &integrator in &integrators {
-            let mut scene = scene.clone();
-            scene.settings.integrator = integrator;
-            let mut trace = Trace::new();
-            // A first short render warms up pipelines and caches (lavapipe JITs kernels
-            // at their first dispatch).
-            let mut warm = scene.clone();
-            warm.settings.spp = 1;
-            renderer.render(&warm, 1, &mut trace)?;
-            // The median of a few renders: a shared CPU machine is noisy.
-            let mut runs = Vec::new();
-            for seed in 0..args.repeats.max(1) {
-                let out = renderer.render(&scene, seed, &mut trace)?;
-                let samples =
-                    out.samples_per_pixel as f64 * scene.width as f64 * scene.height as f64;
-                // MMLT: mutations per second of its chain dispatches.
-                let per_second = match &out.mmlt {
-                    Some(m) => m.mutations_per_second(),
-                    None => samples / out.dispatch_seconds,
-                };
-                runs.push((per_second, out.rays / out.dispatch_seconds, out.backend));
-            }
-            runs.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let (sps, rps, backend) = runs[runs.len() / 2];
-            let short = match integrator {
-                scene::IntegratorKind::Bdpt => "bdpt",
-                scene::IntegratorKind::Mmlt => "mmlt (mutations)",
-                _ => "pt",
-            };
-            results.push(BenchResult {
-                name: format!(
-                    "lightpath {short}, {} ({})",
-                    backend.name(),
-                    renderer.device.info.name
-                ),
-                samples_per_second: sps,
-                rays_per_second: Some(rps),
-            });
+        match Renderer::new(args.device.as_deref(), accel) {
+            Ok(r) => renderers.push(r),
+            Err(e) => eprintln!("skipping {accel:?}: {e:#}"),
         }
     }
-    if args.mitsuba {
-        let mut runs = Vec::new();
-        for _ in 0..args.repeats.max(1) {
-            runs.push(mitsuba_samples_per_second(args)?);
+    let mut rows: Vec<(usize, scene::IntegratorKind)> = Vec::new();
+    let mut trace = Trace::new();
+    for (i, renderer) in renderers.iter_mut().enumerate() {
+        for &integrator in &integrators {
+            let mut warm = scene.clone();
+            warm.settings.integrator = integrator;
+            warm.settings.spp = 1;
+            renderer.render(&warm, 1, &mut trace)?;
+            rows.push((i, integrator));
         }
-        runs.sort_by(|a, b| a.total_cmp(b));
+    }
+    // Rounds over all rows, so that a shared machine's drift in speed (which can reach
+    // ±25% over a minute) falls on every row alike; each row reports its median.
+    let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new(); rows.len()];
+    let mut mitsuba_runs = Vec::new();
+    for seed in 0..args.repeats.max(1) {
+        if args.mitsuba {
+            mitsuba_runs.push(mitsuba_samples_per_second(args)?);
+        }
+        for (row, &(i, integrator)) in rows.iter().enumerate() {
+            let mut scene = scene.clone();
+            scene.settings.integrator = integrator;
+            let out = renderers[i].render(&scene, seed, &mut trace)?;
+            let samples = out.samples_per_pixel as f64 * scene.width as f64 * scene.height as f64;
+            // MMLT: mutations per second of its chain dispatches.
+            let per_second = match &out.mmlt {
+                Some(m) => m.mutations_per_second(),
+                None => samples / out.dispatch_seconds,
+            };
+            runs[row].push((per_second, out.rays / out.dispatch_seconds));
+        }
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(|a, b| a.total_cmp(b));
+        v[v.len() / 2]
+    };
+    let mut results = Vec::new();
+    if args.mitsuba {
         // The reference row goes first.
-        results.insert(
-            0,
-            BenchResult {
-                name: "Mitsuba 3 path tracer (llvm_ad_rgb, CPU)".into(),
-                samples_per_second: runs[runs.len() / 2],
-                rays_per_second: None,
-            },
-        );
+        results.push(BenchResult {
+            name: "Mitsuba 3 path tracer (llvm_ad_rgb, CPU)".into(),
+            samples_per_second: median(mitsuba_runs),
+            rays_per_second: None,
+        });
+    }
+    for (row, &(i, integrator)) in rows.iter().enumerate() {
+        let short = match integrator {
+            scene::IntegratorKind::Bdpt => "bdpt",
+            scene::IntegratorKind::Mmlt => "mmlt (mutations)",
+            _ => "pt",
+        };
+        let r = &renderers[i];
+        results.push(BenchResult {
+            name: format!(
+                "lightpath {short}, {} ({})",
+                r.backend().name(),
+                r.device.info.name
+            ),
+            samples_per_second: median(runs[row].iter().map(|x| x.0).collect()),
+            rays_per_second: Some(median(runs[row].iter().map(|x| x.1).collect())),
+        });
     }
     let reference = results
         .first()
@@ -197,7 +203,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         );
     }
     println!(
-        "(medians of {} renders; samples/s ratios against the first row, rays/s ratios against the first row that counts rays; MMLT's samples are mutations of its chain dispatches; all measured in this run)",
+        "(medians of {} rounds over all rows; samples/s ratios against the first row, rays/s ratios against the first row that counts rays; MMLT's samples are mutations of its chain dispatches; all measured in this run)",
         args.repeats.max(1)
     );
     Ok(())
