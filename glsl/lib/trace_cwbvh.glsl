@@ -5,8 +5,8 @@
 //   a: p.xyz (float bits), bytes of w: scale exponents e.x, e.y, e.z, internal-child mask
 //   b: first child node, first primitive reference, meta bytes of slots 0-3, 4-7
 //   c, d, e: x, y, z planes: min of slots 0-3, 4-7, max of slots 0-3, 4-7 (a byte each)
-// A plane decodes to fma(q, 2^(e-127), p), exact to one rounding, and the builder makes
-// every decoded box contain its children, so the slab test below is conservative.
+// Plane q of an axis lies at p + q 2^(e-127); the builder makes every such plane, in real
+// arithmetic, contain the children, and the box test below bounds its own rounding.
 struct CwbvhNode { uvec4 a; uvec4 b; uvec4 c; uvec4 d; uvec4 e; };
 
 layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodeBuffer { CwbvhNode bvh_nodes[]; };
@@ -15,13 +15,25 @@ layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodeBuff
 // Mirror of src/accel/cwbvh.rs STACK_SIZE (the builder caps the depth to it).
 #define CWBVH_STACK_SIZE 32
 
+// Mirror of src/accel/cwbvh.rs TRANSFORMED_RAY_SLACK: 5 eps.
+const float CWBVH_SLACK = 5.0 * 5.9604645e-8;
+
 // The children's hit mask: internal children set bit 24 + (slot ^ octant), leaves one
 // bit per primitive at its offset from the node's first primitive reference.
-uint cwbvh_intersect_node(CwbvhNode node, vec3 o, vec3 inv_d, uint oct_inv4, float tmax) {
+// The transformed ray: plane q of an axis is met at t = q (2^e / d) + (p - o) / d, one
+// fma per plane, near and far planes picked once per node by the sign of d; (p - o) / d
+// is lowered (near) and raised (far) by CWBVH_SLACK of itself, which bounds its
+// rounding, and the exit scale covers the rest (proof: src/accel/cwbvh.rs).
+uint cwbvh_intersect_node(CwbvhNode node, vec3 o, vec3 inv_d, bvec3 neg, uint oct_inv4, float tmax) {
     vec3 p = uintBitsToFloat(node.a.xyz);
     uint ew = node.a.w;
     vec3 e = vec3(uintBitsToFloat((ew & 0xffu) << 23), uintBitsToFloat(((ew >> 8) & 0xffu) << 23),
                   uintBitsToFloat(((ew >> 16) & 0xffu) << 23));
+    vec3 E = e * inv_d;
+    vec3 P = (p - o) * inv_d;
+    vec3 S = abs(P) * CWBVH_SLACK;
+    vec3 p_near = P - S;
+    vec3 p_far = P + S;
     uint hitmask = 0u;
     for (uint half_ = 0u; half_ < 2u; ++half_) {
         uint meta4 = half_ == 0u ? node.b.z : node.b.w;
@@ -31,14 +43,12 @@ uint cwbvh_intersect_node(CwbvhNode node, vec3 o, vec3 inv_d, uint oct_inv4, flo
         uint child_bits4 = (meta4 >> 5) & 0x07070707u;
         uvec3 lo4 = half_ == 0u ? uvec3(node.c.x, node.d.x, node.e.x) : uvec3(node.c.y, node.d.y, node.e.y);
         uvec3 hi4 = half_ == 0u ? uvec3(node.c.z, node.d.z, node.e.z) : uvec3(node.c.w, node.d.w, node.e.w);
+        uvec3 near4 = mix(lo4, hi4, neg);
+        uvec3 far4 = mix(hi4, lo4, neg);
         for (uint j = 0u; j < 4u; ++j) {
             uint shift = 8u * j;
-            vec3 lo = fma(vec3((lo4 >> shift) & 0xffu), e, p);
-            vec3 hi = fma(vec3((hi4 >> shift) & 0xffu), e, p);
-            vec3 t0 = (lo - o) * inv_d;
-            vec3 t1 = (hi - o) * inv_d;
-            vec3 tnear = min(t0, t1);
-            vec3 tfar = max(t0, t1);
+            vec3 tnear = fma(vec3((near4 >> shift) & 0xffu), E, p_near);
+            vec3 tfar = fma(vec3((far4 >> shift) & 0xffu), E, p_far);
             float enter = max(max(tnear.x, tnear.y), max(tnear.z, 0.0));
             float leave = min(min(min(tfar.x, tfar.y), tfar.z) * BVH_SLAB_EXIT_SCALE, tmax);
             if (enter <= leave) {
@@ -53,6 +63,7 @@ uint cwbvh_intersect_node(CwbvhNode node, vec3 o, vec3 inv_d, uint oct_inv4, flo
 
 bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     vec3 inv_d = bvh_safe_inverse(d);
+    bvec3 neg = lessThan(inv_d, vec3(0.0));
     uint oct_inv4 = (d.x < 0.0 ? 0u : 0x04040404u) | (d.y < 0.0 ? 0u : 0x02020202u) |
                     (d.z < 0.0 ? 0u : 0x01010101u);
     uvec2 stack[CWBVH_STACK_SIZE];
@@ -89,7 +100,7 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             uint slot = (bit - 24u) ^ (oct_inv4 & 0xffu);
             uint relative = bitCount(hits & ~(0xffffffffu << slot));
             CwbvhNode node = bvh_nodes[node_group.x + relative];
-            uint hitmask = cwbvh_intersect_node(node, o, inv_d, oct_inv4, closest);
+            uint hitmask = cwbvh_intersect_node(node, o, inv_d, neg, oct_inv4, closest);
             node_group = uvec2(node.b.x, (hitmask & 0xff000000u) | (node.a.w >> 24));
             prim_group = uvec2(node.b.y, hitmask & 0x00ffffffu);
         }

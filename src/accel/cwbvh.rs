@@ -15,10 +15,9 @@
 //! **Conservative boxes.** obvhs quantizes with `floor`/`ceil` of rounded arithmetic
 //! and a `log2` estimate of the scale, which can leave a child box an ulp short of
 //! its primitives. Here every node is requantized from the exact (`f32`) boxes of its
-//! children so that the kernels' decoding, `fma(q, e, p)`, gives planes that contain
-//! them: the decoded value is exact to one rounding (`q e` is exact), identical with
-//! or without fused multiply-add, so the slab test then has pbrt's robustness (exit
-//! distances scaled by `1 + 2 gamma(3)`) and never misses a primitive.
+//! children so that every plane `p + q 2^e`, in real arithmetic, contains them (checked
+//! exactly, with TwoSum). The kernels meet those planes by the paper's transformed ray
+//! with a bounded widening (see [`intersect_node`]), so no box a ray meets is missed.
 //!
 //! Traversal (CPU and GPU, the paper's algorithm 1 without triangle postponing): a
 //! stack of node groups (a base child index and a hit mask whose top byte holds the
@@ -96,8 +95,33 @@ pub fn child_box(node: &CwBvhNode, slot: usize) -> Aabb {
     }
 }
 
+/// The scale of exponent bits `e`, 2^(e - 127).
+fn step(e: u8) -> f64 {
+    f32::from_bits((e as u32) << 23) as f64
+}
+
+/// `a` and `r` with `a + r = x + y` exactly (Knuth's TwoSum).
+fn two_sum(x: f64, y: f64) -> (f64, f64) {
+    let s = x + y;
+    let yy = s - x;
+    (s, (x - (s - yy)) + (y - yy))
+}
+
+/// `offset <= v - p` in real arithmetic (`offset` exact in f64; `v - p` is kept exact
+/// as a TwoSum pair, so this holds even where their exponents are far apart).
+fn at_most(offset: f64, v: f32, p: f32) -> bool {
+    let (s, r) = two_sum(v as f64, -(p as f64));
+    offset < s || (offset == s && r >= 0.0)
+}
+
+/// `offset >= v - p` in real arithmetic.
+fn at_least(offset: f64, v: f32, p: f32) -> bool {
+    let (s, r) = two_sum(v as f64, -(p as f64));
+    offset > s || (offset == s && r <= 0.0)
+}
+
 /// The smallest power-of-two scale (as float exponent bits, at least 1 so that it is
-/// a normal float) whose 255th step from `p` reaches `max`.
+/// a normal float) whose 255th step from `p` reaches `max`, in real arithmetic.
 fn scale_exponent(p: f32, max: f32) -> u8 {
     let need = (max as f64 - p as f64) / 255.0;
     let mut bits: i32 = if need > 0.0 {
@@ -105,36 +129,35 @@ fn scale_exponent(p: f32, max: f32) -> u8 {
     } else {
         1
     };
-    while bits > 1 && decode(255, (bits - 1) as u8, p) >= max {
+    while bits > 1 && at_least(255.0 * step((bits - 1) as u8), max, p) {
         bits -= 1;
     }
-    while bits < 254 && decode(255, bits as u8, p) < max {
+    while bits < 254 && !at_least(255.0 * step(bits as u8), max, p) {
         bits += 1;
     }
     bits as u8
 }
 
-/// Largest `q` whose plane is at or below `v` (`decode(0) = p <= v`).
+/// Largest `q` whose plane `p + q 2^e` (real arithmetic) is at or below `v`
+/// (`q = 0` is: `p <= v`).
 fn quantize_down(v: f32, e: u8, p: f32) -> u8 {
-    let step = f32::from_bits((e as u32) << 23) as f64;
-    let mut q = (((v as f64 - p as f64) / step).floor()).clamp(0.0, 255.0) as u8;
-    while q > 0 && decode(q, e, p) > v {
+    let mut q = (((v as f64 - p as f64) / step(e)).floor()).clamp(0.0, 255.0) as u8;
+    while q > 0 && !at_most(q as f64 * step(e), v, p) {
         q -= 1;
     }
-    while q < 255 && decode(q + 1, e, p) <= v {
+    while q < 255 && at_most((q + 1) as f64 * step(e), v, p) {
         q += 1;
     }
     q
 }
 
-/// Smallest `q` whose plane is at or above `v` (`decode(255) >= v`).
+/// Smallest `q` whose plane is at or above `v` (`q = 255` is, by the scale's choice).
 fn quantize_up(v: f32, e: u8, p: f32) -> u8 {
-    let step = f32::from_bits((e as u32) << 23) as f64;
-    let mut q = (((v as f64 - p as f64) / step).ceil()).clamp(0.0, 255.0) as u8;
-    while q < 255 && decode(q, e, p) < v {
+    let mut q = (((v as f64 - p as f64) / step(e)).ceil()).clamp(0.0, 255.0) as u8;
+    while q < 255 && !at_least(q as f64 * step(e), v, p) {
         q += 1;
     }
-    while q > 0 && decode(q - 1, e, p) >= v {
+    while q > 0 && at_least((q - 1) as f64 * step(e), v, p) {
         q -= 1;
     }
     q
@@ -325,9 +348,22 @@ pub fn octant_inv4(d: Vec3) -> u32 {
         | (if d.z < 0.0 { 0 } else { 0x0101_0101 })
 }
 
+/// Widening of each axis's entry and exit distances, in units of `|(p - o) / d|`: at
+/// least the error of that quotient's two roundings (2 eps) plus one of the widening
+/// itself, with room to spare (eps = 2^-24).
+pub const TRANSFORMED_RAY_SLACK: f32 = 5.0 * 5.960_464_5e-8;
+
 /// The hit mask of a node's children whose boxes the ray enters within
 /// `[tmin, tmax]`: internal children set bit `24 + (slot ^ octant)`, leaves set one
 /// bit per primitive at their offset from the node's first primitive.
+///
+/// The paper's transformed ray: plane `q` of an axis is met at `t = q (2^e / d) +
+/// (p - o) / d`, one `fma` per plane, with the near and far plane of each axis chosen
+/// once per node by the sign of `d`. `2^e / d` is exact; `(p - o) / d` is off by at
+/// most 2 eps of itself, so the near planes start from it lowered and the far planes
+/// from it raised by [`TRANSFORMED_RAY_SLACK`] of it; what remains is relative error
+/// (the `fma`, the reciprocal), which the exit scale of the slab test covers. With the
+/// requantized planes containing every child exactly, no box the ray meets is missed.
 pub fn intersect_node(
     node: &CwBvhNode,
     o: Vec3,
@@ -336,6 +372,20 @@ pub fn intersect_node(
     tmin: f32,
     tmax: f32,
 ) -> u32 {
+    let scale = Vec3::new(
+        f32::from_bits((node.e[0] as u32) << 23),
+        f32::from_bits((node.e[1] as u32) << 23),
+        f32::from_bits((node.e[2] as u32) << 23),
+    );
+    let big_e = scale * inv_d;
+    let big_p = (node.p - o) * inv_d;
+    let slack = big_p.abs() * TRANSFORMED_RAY_SLACK;
+    let (p_near, p_far) = (big_p - slack, big_p + slack);
+    let planes = [
+        (&node.child_min_x, &node.child_max_x),
+        (&node.child_min_y, &node.child_max_y),
+        (&node.child_min_z, &node.child_max_z),
+    ];
     let mut hitmask = 0u32;
     let meta8 = u64::from_le_bytes(node.child_meta);
     for half in 0..2 {
@@ -346,11 +396,14 @@ pub fn intersect_node(
         let child_bits4 = (meta4 >> 5) & 0x0707_0707;
         for j in 0..4 {
             let slot = 4 * half + j;
-            let b = child_box(node, slot);
-            let t0 = (b.min - o) * inv_d;
-            let t1 = (b.max - o) * inv_d;
-            let t_near = t0.min(t1);
-            let t_far = t0.max(t1);
+            let mut t_near = Vec3::ZERO;
+            let mut t_far = Vec3::ZERO;
+            for a in 0..3 {
+                let (lo, hi) = (planes[a].0[slot] as f32, planes[a].1[slot] as f32);
+                let (qn, qf) = if inv_d[a] < 0.0 { (hi, lo) } else { (lo, hi) };
+                t_near[a] = qn.mul_add(big_e[a], p_near[a]);
+                t_far[a] = qf.mul_add(big_e[a], p_far[a]);
+            }
             let enter = t_near.x.max(t_near.y).max(t_near.z.max(tmin));
             let leave = (t_far.x.min(t_far.y).min(t_far.z) * SLAB_EXIT_SCALE).min(tmax);
             if enter <= leave {
@@ -537,8 +590,9 @@ mod tests {
         check_against_brute_force(&prims, 4000, 32);
     }
 
-    /// Requantized boxes are exactly conservative for planes the decoder lands on and
-    /// next to: a box whose faces sit on the primitive's own coordinates.
+    /// Requantized planes are conservative in real arithmetic (what the transformed
+    /// ray measures from), the scale is the smallest that reaches, and the planes the
+    /// tightest.
     #[test]
     fn quantization_is_conservative() {
         let mut rng = Rng(104);
@@ -546,18 +600,154 @@ mod tests {
             let p = rng.range(-1e4, 1e4);
             let max = p + rng.range(0.0, 1.0) * 10f32.powi(rng.below(9) as i32 - 4);
             let e = scale_exponent(p, max);
-            assert!(decode(255, e, p) >= max);
+            assert!(at_least(255.0 * step(e), max, p));
             assert!(
-                e == 1 || decode(255, e - 1, p) < max,
+                e == 1 || !at_least(255.0 * step(e - 1), max, p),
                 "scale not the smallest"
             );
             let v = p + (max - p) * rng.f32();
             let lo = quantize_down(v, e, p);
             let hi = quantize_up(v, e, p);
+            assert!(at_most(lo as f64 * step(e), v, p) && at_least(hi as f64 * step(e), v, p));
+            assert!(lo == 255 || !at_most((lo + 1) as f64 * step(e), v, p));
+            assert!(hi == 0 || !at_least((hi - 1) as f64 * step(e), v, p));
+            // Rounded to floats, the planes still hold v.
             assert!(decode(lo, e, p) <= v && v <= decode(hi, e, p));
-            assert!(lo == 255 || decode(lo + 1, e, p) > v);
-            assert!(hi == 0 || decode(hi - 1, e, p) < v);
         }
+        // Far-apart exponents: the difference is not a double, TwoSum keeps it exact.
+        assert!(at_most(1024.0, 1e-30, -1024.0));
+        assert!(!at_most(1024.0, -1e-30, -1024.0));
+        assert!(at_least(1024.0, -1e-30, -1024.0));
+    }
+
+    /// `x = m 2^k` with an integer `m`.
+    fn mantissa_exponent(x: f32) -> (i128, i32) {
+        if x == 0.0 {
+            return (0, 0);
+        }
+        let bits = x.to_bits();
+        let exp = ((bits >> 23) & 0xff) as i32;
+        let m = (bits & 0x7f_ffff) as i128 | if exp > 0 { 1 << 23 } else { 0 };
+        let m = if x < 0.0 { -m } else { m };
+        (m, exp.max(1) - 150)
+    }
+
+    /// Exact sign of `a / da - b / db` for `a`, `b` multiples of 2^-40 (as integers) and
+    /// nonzero `da`, `db`.
+    fn compare_quotients(a: i128, da: f32, b: i128, db: f32) -> std::cmp::Ordering {
+        let (ma, ka) = mantissa_exponent(da);
+        let (mb, kb) = mantissa_exponent(db);
+        // a/da - b/db has the sign of (a db - b da) / (da db).
+        let k = ka.min(kb);
+        let lhs = a * mb * (1i128 << (kb - k));
+        let rhs = b * ma * (1i128 << (ka - k));
+        let c = lhs.cmp(&rhs);
+        if (ma < 0) != (mb < 0) {
+            c.reverse()
+        } else {
+            c
+        }
+    }
+
+    /// The box test never misses a box that the ray, in real arithmetic, meets: rays
+    /// from near and far aimed at the corners and edges of a child's box (so that about
+    /// half of them meet it at a single point or a hair inside), decided exactly with
+    /// integer arithmetic. Mutation check: without the slack it misses some.
+    #[test]
+    fn box_test_never_misses_a_box_the_ray_meets() {
+        let mut rng = Rng(106);
+        let fixed = |x: f64| -> i128 {
+            let v = x * (1u64 << 40) as f64;
+            assert_eq!(v.fract(), 0.0);
+            v as i128
+        };
+        let (mut met, mut missed_by_test) = (0, 0);
+        for _ in 0..20_000 {
+            // A node and one child box, quantized as the builder does.
+            let p = rng.vec3(-100.0, 100.0);
+            let size = rng.vec3(0.01, 10.0) * 10f32.powi(rng.below(3) as i32);
+            let mut node = CwBvhNode {
+                p,
+                ..Default::default()
+            };
+            // Often far from the node's origin corner, where (p - o) / d is large.
+            let lo = p + size * rng.vec3(0.0, 0.99);
+            let hi = lo + (p + size - lo) * rng.vec3(0.0, 1.0);
+            for a in 0..3 {
+                node.e[a] = scale_exponent(p[a], p[a] + size[a]);
+            }
+            node.child_meta[0] = 0b0010_0000;
+            node.child_min_x[0] = quantize_down(lo.x, node.e[0], p.x);
+            node.child_min_y[0] = quantize_down(lo.y, node.e[1], p.y);
+            node.child_min_z[0] = quantize_down(lo.z, node.e[2], p.z);
+            node.child_max_x[0] = quantize_up(hi.x, node.e[0], p.x);
+            node.child_max_y[0] = quantize_up(hi.y, node.e[1], p.y);
+            node.child_max_z[0] = quantize_up(hi.z, node.e[2], p.z);
+            // Its real planes.
+            let plane = |q: u8, a: usize| p[a] as f64 + q as f64 * step(node.e[a]);
+            let bmin = [
+                plane(node.child_min_x[0], 0),
+                plane(node.child_min_y[0], 1),
+                plane(node.child_min_z[0], 2),
+            ];
+            let bmax = [
+                plane(node.child_max_x[0], 0),
+                plane(node.child_max_y[0], 1),
+                plane(node.child_max_z[0], 2),
+            ];
+            // Aim at a corner or an edge point, from far away.
+            let mut target = Vec3::ZERO;
+            for a in 0..3 {
+                target[a] = match rng.below(3) {
+                    0 => bmin[a] as f32,
+                    1 => bmax[a] as f32,
+                    _ => (bmin[a] + (bmax[a] - bmin[a]) * rng.f32() as f64) as f32,
+                };
+            }
+            let mut d = Vec3::ZERO;
+            for a in 0..3 {
+                let m = rng.range(0.05, 1.0);
+                d[a] = if rng.below(2) == 0 { m } else { -m };
+            }
+            // Near (where (p - o) / d is much larger than t) and far.
+            let o = target - d * 10f32.powf(rng.range(-3.0, 2.5));
+            // Exactly: entry = max over axes of the near plane's t, exit = min of the far.
+            let mut entry: Option<(i128, f32)> = None;
+            let mut exit: Option<(i128, f32)> = None;
+            for a in 0..3 {
+                let (near, far) = if d[a] > 0.0 {
+                    (bmin[a], bmax[a])
+                } else {
+                    (bmax[a], bmin[a])
+                };
+                let n = fixed(near - o[a] as f64);
+                let f = fixed(far - o[a] as f64);
+                if entry.is_none_or(|(x, dx)| compare_quotients(n, d[a], x, dx).is_gt()) {
+                    entry = Some((n, d[a]));
+                }
+                if exit.is_none_or(|(x, dx)| compare_quotients(f, d[a], x, dx).is_lt()) {
+                    exit = Some((f, d[a]));
+                }
+            }
+            let (en, de) = entry.unwrap();
+            let (ex, dx) = exit.unwrap();
+            let meets = !compare_quotients(en, de, ex, dx).is_gt()
+                && !compare_quotients(ex, dx, 0, 1.0).is_lt();
+            if !meets {
+                continue;
+            }
+            met += 1;
+            let inv_d = safe_inverse(d);
+            let hit = intersect_node(&node, o, inv_d, octant_inv4(d), 0.0, f32::INFINITY);
+            if hit == 0 {
+                missed_by_test += 1;
+            }
+        }
+        assert!(met > 5000, "only {met} rays meet their box");
+        assert_eq!(
+            missed_by_test, 0,
+            "{missed_by_test} of {met} rays that meet a box were not reported"
+        );
     }
 
     #[test]
