@@ -72,13 +72,14 @@ pub fn child(node: &CwBvhNode, slot: usize) -> Option<Child> {
     }
 }
 
-/// Decoded plane `q` of axis scale `e` (its float exponent bits) from origin `p`, as
-/// the kernels compute it.
+/// Plane `q` of axis scale `e` (its float exponent bits) from origin `p`, rounded to
+/// f32 once (`q 2^e` is exact). The kernels do not form it: their box test measures
+/// from `p` along the ray (see [`intersect_node`]); this is for inspecting boxes.
 pub fn decode(q: u8, e: u8, p: f32) -> f32 {
     (q as f32).mul_add(f32::from_bits((e as u32) << 23), p)
 }
 
-/// The (conservative) box of `slot`, as the kernels decode it.
+/// The (conservative) box of `slot`, its planes rounded to f32 by [`decode`].
 pub fn child_box(node: &CwBvhNode, slot: usize) -> Aabb {
     let d = |q: u8, a: usize| decode(q, node.e[a], node.p[a]);
     Aabb {
