@@ -503,33 +503,14 @@ mod tests {
     use super::*;
     use crate::accel::geometry::triangle_bounds;
     use crate::accel::testing::{
-        check_against_brute_force as check_rays, random_spheres, random_triangles, Prim, Rng,
-        Traversal,
+        check_against_brute_force as check_rays, coincident_and_cluster_cases,
+        far_from_origin_case, impl_traversal, mixed_cases, random_spheres, random_triangles,
+        soup_cases, Prim, Rng,
     };
+
     use std::time::Instant;
 
-    impl Traversal for Bvh {
-        fn closest(
-            &self,
-            o: Vec3,
-            d: Vec3,
-            tmin: f32,
-            tmax: f32,
-            hit: &mut dyn FnMut(u32, f32) -> Option<f32>,
-        ) -> Option<(u32, f32)> {
-            self.closest_hit(o, d, tmin, tmax, hit)
-        }
-        fn any(
-            &self,
-            o: Vec3,
-            d: Vec3,
-            tmin: f32,
-            tmax: f32,
-            hit: &mut dyn FnMut(u32, f32) -> Option<f32>,
-        ) -> bool {
-            self.any_hit(o, d, tmin, tmax, hit)
-        }
-    }
+    impl_traversal!(Bvh);
 
     /// Builds the BVH, checks its structure, and checks rays against brute force.
     fn check_against_brute_force(prims: &[Prim], rays: usize, seed: u64) {
@@ -603,79 +584,29 @@ mod tests {
 
     #[test]
     fn triangle_soups_match_brute_force() {
-        let mut rng = Rng(1);
-        for (n, rays, seed) in [
-            (1, 2000, 10),
-            (2, 2000, 11),
-            (17, 4000, 12),
-            (1000, 10_000, 13),
-            // Brute force dominates the run time here: fewer rays.
-            (20_000, 4000, 14),
-        ] {
-            let prims = random_triangles(&mut rng, n, 10.0);
+        for (prims, rays, seed) in soup_cases(&mut Rng(1)) {
             check_against_brute_force(&prims, rays, seed);
         }
     }
 
     #[test]
     fn mixed_spheres_and_triangles_match_brute_force() {
-        let mut rng = Rng(2);
-        for (tris, spheres, rays, seed) in [
-            (0, 1, 2000, 20),
-            (0, 40, 4000, 21),
-            (1, 1, 2000, 22),
-            (500, 60, 10_000, 23),
-            (5000, 300, 10_000, 24),
-        ] {
-            let mut prims = random_triangles(&mut rng, tris, 10.0);
-            prims.extend(random_spheres(&mut rng, spheres, 10.0));
-            // Interleave so sphere indices are not all at the end.
-            let len = prims.len();
-            for i in (1..len).rev() {
-                prims.swap(i, rng.below(i + 1));
-            }
+        for (prims, rays, seed) in mixed_cases(&mut Rng(2)) {
             check_against_brute_force(&prims, rays, seed);
         }
     }
 
     #[test]
     fn coincident_and_extreme_inputs_match_brute_force() {
-        let mut rng = Rng(3);
-        // 100 copies of one triangle: all centroids coincide.
-        let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
-        let prims = vec![Prim::Triangle(t); 100];
-        check_against_brute_force(&prims, 2000, 30);
-        // Geometrically spaced clusters, a distribution that makes SAH trees deep.
-        let mut prims = Vec::new();
-        for i in 0..100 {
-            let c = Vec3::new(1.1f32.powi(i), 0.0, 0.0);
-            for _ in 0..8 {
-                let v = [
-                    c + rng.vec3(-0.1, 0.1),
-                    c + rng.vec3(-0.1, 0.1),
-                    c + rng.vec3(-0.1, 0.1),
-                ];
-                prims.push(Prim::Triangle(v));
-            }
+        for (prims, rays, seed) in coincident_and_cluster_cases(&mut Rng(3)) {
+            check_against_brute_force(&prims, rays, seed);
         }
-        check_against_brute_force(&prims, 4000, 31);
     }
 
     #[test]
     fn far_from_origin_matches_brute_force() {
-        // Small triangles far from the origin: box planes a few ulps apart. (Far smaller
-        // ones make the triangle test itself miss by rounding, for any traversal.)
-        let mut rng = Rng(29);
-        let prims: Vec<Prim> = random_triangles(&mut rng, 500, 1.0)
-            .into_iter()
-            .map(|p| match p {
-                Prim::Triangle(v) => {
-                    Prim::Triangle(v.map(|x| x + Vec3::new(3000.0, -2000.0, 1000.0)))
-                }
-                other => other,
-            })
-            .collect();
-        check_against_brute_force(&prims, 4000, 32);
+        let (prims, rays, seed) = far_from_origin_case(&mut Rng(29));
+        check_against_brute_force(&prims, rays, seed);
     }
 
     #[test]

@@ -422,32 +422,12 @@ pub fn intersect_node(
 mod tests {
     use super::*;
     use crate::accel::testing::{
-        check_against_brute_force as check_rays, random_spheres, random_triangles, Prim, Rng,
-        Traversal,
+        check_against_brute_force as check_rays, coincident_and_cluster_cases,
+        far_from_origin_case, impl_traversal, mixed_cases, random_spheres, random_triangles,
+        soup_cases, Prim, Rng,
     };
 
-    impl Traversal for Cwbvh {
-        fn closest(
-            &self,
-            o: Vec3,
-            d: Vec3,
-            tmin: f32,
-            tmax: f32,
-            hit: &mut dyn FnMut(u32, f32) -> Option<f32>,
-        ) -> Option<(u32, f32)> {
-            self.closest_hit(o, d, tmin, tmax, hit)
-        }
-        fn any(
-            &self,
-            o: Vec3,
-            d: Vec3,
-            tmin: f32,
-            tmax: f32,
-            hit: &mut dyn FnMut(u32, f32) -> Option<f32>,
-        ) -> bool {
-            self.any_hit(o, d, tmin, tmax, hit)
-        }
-    }
+    impl_traversal!(Cwbvh);
 
     /// Structural invariants: every primitive in exactly one leaf, leaves within the
     /// size cap, every node reachable once, depth within the stack, and every decoded
@@ -525,35 +505,14 @@ mod tests {
 
     #[test]
     fn triangle_soups_match_brute_force() {
-        let mut rng = Rng(101);
-        for (n, rays, seed) in [
-            (1, 2000, 10),
-            (2, 2000, 11),
-            (17, 4000, 12),
-            (1000, 10_000, 13),
-            (20_000, 4000, 14),
-        ] {
-            let prims = random_triangles(&mut rng, n, 10.0);
+        for (prims, rays, seed) in soup_cases(&mut Rng(101)) {
             check_against_brute_force(&prims, rays, seed);
         }
     }
 
     #[test]
     fn mixed_spheres_and_triangles_match_brute_force() {
-        let mut rng = Rng(102);
-        for (tris, spheres, rays, seed) in [
-            (0, 1, 2000, 20),
-            (0, 40, 4000, 21),
-            (1, 1, 2000, 22),
-            (500, 60, 10_000, 23),
-            (5000, 300, 10_000, 24),
-        ] {
-            let mut prims = random_triangles(&mut rng, tris, 10.0);
-            prims.extend(random_spheres(&mut rng, spheres, 10.0));
-            let len = prims.len();
-            for i in (1..len).rev() {
-                prims.swap(i, rng.below(i + 1));
-            }
+        for (prims, rays, seed) in mixed_cases(&mut Rng(102)) {
             check_against_brute_force(&prims, rays, seed);
         }
     }
@@ -561,34 +520,11 @@ mod tests {
     #[test]
     fn coincident_far_and_tiny_inputs_match_brute_force() {
         let mut rng = Rng(103);
-        // 100 copies of one triangle: all centroids coincide.
-        let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
-        check_against_brute_force(&vec![Prim::Triangle(t); 100], 2000, 30);
-        // Geometrically spaced clusters: node scales span many binades.
-        let mut prims = Vec::new();
-        for i in 0..100 {
-            let c = Vec3::new(1.1f32.powi(i), 0.0, 0.0);
-            for _ in 0..8 {
-                let v = [
-                    c + rng.vec3(-0.1, 0.1),
-                    c + rng.vec3(-0.1, 0.1),
-                    c + rng.vec3(-0.1, 0.1),
-                ];
-                prims.push(Prim::Triangle(v));
-            }
+        let mut cases = coincident_and_cluster_cases(&mut rng);
+        cases.push(far_from_origin_case(&mut rng));
+        for (prims, rays, seed) in cases {
+            check_against_brute_force(&prims, rays, seed);
         }
-        check_against_brute_force(&prims, 4000, 31);
-        // Far from the origin, small: quantization steps a few ulps of the position.
-        let prims: Vec<Prim> = random_triangles(&mut rng, 500, 1.0)
-            .into_iter()
-            .map(|p| match p {
-                Prim::Triangle(v) => {
-                    Prim::Triangle(v.map(|x| x + Vec3::new(3000.0, -2000.0, 1000.0)))
-                }
-                other => other,
-            })
-            .collect();
-        check_against_brute_force(&prims, 4000, 32);
     }
 
     /// Requantized planes are conservative in real arithmetic (what the transformed

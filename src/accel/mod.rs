@@ -23,11 +23,8 @@ pub enum BvhKind {
 
 /// A built tree, as the kernels read it: node bytes and leaf primitive references.
 pub struct BvhData {
-    pub kind: BvhKind,
     pub nodes: Vec<u8>,
     pub prim_refs: Vec<u32>,
-    pub node_count: usize,
-    pub depth: usize,
     /// The scene's index, before reordering, of each triangle (in the new order).
     pub triangle_order: Vec<u32>,
 }
@@ -49,7 +46,7 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
             .iter()
             .map(|s| geometry::sphere_world_bounds(&s.object_to_world)),
     );
-    let mut data = match kind {
+    let (nodes, prim_refs) = match kind {
         BvhKind::Binary => {
             let bvh = Bvh::build(&bounds);
             let depth = bvh_depth(&bvh);
@@ -58,14 +55,7 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
                     "the BVH is {depth} levels deep; the kernels' traversal stack holds {MAX_BVH_DEPTH}"
                 );
             }
-            BvhData {
-                kind,
-                nodes: bytemuck::cast_slice(&bvh.nodes).to_vec(),
-                node_count: bvh.nodes.len(),
-                prim_refs: bvh.prim_refs,
-                depth,
-                triangle_order: Vec::new(),
-            }
+            (bytemuck::cast_slice(&bvh.nodes).to_vec(), bvh.prim_refs)
         }
         BvhKind::Compressed => {
             let bvh = Cwbvh::build(&bounds);
@@ -76,15 +66,13 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
                     cwbvh::STACK_SIZE
                 );
             }
-            BvhData {
-                kind,
-                nodes: bytemuck::cast_slice(&bvh.nodes).to_vec(),
-                node_count: bvh.nodes.len(),
-                prim_refs: bvh.prim_refs,
-                depth,
-                triangle_order: Vec::new(),
-            }
+            (bytemuck::cast_slice(&bvh.nodes).to_vec(), bvh.prim_refs)
         }
+    };
+    let mut data = BvhData {
+        nodes,
+        prim_refs,
+        triangle_order: Vec::with_capacity(ntri),
     };
     // Leaf order of the triangles.
     let mut new_index = vec![u32::MAX; ntri];

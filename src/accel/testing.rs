@@ -321,3 +321,108 @@ pub(crate) fn check_against_brute_force(
         "only {hits} hits of {rays}"
     );
 }
+
+/// Implements [`Traversal`] for a BVH type with `closest_hit` and `any_hit` methods.
+macro_rules! impl_traversal {
+    ($t:ty) => {
+        impl $crate::accel::testing::Traversal for $t {
+            fn closest(
+                &self,
+                o: glam::Vec3,
+                d: glam::Vec3,
+                tmin: f32,
+                tmax: f32,
+                hit: &mut dyn FnMut(u32, f32) -> Option<f32>,
+            ) -> Option<(u32, f32)> {
+                self.closest_hit(o, d, tmin, tmax, hit)
+            }
+            fn any(
+                &self,
+                o: glam::Vec3,
+                d: glam::Vec3,
+                tmin: f32,
+                tmax: f32,
+                hit: &mut dyn FnMut(u32, f32) -> Option<f32>,
+            ) -> bool {
+                self.any_hit(o, d, tmin, tmax, hit)
+            }
+        }
+    };
+}
+pub(crate) use impl_traversal;
+
+/// A scene to check rays on: its primitives, how many rays, and the rays' seed.
+pub(crate) type Case = (Vec<Prim>, usize, u64);
+
+/// Triangle soups of 1 to 20 000 triangles.
+pub(crate) fn soup_cases(rng: &mut Rng) -> Vec<Case> {
+    [
+        (1, 2000, 10),
+        (2, 2000, 11),
+        (17, 4000, 12),
+        (1000, 10_000, 13),
+        // Brute force dominates the run time here: fewer rays.
+        (20_000, 4000, 14),
+    ]
+    .into_iter()
+    .map(|(n, rays, seed)| (random_triangles(rng, n, 10.0), rays, seed))
+    .collect()
+}
+
+/// Triangles and ellipsoids, shuffled so that sphere indices are not all at the end.
+pub(crate) fn mixed_cases(rng: &mut Rng) -> Vec<Case> {
+    [
+        (0, 1, 2000, 20),
+        (0, 40, 4000, 21),
+        (1, 1, 2000, 22),
+        (500, 60, 10_000, 23),
+        (5000, 300, 10_000, 24),
+    ]
+    .into_iter()
+    .map(|(tris, spheres, rays, seed)| {
+        let mut prims = random_triangles(rng, tris, 10.0);
+        prims.extend(random_spheres(rng, spheres, 10.0));
+        let len = prims.len();
+        for i in (1..len).rev() {
+            prims.swap(i, rng.below(i + 1));
+        }
+        (prims, rays, seed)
+    })
+    .collect()
+}
+
+/// 100 copies of one triangle (all centroids coincide), then geometrically spaced
+/// clusters (node scales across many binades; deep SAH trees).
+pub(crate) fn coincident_and_cluster_cases(rng: &mut Rng) -> Vec<Case> {
+    let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    let mut clusters = Vec::new();
+    for i in 0..100 {
+        let c = Vec3::new(1.1f32.powi(i), 0.0, 0.0);
+        for _ in 0..8 {
+            let v = [
+                c + rng.vec3(-0.1, 0.1),
+                c + rng.vec3(-0.1, 0.1),
+                c + rng.vec3(-0.1, 0.1),
+            ];
+            clusters.push(Prim::Triangle(v));
+        }
+    }
+    vec![
+        (vec![Prim::Triangle(t); 100], 2000, 30),
+        (clusters, 4000, 31),
+    ]
+}
+
+/// 500 small triangles in a unit cube 3000 units from the origin: box planes a few
+/// ulps apart. (In a far smaller cube the triangle test itself misses by rounding, for
+/// any traversal.)
+pub(crate) fn far_from_origin_case(rng: &mut Rng) -> Case {
+    let prims = random_triangles(rng, 500, 1.0)
+        .into_iter()
+        .map(|p| match p {
+            Prim::Triangle(v) => Prim::Triangle(v.map(|x| x + Vec3::new(3000.0, -2000.0, 1000.0))),
+            other => other,
+        })
+        .collect();
+    (prims, 4000, 32)
+}
