@@ -196,10 +196,19 @@ fn bench_runs_from_any_directory_with_its_built_in_scene() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    for row in ["lightpath pt, bvh", "lightpath bdpt, bvh", "Msamples/s"] {
-        assert!(text.contains(row), "{row:?} missing: {text}");
+    // Every backend is measured: a backend the device lacks would be skipped with a
+    // message, and lavapipe has all three.
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("skipping"), "a backend was skipped: {err}");
+    for backend in ["cwbvh", "bvh2", "rayquery"] {
+        for integrator in ["pt", "bdpt"] {
+            let row = format!("lightpath {integrator}, {backend} (");
+            assert!(text.contains(&row), "{row:?} missing: {text}");
+        }
     }
+    assert!(text.contains("Msamples/s"), "{text}");
     fails_with(&["bench", "--integrators", "direct"], &d, &["direct"]);
+    fails_with(&["bench", "--accels", "auto"], &d, &["--accels"]);
 }
 
 #[test]

@@ -1,5 +1,6 @@
 // What the two storage-buffer BVH walks share: the primitive references of their
-// leaves, the slab test's constants, and the exact primitive tests.
+// leaves, the slab test's constants, the exact primitive tests and the visibility
+// interface over the walk.
 layout(std430, set = 0, binding = BINDING_BVH_PRIMS) readonly buffer BvhPrimBuffer { uint bvh_prims[]; };
 
 // Mirrors of src/accel/bvh.rs: SLAB_EXIT_SCALE = 1 + 2 gamma(3), MIN_DIR_COMPONENT.
@@ -41,4 +42,30 @@ bool bvh_intersect_prim(uint prim, vec3 o, vec3 d, float tmax, out float t, out 
 #else
     return bvh_intersect_prim_once(prim, o, d, tmax, t, bary);
 #endif
+}
+
+// Tests a leaf's primitive against the closest hit so far (`closest`); a nearer hit
+// becomes the closest and is recorded in `hit`.
+bool bvh_visit_prim(uint prim, vec3 o, vec3 d, inout float closest, inout Hit hit) {
+    float t;
+    vec2 bary;
+    if (!bvh_intersect_prim(prim, o, d, closest, t, bary)) return false;
+    closest = t;
+    hit.t = t;
+    hit.prim = prim;
+    hit.bary = bary;
+    return true;
+}
+
+// Each walk (trace_bvh2.glsl, trace_cwbvh.glsl) defines its traversal; the kernels'
+// visibility interface is the same over either.
+bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit);
+
+bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
+    return bvh_traverse(o, d, tmax, false, hit);
+}
+
+bool trace_occluded(vec3 o, vec3 d, float tmax) {
+    Hit hit;
+    return bvh_traverse(o, d, tmax, true, hit);
 }

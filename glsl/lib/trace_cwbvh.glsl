@@ -81,14 +81,8 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             uint bit = uint(findMSB(prim_group.y));
             prim_group.y &= ~(1u << bit);
             uint prim = bvh_prims[prim_group.x + bit];
-            float t;
-            vec2 bary;
-            if (bvh_intersect_prim(prim, o, d, closest, t, bary)) {
-                closest = t;
+            if (bvh_visit_prim(prim, o, d, closest, hit)) {
                 found = true;
-                hit.t = t;
-                hit.prim = prim;
-                hit.bary = bary;
                 if (any_hit) return true;
             }
         }
@@ -110,13 +104,4 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
         }
     }
     return found;
-}
-
-bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
-    return bvh_traverse(o, d, tmax, false, hit);
-}
-
-bool trace_occluded(vec3 o, vec3 d, float tmax) {
-    Hit hit;
-    return bvh_traverse(o, d, tmax, true, hit);
 }
