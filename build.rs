@@ -131,7 +131,8 @@ fn main() {
 
 /// The variants each kernel is compiled in: the kernel itself, and for the path tracer
 /// and BDPT the profiling variants of `lightpath profile`, each of which does one stage
-/// twice (see glsl/lib/profile.glsl): (name suffix, define).
+/// twice (the `PROFILE_X2_*` blocks of glsl/lib/trace.glsl, trace_bvh_common.glsl,
+/// rng.glsl, bsdf.glsl and lights.glsl): (name suffix, define).
 fn variants(kernel: &str) -> Vec<(&'static str, Option<&'static str>)> {
     let mut v = vec![("", None)];
     if kernel == "pt" || kernel == "bdpt" {

@@ -32,13 +32,13 @@ float polygon_irradiance_factor(vec3 p, vec3 n, vec3 v0, vec3 v1, vec3 v2) {
 }
 
 void main() {
-    uvec2 pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.pass.z);
-    if (pixel.x >= scene.dims.x || pixel.y >= min(scene.dims.y, pass_params.pass.w)) return;
-    uint index = pixel.y * scene.dims.x + pixel.x;
+    uvec2 pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.row_begin);
+    if (pixel.x >= scene.width || pixel.y >= min(scene.height, pass_params.row_end)) return;
+    uint index = pixel.y * scene.width + pixel.x;
     vec3 sum = vec3(0.0);
     uint rays = 0u;
-    for (uint i = 0u; i < pass_params.pass.y; ++i) {
-        Rng rng = rng_init(scene.direct.z, index, pass_params.pass.x + i);
+    for (uint i = 0u; i < pass_params.samples; ++i) {
+        Rng rng = rng_init(scene.seed, index, pass_params.first_sample + i);
         vec3 o = scene.cam_eye.xyz;
         vec3 d = camera_ray_direction(pixel, rng_next2(rng));
         Hit hit;
@@ -49,7 +49,7 @@ void main() {
         vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
         vec3 L = s.emitter != NO_EMITTER ? emitted_radiance(s.material, s.ng, wo) : vec3(0.0);
         vec3 E = vec3(0.0);
-        for (uint e = 0u; e < scene.counts.x; ++e) {
+        for (uint e = 0u; e < scene.emitter_count; ++e) {
             GpuEmitter em = emitters[e];
             if (em.info.x == EMITTER_TRIANGLE) {
                 if (em.info.y == s.prim) continue;

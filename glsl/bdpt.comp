@@ -11,7 +11,7 @@
 // A contribution that comes out NaN or infinite is left out and counted in
 // stats[STAT_NONFINITE] (per contribution, not per sample).
 //
-// scene.bdpt.y > 0 restricts the pass to paths of at least that many scattering
+// scene.min_depth > 0 restricts the pass to paths of at least that many scattering
 // vertices (MMLT's tail beyond its chains' depth cap): shorter ones are not added.
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -35,20 +35,21 @@ layout(std430, set = 0, binding = BINDING_PATH_VERTICES) buffer PathVertexBuffer
 layout(std430, set = 0, binding = BINDING_STRATEGIES) buffer StrategyBuffer { float strategy_film[]; };
 
 uint nonfinite = 0u;
-uint min_scatter;   // paths with fewer scattering vertices are not added
+// Paths with fewer scattering vertices are not added (MMLT's tail: its chains have them).
+uint min_scatter() { return scene.min_depth; }
 
 // Strategy (s, t): s light vertices, t camera vertices (the camera itself included).
 // Only the group of strategies [first, first + count) that the host asked for is
-// recorded (scene.bdpt.x = first << 16 | count; 0: none), at group-relative indices:
-// when all strategies do not fit one buffer, the host re-renders the same samples once
+// recorded (scene.strategy_first, scene.strategy_count; count 0: none), at group-relative
+// indices: when all strategies do not fit one buffer, the host re-renders the same samples once
 // per group.
 void record_strategy(uint s, uint t, uint pixel, vec3 weighted, vec3 unweighted) {
-    uint count = scene.bdpt.x & 0xffffu;
+    uint count = scene.strategy_count;
     if (count == 0u) return;
     uint n = s + t - 2u;
-    uint strategy = n * (n + 3u) / 2u + s - (scene.bdpt.x >> 16);
+    uint strategy = n * (n + 3u) / 2u + s - scene.strategy_first;
     if (strategy >= count) return;   // (strategies before the group wrap around to large values)
-    uint npix = scene.dims.x * scene.dims.y;
+    uint npix = scene.width * scene.height;
     uint i = ((strategy * 2u) * npix + pixel) * 4u;
     uint j = ((strategy * 2u + 1u) * npix + pixel) * 4u;
     for (uint c = 0u; c < 3u; ++c) {
@@ -61,7 +62,7 @@ void record_strategy(uint s, uint t, uint pixel, vec3 weighted, vec3 unweighted)
 // unless it is NaN or infinite (then it is counted and left out, and the sample's other
 // strategies still count).
 void add_camera(inout vec3 L, uint s, uint t, uint pixel, vec3 unweighted, float weight) {
-    if (s + t - 2u < min_scatter) return;
+    if (s + t - 2u < min_scatter()) return;
     vec3 v = unweighted * weight;
     if (!finite3(v) || !finite3(unweighted)) { nonfinite++; return; }
     L += v;
@@ -69,10 +70,10 @@ void add_camera(inout vec3 L, uint s, uint t, uint pixel, vec3 unweighted, float
 }
 
 void add_splat(uvec2 px, uint s, vec3 unweighted, float weight) {
-    if (s - 1u < min_scatter) return;
+    if (s - 1u < min_scatter()) return;
     vec3 v = unweighted * weight;
     if (!finite3(v) || !finite3(unweighted)) { nonfinite++; return; }
-    uint pixel = px.y * scene.dims.x + px.x;
+    uint pixel = px.y * scene.width + px.x;
     record_strategy(s, 1u, pixel, v, unweighted);
     if (v == vec3(0.0)) return;
     atomicAdd(splat[pixel * 4u + 0u], v.x);
@@ -90,16 +91,16 @@ uint light_subpath(uint base) {
     uvec2 px;
     vec3 value;
     float weight;
-    if (min_scatter == 0u && strategy_light_point_seen(le, e, px, value, weight)) add_splat(px, 1u, value, weight);
-    // Light vertices serve only paths of at most max_scatter scattering vertices.
-    if (max_scatter == 0u || min_scatter > max_scatter) return 0u;
+    if (min_scatter() == 0u && strategy_light_point_seen(le, e, px, value, weight)) add_splat(px, 1u, value, weight);
+    // Light vertices serve only paths of at most max_scatter() scattering vertices.
+    if (max_scatter() == 0u || min_scatter() > max_scatter()) return 0u;
     uint stored = 0u;
-    for (uint i = 1u; i <= max_scatter; ++i) {
+    for (uint i = 1u; i <= max_scatter(); ++i) {
         PathVertex y;
         if (!light_walk_next(w, y)) break;
-        // Vertices that a camera vertex can still connect to (s + t - 2 <= max_scatter
+        // Vertices that a camera vertex can still connect to (s + t - 2 <= max_scatter()
         // with t >= 2) are stored.
-        if (i < max_scatter) {
+        if (i < max_scatter()) {
             GpuPathVertex v;
             v.p = vec4(y.p, uintBitsToFloat(y.material));
             v.n = vec4(y.n, y.dvcm);
@@ -108,8 +109,8 @@ uint light_subpath(uint base) {
             light_vertices[base + i - 1u] = v;
             stored = i;
         }
-        if (i >= min_scatter && strategy_camera_connection(y, px, value, weight)) add_splat(px, i + 1u, value, weight);
-        if (i == max_scatter) break;
+        if (i >= min_scatter() && strategy_camera_connection(y, px, value, weight)) add_splat(px, i + 1u, value, weight);
+        if (i == max_scatter()) break;
         if (!light_walk_extend(w, y)) break;
     }
     return stored;
@@ -140,12 +141,12 @@ PathVertex stored_light_vertex(uint index) {
 // the power heuristic, as the path tracer does. Path length splits path space, so the
 // two regimes add up to the whole, unbiased.
 vec3 camera_subpath(uvec2 pixel, uint base, uint stored) {
-    uint pixel_index = pixel.y * scene.dims.x + pixel.x;
+    uint pixel_index = pixel.y * scene.width + pixel.x;
     Walk w;
-    camera_walk_start((vec2(pixel) + sample_2d(STREAM_CAMERA)) / vec2(scene.dims.xy), w);
+    camera_walk_start((vec2(pixel) + sample_2d(STREAM_CAMERA)) / vec2(uvec2(scene.width, scene.height)), w);
     vec3 L = vec3(0.0);
-    bool unbounded = scene.counts.z != 0u;
-    uint max_vertices = unbounded ? UNBOUNDED_DEPTH_CAP : max_scatter;
+    bool unbounded = scene.unbounded != 0u;
+    uint max_vertices = unbounded ? UNBOUNDED_DEPTH_CAP : max_scatter();
     for (uint k = 1u; k <= max_vertices + 1u; ++k) {
         // The vertex z_k; strategies here have t = k + 1.
         PathVertex z;
@@ -153,13 +154,13 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored) {
         vec3 value;
         float weight;
         // s = 0: the camera subpath found an emitter (k - 1 scattering vertices).
-        if (k - 1u >= min_scatter && strategy_emitter_hit(w, z, value, weight)) add_camera(L, 0u, k + 1u, pixel_index, value, weight);
+        if (k - 1u >= min_scatter() && strategy_emitter_hit(w, z, value, weight)) add_camera(L, 0u, k + 1u, pixel_index, value, weight);
         if (k > max_vertices) break;
         // s = 1: a fresh sample on a light (k scattering vertices).
-        if (k >= min_scatter && strategy_light_sample(w, z, value, weight)) add_camera(L, 1u, k + 1u, pixel_index, value, weight);
-        // s >= 2: connect to the stored light vertices y_1 .. y_j with j + k <= max_scatter.
-        uint last = k < max_scatter ? min(stored, max_scatter - k) : 0u;
-        for (uint j = max(1u, min_scatter - min(min_scatter, k)); j <= last; ++j) {
+        if (k >= min_scatter() && strategy_light_sample(w, z, value, weight)) add_camera(L, 1u, k + 1u, pixel_index, value, weight);
+        // s >= 2: connect to the stored light vertices y_1 .. y_j with j + k <= max_scatter().
+        uint last = k < max_scatter() ? min(stored, max_scatter() - k) : 0u;
+        for (uint j = max(1u, min_scatter() - min(min_scatter(), k)); j <= last; ++j) {
             if (strategy_connection(z, stored_light_vertex(base + j - 1u), value, weight)) add_camera(L, j + 1u, k + 1u, pixel_index, value, weight);
         }
         if (!camera_walk_extend(w, z)) break;
@@ -168,22 +169,20 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored) {
 }
 
 void main() {
-    uvec2 pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.pass.z);
-    if (pixel.x >= scene.dims.x || pixel.y >= min(scene.dims.y, pass_params.pass.w)) return;
-    uint index = pixel.y * scene.dims.x + pixel.x;
-    bdpt_init_globals();
-    min_scatter = scene.bdpt.y;
+    uvec2 pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.row_begin);
+    if (pixel.x >= scene.width || pixel.y >= min(scene.height, pass_params.row_end)) return;
+    uint index = pixel.y * scene.width + pixel.x;
     // This invocation's slice of the light-vertex buffer (which holds one band; none
     // when only paths too long for light vertices are added).
-    uint stride = min_scatter > max_scatter ? 0u : max(max_scatter, 2u) - 1u;
-    uint base = ((pixel.y - pass_params.pass.z) * scene.dims.x + pixel.x) * stride;
+    uint stride = min_scatter() > max_scatter() ? 0u : max(max_scatter(), 2u) - 1u;
+    uint base = ((pixel.y - pass_params.row_begin) * scene.width + pixel.x) * stride;
     if (stride > 0u && base + stride > uint(light_vertices.length())) {
         atomicAdd(stats[STAT_OUT_OF_RANGE], 1u);
         return;
     }
     vec3 sum = vec3(0.0);
-    for (uint i = 0u; i < pass_params.pass.y; ++i) {
-        sampler_start(scene.direct.z, index, pass_params.pass.x + i);
+    for (uint i = 0u; i < pass_params.samples; ++i) {
+        sampler_start(scene.seed, index, pass_params.first_sample + i);
         uint stored = light_subpath(base);
         sum += camera_subpath(pixel, base, stored);
     }

@@ -36,7 +36,7 @@ layout(push_constant) uniform MmltBlock { MmltParams params; };
 
 layout(std430, set = 0, binding = BINDING_SPLAT) buffer SplatBuffer { float splat[]; };
 // --mmlt-depths: one vec4 film per depth, [depth][pixel].
-layout(std430, set = 0, binding = BINDING_STRATEGIES) buffer DepthFilmBuffer { float depth_film[]; };
+layout(std430, set = 0, binding = BINDING_DEPTH_FILMS) buffer DepthFilmBuffer { float depth_film[]; };
 layout(std430, set = 0, binding = BINDING_CHAINS) buffer ChainBuffer { GpuChain chains[]; };
 layout(std430, set = 0, binding = BINDING_BOOTSTRAP) buffer BootstrapBuffer { float bootstrap_f[]; };
 
@@ -53,7 +53,7 @@ vec3 mmlt_path(uint depth, out uint pixel) {
     uint s = min(uint(sample_1d(STREAM_CAMERA) * float(strategies)), depth + 1u);
     uint t = strategies - s;
     vec2 film = sample_2d(STREAM_CAMERA);
-    uvec2 px = min(uvec2(film * vec2(scene.dims.xy)), scene.dims.xy - 1u);
+    uvec2 px = min(uvec2(film * vec2(uvec2(scene.width, scene.height))), uvec2(scene.width, scene.height) - 1u);
     vec3 value = vec3(0.0);
     float weight = 0.0;
     bool found = false;
@@ -99,7 +99,7 @@ vec3 mmlt_path(uint depth, out uint pixel) {
             }
         }
     }
-    pixel = px.y * scene.dims.x + px.x;
+    pixel = px.y * scene.width + px.x;
     return found ? value * (weight * float(strategies)) : vec3(0.0);
 }
 
@@ -127,8 +127,8 @@ vec3 mmlt_sample(uint depth, out uint pixel, out float f) {
 // CPU without evaluating paths.
 vec3 probe_sample(out uint pixel, out float f) {
     pss_begin_path();
-    uvec4 h = pcg4d(uvec4(pss_chain, pss_proposal, pss_seed, 0x20000000u));
-    uint counts[3] = uint[3](1u + h.x % pss_capacity[0], h.y % (pss_capacity[1] + 1u), h.z % (pss_capacity[2] + 1u));
+    uvec4 h = pcg4d(uvec4(pss.chain, pss.proposal, pss.seed, 0x20000000u));
+    uint counts[3] = uint[3](1u + h.x % pss.capacity[0], h.y % (pss.capacity[1] + 1u), h.z % (pss.capacity[2] + 1u));
     for (uint s = 0u; s < 3u; ++s) {
         for (uint i = 0u; i < counts[s]; ++i) sample_u32(s);
     }
@@ -142,8 +142,8 @@ void splat_add(uint pixel, uint depth, vec3 v) {
     atomicAdd(splat[pixel * 4u + 0u], v.x);
     atomicAdd(splat[pixel * 4u + 1u], v.y);
     atomicAdd(splat[pixel * 4u + 2u], v.z);
-    if (params.sizes.w != 0u) {
-        uint i = (depth * scene.dims.x * scene.dims.y + pixel) * 4u;
+    if (params.record_depths != 0u) {
+        uint i = (depth * scene.width * scene.height + pixel) * 4u;
         atomicAdd(depth_film[i + 0u], v.x);
         atomicAdd(depth_film[i + 1u], v.y);
         atomicAdd(depth_film[i + 2u], v.z);
@@ -152,47 +152,46 @@ void splat_add(uint pixel, uint depth, vec3 v) {
 
 void main() {
     uint id = gl_GlobalInvocationID.x;
-    if (id >= params.run.z) return;
-    uint item = params.run.y + id;
-    bdpt_init_globals();
-    pss_seed = scene.direct.z;
-    pss_chains = params.sizes.x;
-    pss_sigma = params.mutation.x;
-    pss_base[0] = 0u;
-    pss_base[1] = params.streams.x;
-    pss_base[2] = params.streams.x + params.streams.y;
-    pss_capacity[0] = params.streams.x;
-    pss_capacity[1] = params.streams.y;
-    pss_capacity[2] = params.streams.z;
-    pss_chain = item;
-    pss_proposal = 0u;
+    if (id >= params.items) return;
+    uint item = params.first_item + id;
+    pss.seed = scene.seed;
+    pss.chains = params.chains;
+    pss.sigma = params.sigma;
+    pss.base[0] = 0u;
+    pss.base[1] = params.camera_numbers;
+    pss.base[2] = params.camera_numbers + params.light_numbers;
+    pss.capacity[0] = params.camera_numbers;
+    pss.capacity[1] = params.light_numbers;
+    pss.capacity[2] = params.connect_numbers;
+    pss.chain = item;
+    pss.proposal = 0u;
     // The sampler probe (tests only) runs the start and chain modes on a synthetic path.
-    bool probe = params.run.x >= MMLT_MODE_PROBE_START;
-    uint mode = probe ? params.run.x - (MMLT_MODE_PROBE_START - MMLT_MODE_START) : params.run.x;
+    bool probe = params.mode >= MMLT_MODE_PROBE_START;
+    uint mode = probe ? params.mode - (MMLT_MODE_PROBE_START - MMLT_MODE_START) : params.mode;
 
     // Every mode evaluates paths at the one call of mmlt_sample below.
     GpuChain ch = GpuChain(vec4(0.0), uvec4(0u), uvec4(0u), uvec4(0u));
     uint depth;
     uint iterations = 1u;
     if (mode == MMLT_MODE_BOOTSTRAP) {
-        pss_mode = PSS_FROM_KEY;
-        depth = item / params.sizes.y;
-        pss_key_depth = depth;
-        pss_key_index = item % params.sizes.y;
+        pss.mode = PSS_FROM_KEY;
+        depth = item / params.bootstrap_per_depth;
+        pss.key_depth = depth;
+        pss.key_index = item % params.bootstrap_per_depth;
     } else if (mode == MMLT_MODE_START) {
         // Copy the bootstrap sample's numbers into the chain, then evaluate them.
         ch = chains[item];
         depth = ch.state.y;
-        for (uint dim = 0u; dim < params.streams.w; ++dim) {
+        for (uint dim = 0u; dim < params.numbers; ++dim) {
             uint v = pss_key_number(ch.start.x, depth, dim);
-            chain_samples[dim * pss_chains + item] = uvec4(v, 0u, v, 0u);
+            chain_samples[dim * pss.chains + item] = uvec4(v, 0u, v, 0u);
         }
-        pss_mode = PSS_READ;
+        pss.mode = PSS_READ;
     } else {
         ch = chains[item];
         depth = ch.state.y;
-        pss_mode = PSS_MUTATE;
-        iterations = params.run.w;
+        pss.mode = PSS_MUTATE;
+        iterations = params.mutations;
     }
     vec3 C = ch.current.xyz;
     float f = ch.current.w;
@@ -202,10 +201,10 @@ void main() {
     float pending = 0.0;   // the current path's splat weight not yet splatted
     for (uint k = 0u; k < iterations; ++k) {
         if (mode == MMLT_MODE_CHAINS) {
-            pss_proposal = ch.counts.x + ch.counts.z;
-            pss_step = step + 1u;
-            pss_last_large = last_large;
-            pss_large = pss_unit(pss_hash(PSS_TAG_DECIDE, 0u).x) < params.mutation.y;
+            pss.proposal = ch.counts.x + ch.counts.z;
+            pss.step = step + 1u;
+            pss.last_large = last_large;
+            pss.large = pss_unit(pss_hash(PSS_TAG_DECIDE, 0u).x) < params.large_step;
         }
         uint pixel2;
         float f2;
@@ -213,7 +212,7 @@ void main() {
         if (mode == MMLT_MODE_BOOTSTRAP) {
             bootstrap_f[item] = f2;
         } else if (mode == MMLT_MODE_START) {
-            if (!probe && f2 != bootstrap_f[depth * params.sizes.y + ch.start.x]) atomicAdd(stats[STAT_START_MISMATCH], 1u);
+            if (!probe && f2 != bootstrap_f[depth * params.bootstrap_per_depth + ch.start.x]) atomicAdd(stats[STAT_START_MISMATCH], 1u);
             C = C2;
             f = f2;
             pixel = pixel2;
@@ -227,16 +226,16 @@ void main() {
             if (f2 > 0.0) splat_add(pixel2, depth, C2 * (a / f2));
             if (f > 0.0) pending += 1.0 - a;
             bool accept = pss_unit(pss_hash(PSS_TAG_DECIDE, 1u).x) < a;
-            if (pss_large) ch.counts.x++; else ch.counts.z++;
+            if (pss.large) ch.counts.x++; else ch.counts.z++;
             if (accept) {
                 if (pending > 0.0) splat_add(pixel, depth, C * (pending / f));
                 pending = 0.0;
                 C = C2;
                 f = f2;
                 pixel = pixel2;
-                step = pss_step;
-                if (pss_large) {
-                    last_large = pss_step;
+                step = pss.step;
+                if (pss.large) {
+                    last_large = pss.step;
                     ch.counts.y++;
                 } else {
                     ch.counts.w++;

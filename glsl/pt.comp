@@ -1,6 +1,6 @@
 // One pass of the unidirectional integrators: `pathtracer` (every option of the scene
 // format) and `direct` (lightsamples, lightstratify). One invocation per pixel adds
-// pass_params.pass.y samples to the film; film.w counts the rays traced.
+// pass_params.samples samples to the film; film.w counts the rays traced.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -24,31 +24,25 @@ bool light_visible(vec3 p, vec3 n, LightSample ls) {
 }
 
 // Light sampling at a surface point: f * cos * L / pdf, MIS-weighted when asked.
-vec3 estimate_direct(GpuMaterial m, vec3 p, vec3 n, vec3 wo, uint e, vec2 u, bool mis, uint mode) {
+vec3 estimate_direct(BsdfParams b, vec3 p, vec3 n, vec3 wo, uint e, vec2 u, bool mis, uint mode) {
     LightSample ls;
-    if (!sample_emitter(e, p, u, ls) || !(ls.pdf > 0.0)) return vec3(0.0);
-    float cos_s = dot(n, ls.wi);
-    if (cos_s <= 0.0) return vec3(0.0);
-    uint kind = uint(m.params.z);
-    vec3 f = bsdf_eval(kind, m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, ls.wi);
-    if (f == vec3(0.0)) return vec3(0.0);
+    vec3 f;
+    float cos_s;
+    if (!sample_direct_light(b, e, p, n, wo, u, ls, f, cos_s)) return vec3(0.0);
     if (!light_visible(p, n, ls)) return vec3(0.0);
     float w = 1.0;
-    if (mis && !ls.delta) {
-        float pdf_b = bsdf_pdf(mode, kind, m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, ls.wi);
-        w = power_heuristic(ls.pdf, pdf_b);
-    }
+    if (mis) w = light_sample_mis_weight(ls, bsdf_pdf(b, mode, n, wo, ls.wi));
     return f * ls.L * (cos_s * w / ls.pdf);
 }
 
 vec3 path_sample(uvec2 pixel, inout Rng rng) {
     vec3 o = scene.cam_eye.xyz;
     vec3 d = camera_ray_direction(pixel, rng_next2(rng));
-    uint nee = scene.options.x;
-    bool rr = scene.options.y != 0u;
-    uint mode = scene.options.z;
-    uint max_vertices = scene.counts.z != 0u ? UNBOUNDED_DEPTH_CAP : scene.counts.y;
-    bool have_emitters = scene.counts.x > 0u;
+    uint nee = scene.nee;
+    bool rr = scene.russian_roulette != 0u;
+    uint mode = scene.sample_mode;
+    uint max_vertices = scene.unbounded != 0u ? UNBOUNDED_DEPTH_CAP : scene.max_depth;
+    bool have_emitters = scene.emitter_count > 0u;
 
     vec3 L = vec3(0.0);
     vec3 beta = vec3(1.0);
@@ -59,43 +53,38 @@ vec3 path_sample(uvec2 pixel, inout Rng rng) {
         if (!closest(o, d, hit)) break;
         Surface s = surface_at(hit, o, d);
         vec3 wo = -d;
-        GpuMaterial m = materials[s.material];
+        BsdfParams b = material_bsdf(materials[s.material]);
         // Emission found by the path itself.
         if (s.emitter != NO_EMITTER) {
             vec3 Le = emitted_radiance(s.material, s.ng, wo);
             if (depth == 0u || nee == NEE_OFF) {
                 L += beta * Le;
             } else if (nee == NEE_MIS && Le != vec3(0.0)) {
-                float pdf_l = emitter_pdf_solid_angle(s.emitter, prev_p, s.p, s.ng);
-                L += beta * Le * power_heuristic(prev_pdf, pdf_l);
+                L += beta * Le * emitter_hit_mis_weight(s.emitter, prev_p, prev_pdf, s.p, s.ng);
             }
         }
         // This hit is scattering vertex depth+1; paths have at most max_vertices of them.
         if (depth + 1u > max_vertices) break;
         vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
-        uint kind = uint(m.params.z);
         if (nee != NEE_OFF && have_emitters) {
             uint e = pick_emitter(rng_block(rng).x);
-            L += beta * estimate_direct(m, s.p, n, wo, e, rng_next2(rng), nee == NEE_MIS, mode);
+            L += beta * estimate_direct(b, s.p, n, wo, e, rng_next2(rng), nee == NEE_MIS, mode);
         }
         // With NEE on, emission found by the next bounce would not count: stop here.
         if (nee == NEE_ON && depth + 1u == max_vertices) break;
-        vec3 wi;
-        float pdf;
-        if (!bsdf_sample(mode, kind, m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, rng_next3(rng), wi, pdf)) break;
-        if (pdf <= 0.0) break;
-        vec3 f = bsdf_eval(kind, m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, wi);
-        beta *= f * (dot(n, wi) / pdf);
+        BsdfSample bs;
+        if (!bsdf_sample(b, mode, n, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) break;
+        beta *= bs.f * (dot(n, bs.wi) / bs.pdf);
         if (beta == vec3(0.0)) break;
         if (rr) {
             float survive = min(1.0, max(beta.x, max(beta.y, beta.z)));
             if (rng_next(rng) >= survive) break;
             beta /= survive;
         }
-        prev_pdf = pdf;
+        prev_pdf = bs.pdf;
         prev_p = s.p;
         o = offset_ray_origin(s.p, n);
-        d = wi;
+        d = bs.wi;
     }
     return L;
 }
@@ -111,29 +100,29 @@ vec3 direct_sample(uvec2 pixel, inout Rng rng) {
     vec3 wo = -d;
     vec3 L = vec3(0.0);
     if (s.emitter != NO_EMITTER) L += emitted_radiance(s.material, s.ng, wo);
-    if (scene.counts.x == 0u || (scene.counts.y == 0u && scene.counts.z == 0u)) return L;
-    GpuMaterial m = materials[s.material];
+    if (scene.emitter_count == 0u || (scene.max_depth == 0u && scene.unbounded == 0u)) return L;
+    BsdfParams b = material_bsdf(materials[s.material]);
     vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
-    uint count = max(scene.direct.x, 1u);
-    uint strata = scene.direct.y != 0u ? uint(floor(sqrt(float(count)) + 1e-3)) : 0u;
+    uint count = max(scene.light_samples, 1u);
+    uint strata = scene.light_stratify != 0u ? uint(floor(sqrt(float(count)) + 1e-3)) : 0u;
     vec3 sum = vec3(0.0);
     for (uint k = 0u; k < count; ++k) {
         uint e = pick_emitter(rng_block(rng).x);
         vec2 u = rng_next2(rng);
         if (k < strata * strata) u = (vec2(float(k % strata), float(k / strata)) + u) / float(strata);
-        sum += estimate_direct(m, s.p, n, wo, e, u, false, SAMPLE_BRDF);
+        sum += estimate_direct(b, s.p, n, wo, e, u, false, SAMPLE_BRDF);
     }
     return L + sum / float(count);
 }
 
 void main() {
-    uvec2 pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.pass.z);
-    if (pixel.x >= scene.dims.x || pixel.y >= min(scene.dims.y, pass_params.pass.w)) return;
-    uint index = pixel.y * scene.dims.x + pixel.x;
+    uvec2 pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.row_begin);
+    if (pixel.x >= scene.width || pixel.y >= min(scene.height, pass_params.row_end)) return;
+    uint index = pixel.y * scene.width + pixel.x;
     vec3 sum = vec3(0.0);
-    for (uint i = 0u; i < pass_params.pass.y; ++i) {
-        Rng rng = rng_init(scene.direct.z, index, pass_params.pass.x + i);
-        vec3 L = scene.options.w == INTEGRATOR_DIRECT ? direct_sample(pixel, rng) : path_sample(pixel, rng);
+    for (uint i = 0u; i < pass_params.samples; ++i) {
+        Rng rng = rng_init(scene.seed, index, pass_params.first_sample + i);
+        vec3 L = scene.integrator == INTEGRATOR_DIRECT ? direct_sample(pixel, rng) : path_sample(pixel, rng);
         if (any(isnan(L)) || any(isinf(L))) {
             atomicAdd(stats[STAT_NONFINITE], 1u);
         } else {

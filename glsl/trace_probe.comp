@@ -1,25 +1,26 @@
 // The traversal probe (for tests): traces a list of rays with trace_closest and
 // trace_occluded, so that each visibility backend can be checked against brute force on
-// the device itself. Rays at the film binding, two vec4 each: (origin, tmax),
-// (direction, 0); pass_params.pass.y rays. Out at the splat binding, a uvec4 per ray:
-// (closest primitive or 0xffffffff, its t as float bits, 1 if occluded, 0).
+// the device itself (src/probe.rs). In: two vec4 per ray, (origin, tmax) and
+// (direction, 0); pass_params.samples rays. Out: a uvec4 per ray, (closest primitive or
+// 0xffffffff, its t as float bits, 1 if occluded, 0).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
 #include "abi.h"
-layout(local_size_x = 64) in;
+layout(local_size_x = PROBE_WORKGROUP_SIZE) in;
 #include "bindings.glsl"
 #include "trace.glsl"
 
-layout(std430, set = 0, binding = BINDING_SPLAT) buffer ProbeOut { uvec4 probe_out[]; };
+layout(std430, set = 0, binding = BINDING_PROBE_RAYS) readonly buffer ProbeRays { vec4 probe_rays[]; };
+layout(std430, set = 0, binding = BINDING_PROBE_HITS) writeonly buffer ProbeHits { uvec4 probe_hits[]; };
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    if (i >= pass_params.pass.y) return;
-    vec4 a = film[2u * i];
-    vec4 b = film[2u * i + 1u];
+    if (i >= pass_params.samples) return;
+    vec4 a = probe_rays[2u * i];
+    vec4 b = probe_rays[2u * i + 1u];
     Hit hit;
     bool found = trace_closest(a.xyz, b.xyz, a.w, hit);
     bool occluded = trace_occluded(a.xyz, b.xyz, a.w);
-    probe_out[i] = uvec4(found ? hit.prim : 0xffffffffu, floatBitsToUint(hit.t), occluded ? 1u : 0u, 0u);
+    probe_hits[i] = uvec4(found ? hit.prim : 0xffffffffu, floatBitsToUint(hit.t), occluded ? 1u : 0u, 0u);
 }

@@ -93,7 +93,7 @@ def uv_sphere(n=32):
     return v.reshape(-1, 3), f
 
 
-# ---- the .test parser (see shared/SCENE_FORMAT.md) ----
+# ---- the .test parser (see docs/scene-format.md) ----
 
 ARITY = {"size": 2, "output": 1, "camera": 10, "spp": 1, "gamma": 1, "maxverts": 1,
          "vertex": 3, "tri": 3, "sphere": 4, "translate": 3, "rotate": 4, "scale": 3,

@@ -122,7 +122,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let out = renderers[i].render(&scene, seed, &mut trace)?;
             let samples = out.samples_per_pixel as f64 * scene.width as f64 * scene.height as f64;
             // MMLT: mutations per second of its chain dispatches.
-            let per_second = match &out.mmlt {
+            let per_second = match out.details::<crate::render::MmltReport>() {
                 Some(m) => m.mutations_per_second(),
                 None => samples / out.dispatch_seconds,
             };
@@ -153,7 +153,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             name: format!(
                 "lightpath {short}, {} ({})",
                 r.backend().name(),
-                r.device.info.name
+                r.device_info().name
             ),
             samples_per_second: median(runs[row].iter().map(|x| x.0).collect()),
             rays_per_second: Some(median(runs[row].iter().map(|x| x.1).collect())),

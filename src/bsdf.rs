@@ -2,7 +2,7 @@
 //!
 //! Same formulas, same branch structure and the same use of the uniforms (u.x picks the
 //! lobe, u.yz place the direction), so that the statistical tests below are a faithful
-//! check of the GPU code. The BRDFs are those of shared/SCENE_FORMAT.md, "Materials".
+//! check of the GPU code. The BRDFs are those of docs/scene-format.md, "Materials".
 //!
 //! Conventions: `wo` toward the viewer, `wi` toward the light, `n` the unit shading
 //! normal, already flipped toward `wo` (`n·wo >= 0`; a slightly negative value from
@@ -108,37 +108,30 @@ pub mod sampling {
     }
 }
 
-/// The scene's `brdf`; the discriminants are the GLSL `BRDF_*` constants.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u32)]
-pub enum BrdfKind {
-    Phong = 0,
-    Ggx = 1,
-}
-
-/// The scene's `importancesampling`; the discriminants are the GLSL `SAMPLE_*` constants.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u32)]
-pub enum SampleMode {
-    /// Uniform over the hemisphere of n, pdf 1/(2π).
-    Hemisphere = 0,
-    /// Cosine-weighted around n, pdf cosθ/π.
-    Cosine = 1,
-    /// The material's own lobe mixture.
-    Brdf = 2,
-}
+pub use crate::abi::{BsdfKind, SampleMode, Transport};
+use crate::abi::{GpuMaterial, BSDF_LOBE_REFLECTION};
 
 /// GLSL `BSDF_MIN_ALPHA`: the smallest GGX alpha used.
 pub const MIN_GGX_ALPHA: f32 = 1e-4;
 
-/// One surface's BRDF parameters (the scene's material state).
+/// One surface's BSDF parameters: GLSL `BsdfParams`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BsdfParams {
-    pub kind: BrdfKind,
+    pub kind: BsdfKind,
     pub kd: Vec3,
     pub ks: Vec3,
     pub shininess: f32,
     pub roughness: f32,
+}
+
+/// A sampled direction: GLSL `BsdfSample` (wi, f(wo, wi), the sampling mode's pdf of wi,
+/// and its lobe as `BSDF_LOBE_*` flags).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    pub f: Vec3,
+    pub pdf: f32,
+    pub flags: u32,
 }
 
 fn bsdf_avg(c: Vec3) -> f32 {
@@ -249,6 +242,18 @@ fn sample_phong_lobe(u: Vec2, s: f32) -> Vec3 {
 }
 
 impl BsdfParams {
+    /// The BSDF of a material record: GLSL `material_bsdf`. None when the record's kind
+    /// is not a BSDF kind.
+    pub fn from_record(m: &GpuMaterial) -> Option<BsdfParams> {
+        Some(BsdfParams {
+            kind: BsdfKind::from_code(m.info[0])?,
+            kd: Vec3::from_slice(&m.diffuse[..3]),
+            ks: Vec3::from_slice(&m.specular[..3]),
+            shininess: m.roughness[0],
+            roughness: m.roughness[1],
+        })
+    }
+
     /// Probability of picking the specular lobe in [`SampleMode::Brdf`] (rules at the top).
     pub fn specular_probability(&self) -> f32 {
         let d = bsdf_avg(self.kd);
@@ -257,25 +262,26 @@ impl BsdfParams {
         if !(sum > 0.0) {
             return 0.0;
         }
-        if self.kind == BrdfKind::Ggx {
+        if self.kind == BsdfKind::Ggx {
             return if d > 0.0 { (s / sum).max(0.25) } else { 1.0 };
         }
         s / sum
     }
 
-    /// The BRDF value f(wo, wi) (not multiplied by cosθi). GLSL `bsdf_eval`.
-    pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
+    /// The BSDF value f(wo, wi) (not multiplied by cosθi) for a path carrying
+    /// `transport` (these BRDFs are symmetric and do not depend on it). GLSL `bsdf_eval`.
+    pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3, _transport: Transport) -> Vec3 {
         let ci = n.dot(wi);
         if !(ci > 0.0) {
             return Vec3::ZERO;
         }
         let mut f = self.kd * INV_PI;
         match self.kind {
-            BrdfKind::Ggx => {
+            BsdfKind::Ggx => {
                 let co = n.dot(wo).max(0.0);
                 f += ggx_specular(self.ks, self.roughness, n, wo, wi, ci, co);
             }
-            BrdfKind::Phong => {
+            BsdfKind::Phong => {
                 let s = self.shininess.max(0.0);
                 let r = reflect(-wo, n);
                 f += self.ks * ((s + 2.0) * INV_TWO_PI * phong_lobe(r.dot(wi), s));
@@ -302,18 +308,26 @@ impl BsdfParams {
         let mut p_spec = 0.0;
         if t > 0.0 {
             p_spec = match self.kind {
-                BrdfKind::Ggx => ggx_specular_pdf(self.roughness, n, wo, wi),
-                BrdfKind::Phong => phong_specular_pdf(self.shininess, n, wo, wi),
+                BsdfKind::Ggx => ggx_specular_pdf(self.roughness, n, wo, wi),
+                BsdfKind::Phong => phong_specular_pdf(self.shininess, n, wo, wi),
             };
         }
         t * p_spec + (1.0 - t) * p_cos
     }
 
     /// Draws wi from three uniforms in [0, 1): u.x picks the lobe ([`SampleMode::Brdf`]
-    /// only), u.yz place the direction. Returns wi and `self.pdf(mode, n, wo, wi)` (the
-    /// full mixture pdf, as MIS needs), or None when wi falls below the surface (the
-    /// caller ends the path). GLSL `bsdf_sample`.
-    pub fn sample(&self, mode: SampleMode, n: Vec3, wo: Vec3, u: Vec3) -> Option<(Vec3, f32)> {
+    /// only), u.yz place the direction. Returns wi, f(wo, wi) and `self.pdf(mode, n, wo,
+    /// wi)` (the full mixture pdf, as MIS needs), or None when wi falls below the surface
+    /// or its pdf is not a positive finite number (the caller ends the path). GLSL
+    /// `bsdf_sample`.
+    pub fn sample(
+        &self,
+        mode: SampleMode,
+        n: Vec3,
+        wo: Vec3,
+        u: Vec3,
+        transport: Transport,
+    ) -> Option<BsdfSample> {
         let uv = Vec2::new(u.y, u.z);
         let wi = if mode == SampleMode::Hemisphere {
             to_world(sampling::sample_uniform_hemisphere(uv), n)
@@ -321,12 +335,12 @@ impl BsdfParams {
             to_world(sampling::sample_cosine_hemisphere(uv), n)
         } else if u.x < self.specular_probability() {
             match self.kind {
-                BrdfKind::Ggx => {
+                BsdfKind::Ggx => {
                     let a = ggx_alpha(self.roughness);
                     let h = to_world(sample_ggx_half(uv, a * a), n);
                     reflect(-wo, h)
                 }
-                BrdfKind::Phong => {
+                BsdfKind::Phong => {
                     let r = reflect(-wo, n);
                     to_world(sample_phong_lobe(uv, self.shininess.max(0.0)), r)
                 }
@@ -338,11 +352,14 @@ impl BsdfParams {
             return None;
         }
         let pdf = self.pdf(mode, n, wo, wi);
-        if pdf > 0.0 && !pdf.is_infinite() {
-            Some((wi, pdf))
-        } else {
-            None
-        }
+        // (NaN fails the test, as in the GLSL.)
+        let valid = pdf > 0.0 && !pdf.is_infinite();
+        valid.then(|| BsdfSample {
+            wi,
+            f: self.eval(n, wo, wi, transport),
+            pdf,
+            flags: BSDF_LOBE_REFLECTION,
+        })
     }
 }
 
@@ -396,7 +413,7 @@ mod tests {
 
     fn phong(kd: [f32; 3], ks: [f32; 3], shininess: f32) -> BsdfParams {
         BsdfParams {
-            kind: BrdfKind::Phong,
+            kind: BsdfKind::Phong,
             kd: Vec3::from(kd),
             ks: Vec3::from(ks),
             shininess,
@@ -406,7 +423,7 @@ mod tests {
 
     fn ggx(kd: [f32; 3], ks: [f32; 3], roughness: f32) -> BsdfParams {
         BsdfParams {
-            kind: BrdfKind::Ggx,
+            kind: BsdfKind::Ggx,
             kd: Vec3::from(kd),
             ks: Vec3::from(ks),
             shininess: 0.0,
@@ -752,7 +769,7 @@ mod tests {
     /// χ² goodness of fit of `sample` against `pdf` for the cases of one BRDF kind:
     /// 20 × 40 (cosθ, φ) bins of the hemisphere plus one bin for failed samples, whose
     /// probability is 1 − ∫pdf. Significance 0.01 over all cases of both kinds (Šidák).
-    fn chi2_kind(kind: BrdfKind) {
+    fn chi2_kind(kind: BsdfKind) {
         let all = cases();
         let per_test_alpha = 1.0 - (1.0 - CHI2_ALPHA).powf(1.0 / all.len() as f64);
         let mut failures = Vec::new();
@@ -767,7 +784,11 @@ mod tests {
             let mut observed = vec![0u64; N_COS * N_PHI + 1];
             let mut rng = Pcg32::new(0x5eed_0000 + ci as u64, ci as u64);
             for _ in 0..CHI2_SAMPLES {
-                match case.bsdf.sample(case.mode, case.n, case.wo, rng.vec3()) {
+                match case
+                    .bsdf
+                    .sample(case.mode, case.n, case.wo, rng.vec3(), Transport::Radiance)
+                    .map(|s| (s.wi, s.pdf))
+                {
                     Some((wi, _)) => observed[bin_of(frame, wi)] += 1,
                     None => observed[N_COS * N_PHI] += 1,
                 }
@@ -786,12 +807,12 @@ mod tests {
 
     #[test]
     fn chi2_sampling_matches_pdf_phong() {
-        chi2_kind(BrdfKind::Phong);
+        chi2_kind(BsdfKind::Phong);
     }
 
     #[test]
     fn chi2_sampling_matches_pdf_ggx() {
-        chi2_kind(BrdfKind::Ggx);
+        chi2_kind(BsdfKind::Ggx);
     }
 
     /// Fraction of failed samples, with its standard error.
@@ -800,7 +821,8 @@ mod tests {
         let fails = (0..samples)
             .filter(|_| {
                 case.bsdf
-                    .sample(case.mode, case.n, case.wo, rng.vec3())
+                    .sample(case.mode, case.n, case.wo, rng.vec3(), Transport::Radiance)
+                    .map(|s| (s.wi, s.pdf))
                     .is_none()
             })
             .count() as f64;
@@ -821,7 +843,7 @@ mod tests {
             let t = case.bsdf.specular_probability();
             let never_fails = case.mode != SampleMode::Brdf
                 || t == 0.0
-                || (case.bsdf.kind == BrdfKind::Phong && case.n.dot(case.wo) > 0.9999);
+                || (case.bsdf.kind == BsdfKind::Phong && case.n.dot(case.wo) > 0.9999);
             if never_fails {
                 assert!((total - 1.0).abs() < 1e-4, "{}: ∫pdf = {total}", case.label);
             } else {
@@ -842,7 +864,10 @@ mod tests {
             let mut rng = Pcg32::new(77 + ci as u64, 3);
             let mut successes = 0;
             for _ in 0..5_000 {
-                let Some((wi, pdf)) = case.bsdf.sample(case.mode, case.n, case.wo, rng.vec3())
+                let Some((wi, pdf)) = case
+                    .bsdf
+                    .sample(case.mode, case.n, case.wo, rng.vec3(), Transport::Radiance)
+                    .map(|s| (s.wi, s.pdf))
                 else {
                     continue;
                 };
@@ -860,7 +885,7 @@ mod tests {
                     "{}: sample pdf {pdf}, pdf() {p}",
                     case.label
                 );
-                let f = case.bsdf.eval(case.n, case.wo, wi);
+                let f = case.bsdf.eval(case.n, case.wo, wi, Transport::Radiance);
                 assert!(
                     f.is_finite() && f.min_element() >= 0.0,
                     "{}: f = {f}",
@@ -901,15 +926,15 @@ mod tests {
                     }
                     wi
                 };
-                let f1 = bsdf.eval(n, wo, wi);
-                let f2 = bsdf.eval(n, wi, wo);
+                let f1 = bsdf.eval(n, wo, wi, Transport::Radiance);
+                let f2 = bsdf.eval(n, wi, wo, Transport::Radiance);
                 let tol = 1e-3 * f1.max(f2) + Vec3::splat(1e-6);
                 assert!(
                     (f1 - f2).abs().cmple(tol).all(),
                     "{bsdf:?}: f(wo, wi) = {f1}, f(wi, wo) = {f2} for n {n} wo {wo} wi {wi}"
                 );
                 assert!(f1.is_finite() && f1.min_element() >= 0.0);
-                assert_eq!(bsdf.eval(n, wo, -wi), Vec3::ZERO);
+                assert_eq!(bsdf.eval(n, wo, -wi, Transport::Radiance), Vec3::ZERO);
                 for mode in MODES {
                     assert_eq!(bsdf.pdf(mode, n, wo, -wi), 0.0);
                 }
@@ -929,8 +954,11 @@ mod tests {
         let mut rng = Pcg32::new(seed, 11);
         let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
         for _ in 0..samples {
-            if let Some((wi, pdf)) = bsdf.sample(mode, n, wo, rng.vec3()) {
-                let x = (bsdf.eval(n, wo, wi) * n.dot(wi) / pdf).as_dvec3();
+            if let Some((wi, pdf)) = bsdf
+                .sample(mode, n, wo, rng.vec3(), Transport::Radiance)
+                .map(|s| (s.wi, s.pdf))
+            {
+                let x = (bsdf.eval(n, wo, wi, Transport::Radiance) * n.dot(wi) / pdf).as_dvec3();
                 sum += x;
                 sum2 += x * x;
             }
@@ -1001,9 +1029,10 @@ mod tests {
             for mode in [SampleMode::Cosine, SampleMode::Brdf] {
                 for _ in 0..10_000 {
                     let (wi, pdf) = lambert
-                        .sample(mode, n, wo, rng.vec3())
+                        .sample(mode, n, wo, rng.vec3(), Transport::Radiance)
+                        .map(|s| (s.wi, s.pdf))
                         .expect("cosine sampling cannot fail");
-                    let x = lambert.eval(n, wo, wi) * n.dot(wi) / pdf;
+                    let x = lambert.eval(n, wo, wi, Transport::Radiance) * n.dot(wi) / pdf;
                     assert!(
                         (x - kd).abs().max_element() <= 1e-5,
                         "Lambertian sample {x}"
@@ -1083,14 +1112,17 @@ mod tests {
                 for mode in MODES {
                     let mut ok = 0;
                     for _ in 0..2000 {
-                        if let Some((wi, pdf)) = bsdf.sample(mode, n, wo, rng.vec3()) {
+                        if let Some((wi, pdf)) = bsdf
+                            .sample(mode, n, wo, rng.vec3(), Transport::Radiance)
+                            .map(|s| (s.wi, s.pdf))
+                        {
                             ok += 1;
-                            let f = bsdf.eval(n, wo, wi);
+                            let f = bsdf.eval(n, wo, wi, Transport::Radiance);
                             assert!(pdf.is_finite() && pdf > 0.0, "{bsdf:?} {mode:?}: pdf {pdf}");
                             assert!(f.is_finite(), "{bsdf:?} {mode:?}: f {f}");
                         }
                         let wi = random_hemisphere(&mut rng, n);
-                        assert!(bsdf.eval(n, wo, wi).is_finite());
+                        assert!(bsdf.eval(n, wo, wi, Transport::Radiance).is_finite());
                         assert!(bsdf.pdf(mode, n, wo, wi).is_finite());
                     }
                     // Only the specular lobe of a pure-specular material can fail that
@@ -1117,10 +1149,17 @@ mod tests {
         let n = Vec3::Z;
         let wo = wo_at(n, 30.0, 0.0);
         let (wi, pdf) = black
-            .sample(SampleMode::Brdf, n, wo, Vec3::new(0.5, 0.3, 0.6))
+            .sample(
+                SampleMode::Brdf,
+                n,
+                wo,
+                Vec3::new(0.5, 0.3, 0.6),
+                Transport::Radiance,
+            )
+            .map(|s| (s.wi, s.pdf))
             .expect("cosine lobe");
         assert!((pdf - wi.z * INV_PI).abs() < 1e-6);
-        assert_eq!(black.eval(n, wo, wi), Vec3::ZERO);
+        assert_eq!(black.eval(n, wo, wi, Transport::Radiance), Vec3::ZERO);
     }
 
     #[test]

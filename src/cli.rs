@@ -1,4 +1,4 @@
-//! The command line: `lightpath render | devices | compare | bench`.
+//! The command line: `lightpath render | devices | compare | merge | bench | profile`.
 use crate::io;
 use crate::render::{AccelChoice, Renderer};
 use crate::scene::{self, IntegratorKind, Scene};
@@ -255,7 +255,7 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
     {
         eprintln!(
             "warning: maxdepth -1 without russianroulette: paths end only at the cap of {} vertices",
-            crate::gpu::abi::UNBOUNDED_DEPTH_CAP
+            crate::abi::UNBOUNDED_DEPTH_CAP
         );
     }
     let output = output_path(&scene, args);
@@ -296,10 +296,10 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
             },
         )
     })?;
-    renderer.show_progress = !args.quiet;
-    renderer.record_strategies = args.bdpt_strategies.is_some();
-    renderer.record_depths = args.mmlt_depths.is_some();
-    renderer.time_limit = args.time_limit;
+    renderer.engine.control.show_progress = !args.quiet;
+    renderer.engine.control.time_limit = args.time_limit;
+    renderer.options.bdpt.record_strategies = args.bdpt_strategies.is_some();
+    renderer.options.mmlt.record_depths = args.mmlt_depths.is_some();
     let started = std::time::Instant::now();
     let mut info = io::RenderInfo {
         integrator: scene.settings.integrator.name().to_string(),
@@ -307,7 +307,7 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
         seeds: vec![args.seed],
         max_depth: scene.settings.max_depth,
         backend: renderer.backend().name().to_string(),
-        device: renderer.device.info.name.clone(),
+        device: renderer.device_info().name.clone(),
         render_seconds: 0.0,
         version: env!("CARGO_PKG_VERSION").to_string(),
         scene_file: args
@@ -330,10 +330,10 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
         signal_hook::flag::register_usize(signal, interrupt.clone(), signal as usize)
             .context("installing the signal handler")?;
     }
-    renderer.interrupt = Some(interrupt);
+    renderer.engine.control.interrupt = Some(interrupt);
     if let Some(every) = args.write_partial_images {
         let (path, gamma, base) = (output.clone(), scene.settings.gamma, info.clone());
-        renderer.snapshots = Some(crate::render::Snapshots {
+        renderer.engine.control.snapshots = Some(crate::render::Snapshots {
             every,
             last: None,
             write: Box::new(move |image, samples| {
@@ -385,7 +385,11 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
     })?;
     if let Some(dir) = &args.bdpt_strategies {
         trace.cpu("write strategy images", || -> Result<()> {
-            for st in &out.strategies {
+            let strategies = out
+                .details::<crate::render::BdptDetails>()
+                .map(|d| d.strategies.as_slice())
+                .unwrap_or_default();
+            for st in strategies {
                 let name = format!("s{}_t{}", st.s, st.t);
                 io::write_image(&dir.join(format!("{name}.exr")), &st.weighted, 1.0)?;
                 io::write_image(
@@ -397,7 +401,8 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
             Ok(())
         })?;
     }
-    if let (Some(dir), Some(m)) = (&args.mmlt_depths, &out.mmlt) {
+    let mmlt = out.details::<crate::render::MmltReport>();
+    if let (Some(dir), Some(m)) = (&args.mmlt_depths, mmlt) {
         trace.cpu("write depth images", || -> Result<()> {
             for (d, img) in m.depth_images.iter().enumerate() {
                 io::write_image(&dir.join(format!("d{d}.exr")), img, 1.0)?;
@@ -405,7 +410,7 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
             Ok(())
         })?;
     }
-    if let Some(m) = &out.mmlt {
+    if let Some(m) = mmlt {
         if m.b == 0.0 {
             eprintln!("mmlt: the bootstrap found no path that carries light: the image is black");
         }
@@ -428,7 +433,7 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
             scene.height,
             out.samples_per_pixel,
             scene.settings.integrator.name(),
-            renderer.device.info.name,
+            renderer.device_info().name,
             out.backend.name(),
             total / out.dispatch_seconds / 1e6,
             out.rays / out.dispatch_seconds / 1e6

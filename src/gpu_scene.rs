@@ -1,16 +1,14 @@
 //! The scene on the device: triangles in BVH leaf order, spheres, materials, the
 //! emitter table (selection by power) and the uniform scene parameters, with the
-//! descriptor set that binds them for a kernel.
-use crate::accel::rayquery::RayQueryScene;
+//! resources that bind them for a kernel. Integrators set their own fields of the
+//! parameters (`Engine::prepare` lets them); nothing here knows one.
+use crate::abi::*;
 use crate::accel::BvhData;
-use crate::gpu::abi::*;
 use crate::gpu::buffer::Buffer;
-use crate::gpu::kernels::{Backend, Kernels};
+use crate::gpu::kernels::{Backend, Resource};
+use crate::gpu::rayquery::RayQueryScene;
 use crate::gpu::{other_error, Device};
-use crate::integrators::bdpt::bdpt_max_scatter;
-use crate::scene::{
-    BrdfKind, DeltaLight, ImportanceSampling, IntegratorKind, NextEventEstimation, Scene,
-};
+use crate::scene::{DeltaLight, NextEventEstimation, Scene};
 use anyhow::Result;
 use ash::vk;
 use glam::{Mat3, Vec3};
@@ -213,19 +211,16 @@ pub fn pick_emitter(cdf: &[u32], x: u32) -> usize {
     lo
 }
 
-pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams {
+/// The scene's parameters for a render with `seed`: the camera, bounds, counts and the
+/// settings every integrator reads (`emitter_count` is filled in by `GpuScene::new`). `max_depth` is the scene's (0 for -1, with
+/// `unbounded` set); integrators adjust their own fields before upload.
+pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
     let c = &scene.camera;
     let forward = (c.look_at - c.eye).normalize();
     let right = forward.cross(c.up).normalize();
     let up = right.cross(forward);
     let s = &scene.settings;
     let (center, radius) = scene_bounds(scene);
-    let bdpt = matches!(s.integrator, IntegratorKind::Bdpt | IntegratorKind::Mmlt);
-    let max_depth = if bdpt {
-        bdpt_max_scatter(scene)
-    } else {
-        s.max_depth.max(0) as u32
-    };
     SceneParams {
         cam_eye: c
             .eye
@@ -237,44 +232,30 @@ pub fn scene_params(scene: &Scene, seed: u32, emitter_count: u32) -> SceneParams
         cam_up: up.extend(0.0).to_array(),
         cam_forward: forward.extend(0.0).to_array(),
         bounds: center.extend(radius).to_array(),
-        dims: [
-            scene.width,
-            scene.height,
-            scene.triangles.len() as u32,
-            scene.spheres.len() as u32,
-        ],
-        counts: [emitter_count, max_depth, (s.max_depth < 0) as u32, s.spp],
-        options: [
-            match s.nee {
-                NextEventEstimation::Off => NEE_OFF,
-                NextEventEstimation::On => NEE_ON,
-                NextEventEstimation::Mis => NEE_MIS,
-            },
-            s.russian_roulette as u32,
-            match s.importance_sampling {
-                ImportanceSampling::Hemisphere => 0,
-                ImportanceSampling::Cosine => 1,
-                ImportanceSampling::Brdf => 2,
-            },
-            match s.integrator {
-                IntegratorKind::Direct => INTEGRATOR_DIRECT,
-                IntegratorKind::AnalyticDirect => INTEGRATOR_ANALYTIC,
-                IntegratorKind::Bdpt => INTEGRATOR_BDPT,
-                _ => INTEGRATOR_PATHTRACER,
-            },
-        ],
-        direct: [s.light_samples.max(1), s.light_stratify as u32, seed, 0],
-        // MMLT with maxdepth -1: its bdpt tail adds only paths beyond the chains' cap.
-        bdpt: [
-            0,
-            if s.integrator == IntegratorKind::Mmlt && s.max_depth < 0 {
-                BDPT_UNBOUNDED_DEPTH_CAP + 1
-            } else {
-                0
-            },
-            0,
-            0,
-        ],
+        width: scene.width,
+        height: scene.height,
+        triangle_count: scene.triangles.len() as u32,
+        sphere_count: scene.spheres.len() as u32,
+        emitter_count: 0,
+        max_depth: s.max_depth.max(0) as u32,
+        unbounded: (s.max_depth < 0) as u32,
+        spp: s.spp,
+        integrator: 0,
+        seed,
+        sample_mode: s.importance_sampling as u32,
+        nee: match s.nee {
+            NextEventEstimation::Off => NEE_OFF,
+            NextEventEstimation::On => NEE_ON,
+            NextEventEstimation::Mis => NEE_MIS,
+        },
+        russian_roulette: s.russian_roulette as u32,
+        light_samples: s.light_samples.max(1),
+        light_stratify: s.light_stratify as u32,
+        min_depth: 0,
+        strategy_first: 0,
+        strategy_count: 0,
+        reserved0: 0,
+        reserved1: 0,
     }
 }
 
@@ -284,8 +265,7 @@ impl GpuScene {
         scene: &Scene,
         bvh: &BvhData,
         backend: Backend,
-        seed: u32,
-        strategy_selection: u32,
+        params: SceneParams,
     ) -> Result<GpuScene> {
         let table = emitter_table(scene);
         let bits = f32::from_bits;
@@ -317,27 +297,9 @@ impl GpuScene {
                 }
             })
             .collect();
-        let materials: Vec<GpuMaterial> = scene
-            .materials
-            .iter()
-            .map(|m| GpuMaterial {
-                diffuse: m.diffuse.extend(0.0).to_array(),
-                specular: m.specular.extend(0.0).to_array(),
-                emission: m.emission.extend(0.0).to_array(),
-                params: [
-                    m.shininess,
-                    m.roughness,
-                    match m.brdf {
-                        BrdfKind::Phong => 0.0,
-                        BrdfKind::Ggx => 1.0,
-                    },
-                    m.two_sided_emission as u32 as f32,
-                ],
-            })
-            .collect();
-        let mut params = scene_params(scene, seed, table.emitters.len() as u32);
-        // The strategy images to record (see integrators::bdpt::strategy_selection).
-        params.bdpt[0] = strategy_selection;
+        let materials: Vec<GpuMaterial> = scene.materials.iter().map(|m| m.record()).collect();
+        let mut params = params;
+        params.emitter_count = table.emitters.len() as u32;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let triangle_usage = if backend == Backend::RayQuery {
             storage
@@ -350,6 +312,10 @@ impl GpuScene {
         for (name, bytes) in [
             ("triangles", triangles.len() * 48),
             ("spheres", spheres.len() * 112),
+            (
+                "materials",
+                materials.len() * std::mem::size_of::<GpuMaterial>(),
+            ),
             ("BVH nodes", bvh.nodes.len()),
             ("emitters", table.emitters.len() * 80),
         ] {
@@ -361,7 +327,7 @@ impl GpuScene {
                 .into());
             }
         }
-        let (bvh_nodes, bvh_prims) = if backend.bvh_kind().is_some() {
+        let (bvh_nodes, bvh_prims) = if backend != Backend::RayQuery {
             (
                 Some(Buffer::with_data(device, "BVH nodes", &bvh.nodes, storage)?),
                 Some(Buffer::with_data(
@@ -412,31 +378,25 @@ impl GpuScene {
         })
     }
 
-    pub fn descriptor_set(
-        &self,
-        kernels: &Kernels,
-        outputs: &[(u32, &Buffer)],
-        rq: Option<&RayQueryScene>,
-    ) -> Result<vk::DescriptorSet> {
-        let s = vk::DescriptorType::STORAGE_BUFFER;
+    /// The scene's resources by binding number, for `Kernels::descriptor_set` (a kernel
+    /// binds those it uses). `rq` holds the TLAS on the ray-query backend.
+    pub fn resources(&self, rq: Option<&RayQueryScene>) -> Vec<(u32, Resource)> {
         let mut list = vec![
-            (
-                BINDING_SCENE,
-                self.scene_params.raw,
-                vk::DescriptorType::UNIFORM_BUFFER,
-            ),
-            (BINDING_TRIANGLES, self.triangles.raw, s),
-            (BINDING_SPHERES, self.spheres.raw, s),
-            (BINDING_MATERIALS, self.materials.raw, s),
-            (BINDING_EMITTERS, self.emitters.raw, s),
-            (BINDING_EMITTER_CDF, self.emitter_cdf.raw, s),
+            (BINDING_SCENE, Resource::Buffer(self.scene_params.raw)),
+            (BINDING_TRIANGLES, Resource::Buffer(self.triangles.raw)),
+            (BINDING_SPHERES, Resource::Buffer(self.spheres.raw)),
+            (BINDING_MATERIALS, Resource::Buffer(self.materials.raw)),
+            (BINDING_EMITTERS, Resource::Buffer(self.emitters.raw)),
+            (BINDING_EMITTER_CDF, Resource::Buffer(self.emitter_cdf.raw)),
         ];
-        list.extend(outputs.iter().map(|(b, buf)| (*b, buf.raw, s)));
         if let (Some(n), Some(p)) = (&self.bvh_nodes, &self.bvh_prims) {
-            list.push((BINDING_BVH_NODES, n.raw, s));
-            list.push((BINDING_BVH_PRIMS, p.raw, s));
+            list.push((BINDING_BVH_NODES, Resource::Buffer(n.raw)));
+            list.push((BINDING_BVH_PRIMS, Resource::Buffer(p.raw)));
         }
-        Ok(kernels.descriptor_set(&list, rq.map(|r| r.tlas.raw))?)
+        if let Some(rq) = rq {
+            list.push((BINDING_TLAS, Resource::AccelerationStructure(rq.tlas.raw)));
+        }
+        list
     }
 }
 
@@ -550,7 +510,7 @@ mod tests {
     #[test]
     fn camera_basis_is_orthonormal_and_looks_at_the_target() {
         let s = parse_str("size 200 100\ncamera 1 2 3  0 1 0  0 1 0  45\n", "t").unwrap();
-        let p = scene_params(&s, 0, 0);
+        let p = scene_params(&s, 0);
         let f = Vec3::from_slice(&p.cam_forward[..3]);
         let r = Vec3::from_slice(&p.cam_right[..3]);
         let u = Vec3::from_slice(&p.cam_up[..3]);

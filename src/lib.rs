@@ -1,9 +1,11 @@
 //! lightpath: a GPU renderer on raw Vulkan. Path tracing, bidirectional path tracing
 //! and multiplexed Metropolis light transport, converging to the same image.
+pub mod abi;
 pub mod accel;
 pub mod bench;
 pub mod bsdf;
 pub mod cli;
+pub mod engine;
 pub mod gpu;
 pub mod gpu_scene;
 pub mod integrators;

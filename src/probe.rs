@@ -1,13 +1,15 @@
-//! The traversal probe: traces given rays on the device through the kernels'
-//! `trace_closest` and `trace_occluded` (glsl/trace_probe.comp), so that tests can check
-//! every visibility backend against brute force where it runs, not only its CPU mirror.
-use crate::gpu::abi::*;
-use crate::gpu::buffer::Buffer;
-use crate::render::{Prepared, Renderer};
+//! Device probes: the kernels' GLSL run on given inputs, so that tests check it where it
+//! runs against its CPU mirror, not only the mirror. `trace_rays` traces rays through
+//! `trace_closest` and `trace_occluded` (glsl/trace_probe.comp) for every visibility
+//! backend; `bsdf` evaluates, samples and takes pdfs of the BSDFs (glsl/bsdf_probe.comp);
+//! `mmlt_sampler` runs MMLT's primary-sample-space chains on a synthetic path
+//! (glsl/mmlt.comp's probe modes). Each runs through the engine like any render.
+use crate::abi::*;
+use crate::engine::{Dispatch, Engine};
+use crate::integrators::mmlt_sampler::stream_sizes;
 use crate::scene::Scene;
 use crate::trace::Trace;
 use anyhow::Result;
-use ash::vk;
 use glam::Vec3;
 
 /// What the device found for one ray.
@@ -19,73 +21,201 @@ pub struct ProbeHit {
     pub occluded: bool,
 }
 
-impl Renderer {
-    /// Traces each ray `(origin, direction, tmax)` (from t = 0) through `scene` with the
-    /// kernels' visibility functions of this renderer's backend.
-    pub fn trace_probe(
-        &mut self,
-        scene: &Scene,
-        rays: &[(Vec3, Vec3, f32)],
-    ) -> Result<Vec<ProbeHit>> {
-        let mut trace = Trace::new();
-        let Prepared {
-            gpu_scene,
-            rq,
-            triangle_order,
-        } = self.prepare(scene, 0, 0, &mut trace)?;
-        let input: Vec<[f32; 4]> = rays
-            .iter()
-            .flat_map(|(o, d, tmax)| [o.extend(*tmax).to_array(), d.extend(0.0).to_array()])
-            .collect();
-        let rays_buffer = Buffer::with_data(
-            &self.device,
-            "probe rays",
-            bytemuck::cast_slice(&input),
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-        )?;
-        let out_bytes = (16 * rays.len() as u64).max(16);
-        let out = self.storage_buffer("probe hits", out_bytes)?;
-        let set = self.descriptor_set(
-            &gpu_scene,
-            &[(BINDING_FILM, &rays_buffer), (BINDING_SPLAT, &out)],
-            rq.as_ref(),
-        )?;
-        let pipeline = self.kernels.pipeline("trace_probe")?;
-        let params = PassParams {
-            pass: [0, rays.len() as u32, 0, 0],
-        };
-        self.device
-            .run_commands("tracing the probe rays", |cmd| unsafe {
-                self.bind_kernel(cmd, pipeline, set);
-                self.device.raw.cmd_push_constants(
-                    cmd,
-                    self.kernels.layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    bytemuck::bytes_of(&params),
-                );
-                self.device
-                    .raw
-                    .cmd_dispatch(cmd, (rays.len() as u32).div_ceil(64).max(1), 1, 1);
-            })?;
-        let data = out.download(out_bytes)?;
-        let words: &[[u32; 4]] = bytemuck::cast_slice(&data);
-        let ntri = triangle_order.len() as u32;
-        Ok(words[..rays.len()]
-            .iter()
-            .map(|w| ProbeHit {
-                closest: (w[0] != u32::MAX).then(|| {
-                    let prim = if w[0] < ntri {
-                        triangle_order[w[0] as usize]
-                    } else {
-                        w[0]
-                    };
-                    (prim, f32::from_bits(w[1]))
-                }),
-                occluded: w[2] != 0,
-            })
-            .collect())
-    }
+/// Traces each ray `(origin, direction, tmax)` (from t = 0) through `scene` with the
+/// kernels' visibility functions of the engine's backend.
+pub fn trace_rays(
+    engine: &mut Engine,
+    scene: &Scene,
+    rays: &[(Vec3, Vec3, f32)],
+) -> Result<Vec<ProbeHit>> {
+    let mut trace = Trace::new();
+    let prepared = engine.prepare(scene, 0, |_| {}, &mut trace)?;
+    let input: Vec<[f32; 4]> = rays
+        .iter()
+        .flat_map(|(o, d, tmax)| [o.extend(*tmax).to_array(), d.extend(0.0).to_array()])
+        .collect();
+    let rays_buffer = engine.buffer_with("probe rays", bytemuck::cast_slice(&input))?;
+    let out_bytes = (16 * rays.len() as u64).max(16);
+    let out = engine.storage_buffer("probe hits", out_bytes)?;
+    let kernel = engine.kernel("trace_probe", None)?;
+    let set = engine.bind(
+        &kernel,
+        Some(&prepared),
+        &[
+            (BINDING_PROBE_RAYS, &rays_buffer),
+            (BINDING_PROBE_HITS, &out),
+        ],
+    )?;
+    let params = PassParams {
+        first_sample: 0,
+        samples: rays.len() as u32,
+        row_begin: 0,
+        row_end: 0,
+    };
+    let groups = [
+        (rays.len() as u32).div_ceil(PROBE_WORKGROUP_SIZE).max(1),
+        1,
+        1,
+    ];
+    engine.submit(
+        &[Dispatch::new(&kernel, set, &params, groups)],
+        "tracing the probe rays",
+        &mut trace,
+    )?;
+    let data = out.download(out_bytes)?;
+    let words: &[[u32; 4]] = bytemuck::cast_slice(&data);
+    let order = &prepared.triangle_order;
+    let ntri = order.len() as u32;
+    Ok(words[..rays.len()]
+        .iter()
+        .map(|w| ProbeHit {
+            closest: (w[0] != u32::MAX).then(|| {
+                let prim = if w[0] < ntri {
+                    order[w[0] as usize]
+                } else {
+                    w[0]
+                };
+                (prim, f32::from_bits(w[1]))
+            }),
+            occluded: w[2] != 0,
+        })
+        .collect())
+}
+
+/// Runs the GLSL BSDFs on `inputs` (each names a material of `materials` by index) and
+/// returns what they gave (abi.h `BsdfProbeOutput`).
+pub fn bsdf(
+    engine: &mut Engine,
+    materials: &[GpuMaterial],
+    inputs: &[BsdfProbeInput],
+) -> Result<Vec<BsdfProbeOutput>> {
+    let mut trace = Trace::new();
+    engine.kernels.reset_sets()?;
+    let materials_buffer =
+        engine.buffer_with("probe materials", bytemuck::cast_slice(materials))?;
+    let inputs_buffer = engine.buffer_with("probe inputs", bytemuck::cast_slice(inputs))?;
+    let out_bytes = (inputs.len() * std::mem::size_of::<BsdfProbeOutput>()).max(16) as u64;
+    let out = engine.storage_buffer("probe outputs", out_bytes)?;
+    let kernel = engine.kernel("bsdf_probe", None)?;
+    let set = engine.bind(
+        &kernel,
+        None,
+        &[
+            (BINDING_MATERIALS, &materials_buffer),
+            (BINDING_BSDF_PROBE_INPUTS, &inputs_buffer),
+            (BINDING_BSDF_PROBE_OUTPUTS, &out),
+        ],
+    )?;
+    let params = PassParams {
+        first_sample: 0,
+        samples: inputs.len() as u32,
+        row_begin: 0,
+        row_end: 0,
+    };
+    let groups = [
+        (inputs.len() as u32).div_ceil(PROBE_WORKGROUP_SIZE).max(1),
+        1,
+        1,
+    ];
+    engine.submit(
+        &[Dispatch::new(&kernel, set, &params, groups)],
+        "running the BSDF probe",
+        &mut trace,
+    )?;
+    let data = out.download(out_bytes)?;
+    Ok(bytemuck::cast_slice::<u8, BsdfProbeOutput>(&data)[..inputs.len()].to_vec())
+}
+
+/// MMLT's sampler against its CPU mirror: `chains` chains (chain c started on bootstrap
+/// sample c of depth `depth_cap`) make `proposals` proposals on mmlt.comp's synthetic
+/// probe path. Returns every chain's primary numbers (dimension-major, as the kernel
+/// keeps them) and the chains' state.
+pub fn mmlt_sampler(
+    engine: &mut Engine,
+    chains: u32,
+    depth_cap: u32,
+    proposals: u32,
+    seed: u32,
+    sigma: f32,
+    large_step: f32,
+) -> Result<(Vec<[u32; 4]>, Vec<GpuChain>)> {
+    let mut scene = crate::scene::parse_str(
+        "size 4 4\nvertex 0 0 -1\nvertex 1 0 -1\nvertex 0 1 -1\ntri 0 1 2\n",
+        "sampler probe",
+    )?;
+    scene.settings.max_depth = depth_cap as i32;
+    let mut trace = Trace::new();
+    let prepared = engine.prepare(&scene, seed, |_| {}, &mut trace)?;
+    let streams = stream_sizes(depth_cap);
+    let numbers: u32 = streams.iter().sum();
+    let samples =
+        engine.device_buffer("probe primary samples", chains as u64 * numbers as u64 * 16)?;
+    let init: Vec<GpuChain> = (0..chains)
+        .map(|c| GpuChain {
+            state: [0, depth_cap, 0, 0],
+            start: [c, 0, 0, 0],
+            ..Default::default()
+        })
+        .collect();
+    let chain_buffer = engine.storage_buffer(
+        "probe chains",
+        chains as u64 * std::mem::size_of::<GpuChain>() as u64,
+    )?;
+    chain_buffer.upload(bytemuck::cast_slice(&init))?;
+    let stats = engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?;
+    // The probe modes touch no film, splat or bootstrap targets; mmlt.comp binds them.
+    let unused = engine.storage_buffer("unused", 16)?;
+    let kernel = engine.kernel("mmlt", None)?;
+    let set = engine.bind(
+        &kernel,
+        Some(&prepared),
+        &[
+            (BINDING_STATS, &stats),
+            (BINDING_SPLAT, &unused),
+            (BINDING_DEPTH_FILMS, &unused),
+            (BINDING_BOOTSTRAP, &unused),
+            (BINDING_CHAIN_SAMPLES, &samples),
+            (BINDING_CHAINS, &chain_buffer),
+        ],
+    )?;
+    let mut p = MmltParams {
+        mode: MMLT_MODE_PROBE_START,
+        first_item: 0,
+        items: chains,
+        mutations: 0,
+        chains,
+        bootstrap_per_depth: 1,
+        depths: depth_cap + 1,
+        record_depths: 0,
+        camera_numbers: streams[0],
+        light_numbers: streams[1],
+        connect_numbers: streams[2],
+        numbers,
+        sigma,
+        large_step,
+        reserved0: 0.0,
+        reserved1: 0.0,
+    };
+    let groups = [chains.div_ceil(MMLT_WORKGROUP_SIZE), 1, 1];
+    engine.submit(
+        &[Dispatch::new(&kernel, set, &p, groups)],
+        "running the sampler probe's start",
+        &mut trace,
+    )?;
+    p.mode = MMLT_MODE_PROBE_CHAINS;
+    p.mutations = proposals;
+    engine.submit(
+        &[Dispatch::new(&kernel, set, &p, groups)],
+        "running the sampler probe's chains",
+        &mut trace,
+    )?;
+    let numbers_data = samples.download(chains as u64 * numbers as u64 * 16)?;
+    let chain_data =
+        chain_buffer.download(chains as u64 * std::mem::size_of::<GpuChain>() as u64)?;
+    Ok((
+        bytemuck::cast_slice(&numbers_data).to_vec(),
+        bytemuck::cast_slice(&chain_data).to_vec(),
+    ))
 }
 
 #[cfg(test)]
@@ -95,7 +225,7 @@ mod tests {
     use crate::accel::testing::{
         random_ray, random_spheres, random_triangles, scene_bounds, Prim, Rng,
     };
-    use crate::render::AccelChoice;
+    use crate::engine::{AccelChoice, Validation};
     use crate::scene::{Sphere, Triangle};
 
     /// A scene holding `prims` (material 0), and each prim's id in it (triangles first).
@@ -174,13 +304,13 @@ mod tests {
                 (r.o, r.d, r.tmax)
             })
             .collect();
-        let mut renderer = Renderer::new(None, accel).unwrap_or_else(|e| {
+        let mut engine = Engine::open(None, accel, Validation::Off).unwrap_or_else(|e| {
             panic!(
                 "this test needs a Vulkan device (for the {accel:?} backend) and none could be opened: {e:#}\n\
                  On a machine without a GPU install Mesa's lavapipe: run scripts/setup-system.sh"
             )
         });
-        let got = renderer.trace_probe(&scene, &rays).unwrap();
+        let got = trace_rays(&mut engine, &scene, &rays).unwrap();
         let (mut hits, mut borderline) = (0, 0);
         for (k, (&(o, d, tmax), g)) in rays.iter().zip(&got).enumerate() {
             let mut expected: Option<(usize, f32)> = None;

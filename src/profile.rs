@@ -82,7 +82,7 @@ pub fn run(args: &ProfileArgs) -> Result<()> {
         scene.settings.spp,
         scene.settings.max_depth,
         renderer.backend().name(),
-        renderer.device.info.name
+        renderer.device_info().name
     );
     for name in &args.integrators {
         let integrator = match IntegratorKind::from_name(name) {
@@ -98,18 +98,18 @@ pub fn run(args: &ProfileArgs) -> Result<()> {
         let mut warm = scene.clone();
         warm.settings.spp = 1;
         for &v in &variants {
-            renderer.profile_variant = v;
+            renderer.options.profile_variant = v;
             renderer.render(&warm, 1, &mut Trace::new())?;
         }
         let mut times: Vec<Vec<f64>> = vec![Vec::new(); variants.len()];
         for repeat in 0..args.repeats.max(1) {
             for (i, &v) in variants.iter().enumerate() {
-                renderer.profile_variant = v;
+                renderer.options.profile_variant = v;
                 let out = renderer.render(&scene, repeat, &mut Trace::new())?;
                 times[i].push(out.dispatch_seconds / out.samples_per_pixel.max(1) as f64);
             }
         }
-        renderer.profile_variant = None;
+        renderer.options.profile_variant = None;
         let median = |t: &mut Vec<f64>| {
             t.sort_by(f64::total_cmp);
             t[t.len() / 2]

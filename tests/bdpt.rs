@@ -32,15 +32,17 @@ fn render_with(
     let mut r = renderer(accel);
     configure(&mut r);
     let out = r.render(scene, seed, &mut Trace::new());
-    r.record_strategies = false;
-    r.vertex_buffer_limit = None;
-    r.strategy_buffer_limit = None;
+    r.options.bdpt.record_strategies = false;
+    r.options.bdpt.vertex_buffer_limit = None;
+    r.options.bdpt.strategy_buffer_limit = None;
     out
 }
 
 fn render_full(scene: &Scene, seed: u32, accel: AccelChoice, strategies: bool) -> RenderOutput {
-    let out =
-        render_with(scene, seed, accel, |r| r.record_strategies = strategies).expect("render");
+    let out = render_with(scene, seed, accel, |r| {
+        r.options.bdpt.record_strategies = strategies
+    })
+    .expect("render");
     assert_eq!(out.nonfinite_samples, 0, "NaN/Inf samples");
     out
 }
@@ -153,8 +155,8 @@ fn weighted_strategy_images_sum_to_the_image_and_light_tracing_alone_matches_pt(
     );
     let out = render_full(&scene, 7, Bvh, true);
     // (maxdepth + 1)(maxdepth + 4) / 2 strategies.
-    assert_eq!(out.strategies.len(), 4 * 7 / 2);
-    let weighted = sum_images(out.strategies.iter().map(|s| &s.weighted), &out.image);
+    assert_eq!(strategies(&out).len(), 4 * 7 / 2);
+    let weighted = sum_images(strategies(&out).iter().map(|s| &s.weighted), &out.image);
     for (p, q) in weighted.pixels.iter().zip(&out.image.pixels) {
         for c in 0..3 {
             assert!(
@@ -166,13 +168,13 @@ fn weighted_strategy_images_sum_to_the_image_and_light_tracing_alone_matches_pt(
     // Recorded in groups of 3 strategies (the same samples rendered once per group, as
     // when all of them do not fit one storage buffer): the same images.
     let grouped = render_with(&scene, 7, Bvh, |r| {
-        r.record_strategies = true;
-        r.strategy_buffer_limit = Some(3 * 2 * 24 * 24 * 16);
+        r.options.bdpt.record_strategies = true;
+        r.options.bdpt.strategy_buffer_limit = Some(3 * 2 * 24 * 24 * 16);
     })
     .expect("grouped strategy render");
     assert!(max_relative_difference(&grouped.image, &out.image) < 1e-4);
-    assert_eq!(grouped.strategies.len(), out.strategies.len());
-    for (g, a) in grouped.strategies.iter().zip(&out.strategies) {
+    assert_eq!(strategies(&grouped).len(), strategies(&out).len());
+    for (g, a) in strategies(&grouped).iter().zip(strategies(&out)) {
         assert_eq!((g.s, g.t), (a.s, a.t));
         for (x, y) in [(&g.weighted, &a.weighted), (&g.unweighted, &a.unweighted)] {
             assert!(
@@ -189,7 +191,7 @@ fn weighted_strategy_images_sum_to_the_image_and_light_tracing_alone_matches_pt(
     for seed in 0..4 {
         let out = render_full(&scene, 100 + seed, Bvh, true);
         let t1 = sum_images(
-            out.strategies
+            strategies(&out)
                 .iter()
                 .filter(|s| s.t == 1)
                 .map(|s| &s.unweighted),
@@ -211,7 +213,7 @@ fn weighted_strategy_images_sum_to_the_image_and_light_tracing_alone_matches_pt(
     // And it is not trivially satisfied: light tracing without its s >= 3 strategies
     // (indirect light) falls short of the path tracer.
     let direct_only = sum_images(
-        out.strategies
+        strategies(&out)
             .iter()
             .filter(|s| s.t == 1 && s.s <= 2)
             .map(|s| &s.unweighted),
@@ -255,7 +257,7 @@ fn bdpt_is_deterministic_per_seed_and_tiling_does_not_change_the_image() {
     // Tiles of 3 rows (4 stored vertices of 64 bytes per pixel): the kernel must index
     // each tile's vertex slice from the tile's first row.
     let tiled = render_with(&scene, 3, Bvh, |r| {
-        r.vertex_buffer_limit = Some(40 * 3 * 4 * 64)
+        r.options.bdpt.vertex_buffer_limit = Some(40 * 3 * 4 * 64)
     })
     .expect("tiled render")
     .image;

@@ -23,9 +23,9 @@ fn mmlt(mut s: Scene, mutations_per_pixel: u32) -> Scene {
 
 fn render_mmlt(scene: &Scene, seed: u32, accel: AccelChoice, depths: bool) -> RenderOutput {
     let mut r = renderer(accel);
-    r.record_depths = depths;
+    r.options.mmlt.record_depths = depths;
     let out = r.render(scene, seed, &mut Trace::new());
-    r.record_depths = false;
+    r.options.mmlt.record_depths = false;
     let out = out.expect("mmlt render");
     assert_eq!(out.nonfinite_samples, 0, "NaN/Inf samples");
     assert!(
@@ -121,7 +121,7 @@ fn each_depth_matches_the_sum_of_bdpt_strategy_images_of_that_depth() {
     let mut per_depth_runs: Vec<Vec<Vec<[f64; 3]>>> = vec![Vec::new(); 4];
     for seed in 0..6 {
         let out = render_mmlt(&m, 300 + seed, Bvh, true);
-        let report = out.mmlt.as_ref().expect("mmlt report");
+        let report = mmlt_report(&out);
         assert_eq!(report.depth_images.len(), 4);
         // The depth images sum to the image.
         let mut sum = Image {
@@ -145,9 +145,9 @@ fn each_depth_matches_the_sum_of_bdpt_strategy_images_of_that_depth() {
     let mut bdpt_runs: Vec<Vec<Vec<[f64; 3]>>> = vec![Vec::new(); 4];
     for seed in 0..4 {
         let mut r = renderer(Bvh);
-        r.record_strategies = true;
+        r.options.bdpt.record_strategies = true;
         let out = r.render(&b, 400 + seed, &mut Trace::new());
-        r.record_strategies = false;
+        r.options.bdpt.record_strategies = false;
         let out = out.expect("bdpt render");
         for (d, runs) in bdpt_runs.iter_mut().enumerate() {
             let mut sum = Image {
@@ -155,8 +155,7 @@ fn each_depth_matches_the_sum_of_bdpt_strategy_images_of_that_depth() {
                 height: 16,
                 pixels: vec![[0.0; 3]; 256],
             };
-            for st in out
-                .strategies
+            for st in strategies(&out)
                 .iter()
                 .filter(|st| st.s + st.t - 2 == d as u32)
             {
@@ -178,7 +177,7 @@ fn mmlt_is_deterministic_per_seed_and_seeds_are_independent() {
     let a = render_mmlt(&s, 5, Bvh, false);
     let b = render_mmlt(&s, 5, Bvh, false);
     let c = render_mmlt(&s, 6, Bvh, false);
-    let (ra, rb) = (a.mmlt.unwrap(), b.mmlt.unwrap());
+    let (ra, rb) = (mmlt_report(&a), mmlt_report(&b));
     assert_eq!(ra.b, rb.b, "same seed, different bootstrap");
     assert!(
         max_relative_difference(&a.image, &b.image) < 1e-3,
@@ -188,7 +187,7 @@ fn mmlt_is_deterministic_per_seed_and_seeds_are_independent() {
         max_relative_difference(&a.image, &c.image) > 0.1,
         "different seeds, same image"
     );
-    assert_ne!(ra.b, c.mmlt.unwrap().b);
+    assert_ne!(ra.b, mmlt_report(&c).b);
 }
 
 #[test]
@@ -203,7 +202,7 @@ fn ray_query_and_bvh_mmlt_agree() {
 fn mmlt_statistics_make_sense() {
     let s = mmlt(sized("cornell-box.test", 16, 16, 4), 16);
     let out = render_mmlt(&s, 1, Bvh, false);
-    let r = out.mmlt.unwrap();
+    let r = mmlt_report(&out);
     assert_eq!(r.chains, 512);
     assert_eq!(r.bootstrap_samples, 5 * 8192);
     assert!(
@@ -250,7 +249,7 @@ fn mmlt_with_no_reachable_light_renders_black() {
          quadLight -0.5 -0.5 5  0 1 0  1 0 0  5 5 5\n",
     );
     let out = render_mmlt(&mmlt(s, 4), 0, Bvh, false);
-    let r = out.mmlt.unwrap();
+    let r = mmlt_report(&out);
     assert_eq!(r.b, 0.0);
     assert_eq!(r.mutations, 0);
     assert!(out.image.pixels.iter().flatten().all(|&v| v == 0.0));
@@ -300,9 +299,16 @@ fn the_device_sampler_matches_its_cpu_mirror() {
     use lightpath::integrators::mmlt_sampler::{probe_chain, stream_sizes, unit, ChainSampler};
     let (chains, depth_cap, proposals, seed, sigma, large_step) =
         (256u32, 3u32, 40u32, 17u32, 0.01f32, 0.3f32);
-    let (numbers, state) = renderer(Bvh)
-        .mmlt_sampler_probe(chains, depth_cap, proposals, seed, sigma, large_step)
-        .expect("sampler probe");
+    let (numbers, state) = lightpath::probe::mmlt_sampler(
+        &mut renderer(Bvh).engine,
+        chains,
+        depth_cap,
+        proposals,
+        seed,
+        sigma,
+        large_step,
+    )
+    .expect("sampler probe");
     let sizes = stream_sizes(depth_cap);
     let dims: u32 = sizes.iter().sum();
     let (mut accepted, mut large) = (0u64, 0u64);

@@ -4,7 +4,7 @@ mod common;
 
 use common::*;
 use lightpath::render::AccelChoice::{Bvh, Bvh2, RayQuery};
-use lightpath::scene::{ImportanceSampling, IntegratorKind, NextEventEstimation, Scene};
+use lightpath::scene::{IntegratorKind, NextEventEstimation, SampleMode, Scene};
 
 /// A closed cube (camera inside) whose walls all emit Le = 1 and reflect ρ = 0.5:
 /// the radiance everywhere is Le·Σ_{k=0}^{N} ρ^k for maxdepth N.
@@ -35,50 +35,15 @@ fn furnace_expected(depth: i32) -> f64 {
 #[test]
 fn furnace_matches_closed_form_for_every_option() {
     for (nee, sampling, rr, depth) in [
-        (
-            NextEventEstimation::Off,
-            ImportanceSampling::Cosine,
-            false,
-            3,
-        ),
-        (
-            NextEventEstimation::Off,
-            ImportanceSampling::Hemisphere,
-            false,
-            2,
-        ),
-        (NextEventEstimation::Off, ImportanceSampling::Brdf, true, 3),
-        (
-            NextEventEstimation::On,
-            ImportanceSampling::Cosine,
-            false,
-            3,
-        ),
-        (
-            NextEventEstimation::On,
-            ImportanceSampling::Hemisphere,
-            true,
-            1,
-        ),
-        (NextEventEstimation::Mis, ImportanceSampling::Brdf, false, 3),
-        (
-            NextEventEstimation::Mis,
-            ImportanceSampling::Hemisphere,
-            true,
-            4,
-        ),
-        (
-            NextEventEstimation::Mis,
-            ImportanceSampling::Cosine,
-            true,
-            -1,
-        ),
-        (
-            NextEventEstimation::Off,
-            ImportanceSampling::Cosine,
-            false,
-            0,
-        ),
+        (NextEventEstimation::Off, SampleMode::Cosine, false, 3),
+        (NextEventEstimation::Off, SampleMode::Hemisphere, false, 2),
+        (NextEventEstimation::Off, SampleMode::Brdf, true, 3),
+        (NextEventEstimation::On, SampleMode::Cosine, false, 3),
+        (NextEventEstimation::On, SampleMode::Hemisphere, true, 1),
+        (NextEventEstimation::Mis, SampleMode::Brdf, false, 3),
+        (NextEventEstimation::Mis, SampleMode::Hemisphere, true, 4),
+        (NextEventEstimation::Mis, SampleMode::Cosine, true, -1),
+        (NextEventEstimation::Off, SampleMode::Cosine, false, 0),
     ] {
         let mut s = furnace();
         s.settings.nee = nee;
@@ -107,7 +72,7 @@ fn ellipsoid_furnace_matches_closed_form() {
     ] {
         let mut s = ellipsoid_furnace();
         s.settings.nee = nee;
-        s.settings.importance_sampling = ImportanceSampling::Cosine;
+        s.settings.importance_sampling = SampleMode::Cosine;
         let e = estimate(&s, 4, 2, Bvh);
         assert_agree(
             &format!("ellipsoid furnace, nee {nee:?}"),
@@ -143,7 +108,7 @@ fn pathtracer_depth_one_matches_analyticdirect() {
         let mut pt = unoccluded();
         pt.settings.max_depth = 1;
         pt.settings.nee = nee;
-        pt.settings.importance_sampling = ImportanceSampling::Cosine;
+        pt.settings.importance_sampling = SampleMode::Cosine;
         let p = estimate(&pt, 4, 3, Bvh);
         assert_agree(
             &format!("pathtracer (maxdepth 1, nee {nee:?}) vs analyticdirect"),
@@ -182,9 +147,9 @@ fn next_event_estimation_modes_converge_to_the_same_image() {
     base.settings.nee = NextEventEstimation::Mis;
     let mis = estimate(&base, 4, 2, Bvh);
     for (nee, sampling) in [
-        (NextEventEstimation::On, ImportanceSampling::Cosine),
-        (NextEventEstimation::Off, ImportanceSampling::Brdf),
-        (NextEventEstimation::Mis, ImportanceSampling::Hemisphere),
+        (NextEventEstimation::On, SampleMode::Cosine),
+        (NextEventEstimation::Off, SampleMode::Brdf),
+        (NextEventEstimation::Mis, SampleMode::Hemisphere),
     ] {
         let mut s = small_cornell();
         s.settings.nee = nee;
@@ -207,11 +172,11 @@ fn next_event_estimation_modes_converge_to_the_same_image() {
 fn glossy_scene_sampling_modes_agree() {
     let mut base = small("cornell-glossy.test", 64, 2);
     base.settings.nee = NextEventEstimation::Mis;
-    base.settings.importance_sampling = ImportanceSampling::Brdf;
+    base.settings.importance_sampling = SampleMode::Brdf;
     let a = estimate(&base, 4, 2, Bvh);
     let mut other = base.clone();
     other.settings.nee = NextEventEstimation::On;
-    other.settings.importance_sampling = ImportanceSampling::Cosine;
+    other.settings.importance_sampling = SampleMode::Cosine;
     let b = estimate(&other, 4, 2, Bvh);
     assert_agree("glossy cornell: mis+brdf vs nee+cosine", &a, &b, 5.0, 0.01);
 }
@@ -333,10 +298,10 @@ fn two_lights_with_a_point_light_nee_on_and_mis_agree() {
     // A point light cannot be hit by BSDF sampling, so only on and mis apply.
     let mut s = small("two-lights.test", 64, 3);
     s.settings.nee = NextEventEstimation::On;
-    s.settings.importance_sampling = ImportanceSampling::Cosine;
+    s.settings.importance_sampling = SampleMode::Cosine;
     let on = estimate(&s, 4, 2, Bvh);
     s.settings.nee = NextEventEstimation::Mis;
-    s.settings.importance_sampling = ImportanceSampling::Brdf;
+    s.settings.importance_sampling = SampleMode::Brdf;
     let mis = estimate(&s, 4, 2, Bvh);
     assert_agree("two lights: nee on vs mis", &on, &mis, 5.0, 0.01);
 }
@@ -418,9 +383,9 @@ fn profiling_variants_render_the_same_image() {
     let base = render(&s, 11, Bvh);
     for (stage, variant) in lightpath::profile::STAGES {
         let mut r = renderer(Bvh);
-        r.profile_variant = Some(variant);
+        r.options.profile_variant = Some(variant);
         let out = r.render(&s, 11, &mut lightpath::trace::Trace::new());
-        r.profile_variant = None;
+        r.options.profile_variant = None;
         let img = out.expect("profiling variant renders").image;
         assert!(
             img.pixels == base.pixels,

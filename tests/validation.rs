@@ -56,12 +56,12 @@ fn every_integrator_and_backend_runs_clean_under_the_validation_layer() {
         s.settings.spp = 2;
         s.settings.max_depth = 4;
         s.settings.integrator = IntegratorKind::Bdpt;
-        r.record_strategies = true;
-        r.vertex_buffer_limit = Some(24 * 2 * 3 * 64);
+        r.options.bdpt.record_strategies = true;
+        r.options.bdpt.vertex_buffer_limit = Some(24 * 2 * 3 * 64);
         r.render(&s, 2, &mut Trace::new())
             .unwrap_or_else(|e| panic!("tiled BDPT with strategies {accel:?}: {e:#}"));
-        r.record_strategies = false;
-        r.vertex_buffer_limit = None;
+        r.options.bdpt.record_strategies = false;
+        r.options.bdpt.vertex_buffer_limit = None;
 
         // MMLT with depth images, and at maxdepth -1 (chains and its bdpt tail).
         let mut s = load("cornell-glossy.test");
@@ -72,10 +72,10 @@ fn every_integrator_and_backend_runs_clean_under_the_validation_layer() {
         s.settings.integrator = IntegratorKind::Mmlt;
         s.settings.mmlt.chains = Some(64);
         s.settings.mmlt.bootstrap = Some(256);
-        r.record_depths = true;
+        r.options.mmlt.record_depths = true;
         r.render(&s, 3, &mut Trace::new())
             .unwrap_or_else(|e| panic!("MMLT with depth images {accel:?}: {e:#}"));
-        r.record_depths = false;
+        r.options.mmlt.record_depths = false;
         s.settings.max_depth = -1;
         r.render(&s, 4, &mut Trace::new())
             .unwrap_or_else(|e| panic!("MMLT at maxdepth -1 {accel:?}: {e:#}"));
@@ -94,8 +94,8 @@ fn every_integrator_and_backend_runs_clean_under_the_validation_layer() {
         let info = vk::BufferCreateInfo::default()
             .size(0)
             .usage(vk::BufferUsageFlags::STORAGE_BUFFER);
-        if let Ok(b) = unsafe { r.device.raw.create_buffer(&info, None) } {
-            unsafe { r.device.raw.destroy_buffer(b, None) };
+        if let Ok(b) = unsafe { r.engine.device.raw.create_buffer(&info, None) } {
+            unsafe { r.engine.device.raw.destroy_buffer(b, None) };
         }
         let v = r.validation().expect("validation was requested");
         assert_eq!(

@@ -8,24 +8,34 @@
 #define WORKGROUP_SIZE_X 8
 #define WORKGROUP_SIZE_Y 8
 
-// Descriptor bindings (set 0).
+// Descriptor bindings (set 0), one number per resource. Each kernel's layout is read
+// from its SPIR-V (src/gpu/reflect.rs): a kernel declares only what it uses, and the
+// host binds each resource by these numbers.
+// The scene:
 #define BINDING_SCENE 0
 #define BINDING_TRIANGLES 1
 #define BINDING_SPHERES 2
 #define BINDING_MATERIALS 3
 #define BINDING_EMITTERS 4
 #define BINDING_EMITTER_CDF 5
-#define BINDING_FILM 6
-#define BINDING_STATS 7
-#define BINDING_TLAS 8
-#define BINDING_BVH_NODES 8
-#define BINDING_BVH_PRIMS 9
-#define BINDING_SPLAT 10
-#define BINDING_PATH_VERTICES 11
-#define BINDING_STRATEGIES 12
-#define BINDING_CHAIN_SAMPLES 13
-#define BINDING_CHAINS 14
-#define BINDING_BOOTSTRAP 15
+#define BINDING_TLAS 6
+#define BINDING_BVH_NODES 7
+#define BINDING_BVH_PRIMS 8
+// Integrator outputs and state:
+#define BINDING_FILM 9
+#define BINDING_STATS 10
+#define BINDING_SPLAT 11
+#define BINDING_PATH_VERTICES 12
+#define BINDING_STRATEGIES 13
+#define BINDING_DEPTH_FILMS 14
+#define BINDING_CHAIN_SAMPLES 15
+#define BINDING_CHAINS 16
+#define BINDING_BOOTSTRAP 17
+// Probes (tests of the GLSL against its CPU mirrors):
+#define BINDING_PROBE_RAYS 18
+#define BINDING_PROBE_HITS 19
+#define BINDING_BSDF_PROBE_INPUTS 20
+#define BINDING_BSDF_PROBE_OUTPUTS 21
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -33,16 +43,47 @@
 #define EMITTER_POINT 2
 #define EMITTER_DIRECTIONAL 3
 
-// Integrators (SceneParams.options.w).
+// Integrators (SceneParams.integrator): each has its own code.
 #define INTEGRATOR_PATHTRACER 0
 #define INTEGRATOR_DIRECT 1
 #define INTEGRATOR_ANALYTIC 2
 #define INTEGRATOR_BDPT 3
+#define INTEGRATOR_MMLT 4
 
-// Next-event estimation (SceneParams.options.x).
+// Next-event estimation (SceneParams.nee).
 #define NEE_OFF 0
 #define NEE_ON 1
 #define NEE_MIS 2
+
+// BSDF kinds (GpuMaterial.info.x); src/abi.rs mirrors them as `BsdfKind`.
+#define BSDF_PHONG 0
+#define BSDF_GGX 1
+
+// Material flags (GpuMaterial.info.y).
+#define MATERIAL_TWO_SIDED_EMISSION 1
+
+// No texture (GpuMaterial.info.zw).
+#define NO_TEXTURE 4294967295
+
+// How directions are sampled (SceneParams.sample_mode: the scene's importancesampling);
+// src/abi.rs mirrors them as `SampleMode`.
+#define SAMPLE_HEMISPHERE 0
+#define SAMPLE_COSINE 1
+#define SAMPLE_BRDF 2
+
+// What a path carries (an argument of the BSDF functions; src/abi.rs: `Transport`):
+// radiance on camera subpaths, importance on light subpaths (refraction and shading
+// normals make the BSDF non-symmetric between the two).
+#define TRANSPORT_RADIANCE 0
+#define TRANSPORT_IMPORTANCE 1
+
+// Lobes of a sampled direction (BsdfSample.flags).
+#define BSDF_LOBE_REFLECTION 1
+#define BSDF_LOBE_TRANSMISSION 2
+#define BSDF_LOBE_DELTA 4
+
+// Threads per workgroup of the probes.
+#define PROBE_WORKGROUP_SIZE 64
 
 // Slots of the stats buffer (uint counters).
 #define STAT_NONFINITE 0
@@ -101,13 +142,17 @@ struct GpuSphere {
     uvec4 info;
 };
 
-// params: x shininess, y roughness (GGX alpha), z brdf kind (0 phong, 1 ggx),
-// w 1 when emission is two-sided.
+// A material: one record for every BSDF kind, with room for the parameters of the
+// kinds to come (a dielectric's index of refraction, a conductor's complex Fresnel per
+// channel, anisotropic roughness, textures). Fields a kind does not use are zero.
 struct GpuMaterial {
-    vec4 diffuse;
-    vec4 specular;
-    vec4 emission;
-    vec4 params;
+    vec4 diffuse;        // xyz diffuse reflectance kd
+    vec4 specular;       // xyz specular colour ks (Phong), Fresnel F0 (GGX)
+    vec4 emission;       // xyz emitted radiance
+    vec4 eta;            // xyz index of refraction (per channel for conductors)
+    vec4 k;              // xyz conductor absorption
+    vec4 roughness;      // x Phong exponent, y GGX alpha (u), z GGX alpha (v)
+    uvec4 info;          // x kind (BSDF_*), y flags (MATERIAL_*), z diffuse texture, w roughness texture (NO_TEXTURE: none)
 };
 
 // An emitter. Triangles: p0,p1,p2 the vertices. Spheres: info.y the sphere. Point:
@@ -123,17 +168,33 @@ struct GpuEmitter {
 };
 
 // Everything a kernel needs to know about the scene and the render settings.
+// Scalars come in fours, so every row is 16 bytes in std140 and in Rust alike.
 struct SceneParams {
     vec4 cam_eye;        // w: tan(fovy / 2)
     vec4 cam_right;      // w: aspect (width / height)
     vec4 cam_up;
     vec4 cam_forward;
     vec4 bounds;         // xyz: centre of the scene's bounding sphere, w: its radius
-    uvec4 dims;          // x width, y height, z triangles, w spheres
-    uvec4 counts;        // x emitters, y max scattering vertices, z 1 if maxdepth is -1, w total spp
-    uvec4 options;       // x nee mode, y russian roulette, z importance sampling, w integrator
-    uvec4 direct;        // x light samples, y stratify, z seed, w unused
-    uvec4 bdpt;          // x BDPT strategies to record: first << 16 | count (0: none), y add only paths of at least this many scattering vertices (MMLT's tail)
+    uint width;
+    uint height;
+    uint triangle_count;
+    uint sphere_count;
+    uint emitter_count;
+    uint max_depth;      // scattering vertices of the longest path (BDPT, MMLT: their cap for -1)
+    uint unbounded;      // 1 if maxdepth is -1
+    uint spp;
+    uint integrator;     // INTEGRATOR_*
+    uint seed;
+    uint sample_mode;    // SAMPLE_*
+    uint nee;            // NEE_*
+    uint russian_roulette;
+    uint light_samples;  // direct: light samples per hit
+    uint light_stratify; // direct: stratify them
+    uint min_depth;      // bdpt: add only paths of at least this many scattering vertices (MMLT's tail)
+    uint strategy_first; // bdpt: record the images of strategies first ..
+    uint strategy_count; //       .. first + count (0: none)
+    uint reserved0;
+    uint reserved1;
 };
 
 // A vertex of a BDPT light subpath (stored per pixel, read back by the camera subpath).
@@ -146,17 +207,33 @@ struct GpuPathVertex {
     vec4 beta;
 };
 
-// Per-dispatch constants.
+// A pass's push constants: samples first_sample .. first_sample + samples of the rows
+// row_begin .. row_end (a band of the image).
 struct PassParams {
-    uvec4 pass;          // x first sample index of the pass, y samples in the pass, z first row, w end row of the band
+    uint first_sample;
+    uint samples;
+    uint row_begin;
+    uint row_end;
 };
 
-// MMLT's per-dispatch constants (push constants of mmlt.comp).
+// MMLT's push constants (mmlt.comp).
 struct MmltParams {
-    uvec4 run;           // x mode (MMLT_MODE_*), y first item (bootstrap sample or chain), z items, w mutations per chain
-    uvec4 sizes;         // x chains, y bootstrap samples per depth, z depths (D + 1), w 1: record per-depth images
-    uvec4 streams;       // x camera numbers, y light numbers, z connection numbers, w numbers per chain (their sum)
-    vec4 mutation;       // x sigma of a small step, y large-step probability
+    uint mode;                // MMLT_MODE_*
+    uint first_item;          // the first bootstrap sample or chain of the dispatch
+    uint items;               // bootstrap samples or chains in the dispatch
+    uint mutations;           // proposals per chain (MMLT_MODE_CHAINS)
+    uint chains;
+    uint bootstrap_per_depth;
+    uint depths;              // D + 1
+    uint record_depths;       // 1: add to the per-depth films
+    uint camera_numbers;      // primary numbers per stream ..
+    uint light_numbers;
+    uint connect_numbers;
+    uint numbers;             // .. and their sum (numbers per chain)
+    float sigma;              // a small step's standard deviation
+    float large_step;         // probability of a large step
+    float reserved0;
+    float reserved1;
 };
 
 // An MMLT chain. Its primary numbers are in the chain-sample buffer, dimension-major:
@@ -167,6 +244,25 @@ struct GpuChain {
     uvec4 state;         // x pixel of the current path, y depth, z step (accepted mutations), w step of the last accepted large step
     uvec4 counts;        // x large steps proposed, y accepted, z small steps proposed, w accepted
     uvec4 start;         // x the bootstrap sample it started from (index within its depth), y rays traced
+};
+// The BSDF probe's input: material `info.x` (an index into the material buffer),
+// sampling mode info.y, transport info.z; unit n, wo, wi; u the sample's three uniforms.
+struct BsdfProbeInput {
+    uvec4 info;
+    vec4 n;
+    vec4 wo;
+    vec4 wi;
+    vec4 u;
+};
+
+// The BSDF probe's output: eval.xyz f(wo, wi), eval.w pdf(wo, wi); sample.xyz the
+// sampled direction, sample.w its pdf; sample_f.xyz its f, sample_f.w 1 when the sample
+// succeeded; info.x its lobe flags.
+struct BsdfProbeOutput {
+    vec4 eval;
+    vec4 sample_dir;
+    vec4 sample_f;
+    uvec4 info;
 };
 #endif
 

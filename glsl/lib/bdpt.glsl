@@ -7,7 +7,7 @@
 // storing whole paths (the dVCM/dVC quantities of Georgiev's "Implementing vertex
 // connection and merging", 2012, restricted to connections). Every pdf is squared on
 // the way in (mis()), so the stored quantities are already power-heuristic sums.
-// N = light_paths light subpaths run per pass (bdpt: width * height), so light tracing
+// N = light_paths() light subpaths run per pass (bdpt: width * height), so light tracing
 // (t = 1) has N samples per pixel estimate: it divides its contribution by N and its
 // MIS ratios carry N. MMLT keeps the same N so that its weights are bdpt's.
 //
@@ -18,22 +18,24 @@
 // with streams STREAM_CAMERA (camera walk), STREAM_LIGHT (light walk) and
 // STREAM_CONNECT (the s = 1 light sample).
 //
-// The including kernel sets these before use:
 #ifndef BDPT_GLSL
 #define BDPT_GLSL
+#include "bsdf.glsl"
+#include "trace.glsl"
+#include "lights.glsl"
+#include "camera.glsl"
 
+// Rays this invocation traced (the kernel adds them to its film or chain).
 uint rays_traced = 0u;
-uint max_scatter;      // scattering vertices of the longest path that gets every strategy
-float light_paths;     // N
-float pixel_area;      // a pixel's area on the image plane at distance 1
-uint sample_mode;      // importancesampling
 
-void bdpt_init_globals() {
-    max_scatter = scene.counts.y;
-    light_paths = float(scene.dims.x) * float(scene.dims.y);
-    float pixel_side = 2.0 * scene.cam_eye.w / float(scene.dims.y);
-    pixel_area = pixel_side * pixel_side;
-    sample_mode = scene.options.z;
+// Scattering vertices of the longest path that gets every strategy.
+uint max_scatter() { return scene.max_depth; }
+// N, the light subpaths of a pass.
+float light_paths() { return float(scene.width) * float(scene.height); }
+// A pixel's area on the image plane at distance 1.
+float pixel_area() {
+    float pixel_side = 2.0 * scene.cam_eye.w / float(scene.height);
+    return pixel_side * pixel_side;
 }
 
 float mis(float x) { return x * x; }
@@ -55,22 +57,18 @@ bool visible(vec3 a, vec3 na, vec3 b, vec3 nb) {
 }
 
 // Solid-angle pdf with which the camera samples direction w (unit, from the eye) for a
-// given pixel: 1 / (pixel_area cos^3(theta)).
+// given pixel: 1 / (pixel_area() cos^3(theta)).
 float camera_pdf_w(vec3 w) {
     float c = dot(w, scene.cam_forward.xyz);
-    return 1.0 / (pixel_area * c * c * c);
+    return 1.0 / (pixel_area() * c * c * c);
 }
 
-// A material's BSDF as bdpt uses it (wo toward the viewer side of the walk, wi the
-// other direction; n on the side of the arriving path).
-vec3 material_eval(GpuMaterial m, vec3 n, vec3 wo, vec3 wi) {
-    return bsdf_eval(uint(m.params.z), m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, wi);
-}
-float material_pdf(GpuMaterial m, vec3 n, vec3 wo, vec3 wi) {
-    return bsdf_pdf(sample_mode, uint(m.params.z), m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, wi);
-}
-bool material_sample(GpuMaterial m, vec3 n, vec3 wo, vec3 u, out vec3 wi, out float pdf) {
-    return bsdf_sample(sample_mode, uint(m.params.z), m.diffuse.xyz, m.specular.xyz, m.params.x, m.params.y, n, wo, u, wi, pdf);
+// The BSDF of a path vertex's material (wo toward the viewer side of the walk, wi the
+// other direction; n on the side of the arriving path), sampled with the scene's
+// importancesampling mode.
+BsdfParams vertex_bsdf(uint material) { return material_bsdf(materials[material]); }
+float material_pdf(BsdfParams b, vec3 n, vec3 wo, vec3 wi) {
+    return bsdf_pdf(b, scene.sample_mode, n, wo, wi);
 }
 
 // A surface vertex of a subpath, with what later connections need.
@@ -95,7 +93,7 @@ struct Walk {
     float dvc;
     uint vertices;     // surface vertices found so far
     bool infinite;     // light walks from a directional light
-    float prev_pdf_w;  // camera walks beyond max_scatter: the last bounce's BSDF pdf
+    float prev_pdf_w;  // camera walks beyond max_scatter(): the last bounce's BSDF pdf
     vec3 prev_p;       // ... and the vertex it left from
 };
 
@@ -128,7 +126,7 @@ bool light_walk_start(out Walk w, out LightEmission le, out uint e) {
     w.prev_pdf_w = 0.0;
     w.prev_p = vec3(0.0);
     e = 0u;
-    if (scene.counts.x == 0u) return false;
+    if (scene.emitter_count == 0u) return false;
     e = pick_emitter(sample_u32(STREAM_LIGHT));
     vec2 u_pos = sample_2d(STREAM_LIGHT);
     vec3 u_dir = sample_3d(STREAM_LIGHT);
@@ -163,30 +161,28 @@ bool light_walk_next(inout Walk w, out PathVertex v) {
 
 // Continue a subpath from its vertex v by sampling the BSDF with the numbers u: the
 // throughput, and (update_mis) the MIS sums, follow the new direction.
-bool walk_scatter(inout Walk w, PathVertex v, vec3 u, bool update_mis) {
-    GpuMaterial m = materials[v.material];
-    vec3 wn;
-    float pdf_fwd;
-    if (!material_sample(m, v.n, v.w, u, wn, pdf_fwd)) return false;
-    float pdf_rev = material_pdf(m, v.n, wn, v.w);
-    vec3 f = material_eval(m, v.n, v.w, wn);
-    float cos_out = dot(v.n, wn);
-    w.beta = v.beta * f * (cos_out / pdf_fwd);
+bool walk_scatter(inout Walk w, PathVertex v, vec3 u, uint transport, bool update_mis) {
+    BsdfParams b = vertex_bsdf(v.material);
+    BsdfSample bs;
+    if (!bsdf_sample(b, scene.sample_mode, v.n, v.w, u, transport, bs)) return false;
+    float pdf_rev = material_pdf(b, v.n, bs.wi, v.w);
+    float cos_out = dot(v.n, bs.wi);
+    w.beta = v.beta * bs.f * (cos_out / bs.pdf);
     if (w.beta == vec3(0.0)) return false;
     if (update_mis) {
-        w.dvc = mis(cos_out / pdf_fwd) * (v.dvc * mis(pdf_rev) + v.dvcm);
-        w.dvcm = mis(1.0 / pdf_fwd);
+        w.dvc = mis(cos_out / bs.pdf) * (v.dvc * mis(pdf_rev) + v.dvcm);
+        w.dvcm = mis(1.0 / bs.pdf);
     }
-    w.prev_pdf_w = pdf_fwd;
+    w.prev_pdf_w = bs.pdf;
     w.prev_p = v.p;
     w.o = offset_ray_origin(v.p, v.n);
-    w.d = wn;
+    w.d = bs.wi;
     return true;
 }
 
 // Continue a light subpath from its vertex v (light stream).
 bool light_walk_extend(inout Walk w, PathVertex v) {
-    return walk_scatter(w, v, sample_3d(STREAM_LIGHT), true);
+    return walk_scatter(w, v, sample_3d(STREAM_LIGHT), TRANSPORT_IMPORTANCE, true);
 }
 
 // ---- camera subpaths --------------------------------------------------------------
@@ -196,7 +192,7 @@ void camera_walk_start(vec2 film, out Walk w) {
     w.o = scene.cam_eye.xyz;
     w.d = camera_ray_direction_film(film);
     w.beta = vec3(1.0);
-    w.dvcm = mis(light_paths / camera_pdf_w(w.d));
+    w.dvcm = mis(light_paths() / camera_pdf_w(w.d));
     w.dvc = 0.0;
     w.vertices = 0u;
     w.infinite = false;
@@ -205,7 +201,7 @@ void camera_walk_start(vec2 film, out Walk w) {
 }
 
 // The next surface vertex z_k of a camera subpath (k = w.vertices after the call;
-// strategies there have t = k + 1). The MIS sums stop being updated past max_scatter,
+// strategies there have t = k + 1). The MIS sums stop being updated past max_scatter(),
 // where only s = 0 and s = 1 remain (bdpt's beyond-the-cap regime).
 bool camera_walk_next(inout Walk w, out PathVertex v) {
     Hit hit;
@@ -215,7 +211,7 @@ bool camera_walk_next(inout Walk w, out PathVertex v) {
     float cos_in = abs(dot(s.ng, wo));
     if (!(cos_in > 1e-6)) return false;
     w.vertices++;
-    if (w.vertices - 1u <= max_scatter) {
+    if (w.vertices - 1u <= max_scatter()) {
         w.dvcm *= mis(hit.t * hit.t) / mis(cos_in);
         w.dvc /= mis(cos_in);
     }
@@ -223,11 +219,11 @@ bool camera_walk_next(inout Walk w, out PathVertex v) {
     return true;
 }
 
-// Continue a camera subpath from its vertex v (camera stream). Beyond max_scatter
+// Continue a camera subpath from its vertex v (camera stream). Beyond max_scatter()
 // every longer path is in the roulette regime, where the MIS sums are not needed.
 bool camera_walk_extend(inout Walk w, PathVertex v) {
-    bool beyond = w.vertices > max_scatter;
-    if (!walk_scatter(w, v, sample_3d(STREAM_CAMERA), !beyond)) return false;
+    bool beyond = w.vertices > max_scatter();
+    if (!walk_scatter(w, v, sample_3d(STREAM_CAMERA), TRANSPORT_RADIANCE, !beyond)) return false;
     if (beyond) {
         float survive = min(1.0, max(w.beta.x, max(w.beta.y, w.beta.z)));
         if (sample_1d(STREAM_CAMERA) >= survive) return false;
@@ -245,14 +241,14 @@ bool strategy_emitter_hit(Walk w, PathVertex z, out vec3 value, out float weight
     if (z.emitter == NO_EMITTER) return false;
     vec3 Le = emitted_radiance(z.material, z.ng, z.w);
     if (Le == vec3(0.0)) return false;
-    if (w.vertices - 1u <= max_scatter) {
+    if (w.vertices - 1u <= max_scatter()) {
         float pdf_pos;
         float pdf_emit;
         emitter_emission_pdfs(z.emitter, z.p, z.ng, z.w, pdf_pos, pdf_emit);
         float w_cam = mis(pdf_pos) * z.dvcm + mis(pdf_emit) * z.dvc;
         weight = 1.0 / (1.0 + w_cam);
     } else {
-        weight = power_heuristic(w.prev_pdf_w, emitter_pdf_solid_angle(z.emitter, w.prev_p, z.p, z.ng));
+        weight = emitter_hit_mis_weight(z.emitter, w.prev_p, w.prev_pdf_w, z.p, z.ng);
     }
     value = z.beta * Le;
     return true;
@@ -263,19 +259,17 @@ bool strategy_emitter_hit(Walk w, PathVertex z, out vec3 value, out float weight
 bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weight) {
     value = vec3(0.0);
     weight = 0.0;
-    if (scene.counts.x == 0u) return false;
+    if (scene.emitter_count == 0u) return false;
     uint e = pick_emitter(sample_u32(STREAM_CONNECT));
     vec2 u = sample_2d(STREAM_CONNECT);
+    BsdfParams b = vertex_bsdf(z.material);
     LightSample ls;
-    if (!sample_emitter(e, z.p, u, ls) || !(ls.pdf > 0.0)) return false;
-    float cos_z = dot(z.n, ls.wi);
-    if (!(cos_z > 0.0)) return false;
-    GpuMaterial m = materials[z.material];
-    vec3 f = material_eval(m, z.n, z.w, ls.wi);
-    if (f == vec3(0.0)) return false;
-    float pdf_dir = material_pdf(m, z.n, z.w, ls.wi);
-    if (w.vertices <= max_scatter) {
-        float pdf_rev = material_pdf(m, z.n, ls.wi, z.w);
+    vec3 f;
+    float cos_z;
+    if (!sample_direct_light(b, e, z.p, z.n, z.w, u, ls, f, cos_z)) return false;
+    float pdf_dir = material_pdf(b, z.n, z.w, ls.wi);
+    if (w.vertices <= max_scatter()) {
+        float pdf_rev = material_pdf(b, z.n, ls.wi, z.w);
         float pdf_pos;
         float pdf_emit;
         emitter_emission_pdfs(e, ls.p, ls.n, -ls.wi, pdf_pos, pdf_emit);
@@ -284,7 +278,7 @@ bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weigh
         float w_cam = mis(pdf_emit * cos_z / (pdf_pos * d2)) * (z.dvcm + z.dvc * mis(pdf_rev));
         weight = 1.0 / (w_light + 1.0 + w_cam);
     } else {
-        weight = ls.delta ? 1.0 : power_heuristic(ls.pdf, pdf_dir);
+        weight = light_sample_mis_weight(ls, pdf_dir);
     }
     rays_traced++;
     if (!light_sample_visible(z.p, z.n, ls)) return false;
@@ -301,17 +295,17 @@ bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out 
     if (!camera_project(y.p, px, to_eye, dist)) return false;
     float cos_y = dot(y.n, to_eye);
     if (!(cos_y > 0.0)) return false;
-    GpuMaterial m = materials[y.material];
-    vec3 f = material_eval(m, y.n, to_eye, y.w);
+    BsdfParams b = vertex_bsdf(y.material);
+    vec3 f = bsdf_eval(b, y.n, to_eye, y.w, TRANSPORT_IMPORTANCE);
     if (f == vec3(0.0)) return false;
     float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
-    float pdf_rev = material_pdf(m, y.n, to_eye, y.w);
-    float w_light = mis(pdf_cam_a / light_paths) * (y.dvcm + y.dvc * mis(pdf_rev));
+    float pdf_rev = material_pdf(b, y.n, to_eye, y.w);
+    float w_light = mis(pdf_cam_a / light_paths()) * (y.dvcm + y.dvc * mis(pdf_rev));
     weight = 1.0 / (1.0 + w_light);
     rays_traced++;
     vec3 o = offset_ray_origin(y.p, y.n);
     if (trace_occluded(o, to_eye, length(scene.cam_eye.xyz - o))) return false;
-    value = y.beta * f * (pdf_cam_a / light_paths);
+    value = y.beta * f * (pdf_cam_a / light_paths());
     return true;
 }
 
@@ -329,7 +323,7 @@ bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 
     float cos_y = abs(dot(le.n, to_eye));
     if (Le == vec3(0.0) || !(cos_y > 0.0)) return false;
     float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
-    float ratio = pdf_cam_a / (light_paths * le.pdf_pos);   // camera hitting it (s = 0) vs this
+    float ratio = pdf_cam_a / (light_paths() * le.pdf_pos);   // camera hitting it (s = 0) vs this
     weight = 1.0 / (1.0 + mis(ratio));
     rays_traced++;
     vec3 o = offset_ray_origin(le.p, dot(le.n, to_eye) > 0.0 ? le.n : -le.n);
@@ -349,16 +343,16 @@ bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float w
     float cos_z = dot(z.n, dir);
     float cos_y = -dot(y.n, dir);
     if (!(cos_z > 0.0) || !(cos_y > 0.0)) return false;
-    GpuMaterial m = materials[z.material];
-    GpuMaterial my = materials[y.material];
-    vec3 f_z = material_eval(m, z.n, z.w, dir);
-    vec3 f_y = material_eval(my, y.n, -dir, y.w);
+    BsdfParams bz = vertex_bsdf(z.material);
+    BsdfParams by = vertex_bsdf(y.material);
+    vec3 f_z = bsdf_eval(bz, z.n, z.w, dir, TRANSPORT_RADIANCE);
+    vec3 f_y = bsdf_eval(by, y.n, -dir, y.w, TRANSPORT_IMPORTANCE);
     vec3 c = z.beta * f_z * f_y * y.beta * (cos_z * cos_y / d2);
     if (c == vec3(0.0)) return false;
-    float cam_dir = material_pdf(m, z.n, z.w, dir);
-    float cam_rev = material_pdf(m, z.n, dir, z.w);
-    float light_dir = material_pdf(my, y.n, y.w, -dir);
-    float light_rev = material_pdf(my, y.n, -dir, y.w);
+    float cam_dir = material_pdf(bz, z.n, z.w, dir);
+    float cam_rev = material_pdf(bz, z.n, dir, z.w);
+    float light_dir = material_pdf(by, y.n, y.w, -dir);
+    float light_rev = material_pdf(by, y.n, -dir, y.w);
     float w_light = mis(cam_dir * cos_y / d2) * (y.dvcm + y.dvc * mis(light_rev));
     float w_cam = mis(light_dir * cos_z / d2) * (z.dvcm + z.dvc * mis(cam_rev));
     weight = 1.0 / (w_light + 1.0 + w_cam);

@@ -1,6 +1,12 @@
-// The BRDFs of the scene format (shared/SCENE_FORMAT.md, "Materials"): evaluation,
-// sampling and the solid-angle pdf of each sampling mode. Include after sampling.glsl.
-// Mirrored on the CPU by src/bsdf.rs, which the statistical tests exercise; keep in sync.
+// The BSDFs (docs/scene-format.md, "Materials"): evaluation, sampling and the
+// solid-angle pdf of each sampling mode. Include after sampling.glsl. Mirrored on the
+// CPU by src/bsdf.rs, which the statistical tests exercise, and checked against that
+// mirror on the device by glsl/bsdf_probe.comp; keep them in sync.
+//
+// A material reaches these functions as one BsdfParams (material_bsdf builds it from
+// the material record), and the transport mode (TRANSPORT_RADIANCE on camera subpaths,
+// TRANSPORT_IMPORTANCE on light subpaths) is an argument of evaluation and sampling:
+// the BRDFs here are symmetric and ignore it; refraction will not.
 //
 // Conventions: wo toward the viewer, wi toward the light, n the unit shading normal,
 // already flipped toward wo (dot(n, wo) >= 0; a slightly negative value from rounding is
@@ -22,13 +28,36 @@
 //   is undefined in GLSL).
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
+#include "bindings.glsl"
+#include "sampling.glsl"
 
-#define BRDF_PHONG 0u
-#define BRDF_GGX 1u
+// One surface's BSDF parameters (the BSDF_* kinds and SAMPLE_* modes are in abi.h).
+struct BsdfParams {
+    uint kind;
+    vec3 kd;
+    vec3 ks;
+    float shininess;
+    float roughness;   // GGX alpha
+};
 
-#define SAMPLE_HEMISPHERE 0u
-#define SAMPLE_COSINE 1u
-#define SAMPLE_BRDF 2u
+BsdfParams material_bsdf(GpuMaterial m) {
+    BsdfParams b;
+    b.kind = m.info.x;
+    b.kd = m.diffuse.xyz;
+    b.ks = m.specular.xyz;
+    b.shininess = m.roughness.x;
+    b.roughness = m.roughness.y;
+    return b;
+}
+
+// A sampled direction: wi, the BSDF value f(wo, wi), the pdf of the sampling mode (the
+// full mixture's, as MIS needs) and the lobe it came from (BSDF_LOBE_*).
+struct BsdfSample {
+    vec3 wi;
+    vec3 f;
+    float pdf;
+    uint flags;
+};
 
 const float BSDF_MIN_ALPHA = 1e-4;
 
@@ -37,12 +66,12 @@ float bsdf_avg(vec3 c) {
 }
 
 // Probability of picking the specular lobe in SAMPLE_BRDF mode (rules above).
-float bsdf_specular_probability(uint kind, vec3 kd, vec3 ks) {
-    float d = bsdf_avg(kd);
-    float s = bsdf_avg(ks);
+float bsdf_specular_probability(BsdfParams b) {
+    float d = bsdf_avg(b.kd);
+    float s = bsdf_avg(b.ks);
     float sum = d + s;
     if (!(sum > 0.0)) return 0.0;
-    if (kind == BRDF_GGX) return d > 0.0 ? max(0.25, s / sum) : 1.0;
+    if (b.kind == BSDF_GGX) return d > 0.0 ? max(0.25, s / sum) : 1.0;
     return s / sum;
 }
 
@@ -141,62 +170,63 @@ vec3 sample_phong_lobe(vec2 u, float s) {
 #define bsdf_sample bsdf_sample_once
 #endif
 
-vec3 bsdf_eval(uint kind, vec3 kd, vec3 ks, float shininess, float roughness, vec3 n, vec3 wo,
-               vec3 wi) {
+vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
     float ci = dot(n, wi);
     if (!(ci > 0.0)) return vec3(0.0);
-    vec3 f = kd * INV_PI;
-    if (kind == BRDF_GGX) {
+    vec3 f = b.kd * INV_PI;
+    if (b.kind == BSDF_GGX) {
         float co = max(dot(n, wo), 0.0);
-        f += ggx_specular(ks, roughness, n, wo, wi, ci, co);
+        f += ggx_specular(b.ks, b.roughness, n, wo, wi, ci, co);
     } else {
-        float s = max(shininess, 0.0);
+        float s = max(b.shininess, 0.0);
         vec3 r = reflect(-wo, n);
-        f += ks * ((s + 2.0) * INV_TWO_PI * phong_lobe(dot(r, wi), s));
+        f += b.ks * ((s + 2.0) * INV_TWO_PI * phong_lobe(dot(r, wi), s));
     }
     return f;
 }
 
-float bsdf_pdf(uint mode, uint kind, vec3 kd, vec3 ks, float shininess, float roughness, vec3 n,
-               vec3 wo, vec3 wi) {
+float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
     float ci = dot(n, wi);
     if (!(ci > 0.0)) return 0.0;
     if (mode == SAMPLE_HEMISPHERE) return INV_TWO_PI;
     float p_cos = ci * INV_PI;
     if (mode == SAMPLE_COSINE) return p_cos;
-    float t = bsdf_specular_probability(kind, kd, ks);
+    float t = bsdf_specular_probability(b);
     float p_spec = 0.0;
     if (t > 0.0) {
-        p_spec = kind == BRDF_GGX ? ggx_specular_pdf(roughness, n, wo, wi)
-                                  : phong_specular_pdf(shininess, n, wo, wi);
+        p_spec = b.kind == BSDF_GGX ? ggx_specular_pdf(b.roughness, n, wo, wi)
+                                    : phong_specular_pdf(b.shininess, n, wo, wi);
     }
     return t * p_spec + (1.0 - t) * p_cos;
 }
 
-// u.x picks the lobe (SAMPLE_BRDF only), u.yz place the direction. On success pdf is
-// bsdf_pdf(...) of the returned wi: the full mixture pdf, as MIS needs.
-bool bsdf_sample(uint mode, uint kind, vec3 kd, vec3 ks, float shininess, float roughness,
-                 vec3 n, vec3 wo, vec3 u, out vec3 wi, out float pdf) {
-    pdf = 0.0;
+// u.x picks the lobe (SAMPLE_BRDF only), u.yz place the direction. False when the
+// direction falls below the surface or its pdf is not a positive finite number.
+bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
+    s.pdf = 0.0;
+    s.f = vec3(0.0);
+    s.flags = BSDF_LOBE_REFLECTION;
     if (mode == SAMPLE_HEMISPHERE) {
-        wi = to_world(sample_uniform_hemisphere(u.yz), n);
+        s.wi = to_world(sample_uniform_hemisphere(u.yz), n);
     } else if (mode == SAMPLE_COSINE) {
-        wi = to_world(sample_cosine_hemisphere(u.yz), n);
-    } else if (u.x < bsdf_specular_probability(kind, kd, ks)) {
-        if (kind == BRDF_GGX) {
-            float a = bsdf_ggx_alpha(roughness);
+        s.wi = to_world(sample_cosine_hemisphere(u.yz), n);
+    } else if (u.x < bsdf_specular_probability(b)) {
+        if (b.kind == BSDF_GGX) {
+            float a = bsdf_ggx_alpha(b.roughness);
             vec3 h = to_world(sample_ggx_half(u.yz, a * a), n);
-            wi = reflect(-wo, h);
+            s.wi = reflect(-wo, h);
         } else {
             vec3 r = reflect(-wo, n);
-            wi = to_world(sample_phong_lobe(u.yz, max(shininess, 0.0)), r);
+            s.wi = to_world(sample_phong_lobe(u.yz, max(b.shininess, 0.0)), r);
         }
     } else {
-        wi = to_world(sample_cosine_hemisphere(u.yz), n);
+        s.wi = to_world(sample_cosine_hemisphere(u.yz), n);
     }
-    if (!(dot(n, wi) > 0.0)) return false;
-    pdf = bsdf_pdf(mode, kind, kd, ks, shininess, roughness, n, wo, wi);
-    return pdf > 0.0 && !isinf(pdf);
+    if (!(dot(n, s.wi) > 0.0)) return false;
+    s.pdf = bsdf_pdf(b, mode, n, wo, s.wi);
+    if (!(s.pdf > 0.0 && !isinf(s.pdf))) return false;
+    s.f = bsdf_eval(b, n, wo, s.wi, transport);
+    return true;
 }
 
 #ifdef PROFILE_X2_BSDF
@@ -205,29 +235,22 @@ bool bsdf_sample(uint mode, uint kind, vec3 kd, vec3 ks, float shininess, float 
 #undef bsdf_sample
 // The second call's inputs differ by an ulp and its result is kept only in a case that
 // never happens (a negative value), so the compiler must compute both.
-vec3 bsdf_eval(uint kind, vec3 kd, vec3 ks, float shininess, float roughness, vec3 n, vec3 wo,
-               vec3 wi) {
-    vec3 b = bsdf_eval_once(kind, kd, ks, shininess, roughness, n, wo, wi * 1.0000001);
-    vec3 a = bsdf_eval_once(kind, kd, ks, shininess, roughness, n, wo, wi);
-    return b.x == -1.0 ? b : a;
+vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
+    vec3 x = bsdf_eval_once(b, n, wo, wi * 1.0000001, transport);
+    vec3 y = bsdf_eval_once(b, n, wo, wi, transport);
+    return x.x == -1.0 ? x : y;
 }
-float bsdf_pdf(uint mode, uint kind, vec3 kd, vec3 ks, float shininess, float roughness, vec3 n,
-               vec3 wo, vec3 wi) {
-    float b = bsdf_pdf_once(mode, kind, kd, ks, shininess, roughness, n, wo, wi * 1.0000001);
-    float a = bsdf_pdf_once(mode, kind, kd, ks, shininess, roughness, n, wo, wi);
-    return b == -1.0 ? b : a;
+float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
+    float x = bsdf_pdf_once(b, mode, n, wo, wi * 1.0000001);
+    float y = bsdf_pdf_once(b, mode, n, wo, wi);
+    return x == -1.0 ? x : y;
 }
-bool bsdf_sample(uint mode, uint kind, vec3 kd, vec3 ks, float shininess, float roughness,
-                 vec3 n, vec3 wo, vec3 u, out vec3 wi, out float pdf) {
-    vec3 wi2;
-    float pdf2;
-    bool b = bsdf_sample_once(mode, kind, kd, ks, shininess, roughness, n, wo * 1.0000001, u, wi2, pdf2);
-    bool a = bsdf_sample_once(mode, kind, kd, ks, shininess, roughness, n, wo, u, wi, pdf);
-    if (b && pdf2 == -1.0) {
-        wi = wi2;
-        pdf = pdf2;
-    }
-    return a;
+bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
+    BsdfSample other;
+    bool x = bsdf_sample_once(b, mode, n, wo * 1.0000001, u, transport, other);
+    bool y = bsdf_sample_once(b, mode, n, wo, u, transport, s);
+    if (x && other.pdf == -1.0) s = other;
+    return y;
 }
 #endif
 

@@ -2,6 +2,7 @@
 // surface description at a hit.
 #ifndef GEOMETRY_GLSL
 #define GEOMETRY_GLSL
+#include "bindings.glsl"
 
 const float TRIANGLE_DET_REL_EPS_SQ = 1e-10;
 
@@ -85,7 +86,7 @@ struct Surface {
 Surface surface_at(Hit hit, vec3 o, vec3 d) {
     Surface s;
     s.prim = hit.prim;
-    uint ntri = scene.dims.z;
+    uint ntri = scene.triangle_count;
     if (hit.prim < ntri) {
         GpuTriangle tri = triangles[hit.prim];
         vec3 e1 = tri.v1.xyz - tri.v0.xyz;

@@ -3,6 +3,10 @@
 // dA_world = |det M| * |M^-T q| dA_object for the unit-sphere point q.
 #ifndef LIGHTS_GLSL
 #define LIGHTS_GLSL
+#include "bindings.glsl"
+#include "sampling.glsl"
+#include "bsdf.glsl"
+#include "trace.glsl"
 
 // Pick an emitter by power with a uniform 32-bit integer x: the first i with
 // x < cdf[i] (the last emitter when none). cdf[i] is the end of emitter i's range of
@@ -11,7 +15,7 @@
 // range is never picked and has pdf 0, so no estimator counts on it).
 uint pick_emitter(uint x) {
     uint lo = 0u;
-    uint hi = scene.counts.x - 1u;
+    uint hi = scene.emitter_count - 1u;
     while (lo < hi) {
         uint mid = (lo + hi) >> 1;
         if (x < emitter_cdf[mid]) hi = mid; else lo = mid + 1u;
@@ -24,7 +28,7 @@ float emitter_pick_pdf(uint e) { return emitters[e].radiance.w; }
 // Radiance leaving an emissive surface point with unit normal ng toward w.
 vec3 emitted_radiance(uint material, vec3 ng, vec3 w) {
     GpuMaterial m = materials[material];
-    if (m.params.w == 0.0 && dot(ng, w) <= 0.0) return vec3(0.0);
+    if ((m.info.y & MATERIAL_TWO_SIDED_EMISSION) == 0u && dot(ng, w) <= 0.0) return vec3(0.0);
     return m.emission.xyz;
 }
 
@@ -153,6 +157,37 @@ float emitter_pdf_solid_angle(uint e, vec3 ref, vec3 p, vec3 ng) {
     float cos_l = abs(dot(ng, to)) / sqrt(d2);
     if (cos_l == 0.0) return 0.0;
     return emitter_pick_pdf(e) * emitter_area_pdf(e, p) * d2 / cos_l;
+}
+
+// ---------------------------------------------------------------------------------------
+// Next-event estimation and emitter hits, shared by the path tracer and BDPT (whose s = 1
+// and s = 0 strategies these are).
+
+// A light sample at a surface vertex (p, unit normal n on the side of wo) for the BSDF b:
+// the sample, the BSDF value toward it and the cosine there. False when it cannot
+// contribute (no sample, below the surface, f = 0). The shadow ray is the caller's
+// (light_sample_visible), and so is the weighting: the estimate is f L cos / ls.pdf.
+bool sample_direct_light(BsdfParams b, uint e, vec3 p, vec3 n, vec3 wo, vec2 u, out LightSample ls,
+                         out vec3 f, out float cos_theta) {
+    f = vec3(0.0);
+    cos_theta = 0.0;
+    if (!sample_emitter(e, p, u, ls) || !(ls.pdf > 0.0)) return false;
+    cos_theta = dot(n, ls.wi);
+    if (!(cos_theta > 0.0)) return false;
+    f = bsdf_eval(b, n, wo, ls.wi, TRANSPORT_RADIANCE);
+    return f != vec3(0.0);
+}
+
+// Power-heuristic weight of a light sample against BSDF sampling of the same direction
+// (bsdf_pdf); delta lights cannot be hit by BSDF sampling.
+float light_sample_mis_weight(LightSample ls, float bsdf_pdf) {
+    return ls.delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf);
+}
+
+// Power-heuristic weight of emission found by BSDF sampling (from prev_p, with solid-angle
+// pdf prev_pdf) at the point p, normal ng, of emitter e, against light sampling.
+float emitter_hit_mis_weight(uint e, vec3 prev_p, float prev_pdf, vec3 p, vec3 ng) {
+    return power_heuristic(prev_pdf, emitter_pdf_solid_angle(e, prev_p, p, ng));
 }
 // ---------------------------------------------------------------------------------------
 // Light subpaths (BDPT, MMLT): emission of a ray from an emitter, and the pdfs a vertex on

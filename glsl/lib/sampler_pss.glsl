@@ -41,33 +41,38 @@ layout(std430, set = 0, binding = BINDING_CHAIN_SAMPLES) buffer ChainSampleBuffe
 #define PSS_TAG_LARGE 2u
 #define PSS_TAG_GAUSS 3u
 
-uint pss_mode;
-uint pss_seed;
-uint pss_key_index;     // PSS_FROM_KEY: the bootstrap sample
-uint pss_key_depth;
-uint pss_chain;         // the chain and the chain count (the buffer's stride)
-uint pss_chains;
-uint pss_step;          // the proposal's step: the chain's accepted steps + 1
-uint pss_last_large;    // the step of the chain's last accepted large step
-uint pss_proposal;      // proposals the chain has made before this one
-bool pss_large;
-float pss_sigma;
-uint pss_base[3];
-uint pss_capacity[3];
-uint pss_used[3];
+// The sampler's state for this invocation (one bootstrap sample or one chain); the
+// kernel fills it before the first path.
+struct PssState {
+    uint mode;
+    uint seed;
+    uint key_index;     // PSS_FROM_KEY: the bootstrap sample
+    uint key_depth;
+    uint chain;         // the chain and the chain count (the buffer's stride)
+    uint chains;
+    uint step;          // the proposal's step: the chain's accepted steps + 1
+    uint last_large;    // the step of the chain's last accepted large step
+    uint proposal;      // proposals the chain has made before this one
+    bool large;
+    float sigma;
+    uint base[3];       // each stream's first dimension, its capacity, the numbers used
+    uint capacity[3];
+    uint used[3];
+};
+PssState pss;
 
 void pss_begin_path() {
-    pss_used[0] = 0u;
-    pss_used[1] = 0u;
-    pss_used[2] = 0u;
+    pss.used[0] = 0u;
+    pss.used[1] = 0u;
+    pss.used[2] = 0u;
 }
 
 uint pss_key_number(uint index, uint depth, uint dim) {
-    return pcg4d(uvec4(index, depth, pss_seed, 0x80000000u | dim)).x;
+    return pcg4d(uvec4(index, depth, pss.seed, 0x80000000u | dim)).x;
 }
 
 uvec4 pss_hash(uint tag, uint dim) {
-    return pcg4d(uvec4(pss_chain, pss_proposal, pss_seed, 0x40000000u | (tag << 16) | dim));
+    return pcg4d(uvec4(pss.chain, pss.proposal, pss.seed, 0x40000000u | (tag << 16) | dim));
 }
 
 float pss_unit(uint x) { return float(x >> 8u) * (1.0 / 16777216.0); }
@@ -89,32 +94,32 @@ uint pss_small_step_offset(float g, float sigma) {
 }
 
 uint pss_next(uint stream) {
-    uint i = pss_used[stream];
-    pss_used[stream] = i + 1u;
-    uint dim = pss_base[stream] + min(i, pss_capacity[stream] - 1u);
-    if (i >= pss_capacity[stream]) {
+    uint i = pss.used[stream];
+    pss.used[stream] = i + 1u;
+    uint dim = pss.base[stream] + min(i, pss.capacity[stream] - 1u);
+    if (i >= pss.capacity[stream]) {
         // Past the stream's capacity (the host sizes streams for the depth cap, so this
         // is a bug): a fresh number, outside the chain's state.
         return pss_hash(PSS_TAG_LARGE, 0xffffu).y ^ i;
     }
-    if (pss_mode == PSS_FROM_KEY) return pss_key_number(pss_key_index, pss_key_depth, dim);
-    uint slot = dim * pss_chains + pss_chain;
+    if (pss.mode == PSS_FROM_KEY) return pss_key_number(pss.key_index, pss.key_depth, dim);
+    uint slot = dim * pss.chains + pss.chain;
     uvec4 x = chain_samples[slot];
-    if (pss_mode == PSS_READ) return x.x;
-    if (x.y < pss_last_large) {
+    if (pss.mode == PSS_READ) return x.x;
+    if (x.y < pss.last_large) {
         // Keyed by the large step, not the proposal: the number's value since that step
         // is one fixed draw, however many rejected proposals look at it.
-        x.x = pcg4d(uvec4(pss_chain, pss_last_large, pss_seed, 0x40000000u | (PSS_TAG_RESET << 16) | dim)).x;
-        x.y = pss_last_large;
+        x.x = pcg4d(uvec4(pss.chain, pss.last_large, pss.seed, 0x40000000u | (PSS_TAG_RESET << 16) | dim)).x;
+        x.y = pss.last_large;
     }
     x.zw = x.xy;
-    if (pss_large) {
+    if (pss.large) {
         x.x = pss_hash(PSS_TAG_LARGE, dim).x;
     } else {
-        float n = float(pss_step - x.y);
-        x.x += pss_small_step_offset(pss_gaussian(dim), pss_sigma * sqrt(n));
+        float n = float(pss.step - x.y);
+        x.x += pss_small_step_offset(pss_gaussian(dim), pss.sigma * sqrt(n));
     }
-    x.y = pss_step;
+    x.y = pss.step;
     chain_samples[slot] = x;
     return x.x;
 }
@@ -122,11 +127,11 @@ uint pss_next(uint stream) {
 // A rejected proposal: every number it changed goes back, with its step.
 void pss_reject() {
     for (uint s = 0u; s < 3u; ++s) {
-        uint used = min(pss_used[s], pss_capacity[s]);
+        uint used = min(pss.used[s], pss.capacity[s]);
         for (uint i = 0u; i < used; ++i) {
-            uint slot = (pss_base[s] + i) * pss_chains + pss_chain;
+            uint slot = (pss.base[s] + i) * pss.chains + pss.chain;
             uvec4 x = chain_samples[slot];
-            if (x.y == pss_step) chain_samples[slot] = uvec4(x.zw, x.zw);
+            if (x.y == pss.step) chain_samples[slot] = uvec4(x.zw, x.zw);
         }
     }
 }

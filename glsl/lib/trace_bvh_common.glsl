@@ -14,7 +14,7 @@ vec3 bvh_safe_inverse(vec3 d) {
 }
 
 bool bvh_intersect_prim_once(uint prim, vec3 o, vec3 d, float tmax, out float t, out vec2 bary) {
-    uint ntri = scene.dims.z;
+    uint ntri = scene.triangle_count;
     bary = vec2(0.0);
     if (prim < ntri) {
         GpuTriangle tri = triangles[prim];

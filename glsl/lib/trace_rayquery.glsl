@@ -34,7 +34,7 @@ bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
     }
     if (kind == gl_RayQueryCommittedIntersectionGeneratedEXT) {
         hit.t = rayQueryGetIntersectionTEXT(rq, true);
-        hit.prim = scene.dims.z + uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
+        hit.prim = scene.triangle_count + uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
         return true;
     }
     return false;

@@ -179,7 +179,7 @@ impl Cwbvh {
             .collect();
         // obvhs's "slow" preset (wider PLOC search, 128-bit Morton keys, reinsertion of
         // 20% of the nodes) traces the dragon 1.42x faster than its "medium" one and as
-        // fast as "very slow" (README, "Performance"); 100k triangles build in ~0.25 s.
+        // fast as "very slow" (docs/visibility.md, "What was tried on the compressed BVH"); 100k triangles build in ~0.25 s.
         // Without spatial splits: each primitive is referenced once.
         let mut params = obvhs::BvhBuildParams::slow_build();
         params.pre_split = false;

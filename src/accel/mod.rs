@@ -1,10 +1,10 @@
-//! Acceleration structures: the two CPU-built BVHs the kernels traverse from storage
-//! buffers (the compressed 8-wide one and the binary SAH one, which also gives the
-//! ray-query backend its coherent triangle order) and the ray-query BLAS/TLAS.
+//! Acceleration structures built on the CPU: the two BVHs the kernels traverse from
+//! storage buffers (the compressed 8-wide one and the binary SAH one, which also gives
+//! the ray-query backend its coherent triangle order), and the exact intersections that
+//! mirror the kernels'. (The ray-query BLAS/TLAS are device objects: `gpu::rayquery`.)
 pub mod bvh;
 pub mod cwbvh;
 pub mod geometry;
-pub mod rayquery;
 pub(crate) mod testing;
 
 use crate::scene::Scene;

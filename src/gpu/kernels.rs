@@ -1,7 +1,9 @@
-//! Compute pipelines for the kernels in glsl/, one descriptor layout per traversal
-//! backend, and the descriptor set that binds a scene's buffers.
-use super::abi::*;
+//! Compute pipelines for the kernels in glsl/: each kernel's descriptor-set layout is
+//! read from its SPIR-V (`reflect`), so the GLSL declaration is the only list of what a
+//! kernel binds; descriptor sets are written by binding number from abi.h.
+use super::reflect::{kernel_bindings, KernelBinding};
 use super::{other_error, Device, GpuResult, Stage};
+use crate::abi::{MmltParams, PassParams};
 use ash::vk;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -26,15 +28,6 @@ impl Backend {
             Backend::Bvh2 => "bvh2",
         }
     }
-
-    /// The tree the kernels walk from storage buffers; `None` for ray query.
-    pub fn bvh_kind(self) -> Option<crate::accel::BvhKind> {
-        match self {
-            Backend::RayQuery => None,
-            Backend::Cwbvh => Some(crate::accel::BvhKind::Compressed),
-            Backend::Bvh2 => Some(crate::accel::BvhKind::Binary),
-        }
-    }
 }
 
 /// The SPIR-V of one kernel for one backend.
@@ -45,102 +38,61 @@ pub fn spirv(kernel: &str, backend: Backend) -> Option<&'static [u8]> {
         .map(|(_, _, s)| *s)
 }
 
-/// Every binding of set 0 and its descriptor type for a backend.
-pub fn bindings(backend: Backend) -> Vec<(u32, vk::DescriptorType)> {
-    let storage = vk::DescriptorType::STORAGE_BUFFER;
-    let mut b = vec![
-        (BINDING_SCENE, vk::DescriptorType::UNIFORM_BUFFER),
-        (BINDING_TRIANGLES, storage),
-        (BINDING_SPHERES, storage),
-        (BINDING_MATERIALS, storage),
-        (BINDING_EMITTERS, storage),
-        (BINDING_EMITTER_CDF, storage),
-        (BINDING_FILM, storage),
-        (BINDING_STATS, storage),
-        (BINDING_SPLAT, storage),
-        (BINDING_PATH_VERTICES, storage),
-        (BINDING_STRATEGIES, storage),
-        (BINDING_CHAIN_SAMPLES, storage),
-        (BINDING_CHAINS, storage),
-        (BINDING_BOOTSTRAP, storage),
-    ];
-    match backend {
-        Backend::RayQuery => b.push((BINDING_TLAS, vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)),
-        Backend::Cwbvh | Backend::Bvh2 => {
-            b.push((BINDING_BVH_NODES, storage));
-            b.push((BINDING_BVH_PRIMS, storage));
-        }
-    }
-    b
-}
-
 /// The push-constant range every kernel shares: the largest per-dispatch struct.
 pub fn push_constant_bytes() -> u32 {
     std::mem::size_of::<PassParams>().max(std::mem::size_of::<MmltParams>()) as u32
 }
 
+/// A kernel ready to dispatch: its pipeline, layouts and the bindings it uses.
+#[derive(Clone)]
+pub struct Kernel {
+    pub name: &'static str,
+    pub pipeline: vk::Pipeline,
+    pub layout: vk::PipelineLayout,
+    pub set_layout: vk::DescriptorSetLayout,
+    pub bindings: Arc<[KernelBinding]>,
+}
+
+/// What a descriptor of a kernel's set points at.
+#[derive(Clone, Copy, Debug)]
+pub enum Resource {
+    Buffer(vk::Buffer),
+    AccelerationStructure(vk::AccelerationStructureKHR),
+}
+
+/// The kernels of one backend, created on first use, and the pool their sets come from.
 pub struct Kernels {
     device: Arc<Device>,
     pub backend: Backend,
-    pub set_layout: vk::DescriptorSetLayout,
-    pub layout: vk::PipelineLayout,
-    pipelines: HashMap<&'static str, vk::Pipeline>,
+    kernels: HashMap<&'static str, Kernel>,
     pool: vk::DescriptorPool,
 }
 
+/// Descriptor sets one render may hold at once (reset by `Kernels::reset_sets`).
+const MAX_SETS: u32 = 16;
+
 impl Kernels {
     pub fn new(device: &Arc<Device>, backend: Backend) -> GpuResult<Kernels> {
-        let stage = "creating the descriptor layout";
-        let layout_bindings: Vec<_> = bindings(backend)
-            .into_iter()
-            .map(|(b, t)| {
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(b)
-                    .descriptor_type(t)
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            })
-            .collect();
-        let set_layout = unsafe {
-            device.raw.create_descriptor_set_layout(
-                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
-                None,
-            )
-        }
-        .stage(stage)?;
-        let set_layouts = [set_layout];
-        let push = [vk::PushConstantRange::default()
-            .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            .size(push_constant_bytes())];
-        let layout = unsafe {
-            device.raw.create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default()
-                    .set_layouts(&set_layouts)
-                    .push_constant_ranges(&push),
-                None,
-            )
-        }
-        .stage("creating the pipeline layout")?;
         let mut sizes = vec![
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::UNIFORM_BUFFER,
-                descriptor_count: 4,
+                descriptor_count: MAX_SETS,
             },
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::STORAGE_BUFFER,
-                descriptor_count: 64,
+                descriptor_count: MAX_SETS * 24,
             },
         ];
         if backend == Backend::RayQuery {
             sizes.push(vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
-                descriptor_count: 4,
+                descriptor_count: MAX_SETS,
             });
         }
         let pool = unsafe {
             device.raw.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(4)
+                    .max_sets(MAX_SETS)
                     .pool_sizes(&sizes),
                 None,
             )
@@ -149,66 +101,150 @@ impl Kernels {
         Ok(Kernels {
             device: device.clone(),
             backend,
-            set_layout,
-            layout,
-            pipelines: HashMap::new(),
+            kernels: HashMap::new(),
             pool,
         })
     }
 
-    /// The pipeline of a kernel, created (through the on-disk pipeline cache) on first use.
-    pub fn pipeline(&mut self, kernel: &'static str) -> GpuResult<vk::Pipeline> {
-        if let Some(&p) = self.pipelines.get(kernel) {
-            return Ok(p);
+    /// Whether `kernel` was compiled in.
+    pub fn has(&self, kernel: &str) -> bool {
+        spirv(kernel, self.backend).is_some()
+    }
+
+    /// The kernel `name`, its pipeline created (through the on-disk pipeline cache) on
+    /// first use.
+    pub fn get(&mut self, name: &'static str) -> GpuResult<Kernel> {
+        if let Some(k) = self.kernels.get(name) {
+            return Ok(k.clone());
         }
-        let stage = format!("creating the '{kernel}' pipeline ({})", self.backend.name());
-        let code = spirv(kernel, self.backend)
+        let stage = format!("creating the '{name}' pipeline ({})", self.backend.name());
+        let code = spirv(name, self.backend)
             .ok_or_else(|| other_error(&stage, "kernel not compiled in"))?;
-        let words: Vec<u32> = code
+        let bindings = kernel_bindings(code).map_err(|e| other_error(&stage, e))?;
+        let d = &self.device.raw;
+        let layout_bindings: Vec<_> = bindings
+            .iter()
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b.binding)
+                    .descriptor_type(b.ty)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let set_layout = unsafe {
+            d.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
+                None,
+            )
+        }
+        .stage(&stage)?;
+        let set_layouts = [set_layout];
+        let push = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .size(push_constant_bytes())];
+        let layout = match unsafe {
+            d.create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&push),
+                None,
+            )
+        } {
+            Ok(l) => l,
+            Err(e) => {
+                unsafe { d.destroy_descriptor_set_layout(set_layout, None) };
+                return Err(e).stage(&stage);
+            }
+        };
+        let code_words: Vec<u32> = code
             .chunks_exact(4)
             .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
             .collect();
-        let module = unsafe {
-            self.device
-                .raw
-                .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
-        }
-        .stage(&stage)?;
-        let info = [vk::ComputePipelineCreateInfo::default()
-            .stage(
-                vk::PipelineShaderStageCreateInfo::default()
-                    .stage(vk::ShaderStageFlags::COMPUTE)
-                    .module(module)
-                    .name(c"main"),
-            )
-            .layout(self.layout)];
-        let result = unsafe {
-            self.device
-                .raw
-                .create_compute_pipelines(self.device.pipeline_cache, &info, None)
+        let pipeline = (|| {
+            let module = unsafe {
+                d.create_shader_module(
+                    &vk::ShaderModuleCreateInfo::default().code(&code_words),
+                    None,
+                )
+            }?;
+            let info = [vk::ComputePipelineCreateInfo::default()
+                .stage(
+                    vk::PipelineShaderStageCreateInfo::default()
+                        .stage(vk::ShaderStageFlags::COMPUTE)
+                        .module(module)
+                        .name(c"main"),
+                )
+                .layout(layout)];
+            let result =
+                unsafe { d.create_compute_pipelines(self.device.pipeline_cache, &info, None) };
+            unsafe { d.destroy_shader_module(module, None) };
+            result.map(|p| p[0]).map_err(|(_, e)| e)
+        })();
+        let pipeline = match pipeline {
+            Ok(p) => p,
+            Err(e) => {
+                unsafe {
+                    d.destroy_pipeline_layout(layout, None);
+                    d.destroy_descriptor_set_layout(set_layout, None);
+                }
+                return Err(e).stage(&stage);
+            }
         };
-        unsafe { self.device.raw.destroy_shader_module(module, None) };
-        let pipeline = result.map_err(|(_, e)| e).stage(&stage)?[0];
-        self.pipelines.insert(kernel, pipeline);
-        Ok(pipeline)
+        let kernel = Kernel {
+            name,
+            pipeline,
+            layout,
+            set_layout,
+            bindings: bindings.into(),
+        };
+        self.kernels.insert(name, kernel.clone());
+        Ok(kernel)
     }
 
-    /// Allocate a descriptor set and point its bindings at `buffers` (binding → buffer)
-    /// and, for ray query, `tlas`.
-    pub fn descriptor_set(
-        &self,
-        buffers: &[(u32, vk::Buffer, vk::DescriptorType)],
-        tlas: Option<vk::AccelerationStructureKHR>,
-    ) -> GpuResult<vk::DescriptorSet> {
-        let stage = "writing the descriptor set";
-        // One render's set is live at a time: recycle the pool's sets.
+    /// Free every descriptor set allocated so far (at the start of a render: the sets of
+    /// the previous one are no longer in use).
+    pub fn reset_sets(&self) -> GpuResult<()> {
         unsafe {
             self.device
                 .raw
                 .reset_descriptor_pool(self.pool, vk::DescriptorPoolResetFlags::empty())
         }
-        .stage(stage)?;
-        let layouts = [self.set_layout];
+        .stage("resetting the descriptor pool")
+    }
+
+    /// A descriptor set for `kernel` with each of its bindings pointed at the resource of
+    /// the same binding number in `resources`. Resources the kernel does not use are
+    /// ignored; a binding it uses that `resources` lacks is an error naming it.
+    pub fn descriptor_set(
+        &self,
+        kernel: &Kernel,
+        resources: &[(u32, Resource)],
+    ) -> GpuResult<vk::DescriptorSet> {
+        let stage = format!("binding the resources of the '{}' kernel", kernel.name);
+        let mut chosen = Vec::with_capacity(kernel.bindings.len());
+        for b in kernel.bindings.iter() {
+            let Some((_, r)) = resources.iter().find(|(n, _)| *n == b.binding) else {
+                return Err(other_error(
+                    &stage,
+                    format!("nothing is bound at binding {} ({})", b.binding, b.name),
+                ));
+            };
+            let matches = match r {
+                Resource::Buffer(_) => b.ty != vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+                Resource::AccelerationStructure(_) => {
+                    b.ty == vk::DescriptorType::ACCELERATION_STRUCTURE_KHR
+                }
+            };
+            if !matches {
+                return Err(other_error(
+                    &stage,
+                    format!("binding {} ({}) needs a {:?}", b.binding, b.name, b.ty),
+                ));
+            }
+            chosen.push((b.clone(), *r));
+        }
+        let layouts = [kernel.set_layout];
         let set = unsafe {
             self.device.raw.allocate_descriptor_sets(
                 &vk::DescriptorSetAllocateInfo::default()
@@ -216,37 +252,43 @@ impl Kernels {
                     .set_layouts(&layouts),
             )
         }
-        .stage(stage)?[0];
-        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+        .stage(&stage)?[0];
+        let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = chosen
             .iter()
-            .map(|(_, b, _)| {
-                [vk::DescriptorBufferInfo::default()
-                    .buffer(*b)
-                    .range(vk::WHOLE_SIZE)]
+            .map(|(_, r)| match r {
+                Resource::Buffer(buffer) => [vk::DescriptorBufferInfo::default()
+                    .buffer(*buffer)
+                    .range(vk::WHOLE_SIZE)],
+                Resource::AccelerationStructure(_) => [vk::DescriptorBufferInfo::default()],
             })
             .collect();
-        let mut writes: Vec<vk::WriteDescriptorSet> = buffers
+        let structures: Vec<[vk::AccelerationStructureKHR; 1]> = chosen
             .iter()
-            .zip(&infos)
-            .map(|((binding, _, ty), info)| {
-                vk::WriteDescriptorSet::default()
-                    .dst_set(set)
-                    .dst_binding(*binding)
-                    .descriptor_type(*ty)
-                    .buffer_info(info)
+            .map(|(_, r)| match r {
+                Resource::AccelerationStructure(a) => [*a],
+                Resource::Buffer(_) => [vk::AccelerationStructureKHR::null()],
             })
             .collect();
-        let tlas_list = tlas.map(|t| [t]);
-        let mut as_write = tlas_list.as_ref().map(|l| {
-            vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(l)
-        });
-        if let Some(w) = as_write.as_mut() {
-            let mut write = vk::WriteDescriptorSet::default()
+        let mut as_writes: Vec<vk::WriteDescriptorSetAccelerationStructureKHR> = structures
+            .iter()
+            .map(|s| {
+                vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(s)
+            })
+            .collect();
+        let mut writes = Vec::with_capacity(chosen.len());
+        for (i, ((b, r), as_write)) in chosen.iter().zip(as_writes.iter_mut()).enumerate() {
+            let write = vk::WriteDescriptorSet::default()
                 .dst_set(set)
-                .dst_binding(BINDING_TLAS)
-                .descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)
-                .push_next(w);
-            write.descriptor_count = 1;
+                .dst_binding(b.binding)
+                .descriptor_type(b.ty);
+            let write = match r {
+                Resource::Buffer(_) => write.buffer_info(&buffer_infos[i]),
+                Resource::AccelerationStructure(_) => {
+                    let mut w = write.push_next(as_write);
+                    w.descriptor_count = 1;
+                    w
+                }
+            };
             writes.push(write);
         }
         unsafe { self.device.raw.update_descriptor_sets(&writes, &[]) };
@@ -257,14 +299,14 @@ impl Kernels {
 impl Drop for Kernels {
     fn drop(&mut self) {
         unsafe {
-            for (_, p) in self.pipelines.drain() {
-                self.device.raw.destroy_pipeline(p, None);
+            for (_, k) in self.kernels.drain() {
+                self.device.raw.destroy_pipeline(k.pipeline, None);
+                self.device.raw.destroy_pipeline_layout(k.layout, None);
+                self.device
+                    .raw
+                    .destroy_descriptor_set_layout(k.set_layout, None);
             }
             self.device.raw.destroy_descriptor_pool(self.pool, None);
-            self.device.raw.destroy_pipeline_layout(self.layout, None);
-            self.device
-                .raw
-                .destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
 }

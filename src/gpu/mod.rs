@@ -1,10 +1,12 @@
-//! The thin Vulkan layer: instance and device selection, memory, buffers, pipelines,
-//! command submission and timestamps. Rendering logic lives in `render` and
-//! `integrators`; nothing here knows what a path is.
+//! The thin Vulkan layer: instance and device selection, memory, buffers, pipelines and
+//! their layouts (read from the SPIR-V), acceleration structures, command submission and
+//! timestamps. Rendering logic lives in `engine` and `integrators`; nothing here knows
+//! what a path is, and nothing here imports the rest of the crate but `abi`.
 
-pub mod abi;
 pub mod buffer;
 pub mod kernels;
+pub mod rayquery;
+pub mod reflect;
 pub mod timing;
 
 use ash::vk;
@@ -535,7 +537,7 @@ impl Device {
             .shader_buffer_float32_atomic_add(true);
         // Off: the kernels index within their buffers, and on a CPU driver it would
         // bounds-check every storage-buffer gather. LIGHTPATH_ROBUST_BUFFER_ACCESS=1
-        // turns it on, to measure what it costs (README, "Where the time goes").
+        // turns it on, to measure what it costs (docs/visibility.md, "What was tried on the compressed BVH").
         let robust = std::env::var_os("LIGHTPATH_ROBUST_BUFFER_ACCESS").is_some_and(|v| v == "1");
         let base = vk::PhysicalDeviceFeatures::default().robust_buffer_access(robust);
         let mut f2 = vk::PhysicalDeviceFeatures2::default()

@@ -1,16 +1,37 @@
-//! Host side of bidirectional path tracing: the strategy list, the sizes of its
-//! per-pixel light-vertex buffer and of its strategy images, its render (passes in
+//! Host side of bidirectional path tracing: its options, the strategy list, the sizes
+//! of its per-pixel light-vertex buffer and of its strategy images, its render (passes in
 //! bands, resolve), and the extra passes that record strategy images in groups. (The
 //! kernel is glsl/bdpt.comp; the CPU mirror of its MIS weights is `bdpt_mis`.)
-use crate::gpu::abi::*;
-use crate::gpu::buffer::{memory_barrier, Buffer};
-use crate::gpu_scene::GpuScene;
+use super::{add_film, film_image, Integrator, IntegratorOptions, RenderOutput};
+use crate::abi::*;
+use crate::engine::passes::PassWork;
+use crate::engine::{band_rows, Engine, Passes, PreparedScene, RunOptions};
+use crate::gpu::buffer::Buffer;
 use crate::io::Image;
-use crate::render::{add_film, band_rows, film_image, Passes, Prepared, RenderOutput, Renderer};
 use crate::scene::Scene;
 use crate::trace::Trace;
 use anyhow::{bail, Result};
-use ash::vk;
+
+/// BDPT's options beyond the scene's settings.
+#[derive(Clone, Debug, Default)]
+pub struct BdptOptions {
+    /// Also return each (s,t) strategy's weighted and unweighted images
+    /// (`--bdpt-strategies`).
+    pub record_strategies: bool,
+    /// Caps the light-vertex buffer below the device's limit (tests use it to force many
+    /// small tiles).
+    pub vertex_buffer_limit: Option<u64>,
+    /// Caps the strategy-image buffer below the device's limit (tests use it to force
+    /// recording in several groups).
+    pub strategy_buffer_limit: Option<u64>,
+}
+
+/// BDPT's own results (`RenderOutput::details`).
+#[derive(Default)]
+pub struct BdptDetails {
+    /// With `record_strategies`: every (s,t) strategy's images.
+    pub strategies: Vec<StrategyImages>,
+}
 
 /// One BDPT strategy's share of the image: s light vertices, t camera vertices (the
 /// camera included). `weighted` carries the MIS weight, so the weighted images of all
@@ -86,43 +107,42 @@ pub fn bdpt_max_scatter(scene: &Scene) -> u32 {
     }
 }
 
-/// SceneParams.bdpt.x: record the images of strategies first .. first + count (by
-/// the kernel's index; count 0: none).
-pub fn strategy_selection(first: u32, count: u32) -> u32 {
-    (first << 16) | count
+/// The BDPT integrator.
+pub struct Bdpt {
+    options: BdptOptions,
+    profile_variant: Option<&'static str>,
 }
 
-/// What the extra passes of `record_other_strategy_groups` render with: the first
-/// render's buffers, passes and pass count.
-pub(crate) struct StrategyGroupPass<'a> {
-    pub gpu_scene: &'a GpuScene,
-    pub strategy_film: &'a Buffer,
-    pub passes: Passes<'a>,
-    pub spp: u32,
+pub fn create(o: &IntegratorOptions) -> Box<dyn Integrator> {
+    Box::new(Bdpt {
+        options: o.bdpt.clone(),
+        profile_variant: o.profile_variant,
+    })
 }
 
-impl Renderer {
-    /// Render with BDPT: passes of glsl/bdpt.comp in bands whose light vertices fit the
-    /// device, then (with `record_strategies`) the same passes once per further group
-    /// of strategy images; image = (camera film + splat film) / spp.
-    pub(crate) fn render_bdpt(
+impl Integrator for Bdpt {
+    /// Passes of glsl/bdpt.comp in bands whose light vertices fit the device, then (with
+    /// `record_strategies`) the same passes once per further group of strategy images;
+    /// image = (camera film + splat film) / spp.
+    fn render(
         &mut self,
+        engine: &mut Engine,
         scene: &Scene,
         seed: u32,
         trace: &mut Trace,
     ) -> Result<RenderOutput> {
-        let kernel = "bdpt";
+        let kernel_name = "bdpt";
         let (width, height) = (scene.width, scene.height);
-        let film_bytes = self.film_bytes(width, height)?;
-        self.require_float_atomics("bdpt splats light-tracing samples")?;
-        let limit = self.device.info.max_storage_buffer_range;
+        let film_bytes = engine.film_bytes(width, height)?;
+        engine.require_float_atomics("bdpt splats light-tracing samples")?;
+        let limit = engine.device.info.max_storage_buffer_range;
         let max_scatter = bdpt_max_scatter(scene);
         let vertex_bytes = bdpt_vertex_bytes_per_pixel(max_scatter);
         let vertex_limit = limit
             .min(VERTEX_BUFFER_BUDGET)
-            .min(self.vertex_buffer_limit.unwrap_or(u64::MAX));
+            .min(self.options.vertex_buffer_limit.unwrap_or(u64::MAX));
         let rows = band_rows(width, height, vertex_bytes, vertex_limit)?;
-        let strategies = if self.record_strategies {
+        let strategies = if self.options.record_strategies {
             bdpt_strategies(max_scatter)
         } else {
             Vec::new()
@@ -133,30 +153,40 @@ impl Renderer {
             strategies.len() as u64,
             width,
             height,
-            limit.min(self.strategy_buffer_limit.unwrap_or(u64::MAX)),
-            &self.device.info.name,
+            limit.min(self.options.strategy_buffer_limit.unwrap_or(u64::MAX)),
+            &engine.device.info.name,
         )?;
         let strategy_bytes = strategy_group as u64 * 2 * film_bytes;
-        let Prepared { gpu_scene, rq, .. } =
-            self.prepare(scene, seed, strategy_selection(0, strategy_group), trace)?;
-        let pipeline = trace.cpu("pipeline creation", || self.pass_pipeline(kernel))?;
+        let prepared = engine.prepare(
+            scene,
+            seed,
+            |p| {
+                p.integrator = INTEGRATOR_BDPT;
+                p.max_depth = max_scatter;
+                p.strategy_first = 0;
+                p.strategy_count = strategy_group;
+            },
+            trace,
+        )?;
+        let kernel = trace.cpu("pipeline creation", || {
+            engine.kernel(kernel_name, self.profile_variant)
+        })?;
         let (film, stats, splat, vertices, strategy_film) =
             trace.cpu("BDPT buffers", || -> Result<_> {
                 Ok((
-                    self.storage_buffer("film", film_bytes)?,
-                    self.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
-                    self.storage_buffer("splat film", film_bytes)?,
-                    Buffer::device_local(
-                        &self.device,
+                    engine.storage_buffer("film", film_bytes)?,
+                    engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
+                    engine.storage_buffer("splat film", film_bytes)?,
+                    engine.device_buffer(
                         "BDPT light vertices",
                         (rows as u64 * width as u64 * vertex_bytes).max(16),
-                        vk::BufferUsageFlags::STORAGE_BUFFER,
                     )?,
-                    self.storage_buffer("strategy films", strategy_bytes.max(16))?,
+                    engine.storage_buffer("strategy films", strategy_bytes.max(16))?,
                 ))
             })?;
-        let set = self.descriptor_set(
-            &gpu_scene,
+        let set = engine.bind(
+            &kernel,
+            Some(&prepared),
             &[
                 (BINDING_FILM, &film),
                 (BINDING_STATS, &stats),
@@ -164,19 +194,16 @@ impl Renderer {
                 (BINDING_PATH_VERTICES, &vertices),
                 (BINDING_STRATEGIES, &strategy_film),
             ],
-            rq.as_ref(),
         )?;
-        let params = PassParams { pass: [0, 0, 0, 1] };
-        self.warm_up(pipeline, set, bytemuck::bytes_of(&params), trace)?;
-
         let passes = Passes {
-            pipeline,
-            set,
             kernel,
+            set,
             width,
             height,
             band_rows: rows,
+            span: format!("{kernel_name} pass"),
         };
+        engine.warm_up(passes.idle(), trace)?;
         // image = (camera film + splat film) / spp
         let resolve = |done: u32| -> Result<Image> {
             let (f, sp) = (film.download(film_bytes)?, splat.download(film_bytes)?);
@@ -185,14 +212,23 @@ impl Renderer {
             add_film(&mut image, bytemuck::cast_slice(&sp), inv);
             Ok(image)
         };
-        let (dispatch_seconds, spp) =
-            self.dispatch_passes(passes, 0, scene.settings.spp.max(1), Some(&resolve), trace)?;
+        let mut work = PassWork {
+            passes: &passes,
+            first: 0,
+            spp: scene.settings.spp.max(1),
+            resolve: Some(&resolve),
+        };
+        let run = engine.run(&mut work, &RunOptions::passes(kernel_name), trace)?;
+        let spp = run.done as u32;
+        // (The repeats for further strategy groups are not counted: they re-render the
+        // same samples.)
+        let dispatch_seconds = run.times.total();
 
         let (film_data, stat, splat_data, strategy_data) =
             trace.cpu("readback", || -> Result<_> {
                 Ok((
                     film.download(film_bytes)?,
-                    self.read_stats(&stats, kernel)?,
+                    engine.read_stats(&stats, kernel_name)?,
                     splat.download(film_bytes)?,
                     if strategies.is_empty() {
                         None
@@ -203,19 +239,21 @@ impl Renderer {
             })?;
         let mut strategy_data: Vec<Vec<u8>> = strategy_data.into_iter().collect();
         // (An interrupted render keeps the strategy images it has.)
-        if !strategies.is_empty() && !self.interrupted() {
-            strategy_data.extend(self.record_other_strategy_groups(
+        if !strategies.is_empty() && !engine.interrupted() {
+            let (more, _) = record_other_strategy_groups(
+                engine,
                 StrategyGroupPass {
-                    gpu_scene: &gpu_scene,
+                    prepared: &prepared,
                     strategy_film: &strategy_film,
-                    passes,
+                    passes: &passes,
                     spp,
                 },
                 strategy_group,
                 strategy_group,
                 strategies.len() as u32,
                 trace,
-            )?);
+            )?;
+            strategy_data.extend(more);
         }
         let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
         let inv = 1.0 / spp.max(1) as f32;
@@ -245,85 +283,97 @@ impl Renderer {
             rays,
             samples_per_pixel: spp,
             dispatch_seconds,
-            backend: self.backend(),
-            strategies,
-            mmlt: None,
-            interrupted: self.interrupt_signal(),
+            backend: engine.backend(),
+            interrupted: engine.interrupt_signal(),
+            details: Some(Box::new(BdptDetails { strategies })),
         })
     }
+}
 
-    /// After a render that recorded the first `first` strategies: the same passes
-    /// again (same seed and pass indices, so the same samples) once per further group
-    /// of at most `group` strategies, until all `total` are recorded. Returns each
-    /// group's strategy-film bytes. The film and splat film, which these passes also
-    /// add to, were read back before.
-    pub(crate) fn record_other_strategy_groups(
-        &mut self,
-        p: StrategyGroupPass,
-        first: u32,
-        group: u32,
-        total: u32,
-        trace: &mut Trace,
-    ) -> Result<Vec<Vec<u8>>> {
-        let film_bytes = p.passes.width as u64 * p.passes.height as u64 * 16;
-        let mut out = Vec::new();
-        let mut first = first;
-        while first < total {
-            let count = group.min(total - first);
-            let mut params = p.gpu_scene.params;
-            params.bdpt[0] = strategy_selection(first, count);
-            let device = self.device.clone();
-            device.run_commands("selecting the next group of BDPT strategies", |cmd| {
-                let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
-                let transfer = vk::PipelineStageFlags::TRANSFER;
-                let shader_access = vk::AccessFlags::SHADER_READ
-                    | vk::AccessFlags::SHADER_WRITE
-                    | vk::AccessFlags::UNIFORM_READ;
-                memory_barrier(
-                    &device,
-                    cmd,
-                    (compute, shader_access),
-                    (transfer, vk::AccessFlags::TRANSFER_WRITE),
-                );
-                unsafe {
-                    device.raw.cmd_update_buffer(
-                        cmd,
-                        p.gpu_scene.scene_params.raw,
-                        0,
-                        bytemuck::bytes_of(&params),
-                    );
-                    device
-                        .raw
-                        .cmd_fill_buffer(cmd, p.strategy_film.raw, 0, vk::WHOLE_SIZE, 0);
-                }
-                memory_barrier(
-                    &device,
-                    cmd,
-                    (transfer, vk::AccessFlags::TRANSFER_WRITE),
-                    (compute, shader_access),
-                );
-            })?;
-            // Exactly the first render's passes, whatever the time limit.
-            let time_limit = self.time_limit.take();
-            let again = self.dispatch_passes(p.passes, 0, p.spp, None, trace);
-            self.time_limit = time_limit;
-            again?;
-            if self.interrupted() {
-                // This group's passes were cut short: its images are left out.
-                break;
-            }
-            out.push(trace.cpu("readback", || {
-                p.strategy_film.download(count as u64 * 2 * film_bytes)
-            })?);
-            first += count;
+/// What the extra passes of `record_other_strategy_groups` render with: the first
+/// render's scene, strategy buffer, passes and pass count.
+struct StrategyGroupPass<'a> {
+    prepared: &'a PreparedScene,
+    strategy_film: &'a Buffer,
+    passes: &'a Passes,
+    spp: u32,
+}
+
+/// After a render that recorded the first `first` strategies: the same passes again
+/// (same seed and pass indices, so the same samples) once per further group of at most
+/// `group` strategies, until all `total` are recorded. Returns each group's
+/// strategy-film bytes and the device seconds. The film and splat film, which these
+/// passes also add to, were read back before.
+fn record_other_strategy_groups(
+    engine: &mut Engine,
+    p: StrategyGroupPass,
+    first: u32,
+    group: u32,
+    total: u32,
+    trace: &mut Trace,
+) -> Result<(Vec<Vec<u8>>, f64)> {
+    let film_bytes = p.passes.width as u64 * p.passes.height as u64 * 16;
+    let mut out = Vec::new();
+    let mut first = first;
+    let mut seconds = 0.0;
+    while first < total {
+        let count = group.min(total - first);
+        let mut params = *p.prepared.params();
+        params.strategy_first = first;
+        params.strategy_count = count;
+        engine.update_params(p.prepared, &params, &[p.strategy_film])?;
+        // Exactly the first render's passes, whatever the time limit.
+        let mut work = PassWork {
+            passes: p.passes,
+            first: 0,
+            spp: p.spp,
+            resolve: None,
+        };
+        let options = RunOptions {
+            time_limited: false,
+            ..RunOptions::passes("bdpt")
+        };
+        let run = engine.run(&mut work, &options, trace)?;
+        seconds += run.times.total();
+        if engine.interrupted() {
+            // This group's passes were cut short: its images are left out.
+            break;
         }
-        Ok(out)
+        out.push(trace.cpu("readback", || {
+            p.strategy_film.download(count as u64 * 2 * film_bytes)
+        })?);
+        first += count;
     }
+    Ok((out, seconds))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::passes::BAND_PIXELS;
+
+    #[test]
+    fn bdpt_bands_fit_the_storage_buffer_range() {
+        let range = 128 << 20; // lavapipe
+                               // 1920x1080 at maxdepth 10: 9 stored vertices (576 bytes) per pixel.
+        let per_pixel = bdpt_vertex_bytes_per_pixel(10);
+        assert_eq!(per_pixel, 9 * 64);
+        let rows = band_rows(1920, 1080, per_pixel, range).unwrap();
+        assert!(rows as u64 * 1920 * per_pixel <= range);
+        assert_eq!(rows % WORKGROUP_SIZE_Y, 0);
+        assert!(rows >= 64, "{rows}");
+        // The unbounded cap still fits.
+        let per_pixel = bdpt_vertex_bytes_per_pixel(BDPT_UNBOUNDED_DEPTH_CAP);
+        let rows = band_rows(1920, 1080, per_pixel, range).unwrap();
+        assert!(rows >= 1 && rows as u64 * 1920 * per_pixel <= range);
+        // Fewer rows than a workgroup when that is all that fits; an error when not even
+        // one row fits.
+        assert_eq!(band_rows(100, 50, 64, 100 * 64 * 3).unwrap(), 3);
+        assert!(band_rows(100, 50, 64, 100 * 64 - 1).is_err());
+        // Without vertices, bands are about BAND_PIXELS.
+        assert_eq!(band_rows(512, 4096, 0, range).unwrap(), BAND_PIXELS / 512);
+        assert_eq!(band_rows(64, 16, 0, range).unwrap(), 16);
+    }
 
     #[test]
     fn bdpt_strategy_list_counts_every_s_t_pair() {

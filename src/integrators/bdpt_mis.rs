@@ -273,7 +273,7 @@ impl MisPath {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::BrdfKind;
+    use crate::bsdf::BsdfKind;
 
     /// xorshift64*: a fixed-seed generator for the random paths.
     struct Rng(u64);
@@ -295,7 +295,7 @@ mod tests {
     fn random_bsdf(rng: &mut Rng) -> BsdfParams {
         let ggx = rng.next() < 0.5;
         BsdfParams {
-            kind: if ggx { BrdfKind::Ggx } else { BrdfKind::Phong },
+            kind: if ggx { BsdfKind::Ggx } else { BsdfKind::Phong },
             kd: rng.vec(0.0, 0.8),
             ks: if rng.next() < 0.3 {
                 Vec3::ZERO

@@ -11,16 +11,24 @@
 //! them.
 use super::bdpt::bdpt_max_scatter;
 use super::mmlt_sampler::{pcg4d, stream_sizes};
-use crate::gpu::abi::*;
-use crate::gpu::buffer::{memory_barrier, Buffer};
-use crate::gpu::timing::Timestamps;
+use super::{add_film, film_image, Integrator, IntegratorOptions, RenderOutput};
+use crate::abi::*;
+use crate::engine::{band_rows, Dispatch, Engine, Passes, RunOptions, Work};
+use crate::gpu::kernels::Kernel;
 use crate::io::Image;
-use crate::render::{add_film, band_rows, film_image, Passes, Prepared, RenderOutput, Renderer};
 use crate::scene::Scene;
 use crate::trace::Trace;
 use anyhow::{bail, Result};
 use ash::vk;
 use std::time::Instant;
+
+/// MMLT's options beyond the scene's settings (which hold chains, bootstrap, sigma and
+/// the large-step probability).
+#[derive(Clone, Debug, Default)]
+pub struct MmltOptions {
+    /// Also return each depth's contribution image (`--mmlt-depths`).
+    pub record_depths: bool,
+}
 
 /// Bootstrap samples per depth when the scene and command line do not say: 100 000,
 /// scaled down beyond 6 depths so that the whole bootstrap stays at about 600 000 samples
@@ -292,148 +300,251 @@ impl MmltReport {
     }
 }
 
-impl Renderer {
+/// The MMLT integrator.
+pub struct Mmlt {
+    options: MmltOptions,
+}
+
+pub fn create(o: &IntegratorOptions) -> Box<dyn Integrator> {
+    Box::new(Mmlt {
+        options: o.mmlt.clone(),
+    })
+}
+
+/// MMLT's push constants for `plan` in `mode` over items first..first + items.
+fn params(
+    plan: &MmltPlan,
+    record_depths: bool,
+    mode: u32,
+    first: u32,
+    items: u32,
+    mutations: u32,
+) -> MmltParams {
+    MmltParams {
+        mode,
+        first_item: first,
+        items,
+        mutations,
+        chains: plan.chains,
+        bootstrap_per_depth: plan.per_depth,
+        depths: plan.depths(),
+        record_depths: record_depths as u32,
+        camera_numbers: plan.streams[0],
+        light_numbers: plan.streams[1],
+        connect_numbers: plan.streams[2],
+        numbers: plan.numbers,
+        sigma: plan.sigma,
+        large_step: plan.large_step,
+        reserved0: 0.0,
+        reserved1: 0.0,
+    }
+}
+
+/// A dispatch of mmlt.comp over `p.items` items.
+fn mmlt_dispatch(kernel: &Kernel, set: vk::DescriptorSet, p: &MmltParams, span: &str) -> Dispatch {
+    Dispatch::new(
+        kernel,
+        set,
+        p,
+        [p.items.div_ceil(MMLT_WORKGROUP_SIZE), 1, 1],
+    )
+    .timed(span)
+}
+
+/// The chains' run: `per_chain` mutations per chain, K per dispatch, and (maxdepth -1)
+/// the bdpt tail passes due by then.
+struct ChainWork<'a> {
+    kernel: &'a Kernel,
+    set: vk::DescriptorSet,
+    base: MmltParams,
+    chains: u64,
+    per_chain: u64,
+    npix: u64,
+    tail: Option<&'a Passes>,
+    tail_total: u32,
+    tail_done: u32,
+    resolve: &'a dyn Fn(u64, u32) -> Result<(Image, f64)>,
+}
+
+impl ChainWork<'_> {
+    /// The tail passes from tail_done up to `wanted` (clamped to 1..=tail_total).
+    fn tail_to(&mut self, wanted: u32) -> Vec<Dispatch> {
+        let Some(passes) = self.tail else {
+            return Vec::new();
+        };
+        let wanted = wanted.clamp(1, self.tail_total);
+        if wanted <= self.tail_done {
+            return Vec::new();
+        }
+        let list = passes.dispatches(self.tail_done, wanted - self.tail_done);
+        self.tail_done = wanted;
+        list
+    }
+}
+
+impl Work for ChainWork<'_> {
+    fn total(&self) -> u64 {
+        self.per_chain
+    }
+
+    fn dispatches(&mut self, _first: u64, count: u64) -> Result<Vec<Dispatch>> {
+        let mut p = self.base;
+        p.mode = MMLT_MODE_CHAINS;
+        p.first_item = 0;
+        p.items = self.chains as u32;
+        p.mutations = count as u32;
+        let mut list = vec![mmlt_dispatch(self.kernel, self.set, &p, "mmlt chains")];
+        // maxdepth -1: one tail pass per 8 mutations per pixel, interleaved with the
+        // chains so that a time limit ends both together.
+        let per_pixel = (_first + count) * self.chains / self.npix;
+        list.extend(self.tail_to((per_pixel / 8).min(u32::MAX as u64) as u32));
+        Ok(list)
+    }
+
+    fn snapshot(&self, done: u64) -> Result<Option<(Image, u64)>> {
+        let (image, _) = (self.resolve)(done * self.chains, self.tail_done)?;
+        Ok(Some((image, done * self.chains / self.npix)))
+    }
+}
+
+impl Integrator for Mmlt {
     /// Render with MMLT (see the module comment).
-    pub(crate) fn render_mmlt(
+    fn render(
         &mut self,
+        engine: &mut Engine,
         scene: &Scene,
         seed: u32,
         trace: &mut Trace,
     ) -> Result<RenderOutput> {
-        self.require_float_atomics("mmlt splats every mutation")?;
+        engine.require_float_atomics("mmlt splats every mutation")?;
+        let record_depths = self.options.record_depths;
         let (width, height) = (scene.width, scene.height);
-        let film_bytes = self.film_bytes(width, height)?;
+        let film_bytes = engine.film_bytes(width, height)?;
         let npix = width as u64 * height as u64;
-        let info = &self.device.info;
+        let info = &engine.device.info;
         let plan = plan(
             scene,
             info.kind,
             info.max_storage_buffer_range,
-            self.record_depths,
+            record_depths,
         )?;
         let depths = plan.depths();
-        let Prepared { gpu_scene, rq, .. } = self.prepare(scene, seed, 0, trace)?;
+        let prepared = engine.prepare(
+            scene,
+            seed,
+            |p| {
+                p.integrator = INTEGRATOR_MMLT;
+                p.max_depth = plan.depth_cap;
+                // maxdepth -1: the bdpt tail adds only paths beyond the chains' cap.
+                p.min_depth = if plan.tail_passes > 0 {
+                    BDPT_UNBOUNDED_DEPTH_CAP + 1
+                } else {
+                    0
+                };
+            },
+            trace,
+        )?;
         let boot_count = plan.bootstrap_samples();
-        let (film, splat, stats, chain_samples, chain_buffer, bootstrap, depth_film) =
+        let (film, splat, stats, chain_samples, chain_buffer, bootstrap, depth_film, unused) =
             trace.cpu("MMLT buffers", || -> Result<_> {
                 Ok((
-                    self.storage_buffer("film", film_bytes)?,
-                    self.storage_buffer("splat film", film_bytes)?,
-                    self.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
-                    Buffer::device_local(
-                        &self.device,
+                    engine.storage_buffer("film", film_bytes)?,
+                    engine.storage_buffer("splat film", film_bytes)?,
+                    engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
+                    engine.device_buffer(
                         "MMLT chain primary samples",
                         plan.chains as u64 * plan.numbers as u64 * 16,
-                        vk::BufferUsageFlags::STORAGE_BUFFER,
                     )?,
-                    self.storage_buffer(
+                    engine.storage_buffer(
                         "MMLT chains",
                         plan.chains as u64 * std::mem::size_of::<GpuChain>() as u64,
                     )?,
-                    self.storage_buffer("MMLT bootstrap targets", boot_count * 4)?,
-                    self.storage_buffer(
+                    engine.storage_buffer("MMLT bootstrap targets", boot_count * 4)?,
+                    engine.storage_buffer(
                         "MMLT depth films",
-                        if self.record_depths {
+                        if record_depths {
                             depths as u64 * film_bytes
                         } else {
                             16
                         },
                     )?,
+                    // The tail's light-vertex and strategy bindings, which it never uses.
+                    engine.storage_buffer("unused", 16)?,
                 ))
             })?;
-        let set = self.descriptor_set(
-            &gpu_scene,
+        let kernel = trace.cpu("pipeline creation", || engine.kernel("mmlt", None))?;
+        let set = engine.bind(
+            &kernel,
+            Some(&prepared),
             &[
-                (BINDING_FILM, &film),
                 (BINDING_STATS, &stats),
                 (BINDING_SPLAT, &splat),
-                (BINDING_STRATEGIES, &depth_film),
+                (BINDING_DEPTH_FILMS, &depth_film),
                 (BINDING_CHAIN_SAMPLES, &chain_samples),
                 (BINDING_CHAINS, &chain_buffer),
                 (BINDING_BOOTSTRAP, &bootstrap),
             ],
-            rq.as_ref(),
         )?;
-        let pipeline = trace.cpu("pipeline creation", || self.kernels.pipeline("mmlt"))?;
-        let base = MmltParams {
-            run: [MMLT_MODE_BOOTSTRAP, 0, 0, 0],
-            sizes: [
-                plan.chains,
-                plan.per_depth,
-                depths,
-                self.record_depths as u32,
-            ],
-            streams: [
-                plan.streams[0],
-                plan.streams[1],
-                plan.streams[2],
-                plan.numbers,
-            ],
-            mutation: [plan.sigma, plan.large_step, 0.0, 0.0],
-        };
-        self.warm_up(pipeline, set, bytemuck::bytes_of(&base), trace)?;
+        let base = params(&plan, record_depths, MMLT_MODE_BOOTSTRAP, 0, 0, 0);
+        engine.warm_up(mmlt_dispatch(&kernel, set, &base, "mmlt"), trace)?;
         let start = Instant::now();
 
         // maxdepth -1: paths longer than the chains' cap come from bdpt's own estimator,
-        // restricted to them (SceneParams.bdpt.y), added to the image. Its passes are
+        // restricted to them (SceneParams.min_depth), added to the image. Its passes are
         // interleaved with the chain dispatches (one per 8 mutations per pixel, at least
         // one) so that a time limit ends both together. The chains' cap is bdpt's, so
         // the tail has no light subpaths and never writes the splat film the chains use.
         let tail = if plan.tail_passes > 0 {
-            let bdpt = trace.cpu("pipeline creation", || self.kernels.pipeline("bdpt"))?;
-            let push = PassParams { pass: [0, 0, 0, 1] };
-            self.warm_up(bdpt, set, bytemuck::bytes_of(&push), trace)?;
-            Some(Passes {
-                pipeline: bdpt,
-                set,
-                kernel: "bdpt",
+            let bdpt = trace.cpu("pipeline creation", || engine.kernel("bdpt", None))?;
+            let tail_set = engine.bind(
+                &bdpt,
+                Some(&prepared),
+                &[
+                    (BINDING_FILM, &film),
+                    (BINDING_STATS, &stats),
+                    (BINDING_SPLAT, &splat),
+                    (BINDING_PATH_VERTICES, &unused),
+                    (BINDING_STRATEGIES, &unused),
+                ],
+            )?;
+            let passes = Passes {
+                kernel: bdpt,
+                set: tail_set,
                 width,
                 height,
                 band_rows: band_rows(width, height, 0, u64::MAX)?,
-            })
+                span: "bdpt pass".to_string(),
+            };
+            engine.warm_up(passes.idle(), trace)?;
+            Some(passes)
         } else {
             None
         };
-        let mut tail_done = 0u32;
-        let mut tail_seconds = 0.0;
-        // Runs tail passes up to `wanted` (clamped to 1..=plan); returns the passes done.
-        let mut run_tail = |r: &mut Renderer, wanted: u32, trace: &mut Trace| -> Result<u32> {
-            if let Some(passes) = tail {
-                let wanted = wanted.clamp(1, plan.tail_passes);
-                if wanted > tail_done {
-                    let time_limit = r.time_limit.take();
-                    let done =
-                        r.dispatch_passes(passes, tail_done, wanted - tail_done, None, trace);
-                    r.time_limit = time_limit;
-                    let (seconds, n) = done?;
-                    tail_seconds += seconds;
-                    tail_done += n;
-                }
-            }
-            Ok(tail_done)
-        };
 
         // Bootstrap: depths × per_depth samples, each one strategy of its depth.
-        let batches: Vec<MmltParams> = (0..boot_count)
+        let batches: Vec<Dispatch> = (0..boot_count)
             .step_by(BOOTSTRAP_BATCH as usize)
             .map(|first| {
-                let mut p = base;
-                p.run = [
+                let items = (boot_count - first).min(BOOTSTRAP_BATCH as u64) as u32;
+                let p = params(
+                    &plan,
+                    record_depths,
                     MMLT_MODE_BOOTSTRAP,
                     first as u32,
-                    (boot_count - first).min(BOOTSTRAP_BATCH as u64) as u32,
+                    items,
                     0,
-                ];
-                p
+                );
+                mmlt_dispatch(&kernel, set, &p, "mmlt bootstrap")
             })
             .collect();
         let mut bootstrap_seconds = 0.0;
         for group in batches.chunks(8) {
-            if self.interrupted() {
+            if engine.interrupted() {
                 break;
             }
-            bootstrap_seconds +=
-                self.mmlt_dispatches(pipeline, set, group, "mmlt bootstrap", trace)?;
+            bootstrap_seconds += engine
+                .submit(group, "running mmlt bootstrap", trace)?
+                .total();
         }
         let targets = trace.cpu("readback", || bootstrap.download(boot_count * 4))?;
         let targets: &[f32] = bytemuck::cast_slice(&targets);
@@ -483,12 +594,30 @@ impl Renderer {
             }
             Ok((image, tail_rays))
         };
+        let mut work = ChainWork {
+            kernel: &kernel,
+            set,
+            base,
+            chains: plan.chains as u64,
+            per_chain: plan.mutations_per_chain(),
+            npix,
+            tail: tail.as_ref(),
+            tail_total: plan.tail_passes,
+            tail_done: 0,
+            resolve: &resolve,
+        };
         let mut mutations_done = 0u64;
         let mut chain_seconds = 0.0;
-        if !self.interrupted() {
-            run_tail(self, 1, trace)?;
+        let mut tail_seconds = 0.0;
+        if !engine.interrupted() {
+            let first_tail = work.tail_to(1);
+            if !first_tail.is_empty() {
+                tail_seconds += engine
+                    .submit(&first_tail, "running bdpt passes 0..1", trace)?
+                    .total();
+            }
         }
-        if b > 0.0 && !self.interrupted() {
+        if b > 0.0 && !engine.interrupted() {
             // Chain starts in proportion to the bootstrap targets.
             let starts = trace.cpu("mmlt chain starts", || {
                 pick_chain_starts(targets, plan.chains, seed)
@@ -502,61 +631,29 @@ impl Renderer {
                 })
                 .collect();
             chain_buffer.upload(bytemuck::cast_slice(&chain_init))?;
-            let mut p = base;
-            p.run = [MMLT_MODE_START, 0, plan.chains, 0];
-            self.mmlt_dispatches(pipeline, set, &[p], "mmlt chain start", trace)?;
+            let p = params(&plan, record_depths, MMLT_MODE_START, 0, plan.chains, 0);
+            engine.submit(
+                &[mmlt_dispatch(&kernel, set, &p, "mmlt chain start")],
+                "running mmlt chain start",
+                trace,
+            )?;
 
             // The chains, K mutations per dispatch.
-            let per_chain = plan.mutations_per_chain();
-            let progress = self.show_progress.then(|| {
-                let bar = indicatif::ProgressBar::new(per_chain * plan.chains as u64);
-                bar.set_style(
-                    indicatif::ProgressStyle::with_template(
-                        "{msg} [{bar:30}] {pos}/{len} mutations, {elapsed} elapsed, {eta} left",
-                    )
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-                );
-                bar.set_message("mmlt");
-                bar
-            });
-            let mut done = 0u64;
-            let mut k = 4u64;
-            while done < per_chain {
-                if self.interrupted()
-                    || self
-                        .time_limit
-                        .is_some_and(|t| done > 0 && start.elapsed().as_secs_f64() >= t)
-                {
-                    break;
-                }
-                let n = k.min(per_chain - done);
-                let mut p = base;
-                p.run = [MMLT_MODE_CHAINS, 0, plan.chains, n as u32];
-                let t0 = Instant::now();
-                chain_seconds += self.mmlt_dispatches(pipeline, set, &[p], "mmlt chains", trace)?;
-                let wall = t0.elapsed().as_secs_f64();
-                done += n;
-                let per_pixel = done * plan.chains as u64 / npix;
-                let tail_now = run_tail(self, (per_pixel / 8).min(u32::MAX as u64) as u32, trace)?;
-                if self.snapshot_due() {
-                    let (image, _) =
-                        trace.cpu("snapshot", || resolve(done * plan.chains as u64, tail_now))?;
-                    self.write_snapshot(&image, per_pixel)?;
-                }
-                if let Some(bar) = &progress {
-                    bar.set_position(done * plan.chains as u64);
-                }
-                if wall < 0.25 && k < 1 << 16 {
-                    k *= 2;
-                } else if wall > 1.0 && k > 1 {
-                    k /= 2;
-                }
-            }
-            if let Some(bar) = progress {
-                bar.finish_and_clear();
-            }
-            mutations_done = done * plan.chains as u64;
+            let options = RunOptions {
+                label: "mmlt".to_string(),
+                unit: "mutations",
+                progress_scale: plan.chains as u64,
+                first_batch: 4,
+                max_batch: 1 << 16,
+                time_limited: true,
+                started: Some(start),
+            };
+            let run = engine.run(&mut work, &options, trace)?;
+            chain_seconds = run.times.of("mmlt chains");
+            tail_seconds += run.times.of("bdpt pass");
+            mutations_done = run.done * plan.chains as u64;
         }
+        let tail_done = work.tail_done;
         report.mutations = mutations_done;
         report.chain_seconds = chain_seconds;
         report.tail_passes = tail_done;
@@ -564,10 +661,10 @@ impl Renderer {
             trace.cpu("readback", || -> Result<_> {
                 Ok((
                     resolve(mutations_done, tail_done)?,
-                    self.read_stats(&stats, "mmlt")?,
+                    engine.read_stats(&stats, "mmlt")?,
                     chain_buffer
                         .download(plan.chains as u64 * std::mem::size_of::<GpuChain>() as u64)?,
-                    if self.record_depths {
+                    if record_depths {
                         Some(depth_film.download(depths as u64 * film_bytes)?)
                     } else {
                         None
@@ -608,127 +705,10 @@ impl Renderer {
             rays,
             samples_per_pixel: spp,
             dispatch_seconds: bootstrap_seconds + chain_seconds + tail_seconds,
-            backend: self.backend(),
-            strategies: Vec::new(),
-            mmlt: Some(report),
-            interrupted: self.interrupt_signal(),
+            backend: engine.backend(),
+            interrupted: engine.interrupt_signal(),
+            details: Some(Box::new(report)),
         })
-    }
-
-    /// Tests of the sampler against its CPU mirror: `chains` chains (chain c started on
-    /// bootstrap sample c of depth `depth_cap`) make `proposals` proposals on
-    /// mmlt.comp's synthetic probe path. Returns every chain's primary numbers
-    /// (dimension-major, as the kernel keeps them) and the chains' state.
-    pub fn mmlt_sampler_probe(
-        &mut self,
-        chains: u32,
-        depth_cap: u32,
-        proposals: u32,
-        seed: u32,
-        sigma: f32,
-        large_step: f32,
-    ) -> Result<(Vec<[u32; 4]>, Vec<GpuChain>)> {
-        let mut scene = crate::scene::parse_str(
-            "size 4 4\nvertex 0 0 -1\nvertex 1 0 -1\nvertex 0 1 -1\ntri 0 1 2\n",
-            "sampler probe",
-        )?;
-        scene.settings.max_depth = depth_cap as i32;
-        let mut trace = Trace::new();
-        let Prepared { gpu_scene, rq, .. } = self.prepare(&scene, seed, 0, &mut trace)?;
-        let streams = stream_sizes(depth_cap);
-        let numbers: u32 = streams.iter().sum();
-        let samples = Buffer::device_local(
-            &self.device,
-            "probe primary samples",
-            chains as u64 * numbers as u64 * 16,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-        )?;
-        let init: Vec<GpuChain> = (0..chains)
-            .map(|c| GpuChain {
-                state: [0, depth_cap, 0, 0],
-                start: [c, 0, 0, 0],
-                ..Default::default()
-            })
-            .collect();
-        let chain_buffer = self.storage_buffer(
-            "probe chains",
-            chains as u64 * std::mem::size_of::<GpuChain>() as u64,
-        )?;
-        chain_buffer.upload(bytemuck::cast_slice(&init))?;
-        let stats = self.storage_buffer("stats", 4 * STAT_COUNT as u64)?;
-        let set = self.descriptor_set(
-            &gpu_scene,
-            &[
-                (BINDING_STATS, &stats),
-                (BINDING_CHAIN_SAMPLES, &samples),
-                (BINDING_CHAINS, &chain_buffer),
-            ],
-            rq.as_ref(),
-        )?;
-        let pipeline = self.kernels.pipeline("mmlt")?;
-        let mut p = MmltParams {
-            run: [MMLT_MODE_PROBE_START, 0, chains, 0],
-            sizes: [chains, 1, depth_cap + 1, 0],
-            streams: [streams[0], streams[1], streams[2], numbers],
-            mutation: [sigma, large_step, 0.0, 0.0],
-        };
-        self.mmlt_dispatches(pipeline, set, &[p], "probe start", &mut trace)?;
-        p.run = [MMLT_MODE_PROBE_CHAINS, 0, chains, proposals];
-        self.mmlt_dispatches(pipeline, set, &[p], "probe chains", &mut trace)?;
-        let numbers_data = samples.download(chains as u64 * numbers as u64 * 16)?;
-        let chain_data =
-            chain_buffer.download(chains as u64 * std::mem::size_of::<GpuChain>() as u64)?;
-        Ok((
-            bytemuck::cast_slice(&numbers_data).to_vec(),
-            bytemuck::cast_slice(&chain_data).to_vec(),
-        ))
-    }
-
-    /// Record `list` as one submission of MMLT dispatches (a barrier after each), timed
-    /// as spans named `span`. Returns the seconds they took on the device.
-    fn mmlt_dispatches(
-        &self,
-        pipeline: vk::Pipeline,
-        set: vk::DescriptorSet,
-        list: &[MmltParams],
-        span: &str,
-        trace: &mut Trace,
-    ) -> Result<f64> {
-        let device = self.device.clone();
-        let mut timestamps = Timestamps::new(&device, list.len() as u32)?;
-        let stage = format!("running {span}");
-        let cmd = device.begin_commands(&stage)?;
-        timestamps.reset(cmd);
-        self.bind_kernel(cmd, pipeline, set);
-        unsafe {
-            for p in list {
-                device.raw.cmd_push_constants(
-                    cmd,
-                    self.kernels.layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    bytemuck::bytes_of(p),
-                );
-                let t = timestamps.begin(cmd);
-                device
-                    .raw
-                    .cmd_dispatch(cmd, p.run[2].div_ceil(MMLT_WORKGROUP_SIZE), 1, 1);
-                timestamps.end(cmd, t);
-                let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
-                memory_barrier(
-                    &device,
-                    cmd,
-                    (compute, vk::AccessFlags::SHADER_WRITE),
-                    (
-                        compute | vk::PipelineStageFlags::TRANSFER,
-                        vk::AccessFlags::SHADER_READ
-                            | vk::AccessFlags::SHADER_WRITE
-                            | vk::AccessFlags::TRANSFER_READ,
-                    ),
-                );
-            }
-        }
-        self.submit_timed(cmd, &stage, &timestamps, span, trace)
     }
 }
 

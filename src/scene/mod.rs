@@ -10,17 +10,13 @@ pub use parse::{parse_file, parse_str, ParseError};
 use glam::{Mat4, Vec3};
 use std::path::PathBuf;
 
-/// Which BRDF a material uses (SCENE_FORMAT.md, "Materials").
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum BrdfKind {
-    Phong,
-    Ggx,
-}
+pub use crate::abi::{BsdfKind, SampleMode};
+use crate::abi::{GpuMaterial, MATERIAL_TWO_SIDED_EMISSION, NO_TEXTURE};
 
 /// One material: the sticky material state at the moment a shape was declared.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
-    pub brdf: BrdfKind,
+    pub bsdf: BsdfKind,
     pub diffuse: Vec3,
     pub specular: Vec3,
     pub shininess: f32,
@@ -34,7 +30,7 @@ pub struct Material {
 impl Default for Material {
     fn default() -> Self {
         Material {
-            brdf: BrdfKind::Phong,
+            bsdf: BsdfKind::Phong,
             diffuse: Vec3::ZERO,
             specular: Vec3::ZERO,
             shininess: 1.0,
@@ -48,6 +44,30 @@ impl Default for Material {
 impl Material {
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
+    }
+
+    /// The material as the kernels read it (abi.h `GpuMaterial`). Two materials are the
+    /// same material exactly when their records are equal, so the parser deduplicates by
+    /// the whole record.
+    pub fn record(&self) -> GpuMaterial {
+        GpuMaterial {
+            diffuse: self.diffuse.extend(0.0).to_array(),
+            specular: self.specular.extend(0.0).to_array(),
+            emission: self.emission.extend(0.0).to_array(),
+            eta: [0.0; 4],
+            k: [0.0; 4],
+            roughness: [self.shininess, self.roughness, self.roughness, 0.0],
+            info: [
+                self.bsdf as u32,
+                if self.two_sided_emission {
+                    MATERIAL_TWO_SIDED_EMISSION
+                } else {
+                    0
+                },
+                NO_TEXTURE,
+                NO_TEXTURE,
+            ],
+        }
     }
 }
 
@@ -150,14 +170,7 @@ pub enum NextEventEstimation {
     Mis,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum ImportanceSampling {
-    Hemisphere,
-    Cosine,
-    Brdf,
-}
-
-/// Integrator settings (SCENE_FORMAT.md, "Integrator settings").
+/// Integrator settings (docs/scene-format.md, "Integrator settings").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
     pub integrator: IntegratorKind,
@@ -166,7 +179,7 @@ pub struct Settings {
     pub max_depth: i32,
     pub nee: NextEventEstimation,
     pub russian_roulette: bool,
-    pub importance_sampling: ImportanceSampling,
+    pub importance_sampling: SampleMode,
     pub light_samples: u32,
     pub light_stratify: bool,
     pub gamma: f32,
@@ -206,7 +219,7 @@ impl Default for Settings {
             max_depth: 5,
             nee: NextEventEstimation::Off,
             russian_roulette: false,
-            importance_sampling: ImportanceSampling::Hemisphere,
+            importance_sampling: SampleMode::Hemisphere,
             light_samples: 1,
             light_stratify: false,
             gamma: 1.0,

@@ -1,4 +1,4 @@
-//! The `.test` scene parser (see `SCENE_FORMAT.md`).
+//! The `.test` scene parser (see docs/scene-format.md).
 //!
 //! The file is read whole and parsed in one pass, line by line, without per-line
 //! allocations. Vertices are stored as written; a `tri` transforms them by the
@@ -6,8 +6,8 @@
 //! Material state is sticky; identical materials share one index.
 
 use super::{
-    BrdfKind, Camera, DeltaLight, ImportanceSampling, IntegratorKind, Material,
-    NextEventEstimation, QuadLight, Scene, Sphere, Triangle,
+    BsdfKind, Camera, DeltaLight, IntegratorKind, Material, NextEventEstimation, QuadLight,
+    SampleMode, Scene, Sphere, Triangle,
 };
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
@@ -427,35 +427,21 @@ impl Command<'_> {
     }
 }
 
-/// A material's identity for deduplication: the floats by bit pattern
-/// (with -0 folded into +0).
-#[derive(Clone, Copy, PartialEq, Eq, Hash)]
-struct MaterialKey {
-    brdf: BrdfKind,
-    two_sided_emission: bool,
-    bits: [u32; 11],
-}
+/// A material's identity for deduplication: the bytes of its whole device record
+/// (`Material::record`), with -0.0 read as 0.0, so no field can be forgotten.
+#[derive(Clone, PartialEq, Eq, Hash)]
+struct MaterialKey(Vec<u32>);
 
 impl MaterialKey {
     fn of(m: &Material) -> Self {
-        let floats = [
-            m.diffuse.x,
-            m.diffuse.y,
-            m.diffuse.z,
-            m.specular.x,
-            m.specular.y,
-            m.specular.z,
-            m.shininess,
-            m.roughness,
-            m.emission.x,
-            m.emission.y,
-            m.emission.z,
-        ];
-        MaterialKey {
-            brdf: m.brdf,
-            two_sided_emission: m.two_sided_emission,
-            bits: floats.map(|x| (x + 0.0).to_bits()),
-        }
+        let record = m.record();
+        let words: &[u32] = bytemuck::cast_slice(bytemuck::bytes_of(&record));
+        MaterialKey(
+            words
+                .iter()
+                .map(|&w| if w == 0x8000_0000 { 0 } else { w })
+                .collect(),
+        )
     }
 }
 
@@ -596,8 +582,8 @@ impl Parser {
                 self.set_material(|m| m.roughness = a);
             }
             "brdf" => {
-                let brdf = cmd.choice(&[("phong", BrdfKind::Phong), ("ggx", BrdfKind::Ggx)])?;
-                self.set_material(|m| m.brdf = brdf);
+                let brdf = cmd.choice(&[("phong", BsdfKind::Phong), ("ggx", BsdfKind::Ggx)])?;
+                self.set_material(|m| m.bsdf = brdf);
             }
             "emission" => {
                 let le = cmd.color(0, "the emission")?;
@@ -658,9 +644,9 @@ impl Parser {
             }
             "importancesampling" => {
                 settings.importance_sampling = cmd.choice(&[
-                    ("hemisphere", ImportanceSampling::Hemisphere),
-                    ("cosine", ImportanceSampling::Cosine),
-                    ("brdf", ImportanceSampling::Brdf),
+                    ("hemisphere", SampleMode::Hemisphere),
+                    ("cosine", SampleMode::Cosine),
+                    ("brdf", SampleMode::Brdf),
                 ])?;
             }
             "lightsamples" => settings.light_samples = cmd.uint(0, 1)?,
@@ -797,7 +783,7 @@ impl Parser {
         });
         // Black, one-sided emitter, whatever the sticky material is.
         let material = self.intern(Material {
-            brdf: BrdfKind::Phong,
+            bsdf: BsdfKind::Phong,
             diffuse: Vec3::ZERO,
             specular: Vec3::ZERO,
             shininess: 1.0,
@@ -964,7 +950,7 @@ mod tests {
         assert_eq!(t.max_depth, -1);
         assert_eq!(t.nee, NextEventEstimation::Mis);
         assert!(t.russian_roulette);
-        assert_eq!(t.importance_sampling, ImportanceSampling::Cosine);
+        assert_eq!(t.importance_sampling, SampleMode::Cosine);
         assert_eq!(t.light_samples, 9);
         assert!(t.light_stratify);
 
@@ -981,9 +967,9 @@ mod tests {
             assert_eq!(s.settings.nee, nee);
         }
         for (word, is) in [
-            ("hemisphere", ImportanceSampling::Hemisphere),
-            ("cosine", ImportanceSampling::Cosine),
-            ("brdf", ImportanceSampling::Brdf),
+            ("hemisphere", SampleMode::Hemisphere),
+            ("cosine", SampleMode::Cosine),
+            ("brdf", SampleMode::Brdf),
         ] {
             let s = parse(&format!("importancesampling {word}"));
             assert_eq!(s.settings.importance_sampling, is);
@@ -1152,7 +1138,7 @@ mod tests {
              brdf phong\nsphere 0 0 0 1\n"
         ));
         let expected = Material {
-            brdf: BrdfKind::Ggx,
+            bsdf: BsdfKind::Ggx,
             diffuse: Vec3::new(0.1, 0.2, 0.3),
             specular: Vec3::new(0.4, 0.5, 0.6),
             shininess: 30.0,
@@ -1165,7 +1151,7 @@ mod tests {
         assert_eq!(
             s.materials[s.spheres[0].material as usize],
             Material {
-                brdf: BrdfKind::Phong,
+                bsdf: BsdfKind::Phong,
                 ..expected
             }
         );
@@ -1250,7 +1236,7 @@ mod tests {
         assert_eq!(
             s.materials[t[0].material as usize],
             Material {
-                brdf: BrdfKind::Phong,
+                bsdf: BsdfKind::Phong,
                 diffuse: Vec3::ZERO,
                 specular: Vec3::ZERO,
                 shininess: 1.0,
@@ -2070,7 +2056,7 @@ mod tests {
         assert_eq!(ggx.spheres.len(), 6);
         assert_eq!(ggx.settings.max_depth, -1);
         assert_eq!(ggx.settings.gamma, 2.2);
-        assert!(ggx.materials.iter().any(|m| m.brdf == BrdfKind::Ggx));
+        assert!(ggx.materials.iter().any(|m| m.bsdf == BsdfKind::Ggx));
 
         let mis = find(&scenes, "hw4/mis.test");
         assert_eq!(mis.quad_lights.len(), 5);
@@ -2113,11 +2099,7 @@ mod tests {
             assert_eq!(s.settings.spp, 64, "{name}");
             assert_eq!(s.settings.max_depth, 5, "{name}");
             assert_eq!(s.settings.nee, NextEventEstimation::Mis, "{name}");
-            assert_eq!(
-                s.settings.importance_sampling,
-                ImportanceSampling::Brdf,
-                "{name}"
-            );
+            assert_eq!(s.settings.importance_sampling, SampleMode::Brdf, "{name}");
             assert!(s.settings.russian_roulette, "{name}");
             assert_eq!(s.settings.gamma, 2.2, "{name}");
             assert_eq!(s.quad_lights.len(), 1, "{name}");
@@ -2157,12 +2139,12 @@ mod tests {
         let glossy = find(&scenes, "cornell-glossy.test");
         assert_eq!(glossy.output.as_deref(), Some("cornell-glossy.png"));
         assert_eq!(glossy.spheres.len(), 2);
-        let sphere_brdfs: Vec<BrdfKind> = glossy
+        let sphere_brdfs: Vec<BsdfKind> = glossy
             .spheres
             .iter()
-            .map(|s| glossy.materials[s.material as usize].brdf)
+            .map(|s| glossy.materials[s.material as usize].bsdf)
             .collect();
-        assert!(sphere_brdfs.contains(&BrdfKind::Phong) && sphere_brdfs.contains(&BrdfKind::Ggx));
+        assert!(sphere_brdfs.contains(&BsdfKind::Phong) && sphere_brdfs.contains(&BsdfKind::Ggx));
 
         let furnace = find(&scenes, "furnace.test");
         assert_eq!(furnace.output.as_deref(), Some("furnace.exr"));
@@ -2180,7 +2162,7 @@ mod tests {
         assert_eq!(t.integrator, IntegratorKind::PathTracer);
         assert_eq!(t.max_depth, 3);
         assert_eq!(t.nee, NextEventEstimation::Off);
-        assert_eq!(t.importance_sampling, ImportanceSampling::Cosine);
+        assert_eq!(t.importance_sampling, SampleMode::Cosine);
         assert_eq!(t.spp, 16);
         let (lo, hi) = bounds(furnace);
         let eye = furnace.camera.eye;

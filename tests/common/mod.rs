@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use lightpath::io::Image;
-use lightpath::render::{AccelChoice, Renderer};
+use lightpath::render::{AccelChoice, MmltReport, RenderOutput, Renderer, StrategyImages};
 use lightpath::scene::{self, IntegratorKind, Scene};
 use lightpath::trace::Trace;
 use std::path::PathBuf;
@@ -167,4 +167,16 @@ pub fn max_relative_difference(a: &Image, b: &Image) -> f32 {
         .zip(&b.pixels)
         .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs() / (q[c].abs() + 1e-3)))
         .fold(0.0, f32::max)
+}
+
+/// A BDPT render's strategy images (empty when it recorded none).
+pub fn strategies(out: &RenderOutput) -> &[StrategyImages] {
+    out.details::<lightpath::render::BdptDetails>()
+        .map(|d| d.strategies.as_slice())
+        .unwrap_or_default()
+}
+
+/// An MMLT render's report.
+pub fn mmlt_report(out: &RenderOutput) -> &MmltReport {
+    out.details::<MmltReport>().expect("an mmlt report")
 }

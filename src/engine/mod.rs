@@ -1,0 +1,376 @@
+//! The render engine: what every render shares and no integrator owns. It opens a
+//! device and its kernels for one visibility backend, makes a scene ready for the device
+//! (BVH or BLAS/TLAS, the scene's buffers and parameters), binds resources to kernels,
+//! records dispatches (`dispatch`: the one function that does), and runs long sequences
+//! of them (`run`: the one run loop, with batching, the time limit, interruption, the
+//! progress bar and snapshots). Pass-shaped work (one invocation per pixel, in bands) is
+//! in `passes`. The integrators use it, and it knows none of them.
+pub mod dispatch;
+pub mod passes;
+pub mod run;
+
+pub use dispatch::{Dispatch, SubmitTimes};
+pub use passes::{band_rows, Passes};
+pub use run::{RunOptions, RunResult, SnapshotWriter, Snapshots, Work};
+
+use crate::abi::{SceneParams, STAT_COUNT, STAT_OUT_OF_RANGE};
+use crate::accel::BvhKind;
+use crate::gpu::buffer::{memory_barrier, Buffer};
+use crate::gpu::kernels::{Backend, Kernel, Kernels, Resource};
+use crate::gpu::rayquery::{self, RayQueryScene};
+pub use crate::gpu::Validation;
+use crate::gpu::{Device, ValidationReport};
+use crate::gpu_scene::{scene_params, GpuScene};
+use crate::scene::Scene;
+use crate::trace::Trace;
+use anyhow::{bail, Result};
+use ash::vk;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+
+/// `--accel`: which visibility backend the kernels use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AccelChoice {
+    Auto,
+    RayQuery,
+    /// The default storage-buffer BVH ([`DEFAULT_BVH`]).
+    Bvh,
+    Cwbvh,
+    Bvh2,
+}
+
+/// The storage-buffer BVH that `--accel bvh` (and `auto` where ray query is not
+/// used) picks: the faster one measured (docs/performance.md).
+pub const DEFAULT_BVH: Backend = Backend::Cwbvh;
+
+impl AccelChoice {
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "auto" => Some(Self::Auto),
+            "rayquery" => Some(Self::RayQuery),
+            "bvh" => Some(Self::Bvh),
+            "cwbvh" => Some(Self::Cwbvh),
+            "bvh2" => Some(Self::Bvh2),
+            _ => None,
+        }
+    }
+
+    /// True for the choices that never use ray query.
+    pub fn is_bvh(self) -> bool {
+        matches!(self, Self::Bvh | Self::Cwbvh | Self::Bvh2)
+    }
+}
+
+/// The tree a backend's kernels walk from storage buffers; ray query orders its
+/// triangles by the binary BVH.
+pub fn bvh_kind(backend: Backend) -> BvhKind {
+    match backend {
+        Backend::Cwbvh => BvhKind::Compressed,
+        Backend::Bvh2 | Backend::RayQuery => BvhKind::Binary,
+    }
+}
+
+/// How the engine's runs behave; set by the command line (or a test) per render.
+#[derive(Default)]
+pub struct RunControl {
+    pub show_progress: bool,
+    /// Stop after the first batch of units that ends this many seconds (wall clock) after
+    /// the render's first dispatch; the image is then the mean of what was done. The
+    /// scene's spp still caps the work. For equal-time comparisons.
+    pub time_limit: Option<f64>,
+    /// Raised (to the signal's number) by a SIGINT or SIGTERM handler: every run stops
+    /// after the submission in flight, and the render returns what it has.
+    pub interrupt: Option<Arc<AtomicUsize>>,
+    /// Progressive output (`--write-partial-images`).
+    pub snapshots: Option<Snapshots>,
+}
+
+/// An open device with its kernels for one backend; renders any number of scenes.
+pub struct Engine {
+    pub device: Arc<Device>,
+    pub kernels: Kernels,
+    pub control: RunControl,
+}
+
+/// A scene made ready for the device: its buffers, parameters and visibility structure.
+pub struct PreparedScene {
+    pub gpu_scene: GpuScene,
+    pub rq: Option<RayQueryScene>,
+    /// The scene's index of each triangle as the device holds them (see
+    /// [`crate::accel::prepare`]).
+    pub triangle_order: Vec<u32>,
+}
+
+impl PreparedScene {
+    pub fn params(&self) -> &SceneParams {
+        &self.gpu_scene.params
+    }
+}
+
+impl Engine {
+    /// Open a device (by index or name; the best one when `None`) for the backend
+    /// `accel` picks. With `validation`, everything runs under the Khronos validation
+    /// layer (see [`Validation`]); [`Engine::validation`] tells what it reported.
+    pub fn open(
+        device_name: Option<&str>,
+        accel: AccelChoice,
+        validation: Validation,
+    ) -> Result<Engine> {
+        let device = Arc::new(Device::open(device_name, !accel.is_bvh(), validation)?);
+        let backend = match accel {
+            AccelChoice::Bvh => DEFAULT_BVH,
+            AccelChoice::Cwbvh => Backend::Cwbvh,
+            AccelChoice::Bvh2 => Backend::Bvh2,
+            AccelChoice::RayQuery => {
+                if !device.ray_query_enabled() {
+                    bail!(
+                        "--accel rayquery: {} has no VK_KHR_ray_query/VK_KHR_acceleration_structure (use --accel bvh)",
+                        device.info.name
+                    );
+                }
+                Backend::RayQuery
+            }
+            // Measured on lavapipe (docs/performance.md): its ray-query traversal is
+            // slower than the kernel's own BVH walk, so CPU devices get the BVH.
+            AccelChoice::Auto => {
+                if device.ray_query_enabled() && device.info.kind != vk::PhysicalDeviceType::CPU {
+                    Backend::RayQuery
+                } else {
+                    DEFAULT_BVH
+                }
+            }
+        };
+        let kernels = Kernels::new(&device, backend)?;
+        Ok(Engine {
+            device,
+            kernels,
+            control: RunControl::default(),
+        })
+    }
+
+    pub fn backend(&self) -> Backend {
+        self.kernels.backend
+    }
+
+    /// What the validation layer has reported since the device was opened; `None` when
+    /// it was opened without validation.
+    pub fn validation(&self) -> Option<ValidationReport> {
+        self.device.instance.validation()
+    }
+
+    /// What every render does before its dispatches: the visibility structure (BVH, or
+    /// BLAS/TLAS for ray query) and the scene's device buffers, with the parameters of
+    /// `seed` as `params` leaves them (an integrator sets its own fields there).
+    pub fn prepare(
+        &mut self,
+        scene: &Scene,
+        seed: u32,
+        params: impl FnOnce(&mut SceneParams),
+        trace: &mut Trace,
+    ) -> Result<PreparedScene> {
+        // The previous render's descriptor sets are no longer in use.
+        self.kernels.reset_sets()?;
+        let mut scene = scene.clone();
+        let backend = self.backend();
+        let bvh = trace.cpu("BVH build", || {
+            crate::accel::prepare(&mut scene, bvh_kind(backend))
+        })?;
+        let mut p = scene_params(&scene, seed);
+        params(&mut p);
+        let gpu_scene = trace.cpu("scene upload", || {
+            GpuScene::new(&self.device, &scene, &bvh, backend, p)
+        })?;
+        let rq = if backend == Backend::RayQuery {
+            let spheres: Vec<_> = scene.spheres.iter().map(|s| s.object_to_world).collect();
+            Some(trace.cpu("acceleration structure build", || {
+                rayquery::build_scene(
+                    &self.device,
+                    &gpu_scene.triangles,
+                    scene.triangles.len() as u32,
+                    &spheres,
+                )
+            })?)
+        } else {
+            None
+        };
+        Ok(PreparedScene {
+            gpu_scene,
+            rq,
+            triangle_order: bvh.triangle_order,
+        })
+    }
+
+    /// The kernel `name`, or with `variant` its profiling variant (`name+variant`).
+    pub fn kernel(&mut self, name: &'static str, variant: Option<&'static str>) -> Result<Kernel> {
+        let name = match variant {
+            Some(v) => {
+                let wanted = format!("{name}+{v}");
+                crate::gpu::kernels::KERNELS
+                    .iter()
+                    .map(|(k, _, _)| *k)
+                    .find(|k| *k == wanted)
+                    .ok_or_else(|| anyhow::anyhow!("no profiling variant {wanted} was compiled"))?
+            }
+            None => name,
+        };
+        Ok(self.kernels.get(name)?)
+    }
+
+    /// A descriptor set for `kernel`: the scene's resources and `buffers` (binding number,
+    /// buffer), each at the binding the kernel declares. A binding the kernel uses that
+    /// neither provides is an error naming it.
+    pub fn bind(
+        &self,
+        kernel: &Kernel,
+        scene: Option<&PreparedScene>,
+        buffers: &[(u32, &Buffer)],
+    ) -> Result<vk::DescriptorSet> {
+        let mut resources = match scene {
+            Some(s) => s.gpu_scene.resources(s.rq.as_ref()),
+            None => Vec::new(),
+        };
+        resources.extend(
+            buffers
+                .iter()
+                .map(|(b, buf)| (*b, Resource::Buffer(buf.raw))),
+        );
+        Ok(self.kernels.descriptor_set(kernel, &resources)?)
+    }
+
+    /// A zero-filled storage buffer the host can read back and write.
+    pub fn storage_buffer(&self, name: &str, bytes: u64) -> Result<Buffer> {
+        Ok(Buffer::zeroed(
+            &self.device,
+            name,
+            bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+        )?)
+    }
+
+    /// A storage buffer in device memory only (the kernels' scratch).
+    pub fn device_buffer(&self, name: &str, bytes: u64) -> Result<Buffer> {
+        Ok(Buffer::device_local(
+            &self.device,
+            name,
+            bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+        )?)
+    }
+
+    /// A storage buffer holding `data`.
+    pub fn buffer_with(&self, name: &str, data: &[u8]) -> Result<Buffer> {
+        Ok(Buffer::with_data(
+            &self.device,
+            name,
+            data,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?)
+    }
+
+    /// The stats buffer's counters (abi.h `STAT_*`), failing the render on an internal
+    /// error the kernel reported.
+    pub fn read_stats(&self, stats: &Buffer, kernel: &str) -> Result<Vec<u32>> {
+        let data = stats.download(4 * STAT_COUNT as u64)?;
+        let stat: Vec<u32> = bytemuck::cast_slice(&data).to_vec();
+        if stat[STAT_OUT_OF_RANGE as usize] > 0 {
+            bail!(
+                "internal error: {} {kernel} invocations found their slice of a per-pixel buffer past its end",
+                stat[STAT_OUT_OF_RANGE as usize]
+            );
+        }
+        Ok(stat)
+    }
+
+    /// Bytes of a `width` × `height` film (vec4 per pixel), checked against the device's
+    /// storage-buffer range.
+    pub fn film_bytes(&self, width: u32, height: u32) -> Result<u64> {
+        let film_bytes = width as u64 * height as u64 * 16;
+        if film_bytes > self.device.info.max_storage_buffer_range {
+            bail!(
+                "a {width}x{height} film needs {film_bytes} bytes, more than {}'s storage-buffer range ({} bytes); render a smaller --size",
+                self.device.info.name,
+                self.device.info.max_storage_buffer_range
+            );
+        }
+        Ok(film_bytes)
+    }
+
+    pub fn require_float_atomics(&self, what: &str) -> Result<()> {
+        if !self.device.info.atomic_float {
+            bail!(
+                "{what} with float atomics, and {} has no VK_EXT_shader_atomic_float (shaderBufferFloat32AtomicAdd)",
+                self.device.info.name
+            );
+        }
+        Ok(())
+    }
+
+    /// Replace the scene parameters on the device (between dispatches) and zero the
+    /// `clear` buffers, ordered after every earlier dispatch and before every later one.
+    pub fn update_params(
+        &self,
+        scene: &PreparedScene,
+        params: &SceneParams,
+        clear: &[&Buffer],
+    ) -> Result<()> {
+        let device = &self.device;
+        device.run_commands("updating the scene parameters", |cmd| {
+            let compute = vk::PipelineStageFlags::COMPUTE_SHADER;
+            let transfer = vk::PipelineStageFlags::TRANSFER;
+            let shader_access = vk::AccessFlags::SHADER_READ
+                | vk::AccessFlags::SHADER_WRITE
+                | vk::AccessFlags::UNIFORM_READ;
+            memory_barrier(
+                device,
+                cmd,
+                (compute, shader_access),
+                (transfer, vk::AccessFlags::TRANSFER_WRITE),
+            );
+            unsafe {
+                device.raw.cmd_update_buffer(
+                    cmd,
+                    scene.gpu_scene.scene_params.raw,
+                    0,
+                    bytemuck::bytes_of(params),
+                );
+                for b in clear {
+                    device.raw.cmd_fill_buffer(cmd, b.raw, 0, vk::WHOLE_SIZE, 0);
+                }
+            }
+            memory_barrier(
+                device,
+                cmd,
+                (transfer, vk::AccessFlags::TRANSFER_WRITE),
+                (compute, shader_access),
+            );
+        })?;
+        Ok(())
+    }
+
+    /// Drivers that compile lazily (lavapipe JITs a kernel at its first dispatch: ~25 s
+    /// for `pt` with a cold Mesa shader cache) do it here, in a stage of its own, rather
+    /// than inside the first timed dispatch. `dispatch` must do no work.
+    pub fn warm_up(&self, dispatch: Dispatch, trace: &mut Trace) -> Result<()> {
+        let mut d = dispatch;
+        d.span = None;
+        d.groups = [1, 1, 1];
+        trace.cpu("kernel warm-up", || {
+            self.submit(&[d], "warming up the kernel", &mut Trace::new())
+        })?;
+        Ok(())
+    }
+
+    /// The signal that stopped the render, if one did.
+    pub fn interrupt_signal(&self) -> Option<usize> {
+        self.control
+            .interrupt
+            .as_ref()
+            .map(|f| f.load(Ordering::Relaxed))
+            .filter(|&s| s != 0)
+    }
+
+    /// Whether a signal asked the render to stop.
+    pub fn interrupted(&self) -> bool {
+        self.interrupt_signal().is_some()
+    }
+}

@@ -1,0 +1,141 @@
+//! The host/GLSL interface: every struct the Rust side mirrors has the same member
+//! offsets in every compiled kernel, is built of 16-byte rows, and every kernel is
+//! compiled for every backend; each kernel's descriptor bindings (read from its SPIR-V)
+//! are the abi.h numbers, once each.
+use lightpath::abi::{self, layouts};
+use lightpath::accel::bvh::BvhNode;
+use lightpath::gpu::kernels::KERNELS;
+use lightpath::gpu::reflect::{kernel_bindings, struct_member_offsets};
+use std::collections::{BTreeSet, HashSet};
+
+#[test]
+fn layouts_match_spirv() {
+    let mut mirrored = layouts();
+    mirrored.push((
+        "BvhNode",
+        vec![("min_left", 0, 16), ("max_count", 16, 16)],
+        std::mem::size_of::<BvhNode>(),
+    ));
+    let mut seen = HashSet::new();
+    for (kernel, backend, code) in KERNELS {
+        for (st, member, offset) in struct_member_offsets(code) {
+            let Some((_, members, _)) = mirrored.iter().find(|(n, _, _)| *n == st) else {
+                continue;
+            };
+            let rust = members
+                .iter()
+                .find(|(m, _, _)| *m == member)
+                .unwrap_or_else(|| {
+                    panic!("{kernel} ({backend}): {st}.{member} has no Rust mirror")
+                });
+            assert_eq!(
+                rust.1 as u32, offset,
+                "{kernel} ({backend}): {st}.{member} is at {offset} in SPIR-V, {} in Rust",
+                rust.1
+            );
+            seen.insert(st.clone());
+        }
+    }
+    for (name, members, size) in &mirrored {
+        assert!(
+            seen.contains(*name),
+            "struct {name} was not found in any kernel's SPIR-V"
+        );
+        // Members are 16-byte vectors, or 4-byte scalars in whole rows of four: no vec3,
+        // and nothing std140/std430 would pad differently from Rust.
+        assert_eq!(size % 16, 0, "{name}: size {size} is not a multiple of 16");
+        let mut row = 0;
+        for (member, offset, bytes) in members {
+            match bytes {
+                16 => assert_eq!(
+                    offset % 16,
+                    0,
+                    "{name}.{member}: a vector not on a 16-byte row"
+                ),
+                4 => row += 4,
+                _ => panic!("{name}.{member}: {bytes} bytes (members are vec4s or scalars)"),
+            }
+            if *bytes == 16 {
+                assert_eq!(
+                    row % 16,
+                    0,
+                    "{name}.{member}: scalars before it do not fill a row"
+                );
+            }
+        }
+        assert_eq!(row % 16, 0, "{name}: its scalars do not fill whole rows");
+    }
+}
+
+#[test]
+fn every_kernel_is_compiled_for_every_backend() {
+    let kernels: BTreeSet<_> = KERNELS.iter().map(|(k, _, _)| *k).collect();
+    for k in kernels {
+        for b in ["rayquery", "cwbvh", "bvh2"] {
+            assert!(
+                KERNELS.iter().any(|(kk, bb, _)| *kk == k && *bb == b),
+                "{k} is not compiled for {b}"
+            );
+        }
+    }
+}
+
+/// The descriptor bindings each kernel uses, as read from its SPIR-V: numbers from
+/// abi.h, each resource at its own number, and the visibility backend's own resources
+/// (the TLAS for ray query, the BVH buffers otherwise) only where they belong.
+#[test]
+fn kernel_bindings_come_from_the_spirv() {
+    for (kernel, backend, code) in KERNELS {
+        let bindings =
+            kernel_bindings(code).unwrap_or_else(|e| panic!("{kernel} ({backend}): {e}"));
+        let numbers: Vec<u32> = bindings.iter().map(|b| b.binding).collect();
+        let has = |n: u32| numbers.contains(&n);
+        if kernel.starts_with("bsdf_probe") {
+            assert_eq!(
+                numbers,
+                vec![
+                    abi::BINDING_MATERIALS,
+                    abi::BINDING_BSDF_PROBE_INPUTS,
+                    abi::BINDING_BSDF_PROBE_OUTPUTS
+                ],
+                "{kernel} ({backend})"
+            );
+            continue;
+        }
+        // Every other kernel traces rays.
+        assert!(has(abi::BINDING_SCENE), "{kernel} ({backend}): {numbers:?}");
+        if *backend == "rayquery" {
+            assert!(
+                has(abi::BINDING_TLAS) && !has(abi::BINDING_BVH_NODES),
+                "{kernel} ({backend}): {numbers:?}"
+            );
+        } else {
+            assert!(
+                !has(abi::BINDING_TLAS) && has(abi::BINDING_BVH_NODES),
+                "{kernel} ({backend}): {numbers:?}"
+            );
+        }
+        let base = kernel.split('+').next().unwrap_or(kernel);
+        match base {
+            "pt" | "analytic" => assert!(has(abi::BINDING_FILM) && !has(abi::BINDING_SPLAT)),
+            "bdpt" => assert!(
+                has(abi::BINDING_SPLAT)
+                    && has(abi::BINDING_PATH_VERTICES)
+                    && has(abi::BINDING_STRATEGIES)
+            ),
+            "mmlt" => assert!(
+                has(abi::BINDING_CHAINS)
+                    && has(abi::BINDING_DEPTH_FILMS)
+                    && !has(abi::BINDING_STRATEGIES)
+                    && !has(abi::BINDING_FILM),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            "trace_probe" => assert!(
+                has(abi::BINDING_PROBE_RAYS)
+                    && has(abi::BINDING_PROBE_HITS)
+                    && !has(abi::BINDING_FILM)
+            ),
+            other => panic!("a kernel this test does not know: {other}"),
+        }
+    }
+}

@@ -1,0 +1,201 @@
+//! The GLSL BSDFs themselves (glsl/lib/bsdf.glsl, run by glsl/bsdf_probe.comp on the
+//! Vulkan device) against their CPU mirror (src/bsdf.rs), whose sampling the χ² and
+//! energy tests in src/bsdf.rs check: evaluation, pdf and sampling of every BSDF kind in
+//! every sampling mode and both transport modes, on thousands of random inputs.
+mod common;
+
+use glam::Vec3;
+use lightpath::abi::{BsdfKind, BsdfProbeInput, GpuMaterial, SampleMode, Transport};
+use lightpath::bsdf::BsdfParams;
+use lightpath::render::AccelChoice;
+use lightpath::scene::Material;
+
+/// A small xorshift generator: fixed seeds, no crates.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn unit_vector(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(self.next(), self.next(), self.next()) * 2.0 - Vec3::ONE;
+            let l = v.length();
+            if l > 1e-3 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
+    fn colour(&mut self) -> Vec3 {
+        Vec3::new(self.next(), self.next(), self.next())
+    }
+}
+
+/// Random materials of every kind, built as the parser builds them (`Material::record`),
+/// with lobes from broad to very sharp and the degenerate cases of the lobe choice
+/// (black diffuse, black specular).
+fn materials(rng: &mut Rng) -> Vec<GpuMaterial> {
+    let mut out = Vec::new();
+    for i in 0..64 {
+        let bsdf = BsdfKind::ALL[i % BsdfKind::ALL.len()];
+        let mut m = Material {
+            bsdf,
+            diffuse: rng.colour() * 0.8,
+            specular: rng.colour(),
+            shininess: [1.0, 10.0, 100.0, 0.5][i / 2 % 4] * (0.5 + rng.next()),
+            roughness: [0.05, 0.2, 0.6, 1.0][i / 2 % 4] * (0.5 + rng.next()),
+            ..Material::default()
+        };
+        match i % 8 {
+            6 => m.diffuse = Vec3::ZERO,
+            7 => m.specular = Vec3::ZERO,
+            _ => {}
+        }
+        out.push(m.record());
+    }
+    out
+}
+
+fn close(a: f32, b: f32, rel: f32) -> bool {
+    (a - b).abs() <= rel * b.abs().max(a.abs()) + 1e-6
+}
+
+fn close3(a: Vec3, b: Vec3, rel: f32) -> bool {
+    (0..3).all(|c| close(a[c], b[c], rel))
+}
+
+#[test]
+fn glsl_bsdfs_match_their_cpu_mirror() {
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let materials = materials(&mut rng);
+    let modes = [SampleMode::Hemisphere, SampleMode::Cosine, SampleMode::Brdf];
+    let transports = [Transport::Radiance, Transport::Importance];
+    let mut inputs = Vec::new();
+    for i in 0..24_000u32 {
+        let n = rng.unit_vector();
+        let mut wo = rng.unit_vector();
+        if wo.dot(n) < 0.0 {
+            wo = -wo;
+        }
+        // Half of the wi near the mirror direction, where the sharp lobes are.
+        let wi = if i % 2 == 0 {
+            rng.unit_vector()
+        } else {
+            let r = 2.0 * n.dot(wo) * n - wo;
+            (r + rng.unit_vector() * 0.1).normalize()
+        };
+        inputs.push(BsdfProbeInput {
+            info: [
+                i % materials.len() as u32,
+                modes[(i / 7) as usize % 3] as u32,
+                transports[(i / 3) as usize % 2] as u32,
+                0,
+            ],
+            n: n.extend(0.0).to_array(),
+            wo: wo.extend(0.0).to_array(),
+            wi: wi.extend(0.0).to_array(),
+            u: [rng.next(), rng.next(), rng.next(), 0.0],
+        });
+    }
+    let got = {
+        let mut r = common::renderer(AccelChoice::Bvh);
+        lightpath::probe::bsdf(&mut r.engine, &materials, &inputs).expect("BSDF probe")
+    };
+    let (mut checked, mut borderline, mut sampled) = (0, 0, 0);
+    for (k, (input, out)) in inputs.iter().zip(&got).enumerate() {
+        let m = BsdfParams::from_record(&materials[input.info[0] as usize]).expect("a BSDF kind");
+        let mode = modes
+            .into_iter()
+            .find(|x| *x as u32 == input.info[1])
+            .unwrap();
+        let transport = transports
+            .into_iter()
+            .find(|x| *x as u32 == input.info[2])
+            .unwrap();
+        let n = Vec3::from_slice(&input.n[..3]);
+        let wo = Vec3::from_slice(&input.wo[..3]);
+        let wi = Vec3::from_slice(&input.wi[..3]);
+        let u = Vec3::from_slice(&input.u[..3]);
+        let what =
+            || format!("input {k}: {m:?}, {mode:?}, {transport:?}, n {n}, wo {wo}, wi {wi}, u {u}");
+        // Evaluation and pdf.
+        let f = m.eval(n, wo, wi, transport);
+        let pdf = m.pdf(mode, n, wo, wi);
+        let f_gpu = Vec3::from_slice(&out.eval[..3]);
+        if n.dot(wi).abs() < 1e-4 {
+            borderline += 1;
+        } else {
+            assert!(
+                close3(f_gpu, f, 2e-3),
+                "f: device {f_gpu} vs mirror {f} ({})",
+                what()
+            );
+            assert!(
+                close(out.eval[3], pdf, 2e-3),
+                "pdf: device {} vs mirror {pdf} ({})",
+                out.eval[3],
+                what()
+            );
+            checked += 1;
+        }
+        // Sampling: the same lobe, direction, value and pdf, except where rounding can
+        // pick the other lobe or put the direction on the other side of the surface.
+        let cpu = m.sample(mode, n, wo, u, transport);
+        let lobe_edge = mode == SampleMode::Brdf && (u.x - m.specular_probability()).abs() < 1e-4;
+        let below_edge = cpu.is_some_and(|s| n.dot(s.wi) < 1e-3);
+        if lobe_edge || below_edge {
+            borderline += 1;
+            continue;
+        }
+        let ok = out.sample_f[3] != 0.0;
+        match cpu {
+            Some(s) => {
+                assert!(
+                    ok,
+                    "the device's sample failed where the mirror's did not ({})",
+                    what()
+                );
+                let wi_gpu = Vec3::from_slice(&out.sample_dir[..3]);
+                assert!(
+                    (wi_gpu - s.wi).length() < 2e-3,
+                    "sampled wi: device {wi_gpu} vs mirror {} ({})",
+                    s.wi,
+                    what()
+                );
+                assert!(
+                    close(out.sample_dir[3], s.pdf, 5e-3),
+                    "sampled pdf: device {} vs mirror {} ({})",
+                    out.sample_dir[3],
+                    s.pdf,
+                    what()
+                );
+                let f_gpu = Vec3::from_slice(&out.sample_f[..3]);
+                assert!(
+                    close3(f_gpu, s.f, 5e-3),
+                    "sampled f: device {f_gpu} vs mirror {} ({})",
+                    s.f,
+                    what()
+                );
+                assert_eq!(out.info[0], s.flags, "lobe flags ({})", what());
+                sampled += 1;
+            }
+            None => {
+                // The mirror's sample went below the surface (by more than rounding).
+                assert!(
+                    !ok,
+                    "the device sampled where the mirror failed ({})",
+                    what()
+                );
+            }
+        }
+    }
+    assert!(checked > 23_000, "only {checked} evaluations compared");
+    assert!(sampled > 15_000, "only {sampled} samples compared");
+    assert!(
+        borderline < inputs.len() / 50,
+        "{borderline} borderline inputs"
+    );
+}
