@@ -1,6 +1,7 @@
 // `analyticdirect`: the exact direct lighting of diffuse surfaces, with no visibility,
 // from polygonal emitters (Lambert's formula for the irradiance of a polygon:
-// E = L/2 * sum_i theta_i * dot(n, gamma_i), Arvo 1995), point and directional lights.
+// E = L/2 * sum_i theta_i * dot(n, gamma_i), Arvo 1995), point, spot and directional
+// lights.
 // A closed-form oracle for the Monte Carlo integrators on unoccluded scenes. Emissive
 // spheres are not polygons and are left out. No horizon clipping: lights must lie
 // entirely above the surfaces they light.
@@ -61,6 +62,11 @@ void main() {
                 vec3 to = em.p0.xyz - s.p;
                 float d2 = dot(to, to);
                 E += em.radiance.xyz * max(0.0, dot(n, to) / sqrt(d2)) / d2;
+            } else if (em.info.x == EMITTER_SPOT) {
+                vec3 to = em.p0.xyz - s.p;
+                float d2 = dot(to, to);
+                vec3 w = to / sqrt(d2);
+                E += em.radiance.xyz * spot_falloff(em, -w) * max(0.0, dot(n, w)) / d2;
             } else if (em.info.x == EMITTER_DIRECTIONAL) {
                 E += em.radiance.xyz * max(0.0, dot(n, em.p0.xyz));
             }

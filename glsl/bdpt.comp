@@ -105,7 +105,7 @@ uint light_subpath(uint base) {
             v.p = vec4(y.p, uintBitsToFloat(y.material));
             v.n = vec4(y.n, y.dvcm);
             v.wi = vec4(y.w, y.dvc);
-            v.beta = vec4(y.beta, 0.0);
+            v.beta = vec4(y.beta, dot(y.n, y.ng) > 0.0 ? 1.0 : 0.0);
             light_vertices[base + i - 1u] = v;
             stored = i;
         }
@@ -127,7 +127,7 @@ PathVertex stored_light_vertex(uint index) {
     y.dvc = g.wi.w;
     y.beta = g.beta.xyz;
     y.emitter = NO_EMITTER;
-    y.ng = g.n.xyz;
+    y.ng = g.beta.w > 0.5 ? y.n : -y.n;   // (only its side matters: emission is not read here)
     return y;
 }
 

@@ -47,17 +47,18 @@ vec3 path_sample(uvec2 pixel, inout Rng rng) {
     vec3 L = vec3(0.0);
     vec3 beta = vec3(1.0);
     float prev_pdf = 0.0;   // solid-angle pdf of the BSDF sample that led here
+    bool prev_delta = false; // ... or whether it was a delta lobe (no light sample could find it)
     vec3 prev_p = o;
     for (uint depth = 0u;; ++depth) {
         Hit hit;
         if (!closest(o, d, hit)) break;
         Surface s = surface_at(hit, o, d);
         vec3 wo = -d;
-        BsdfParams b = material_bsdf(materials[s.material]);
+        BsdfParams b = material_bsdf(materials[s.material], dot(s.ng, wo) >= 0.0);
         // Emission found by the path itself.
         if (s.emitter != NO_EMITTER) {
             vec3 Le = emitted_radiance(s.material, s.ng, wo);
-            if (depth == 0u || nee == NEE_OFF) {
+            if (depth == 0u || nee == NEE_OFF || prev_delta) {
                 L += beta * Le;
             } else if (nee == NEE_MIS && Le != vec3(0.0)) {
                 L += beta * Le * emitter_hit_mis_weight(s.emitter, prev_p, prev_pdf, s.p, s.ng);
@@ -66,15 +67,19 @@ vec3 path_sample(uvec2 pixel, inout Rng rng) {
         // This hit is scattering vertex depth+1; paths have at most max_vertices of them.
         if (depth + 1u > max_vertices) break;
         vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
-        if (nee != NEE_OFF && have_emitters) {
+        // (A delta BSDF cannot be reached by a light sample: no NEE there.)
+        bool delta = bsdf_is_delta(b);
+        if (nee != NEE_OFF && have_emitters && !delta) {
             uint e = pick_emitter(rng_block(rng).x);
             L += beta * estimate_direct(b, s.p, n, wo, e, rng_next2(rng), nee == NEE_MIS, mode);
         }
-        // With NEE on, emission found by the next bounce would not count: stop here.
-        if (nee == NEE_ON && depth + 1u == max_vertices) break;
+        // With NEE on, emission found by the next bounce would not count (unless this
+        // vertex is a delta one): stop here.
+        if (nee == NEE_ON && depth + 1u == max_vertices && !delta) break;
         BsdfSample bs;
         if (!bsdf_sample(b, mode, n, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) break;
-        beta *= bs.f * (dot(n, bs.wi) / bs.pdf);
+        float cos_i = dot(n, bs.wi);
+        beta *= bs.f * (abs(cos_i) / bs.pdf);
         if (beta == vec3(0.0)) break;
         if (rr) {
             float survive = min(1.0, max(beta.x, max(beta.y, beta.z)));
@@ -82,8 +87,9 @@ vec3 path_sample(uvec2 pixel, inout Rng rng) {
             beta /= survive;
         }
         prev_pdf = bs.pdf;
+        prev_delta = (bs.flags & BSDF_LOBE_DELTA) != 0u;
         prev_p = s.p;
-        o = offset_ray_origin(s.p, n);
+        o = offset_ray_origin(s.p, cos_i > 0.0 ? n : -n);
         d = bs.wi;
     }
     return L;
@@ -101,7 +107,7 @@ vec3 direct_sample(uvec2 pixel, inout Rng rng) {
     vec3 L = vec3(0.0);
     if (s.emitter != NO_EMITTER) L += emitted_radiance(s.material, s.ng, wo);
     if (scene.emitter_count == 0u || (scene.max_depth == 0u && scene.unbounded == 0u)) return L;
-    BsdfParams b = material_bsdf(materials[s.material]);
+    BsdfParams b = material_bsdf(materials[s.material], dot(s.ng, wo) >= 0.0);
     vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
     uint count = max(scene.light_samples, 1u);
     uint strata = scene.light_stratify != 0u ? uint(floor(sqrt(float(count)) + 1e-3)) : 0u;

@@ -159,10 +159,19 @@ pub struct BsdfProbeOutput {
 pub enum BsdfKind {
     Phong = BSDF_PHONG,
     Ggx = BSDF_GGX,
+    Dielectric = BSDF_DIELECTRIC,
+    ThinDielectric = BSDF_THIN_DIELECTRIC,
+    Conductor = BSDF_CONDUCTOR,
 }
 
 impl BsdfKind {
-    pub const ALL: [BsdfKind; 2] = [BsdfKind::Phong, BsdfKind::Ggx];
+    pub const ALL: [BsdfKind; 5] = [
+        BsdfKind::Phong,
+        BsdfKind::Ggx,
+        BsdfKind::Dielectric,
+        BsdfKind::ThinDielectric,
+        BsdfKind::Conductor,
+    ];
 
     /// The kind of a record's `info.x`, if it is one.
     pub fn from_code(code: u32) -> Option<BsdfKind> {

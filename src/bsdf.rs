@@ -108,8 +108,150 @@ pub mod sampling {
     }
 }
 
+use self::microfacet::*;
 pub use crate::abi::{BsdfKind, SampleMode, Transport};
-use crate::abi::{GpuMaterial, BSDF_LOBE_REFLECTION};
+use crate::abi::{GpuMaterial, BSDF_LOBE_DELTA, BSDF_LOBE_REFLECTION, BSDF_LOBE_TRANSMISSION};
+
+/// Mirror of glsl/lib/microfacet.glsl: Fresnel, the anisotropic Trowbridge-Reitz
+/// distribution, visible-normal sampling and refraction, in the local frame.
+pub mod microfacet {
+    use super::sampling::{PI, TWO_PI};
+    use glam::{Vec2, Vec3};
+
+    /// GLSL `MICROFACET_SMOOTH_ALPHA`.
+    pub const MICROFACET_SMOOTH_ALPHA: f32 = 1e-3;
+
+    pub fn fr_dielectric(cos_i: f32, eta: f32) -> f32 {
+        let mut cos_i = cos_i.clamp(-1.0, 1.0);
+        let mut eta = eta;
+        if cos_i < 0.0 {
+            eta = 1.0 / eta;
+            cos_i = -cos_i;
+        }
+        let sin2_i = 1.0 - cos_i * cos_i;
+        let sin2_t = sin2_i / (eta * eta);
+        if sin2_t >= 1.0 {
+            return 1.0;
+        }
+        let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+        let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+        let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+        0.5 * (r_parl * r_parl + r_perp * r_perp)
+    }
+
+    fn c_mul(a: Vec2, b: Vec2) -> Vec2 {
+        Vec2::new(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x)
+    }
+    fn c_div(a: Vec2, b: Vec2) -> Vec2 {
+        let d = b.x * b.x + b.y * b.y;
+        Vec2::new(a.x * b.x + a.y * b.y, a.y * b.x - a.x * b.y) / d
+    }
+    fn c_sqrt(z: Vec2) -> Vec2 {
+        let n = z.length();
+        if n == 0.0 {
+            return Vec2::ZERO;
+        }
+        let t1 = (0.5 * (n + z.x.abs())).sqrt();
+        let t2 = 0.5 * z.y / t1;
+        if z.x >= 0.0 {
+            Vec2::new(t1, t2)
+        } else {
+            Vec2::new(t2.abs(), if z.y < 0.0 { -t1 } else { t1 })
+        }
+    }
+
+    /// Fresnel reflectance of a conductor with complex index eta.x + i eta.y.
+    pub fn fr_complex(cos_i: f32, eta: Vec2) -> f32 {
+        let cos_i = cos_i.clamp(0.0, 1.0);
+        let sin2_i = 1.0 - cos_i * cos_i;
+        let sin2_t = c_div(Vec2::new(sin2_i, 0.0), c_mul(eta, eta));
+        let cos_t = c_sqrt(Vec2::new(1.0, 0.0) - sin2_t);
+        let ci = Vec2::new(cos_i, 0.0);
+        let r_parl = c_div(cos_i * eta - cos_t, cos_i * eta + cos_t);
+        let r_perp = c_div(ci - c_mul(eta, cos_t), ci + c_mul(eta, cos_t));
+        0.5 * (r_parl.dot(r_parl) + r_perp.dot(r_perp))
+    }
+
+    pub fn fr_conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
+        Vec3::new(
+            fr_complex(cos_i, Vec2::new(eta.x, k.x)),
+            fr_complex(cos_i, Vec2::new(eta.y, k.y)),
+            fr_complex(cos_i, Vec2::new(eta.z, k.z)),
+        )
+    }
+
+    pub fn tr_d(wm: Vec3, a: Vec2) -> f32 {
+        let cos2 = wm.z * wm.z;
+        if !(cos2 > 0.0) {
+            return 0.0;
+        }
+        let e = (wm.x * wm.x / (a.x * a.x) + wm.y * wm.y / (a.y * a.y)) / cos2;
+        let f = 1.0 + e;
+        1.0 / (PI * a.x * a.y * cos2 * cos2 * f * f)
+    }
+
+    pub fn tr_lambda(w: Vec3, a: Vec2) -> f32 {
+        let cos2 = w.z * w.z;
+        if !(cos2 > 0.0) {
+            return f32::INFINITY;
+        }
+        let alpha2_tan2 = (a.x * a.x * w.x * w.x + a.y * a.y * w.y * w.y) / cos2;
+        0.5 * ((1.0 + alpha2_tan2).sqrt() - 1.0)
+    }
+
+    pub fn tr_g1(w: Vec3, a: Vec2) -> f32 {
+        1.0 / (1.0 + tr_lambda(w, a))
+    }
+
+    pub fn tr_g(wo: Vec3, wi: Vec3, a: Vec2) -> f32 {
+        1.0 / (1.0 + tr_lambda(wo, a) + tr_lambda(wi, a))
+    }
+
+    pub fn tr_d_visible(w: Vec3, wm: Vec3, a: Vec2) -> f32 {
+        tr_g1(w, a) / w.z.abs() * tr_d(wm, a) * w.dot(wm).abs()
+    }
+
+    pub fn tr_sample_wm(w: Vec3, u: Vec2, a: Vec2) -> Vec3 {
+        let mut wh = Vec3::new(a.x * w.x, a.y * w.y, w.z).normalize();
+        if wh.z < 0.0 {
+            wh = -wh;
+        }
+        let t1 = if wh.z < 0.99999 {
+            Vec3::Z.cross(wh).normalize()
+        } else {
+            Vec3::X
+        };
+        let t2 = wh.cross(t1);
+        let r = u.x.sqrt();
+        let theta = TWO_PI * u.y;
+        let mut p = Vec2::new(r * theta.cos(), r * theta.sin());
+        let h = (1.0 - p.x * p.x).max(0.0).sqrt();
+        let s = 0.5 * (1.0 + wh.z);
+        p.y = (1.0 - s) * h + s * p.y;
+        let pz = (1.0 - p.dot(p)).max(0.0).sqrt();
+        let nh = p.x * t1 + p.y * t2 + pz * wh;
+        Vec3::new(a.x * nh.x, a.y * nh.y, nh.z.max(1e-6)).normalize()
+    }
+
+    /// Refraction of w about n for the relative index eta of the side n points away
+    /// from: (etap, wt), or None on total internal reflection.
+    pub fn refract_dir(w: Vec3, n: Vec3, eta: f32) -> Option<(f32, Vec3)> {
+        let mut cos_i = n.dot(w);
+        let mut etap = eta;
+        let mut n = n;
+        if cos_i < 0.0 {
+            etap = 1.0 / eta;
+            cos_i = -cos_i;
+            n = -n;
+        }
+        let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (etap * etap);
+        if sin2_t >= 1.0 {
+            return None;
+        }
+        let cos_t = (1.0 - sin2_t).sqrt();
+        Some((etap, -w / etap + (cos_i / etap - cos_t) * n))
+    }
+}
 
 /// GLSL `BSDF_MIN_ALPHA`: the smallest GGX alpha used.
 pub const MIN_GGX_ALPHA: f32 = 1e-4;
@@ -121,7 +263,29 @@ pub struct BsdfParams {
     pub kd: Vec3,
     pub ks: Vec3,
     pub shininess: f32,
+    /// The course GGX's alpha.
     pub roughness: f32,
+    /// Dielectric, conductor: the microfacet alphas along the tangent and bitangent.
+    pub alpha: Vec2,
+    /// Dielectric: x, relative to the normal's orientation; thin: x; conductor: per channel.
+    pub eta: Vec3,
+    /// Conductor absorption.
+    pub k: Vec3,
+}
+
+impl Default for BsdfParams {
+    fn default() -> Self {
+        BsdfParams {
+            kind: BsdfKind::Phong,
+            kd: Vec3::ZERO,
+            ks: Vec3::ZERO,
+            shininess: 0.0,
+            roughness: 0.0,
+            alpha: Vec2::ZERO,
+            eta: Vec3::ONE,
+            k: Vec3::ZERO,
+        }
+    }
 }
 
 /// A sampled direction: GLSL `BsdfSample` (wi, f(wo, wi), the sampling mode's pdf of wi,
@@ -242,16 +406,44 @@ fn sample_phong_lobe(u: Vec2, s: f32) -> Vec3 {
 }
 
 impl BsdfParams {
-    /// The BSDF of a material record: GLSL `material_bsdf`. None when the record's kind
-    /// is not a BSDF kind.
-    pub fn from_record(m: &GpuMaterial) -> Option<BsdfParams> {
+    /// The BSDF of a material record seen from its outside (`front`: the normal passed to
+    /// the functions points to the material's outside) or inside: GLSL `material_bsdf`.
+    /// None when the record's kind is not a BSDF kind.
+    pub fn from_record(m: &GpuMaterial, front: bool) -> Option<BsdfParams> {
+        let kind = BsdfKind::from_code(m.info[0])?;
+        let mut eta = Vec3::from_slice(&m.eta[..3]);
+        if kind == BsdfKind::Dielectric && !front {
+            eta.x = 1.0 / eta.x;
+        }
         Some(BsdfParams {
-            kind: BsdfKind::from_code(m.info[0])?,
+            kind,
             kd: Vec3::from_slice(&m.diffuse[..3]),
             ks: Vec3::from_slice(&m.specular[..3]),
             shininess: m.roughness[0],
             roughness: m.roughness[1],
+            alpha: Vec2::new(m.roughness[1], m.roughness[2]),
+            eta,
+            k: Vec3::from_slice(&m.k[..3]),
         })
+    }
+
+    fn is_smooth(&self) -> bool {
+        self.alpha.x.max(self.alpha.y) < MICROFACET_SMOOTH_ALPHA
+    }
+
+    /// Whether every lobe is a delta distribution: GLSL `bsdf_is_delta`.
+    pub fn is_delta(&self) -> bool {
+        match self.kind {
+            BsdfKind::ThinDielectric => true,
+            BsdfKind::Dielectric => self.is_smooth() || self.eta.x == 1.0,
+            BsdfKind::Conductor => self.is_smooth(),
+            BsdfKind::Phong | BsdfKind::Ggx => false,
+        }
+    }
+
+    /// The course's two-sided reflectors (n flipped toward wo).
+    pub fn is_course_brdf(&self) -> bool {
+        matches!(self.kind, BsdfKind::Phong | BsdfKind::Ggx)
     }
 
     /// Probability of picking the specular lobe in [`SampleMode::Brdf`] (rules at the top).
@@ -270,7 +462,10 @@ impl BsdfParams {
 
     /// The BSDF value f(wo, wi) (not multiplied by cosθi) for a path carrying
     /// `transport` (these BRDFs are symmetric and do not depend on it). GLSL `bsdf_eval`.
-    pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3, _transport: Transport) -> Vec3 {
+    pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3, transport: Transport) -> Vec3 {
+        if !self.is_course_brdf() {
+            return interface_eval(self, n, wo, wi, transport);
+        }
         let ci = n.dot(wi);
         if !(ci > 0.0) {
             return Vec3::ZERO;
@@ -281,7 +476,7 @@ impl BsdfParams {
                 let co = n.dot(wo).max(0.0);
                 f += ggx_specular(self.ks, self.roughness, n, wo, wi, ci, co);
             }
-            BsdfKind::Phong => {
+            _ => {
                 let s = self.shininess.max(0.0);
                 let r = reflect(-wo, n);
                 f += self.ks * ((s + 2.0) * INV_TWO_PI * phong_lobe(r.dot(wi), s));
@@ -293,6 +488,9 @@ impl BsdfParams {
     /// Solid-angle pdf with which `sample(mode, ..)` produces wi; 0 below the surface.
     /// GLSL `bsdf_pdf`.
     pub fn pdf(&self, mode: SampleMode, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+        if !self.is_course_brdf() {
+            return interface_pdf(self, n, wo, wi);
+        }
         let ci = n.dot(wi);
         if !(ci > 0.0) {
             return 0.0;
@@ -309,7 +507,7 @@ impl BsdfParams {
         if t > 0.0 {
             p_spec = match self.kind {
                 BsdfKind::Ggx => ggx_specular_pdf(self.roughness, n, wo, wi),
-                BsdfKind::Phong => phong_specular_pdf(self.shininess, n, wo, wi),
+                _ => phong_specular_pdf(self.shininess, n, wo, wi),
             };
         }
         t * p_spec + (1.0 - t) * p_cos
@@ -328,6 +526,9 @@ impl BsdfParams {
         u: Vec3,
         transport: Transport,
     ) -> Option<BsdfSample> {
+        if !self.is_course_brdf() {
+            return interface_sample(self, n, wo, u, transport);
+        }
         let uv = Vec2::new(u.y, u.z);
         let wi = if mode == SampleMode::Hemisphere {
             to_world(sampling::sample_uniform_hemisphere(uv), n)
@@ -340,7 +541,7 @@ impl BsdfParams {
                     let h = to_world(sample_ggx_half(uv, a * a), n);
                     reflect(-wo, h)
                 }
-                BsdfKind::Phong => {
+                _ => {
                     let r = reflect(-wo, n);
                     to_world(sample_phong_lobe(uv, self.shininess.max(0.0)), r)
                 }
@@ -361,6 +562,291 @@ impl BsdfParams {
             flags: BSDF_LOBE_REFLECTION,
         })
     }
+}
+
+// ---- the interface BSDFs: GLSL's dielectric, thin dielectric and conductor -----------
+
+/// GLSL `LocalFrame`: n's tangent frame, mirrored (z negated) when wo lies below n.
+struct LocalFrame {
+    t: Vec3,
+    b: Vec3,
+    n: Vec3,
+    flip: bool,
+}
+
+impl LocalFrame {
+    fn new(n: Vec3, wo: Vec3) -> LocalFrame {
+        let (t, b) = sampling::build_onb(n);
+        LocalFrame {
+            t,
+            b,
+            n,
+            flip: n.dot(wo) < 0.0,
+        }
+    }
+    fn to_local(&self, v: Vec3) -> Vec3 {
+        let l = Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n));
+        if self.flip {
+            Vec3::new(l.x, l.y, -l.z)
+        } else {
+            l
+        }
+    }
+    fn world(&self, l: Vec3) -> Vec3 {
+        let z = if self.flip { -l.z } else { l.z };
+        l.x * self.t + l.y * self.b + z * self.n
+    }
+}
+
+fn local_eta(b: &BsdfParams, fr: &LocalFrame) -> f32 {
+    if fr.flip {
+        1.0 / b.eta.x
+    } else {
+        b.eta.x
+    }
+}
+
+fn sqr(x: f32) -> f32 {
+    x * x
+}
+
+/// The generalized half vector of (wo, wi) for a dielectric, facing +z, with etap; None
+/// where the pair has no microfacet (a back-facing one, or a degenerate sum).
+fn dielectric_half(eta: f32, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32, bool)> {
+    let (cos_o, cos_i) = (wo.z, wi.z);
+    if cos_i == 0.0 || !(cos_o > 0.0) {
+        return None;
+    }
+    let reflect = cos_i > 0.0;
+    let etap = if reflect { 1.0 } else { eta };
+    let wm = wi * etap + wo;
+    if wm.dot(wm) == 0.0 {
+        return None;
+    }
+    let mut wm = wm.normalize();
+    if wm.z < 0.0 {
+        wm = -wm;
+    }
+    if wm.dot(wi) * cos_i < 0.0 || wm.dot(wo) * cos_o < 0.0 {
+        return None;
+    }
+    Some((wm, etap, reflect))
+}
+
+/// GLSL `dielectric_f`.
+fn dielectric_f(a: Vec2, eta: f32, wo: Vec3, wi: Vec3, transport: Transport) -> Vec3 {
+    let Some((wm, etap, reflect)) = dielectric_half(eta, wo, wi) else {
+        return Vec3::ZERO;
+    };
+    let (cos_o, cos_i) = (wo.z, wi.z);
+    let f = fr_dielectric(wo.dot(wm), eta);
+    if reflect {
+        return Vec3::splat(tr_d(wm, a) * tr_g(wo, wi, a) * f / (4.0 * cos_i * cos_o).abs());
+    }
+    let denom = sqr(wi.dot(wm) + wo.dot(wm) / etap) * cos_i * cos_o;
+    let mut ft =
+        tr_d(wm, a) * (1.0 - f) * tr_g(wo, wi, a) * (wi.dot(wm) * wo.dot(wm) / denom).abs();
+    if transport == Transport::Radiance {
+        ft /= sqr(etap);
+    }
+    Vec3::splat(ft)
+}
+
+/// GLSL `dielectric_pdf`.
+fn dielectric_pdf(a: Vec2, eta: f32, wo: Vec3, wi: Vec3) -> f32 {
+    let Some((wm, etap, reflect)) = dielectric_half(eta, wo, wi) else {
+        return 0.0;
+    };
+    let r = fr_dielectric(wo.dot(wm), eta);
+    let t = 1.0 - r;
+    if reflect {
+        return tr_d_visible(wo, wm, a) / (4.0 * wo.dot(wm).abs()) * r / (r + t);
+    }
+    let dwm_dwi = wi.dot(wm).abs() / sqr(wi.dot(wm) + wo.dot(wm) / etap);
+    tr_d_visible(wo, wm, a) * dwm_dwi * t / (r + t)
+}
+
+fn conductor_f(b: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
+    if !(wo.z > 0.0) || !(wi.z > 0.0) {
+        return Vec3::ZERO;
+    }
+    let wm = wi + wo;
+    if wm.dot(wm) == 0.0 {
+        return Vec3::ZERO;
+    }
+    let wm = wm.normalize();
+    let f = fr_conductor(wo.dot(wm).abs(), b.eta, b.k);
+    tr_d(wm, b.alpha) * f * tr_g(wo, wi, b.alpha) / (4.0 * wi.z * wo.z)
+}
+
+fn conductor_pdf(b: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
+    if !(wo.z > 0.0) || !(wi.z > 0.0) {
+        return 0.0;
+    }
+    let wm = wi + wo;
+    if wm.dot(wm) == 0.0 {
+        return 0.0;
+    }
+    let mut wm = wm.normalize();
+    if wm.z < 0.0 {
+        wm = -wm;
+    }
+    tr_d_visible(wo, wm, b.alpha) / (4.0 * wo.dot(wm).abs())
+}
+
+fn reflect_about(wo: Vec3, m: Vec3) -> Vec3 {
+    reflect(-wo, m)
+}
+
+fn interface_eval(b: &BsdfParams, n: Vec3, wo: Vec3, wi: Vec3, transport: Transport) -> Vec3 {
+    if b.is_delta() {
+        return Vec3::ZERO;
+    }
+    let fr = LocalFrame::new(n, wo);
+    let (lo, li) = (fr.to_local(wo), fr.to_local(wi));
+    if b.kind == BsdfKind::Dielectric {
+        return dielectric_f(b.alpha, local_eta(b, &fr), lo, li, transport);
+    }
+    conductor_f(b, lo, li)
+}
+
+fn interface_pdf(b: &BsdfParams, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+    if b.is_delta() {
+        return 0.0;
+    }
+    let fr = LocalFrame::new(n, wo);
+    let (lo, li) = (fr.to_local(wo), fr.to_local(wi));
+    if b.kind == BsdfKind::Dielectric {
+        return dielectric_pdf(b.alpha, local_eta(b, &fr), lo, li);
+    }
+    conductor_pdf(b, lo, li)
+}
+
+fn interface_sample(
+    b: &BsdfParams,
+    n: Vec3,
+    wo: Vec3,
+    u: Vec3,
+    transport: Transport,
+) -> Option<BsdfSample> {
+    let fr = LocalFrame::new(n, wo);
+    let lo = fr.to_local(wo);
+    if !(lo.z > 0.0) {
+        return None;
+    }
+    let uv = Vec2::new(u.y, u.z);
+    let mirror = Vec3::new(-lo.x, -lo.y, lo.z);
+    let (wi, f, pdf, flags) = match b.kind {
+        BsdfKind::Dielectric => {
+            let eta = local_eta(b, &fr);
+            if b.is_smooth() || eta == 1.0 {
+                let r = fr_dielectric(lo.z, eta);
+                let t = 1.0 - r;
+                if u.x < r / (r + t) {
+                    let wi = mirror;
+                    (
+                        wi,
+                        Vec3::splat(r / wi.z.abs()),
+                        r / (r + t),
+                        BSDF_LOBE_REFLECTION | BSDF_LOBE_DELTA,
+                    )
+                } else {
+                    let (etap, wi) = refract_dir(lo, Vec3::Z, eta)?;
+                    if wi.z == 0.0 {
+                        return None;
+                    }
+                    let mut ft = t / wi.z.abs();
+                    if transport == Transport::Radiance {
+                        ft /= sqr(etap);
+                    }
+                    (
+                        wi,
+                        Vec3::splat(ft),
+                        t / (r + t),
+                        BSDF_LOBE_TRANSMISSION | BSDF_LOBE_DELTA,
+                    )
+                }
+            } else {
+                let wm = tr_sample_wm(lo, uv, b.alpha);
+                let r = fr_dielectric(lo.dot(wm), eta);
+                let t = 1.0 - r;
+                let (wi, flags) = if u.x < r / (r + t) {
+                    let wi = reflect_about(lo, wm);
+                    if !(wi.z > 0.0) {
+                        return None;
+                    }
+                    (wi, BSDF_LOBE_REFLECTION)
+                } else {
+                    let (_, wi) = refract_dir(lo, wm, eta)?;
+                    if !(wi.z < 0.0) {
+                        return None;
+                    }
+                    (wi, BSDF_LOBE_TRANSMISSION)
+                };
+                (
+                    wi,
+                    dielectric_f(b.alpha, eta, lo, wi, transport),
+                    dielectric_pdf(b.alpha, eta, lo, wi),
+                    flags,
+                )
+            }
+        }
+        BsdfKind::ThinDielectric => {
+            let mut r = fr_dielectric(lo.z, b.eta.x);
+            let mut t = 1.0 - r;
+            if r < 1.0 {
+                r += t * t * r / (1.0 - r * r);
+                t = 1.0 - r;
+            }
+            if u.x < r / (r + t) {
+                let wi = mirror;
+                (
+                    wi,
+                    Vec3::splat(r / wi.z.abs()),
+                    r / (r + t),
+                    BSDF_LOBE_REFLECTION | BSDF_LOBE_DELTA,
+                )
+            } else {
+                let wi = -lo;
+                (
+                    wi,
+                    Vec3::splat(t / wi.z.abs()),
+                    t / (r + t),
+                    BSDF_LOBE_TRANSMISSION | BSDF_LOBE_DELTA,
+                )
+            }
+        }
+        _ => {
+            if b.is_smooth() {
+                let wi = mirror;
+                (
+                    wi,
+                    fr_conductor(wi.z, b.eta, b.k) / wi.z,
+                    1.0,
+                    BSDF_LOBE_REFLECTION | BSDF_LOBE_DELTA,
+                )
+            } else {
+                let wm = tr_sample_wm(lo, uv, b.alpha);
+                let wi = reflect_about(lo, wm);
+                if !(wi.z > 0.0) {
+                    return None;
+                }
+                (
+                    wi,
+                    conductor_f(b, lo, wi),
+                    conductor_pdf(b, lo, wi),
+                    BSDF_LOBE_REFLECTION,
+                )
+            }
+        }
+    };
+    let valid = pdf > 0.0 && !pdf.is_infinite() && f != Vec3::ZERO;
+    valid.then(|| BsdfSample {
+        wi: fr.world(wi),
+        f,
+        pdf,
+        flags,
+    })
 }
 
 #[cfg(test)]
@@ -418,6 +904,7 @@ mod tests {
             ks: Vec3::from(ks),
             shininess,
             roughness: 0.0,
+            ..Default::default()
         }
     }
 
@@ -428,6 +915,7 @@ mod tests {
             ks: Vec3::from(ks),
             shininess: 0.0,
             roughness,
+            ..Default::default()
         }
     }
 
@@ -1215,5 +1703,346 @@ mod tests {
         assert!((power_heuristic(1e30, 1e30) - 0.5).abs() < 1e-6);
         assert!((power_heuristic(1e-30, 1e-30) - 0.5).abs() < 1e-6);
         assert_eq!(power_heuristic(f32::NAN, 1.0), 0.0);
+    }
+
+    // ---- the interface BSDFs: dielectric, thin dielectric, conductor ----
+
+    fn material_of(kind: BsdfKind, alpha: (f32, f32), eta: f32) -> BsdfParams {
+        BsdfParams {
+            kind,
+            alpha: Vec2::new(alpha.0, alpha.1),
+            eta: if kind == BsdfKind::Conductor {
+                Vec3::new(0.2, 0.92, 1.1)
+            } else {
+                Vec3::splat(eta)
+            },
+            k: Vec3::new(3.9, 2.45, 2.14),
+            ..Default::default()
+        }
+    }
+
+    /// Rough dielectrics (both sides, wo above and below n, anisotropic) and rough
+    /// conductors, at three incidences each.
+    fn interface_cases() -> Vec<Case> {
+        let mut out = Vec::new();
+        let materials = [
+            (material_of(BsdfKind::Dielectric, (0.3, 0.3), 1.5), false),
+            (material_of(BsdfKind::Dielectric, (0.12, 0.12), 1.5), false),
+            (material_of(BsdfKind::Dielectric, (0.6, 0.6), 1.33), false),
+            (material_of(BsdfKind::Dielectric, (0.15, 0.45), 1.5), false),
+            (
+                material_of(BsdfKind::Dielectric, (0.3, 0.3), 1.0 / 1.5),
+                false,
+            ),
+            (material_of(BsdfKind::Dielectric, (0.3, 0.3), 1.5), true),
+            (material_of(BsdfKind::Conductor, (0.2, 0.2), 1.0), false),
+            (material_of(BsdfKind::Conductor, (0.1, 0.4), 1.0), false),
+        ];
+        for (mi, (bsdf, below)) in materials.into_iter().enumerate() {
+            for (k, theta) in INCIDENCES_DEG.into_iter().enumerate() {
+                let n = normals()[k];
+                let wo = wo_at(n, theta, 0.7 + mi as f32);
+                let wo = if below { -wo } else { wo };
+                out.push(Case {
+                    bsdf,
+                    mode: SampleMode::Brdf,
+                    n,
+                    wo,
+                    label: format!(
+                        "interface {mi} {:?} alpha {} eta {} theta_o {theta}{}",
+                        bsdf.kind,
+                        bsdf.alpha,
+                        bsdf.eta.x,
+                        if below { " (wo below n)" } else { "" }
+                    ),
+                });
+            }
+        }
+        out
+    }
+
+    /// World direction for (cosθ, φ) on the whole sphere (c kept off 0: the pdfs are 0
+    /// exactly at the horizon but not in the limit).
+    fn dir_sphere(frame: (Vec3, Vec3, Vec3), c: f64, phi: f64) -> Vec3 {
+        let c = if c.abs() < 1e-6 {
+            1e-6f64.copysign(c)
+        } else {
+            c
+        };
+        let s = (1.0 - c * c).max(0.0).sqrt();
+        let (t, b, n) = frame;
+        ((s * phi.cos()) as f32) * t + ((s * phi.sin()) as f32) * b + (c as f32) * n
+    }
+
+    fn sphere_bin_of(frame: (Vec3, Vec3, Vec3), wi: Vec3) -> usize {
+        let (t, b, n) = frame;
+        let c = f64::from(wi.dot(n)).clamp(-1.0, 1.0);
+        let mut phi = f64::from(wi.dot(b)).atan2(f64::from(wi.dot(t)));
+        if phi < 0.0 {
+            phi += std::f64::consts::TAU;
+        }
+        let i = (((c + 1.0) * N_COS as f64) as usize).min(2 * N_COS - 1);
+        let j = ((phi / std::f64::consts::TAU * N_PHI as f64) as usize).min(N_PHI - 1);
+        i * N_PHI + j
+    }
+
+    /// χ² of the rough interface BSDFs' sampling against their pdf over the whole sphere
+    /// (reflection and transmission): 40 × 40 (cosθ, φ) bins plus a bin for failed samples.
+    #[test]
+    fn chi2_sampling_matches_pdf_interface_bsdfs() {
+        let all = interface_cases();
+        let per_test_alpha = 1.0 - (1.0 - CHI2_ALPHA).powf(1.0 / all.len() as f64);
+        let mut failures = Vec::new();
+        for (ci, case) in all.iter().enumerate() {
+            let frame = frame_of(case.n);
+            let g = |c: f64, p: f64| {
+                f64::from(
+                    case.bsdf
+                        .pdf(case.mode, case.n, case.wo, dir_sphere(frame, c, p)),
+                )
+            };
+            let mut expected = Vec::with_capacity(2 * N_COS * N_PHI + 1);
+            for i in 0..2 * N_COS {
+                let c0 = -1.0 + i as f64 / N_COS as f64;
+                let c1 = c0 + 1.0 / N_COS as f64;
+                for j in 0..N_PHI {
+                    let p0 = std::f64::consts::TAU * j as f64 / N_PHI as f64;
+                    let p1 = std::f64::consts::TAU * (j + 1) as f64 / N_PHI as f64;
+                    expected.push(integrate_2d(&g, (c0, c1), (p0, p1), BIN_TOLERANCE, 2));
+                }
+            }
+            let total: f64 = expected.iter().sum();
+            assert!(total <= 1.0 + 1e-3, "{}: ∫pdf = {total}", case.label);
+            expected.push((1.0 - total).max(0.0));
+            let n_samples = CHI2_SAMPLES as f64;
+            let expected: Vec<f64> = expected.iter().map(|p| p * n_samples).collect();
+            let mut observed = vec![0u64; 2 * N_COS * N_PHI + 1];
+            let mut rng = Pcg32::new(0x1ace_0000 + ci as u64, ci as u64);
+            for _ in 0..CHI2_SAMPLES {
+                match case
+                    .bsdf
+                    .sample(case.mode, case.n, case.wo, rng.vec3(), Transport::Radiance)
+                {
+                    Some(s) => {
+                        let p = case.bsdf.pdf(case.mode, case.n, case.wo, s.wi);
+                        assert!(
+                            (s.pdf - p).abs() <= 2e-3 * p,
+                            "{}: sample pdf {} vs pdf() {p}",
+                            case.label,
+                            s.pdf
+                        );
+                        let f = case.bsdf.eval(case.n, case.wo, s.wi, Transport::Radiance);
+                        assert!(
+                            (s.f - f).abs().max_element() <= 2e-3 * f.max_element(),
+                            "{}: sample f {} vs eval {f}",
+                            case.label,
+                            s.f
+                        );
+                        observed[sphere_bin_of(frame, s.wi)] += 1
+                    }
+                    None => observed[2 * N_COS * N_PHI] += 1,
+                }
+            }
+            let (chi2, dof) = chi2_statistic(&observed, &expected, &case.label);
+            let p = chi2_sf(chi2, dof as f64);
+            if p < per_test_alpha {
+                failures.push(format!(
+                    "{}: chi2 {chi2:.1} dof {dof} p {p:.3e} (threshold {per_test_alpha:.3e})",
+                    case.label
+                ));
+            }
+        }
+        assert!(failures.is_empty(), "χ² failures:\n{}", failures.join("\n"));
+    }
+
+    /// The IOR on the side of w for a dielectric of relative index `eta` below n.
+    fn ior_on_side(n: Vec3, eta: f32, w: Vec3) -> f32 {
+        if n.dot(w) > 0.0 {
+            1.0
+        } else {
+            eta
+        }
+    }
+
+    /// Rough dielectrics: reflection is symmetric; importance transport is the adjoint of
+    /// radiance transport, f_imp(wo, wi) = f_rad(wi, wo); and transmission obeys the
+    /// generalized reciprocity f_rad(wo, wi) / η_o² = f_rad(wi, wo) / η_i² (η on each
+    /// direction's side). Rough conductors are reciprocal.
+    #[test]
+    fn interface_bsdfs_are_reciprocal_in_their_generalized_form() {
+        let mut rng = Pcg32::new(4242, 5);
+        let mut transmissions = 0;
+        for case in interface_cases() {
+            let n = case.n;
+            for _ in 0..400 {
+                let wo = to_world(sample_uniform_sphere(rng.vec2()), n).normalize();
+                let wi = to_world(sample_uniform_sphere(rng.vec2()), n).normalize();
+                let b = case.bsdf;
+                let rad = b.eval(n, wo, wi, Transport::Radiance);
+                let rad_back = b.eval(n, wi, wo, Transport::Radiance);
+                let imp = b.eval(n, wo, wi, Transport::Importance);
+                let tol = |x: Vec3| 1e-3 * x.max_element() + 1e-6;
+                assert!(
+                    (imp - rad_back).abs().max_element() <= tol(rad_back),
+                    "{}: f_imp(wo, wi) {imp} vs f_rad(wi, wo) {rad_back}",
+                    case.label
+                );
+                let same_side = n.dot(wo) * n.dot(wi) > 0.0;
+                if same_side || b.kind == BsdfKind::Conductor {
+                    assert!(
+                        (rad - rad_back).abs().max_element() <= tol(rad),
+                        "{}: reflection not symmetric: {rad} vs {rad_back}",
+                        case.label
+                    );
+                } else {
+                    let (eo, ei) = (ior_on_side(n, b.eta.x, wo), ior_on_side(n, b.eta.x, wi));
+                    let lhs = rad / (eo * eo);
+                    let rhs = rad_back / (ei * ei);
+                    assert!(
+                        (lhs - rhs).abs().max_element() <= tol(lhs),
+                        "{}: f/η² not reciprocal: {lhs} vs {rhs}",
+                        case.label
+                    );
+                    transmissions += (rad.max_element() > 0.0) as u32;
+                }
+            }
+        }
+        assert!(
+            transmissions > 500,
+            "only {transmissions} transmission pairs tested"
+        );
+    }
+
+    /// The delta lobes: smooth glass reflects with probability F and refracts by Snell's
+    /// law otherwise, with weight f|cos|/pdf = 1 (1/η² for radiance entering a denser
+    /// medium); the thin dielectric passes straight through with weight 1; a smooth
+    /// conductor mirrors with weight F(cos).
+    #[test]
+    fn delta_lobes_follow_fresnel_and_snell() {
+        let mut rng = Pcg32::new(99, 1);
+        for (k, theta) in [0.0f32, 30.0, 60.0, 85.0].into_iter().enumerate() {
+            let n = normals()[k % 3];
+            let wo = wo_at(n, theta, 1.3);
+            let cos_o = n.dot(wo);
+            for eta in [1.5f32, 1.0 / 1.5] {
+                let glass = material_of(BsdfKind::Dielectric, (0.0, 0.0), eta);
+                assert!(glass.is_delta());
+                let r = fr_dielectric(cos_o, eta);
+                let (mut reflected, count) = (0u32, 20_000u32);
+                for _ in 0..count {
+                    let s = glass.sample(SampleMode::Brdf, n, wo, rng.vec3(), Transport::Radiance);
+                    let Some(s) = s else {
+                        panic!("smooth glass failed to sample (theta {theta}, eta {eta})")
+                    };
+                    assert!(s.flags & BSDF_LOBE_DELTA != 0);
+                    let cos_i = n.dot(s.wi);
+                    let weight = s.f * cos_i.abs() / s.pdf;
+                    if cos_i > 0.0 {
+                        reflected += 1;
+                        assert!((s.wi - reflect(-wo, n)).length() < 1e-5);
+                        assert!((weight - Vec3::ONE).abs().max_element() < 1e-5, "{weight}");
+                    } else {
+                        // Snell: sinθt = sinθo / η, in the plane of n and wo.
+                        let sin_o = n.cross(wo).length();
+                        let sin_t = n.cross(s.wi).length();
+                        assert!(
+                            (sin_t * eta - sin_o).abs() < 1e-4,
+                            "Snell: {sin_t} {sin_o} {eta}"
+                        );
+                        assert!(
+                            n.cross(wo).dot(s.wi).abs() < 1e-4,
+                            "not in the plane of incidence"
+                        );
+                        let expect = 1.0 / (eta * eta);
+                        assert!(
+                            (weight - Vec3::splat(expect)).abs().max_element()
+                                < 1e-4 * expect.max(1.0),
+                            "{weight} vs {expect}"
+                        );
+                        let imp = glass
+                            .sample(
+                                SampleMode::Brdf,
+                                n,
+                                wo,
+                                Vec3::new(0.999_999, 0.5, 0.5),
+                                Transport::Importance,
+                            )
+                            .unwrap();
+                        if n.dot(imp.wi) < 0.0 {
+                            assert!(
+                                (imp.f * n.dot(imp.wi).abs() / imp.pdf - Vec3::ONE)
+                                    .abs()
+                                    .max_element()
+                                    < 1e-5
+                            );
+                        }
+                    }
+                    assert_eq!(glass.eval(n, wo, s.wi, Transport::Radiance), Vec3::ZERO);
+                    assert_eq!(glass.pdf(SampleMode::Brdf, n, wo, s.wi), 0.0);
+                }
+                let p = reflected as f64 / count as f64;
+                let se = (r as f64 * (1.0 - r as f64) / count as f64).sqrt();
+                assert!(
+                    (p - r as f64).abs() <= 5.0 * se + 1e-3,
+                    "reflected {p}, Fresnel {r}"
+                );
+            }
+            let thin = material_of(BsdfKind::ThinDielectric, (0.0, 0.0), 1.5);
+            for _ in 0..2000 {
+                let s = thin
+                    .sample(SampleMode::Brdf, n, wo, rng.vec3(), Transport::Radiance)
+                    .unwrap();
+                let cos_i = n.dot(s.wi);
+                assert!((s.f * cos_i.abs() / s.pdf - Vec3::ONE).abs().max_element() < 1e-5);
+                if cos_i < 0.0 {
+                    assert!((s.wi + wo).length() < 1e-5, "thin: not straight through");
+                }
+            }
+            let mirror = material_of(BsdfKind::Conductor, (0.0, 0.0), 1.0);
+            let s = mirror
+                .sample(SampleMode::Brdf, n, wo, rng.vec3(), Transport::Radiance)
+                .unwrap();
+            let f = fr_conductor(cos_o, mirror.eta, mirror.k);
+            assert!((s.f * n.dot(s.wi) / s.pdf - f).abs().max_element() < 1e-5);
+            assert!(f.max_element() < 1.0 && f.min_element() > 0.5, "{f}");
+        }
+        // Fresnel at normal incidence: ((η − 1)/(η + 1))², and total internal reflection.
+        assert!((fr_dielectric(1.0, 1.5) - 0.04).abs() < 1e-6);
+        assert_eq!(fr_dielectric(0.1, 1.0 / 1.5), 1.0);
+        // A conductor with k = 0 is a dielectric.
+        let c = fr_complex(0.7, Vec2::new(1.5, 0.0));
+        assert!((c - fr_dielectric(0.7, 1.5)).abs() < 1e-6, "{c}");
+    }
+
+    /// Energy: a rough dielectric in importance mode (no η² scaling) and a rough conductor
+    /// reflect and transmit at most what arrives: E[f|cos|/pdf] ≤ 1.
+    #[test]
+    fn interface_bsdfs_conserve_energy() {
+        for (ci, case) in interface_cases().iter().enumerate() {
+            let mut rng = Pcg32::new(500 + ci as u64, 9);
+            let count = 50_000;
+            let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+            for _ in 0..count {
+                if let Some(s) = case.bsdf.sample(
+                    case.mode,
+                    case.n,
+                    case.wo,
+                    rng.vec3(),
+                    Transport::Importance,
+                ) {
+                    let w = f64::from((s.f * case.n.dot(s.wi).abs() / s.pdf).max_element());
+                    sum += w;
+                    sum2 += w * w;
+                }
+            }
+            let mean = sum / count as f64;
+            let se = ((sum2 / count as f64 - mean * mean) / count as f64).sqrt();
+            assert!(
+                mean <= 1.0 + 4.0 * se + 1e-3,
+                "{}: albedo {mean} ± {se}",
+                case.label
+            );
+            assert!(mean > 0.5, "{}: albedo {mean}", case.label);
+        }
     }
 }

@@ -133,6 +133,7 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
     for l in scene.delta_lights.iter().filter(|l| match l {
         DeltaLight::Point { intensity, .. } => avg(*intensity) > 0.0,
         DeltaLight::Directional { radiance, .. } => avg(*radiance) > 0.0,
+        DeltaLight::Spot { intensity, .. } => avg(*intensity) > 0.0,
     }) {
         match *l {
             DeltaLight::Point {
@@ -145,6 +146,27 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
                     radiance: intensity.extend(0.0).to_array(),
                     info: [EMITTER_POINT, 0, 0, 0],
                     ..Default::default()
+                });
+            }
+            DeltaLight::Spot {
+                position,
+                direction,
+                intensity,
+                cos_falloff_start,
+                cos_falloff_end,
+            } => {
+                // pbrt-v4's SpotLight::Phi: the full cone inside the falloff, half of
+                // the falloff band.
+                let solid_angle = 2.0
+                    * pi
+                    * ((1.0 - cos_falloff_start) + (cos_falloff_start - cos_falloff_end) / 2.0);
+                power.push(avg(intensity) * solid_angle);
+                emitters.push(GpuEmitter {
+                    p0: position.extend(0.0).to_array(),
+                    p1: direction.extend(cos_falloff_end).to_array(),
+                    p2: [cos_falloff_start, 0.0, 0.0, 0.0],
+                    radiance: intensity.extend(0.0).to_array(),
+                    info: [EMITTER_SPOT, 0, 0, 0],
                 });
             }
             DeltaLight::Directional {
@@ -404,6 +426,23 @@ impl GpuScene {
 mod tests {
     use super::*;
     use crate::scene::parse_str;
+
+    #[test]
+    fn spot_lights_are_picked_by_their_cone_power() {
+        // A point light of intensity 1 (power 4π) and a spot of intensity 2 with a 60°
+        // cone and no falloff band (power 2 · 2π(1 − cos 60°) = 2π).
+        let s = parse_str("point 0 3 0  1 1 1\nspot 0 3 0  0 0 0  2 2 2  60 0\n", "t").unwrap();
+        let t = emitter_table(&s);
+        assert_eq!(t.emitters.len(), 2);
+        assert_eq!(t.emitters[1].info[0], EMITTER_SPOT);
+        assert!((t.emitters[0].radiance[3] - 2.0 / 3.0).abs() < 1e-6);
+        assert!((t.emitters[1].radiance[3] - 1.0 / 3.0).abs() < 1e-6);
+        assert_eq!(t.emitters[1].p1[..3], [0.0, -1.0, 0.0]);
+        assert!(
+            (t.emitters[1].p1[3] - 0.5).abs() < 1e-6,
+            "cos of the cone angle"
+        );
+    }
 
     #[test]
     fn emitter_table_picks_by_power() {

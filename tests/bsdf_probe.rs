@@ -1,7 +1,9 @@
 //! The GLSL BSDFs themselves (glsl/lib/bsdf.glsl, run by glsl/bsdf_probe.comp on the
 //! Vulkan device) against their CPU mirror (src/bsdf.rs), whose sampling the χ² and
 //! energy tests in src/bsdf.rs check: evaluation, pdf and sampling of every BSDF kind in
-//! every sampling mode and both transport modes, on thousands of random inputs.
+//! every sampling mode and both transport modes, on thousands of random inputs: the
+//! course's BRDFs and the dielectric, thin dielectric and conductor BSDFs, rough and
+//! smooth, seen from either side.
 mod common;
 
 use glam::Vec3;
@@ -54,6 +56,19 @@ fn materials(rng: &mut Rng) -> Vec<GpuMaterial> {
             7 => m.specular = Vec3::ZERO,
             _ => {}
         }
+        // The interface BSDFs: smooth (delta) ones, isotropic and anisotropic roughness,
+        // glass and water and a dense flint, copper and a bluish metal.
+        m.roughness_v = m.roughness * [1.0, 0.3, 2.0][i / 8 % 3];
+        if i % 10 == 2 || i % 10 == 4 {
+            // (Materials i % 5 == 2 are dielectrics, i % 5 == 4 conductors.)
+            m.roughness = 0.0;
+            m.roughness_v = 0.0;
+        }
+        m.ior = [1.5, 1.33, 1.9, 1.0 / 1.5][i / 5 % 4];
+        if i % 4 == 1 {
+            m.eta = Vec3::new(1.2, 0.9, 0.4);
+            m.k = Vec3::new(2.0, 3.0, 4.5);
+        }
         out.push(m.record());
     }
     out
@@ -77,7 +92,12 @@ fn glsl_bsdfs_match_their_cpu_mirror() {
     for i in 0..24_000u32 {
         let n = rng.unit_vector();
         let mut wo = rng.unit_vector();
-        if wo.dot(n) < 0.0 {
+        // The course's BRDFs take n on wo's side; the interface BSDFs take either.
+        let course = matches!(
+            BsdfKind::from_code(materials[i as usize % materials.len()].info[0]),
+            Some(BsdfKind::Phong | BsdfKind::Ggx)
+        );
+        if wo.dot(n) < 0.0 && (course || i % 3 != 0) {
             wo = -wo;
         }
         // Half of the wi near the mirror direction, where the sharp lobes are.
@@ -92,7 +112,7 @@ fn glsl_bsdfs_match_their_cpu_mirror() {
                 i % materials.len() as u32,
                 modes[(i / 7) as usize % 3] as u32,
                 transports[(i / 3) as usize % 2] as u32,
-                0,
+                (i % 11 == 4) as u32,
             ],
             n: n.extend(0.0).to_array(),
             wo: wo.extend(0.0).to_array(),
@@ -106,7 +126,8 @@ fn glsl_bsdfs_match_their_cpu_mirror() {
     };
     let (mut checked, mut borderline, mut sampled) = (0, 0, 0);
     for (k, (input, out)) in inputs.iter().zip(&got).enumerate() {
-        let m = BsdfParams::from_record(&materials[input.info[0] as usize]).expect("a BSDF kind");
+        let m = BsdfParams::from_record(&materials[input.info[0] as usize], input.info[3] == 0)
+            .expect("a BSDF kind");
         let mode = modes
             .into_iter()
             .find(|x| *x as u32 == input.info[1])
@@ -125,7 +146,7 @@ fn glsl_bsdfs_match_their_cpu_mirror() {
         let f = m.eval(n, wo, wi, transport);
         let pdf = m.pdf(mode, n, wo, wi);
         let f_gpu = Vec3::from_slice(&out.eval[..3]);
-        if n.dot(wi).abs() < 1e-4 {
+        if n.dot(wi).abs() < 1e-4 || n.dot(wo).abs() < 1e-4 {
             borderline += 1;
         } else {
             assert!(
@@ -144,8 +165,12 @@ fn glsl_bsdfs_match_their_cpu_mirror() {
         // Sampling: the same lobe, direction, value and pdf, except where rounding can
         // pick the other lobe or put the direction on the other side of the surface.
         let cpu = m.sample(mode, n, wo, u, transport);
-        let lobe_edge = mode == SampleMode::Brdf && (u.x - m.specular_probability()).abs() < 1e-4;
-        let below_edge = cpu.is_some_and(|s| n.dot(s.wi) < 1e-3);
+        let lobe = |x: f32| {
+            m.sample(mode, n, wo, Vec3::new(x, u.y, u.z), transport)
+                .map(|s| s.flags)
+        };
+        let lobe_edge = lobe(u.x - 2e-4) != lobe(u.x) || lobe(u.x + 2e-4) != lobe(u.x);
+        let below_edge = cpu.is_some_and(|s| n.dot(s.wi).abs() < 1e-3) || n.dot(wo).abs() < 1e-3;
         if lobe_edge || below_edge {
             borderline += 1;
             continue;

@@ -42,6 +42,7 @@
 #define EMITTER_SPHERE 1
 #define EMITTER_POINT 2
 #define EMITTER_DIRECTIONAL 3
+#define EMITTER_SPOT 4
 
 // Integrators (SceneParams.integrator): each has its own code.
 #define INTEGRATOR_PATHTRACER 0
@@ -58,6 +59,9 @@
 // BSDF kinds (GpuMaterial.info.x); src/abi.rs mirrors them as `BsdfKind`.
 #define BSDF_PHONG 0
 #define BSDF_GGX 1
+#define BSDF_DIELECTRIC 2
+#define BSDF_THIN_DIELECTRIC 3
+#define BSDF_CONDUCTOR 4
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
@@ -149,14 +153,16 @@ struct GpuMaterial {
     vec4 diffuse;        // xyz diffuse reflectance kd
     vec4 specular;       // xyz specular colour ks (Phong), Fresnel F0 (GGX)
     vec4 emission;       // xyz emitted radiance
-    vec4 eta;            // xyz index of refraction (per channel for conductors)
+    vec4 eta;            // dielectric, thin dielectric: x index of refraction (inside over outside); conductor: xyz per channel
     vec4 k;              // xyz conductor absorption
     vec4 roughness;      // x Phong exponent, y GGX alpha (u), z GGX alpha (v)
     uvec4 info;          // x kind (BSDF_*), y flags (MATERIAL_*), z diffuse texture, w roughness texture (NO_TEXTURE: none)
 };
 
 // An emitter. Triangles: p0,p1,p2 the vertices. Spheres: info.y the sphere. Point:
-// p0 the position. Directional: p0 the unit direction toward the light.
+// p0 the position. Directional: p0 the unit direction toward the light. Spot: p0 the
+// position, p1.xyz the unit axis, p1.w the cosine of the cone angle, p2.x the cosine of
+// the angle where the falloff starts (pbrt-v4's cosFalloffEnd and cosFalloffStart).
 // radiance.w: the probability of picking this emitter. info: x kind, y primitive,
 // z 1 when two-sided, w unused. p0.w: area (triangles, spheres).
 struct GpuEmitter {
@@ -199,7 +205,8 @@ struct SceneParams {
 
 // A vertex of a BDPT light subpath (stored per pixel, read back by the camera subpath).
 // p.w: material (uint bits); n: unit normal on the side the path arrived from, w: dVCM;
-// wi: unit direction toward the previous vertex, w: dVC; beta: throughput (w unused).
+// wi: unit direction toward the previous vertex, w: dVC; beta: throughput, w: 1 when n is
+// on the material's outside (the geometric normal's side).
 struct GpuPathVertex {
     vec4 p;
     vec4 n;
@@ -246,7 +253,8 @@ struct GpuChain {
     uvec4 start;         // x the bootstrap sample it started from (index within its depth), y rays traced
 };
 // The BSDF probe's input: material `info.x` (an index into the material buffer),
-// sampling mode info.y, transport info.z; unit n, wo, wi; u the sample's three uniforms.
+// sampling mode info.y, transport info.z, info.w 1 when n is on the material's inside;
+// unit n, wo, wi; u the sample's three uniforms.
 struct BsdfProbeInput {
     uvec4 info;
     vec4 n;

@@ -63,10 +63,8 @@ float camera_pdf_w(vec3 w) {
     return 1.0 / (pixel_area() * c * c * c);
 }
 
-// The BSDF of a path vertex's material (wo toward the viewer side of the walk, wi the
-// other direction; n on the side of the arriving path), sampled with the scene's
-// importancesampling mode.
-BsdfParams vertex_bsdf(uint material) { return material_bsdf(materials[material]); }
+// The pdf of the scene's importancesampling mode (wo where the walk came from, wi the
+// other direction; n on the side of the arriving path).
 float material_pdf(BsdfParams b, vec3 n, vec3 wo, vec3 wi) {
     return bsdf_pdf(b, scene.sample_mode, n, wo, wi);
 }
@@ -81,8 +79,14 @@ struct PathVertex {
     float dvc;
     vec3 beta;       // throughput up to (not including) this vertex's BSDF
     uint emitter;    // NO_EMITTER unless the surface emits
-    vec3 ng;         // geometric normal as the surface has it (emission sides)
+    vec3 ng;         // geometric normal as the surface has it (emission sides, and the
+                     // material's outside for refraction)
 };
+
+// The BSDF at a path vertex: its material, seen from the side of its normal n.
+BsdfParams vertex_bsdf(PathVertex v) {
+    return material_bsdf(materials[v.material], dot(v.n, v.ng) > 0.0);
+}
 
 // A subpath being walked: the next ray and the running throughput and MIS sums.
 struct Walk {
@@ -93,7 +97,8 @@ struct Walk {
     float dvc;
     uint vertices;     // surface vertices found so far
     bool infinite;     // light walks from a directional light
-    float prev_pdf_w;  // camera walks beyond max_scatter(): the last bounce's BSDF pdf
+    float prev_pdf_w;  // camera walks beyond max_scatter(): the last bounce's BSDF pdf,
+    bool prev_delta;   // ... whether it was a delta lobe,
     vec3 prev_p;       // ... and the vertex it left from
 };
 
@@ -124,6 +129,7 @@ bool light_walk_start(out Walk w, out LightEmission le, out uint e) {
     w.vertices = 0u;
     w.infinite = false;
     w.prev_pdf_w = 0.0;
+    w.prev_delta = false;
     w.prev_p = vec3(0.0);
     e = 0u;
     if (scene.emitter_count == 0u) return false;
@@ -161,21 +167,33 @@ bool light_walk_next(inout Walk w, out PathVertex v) {
 
 // Continue a subpath from its vertex v by sampling the BSDF with the numbers u: the
 // throughput, and (update_mis) the MIS sums, follow the new direction.
+//
+// A delta lobe (SmallVCM's specular update; Georgiev 2012, tech. rep. eqs. 53-55): no
+// connection can end at this vertex, so dVCM restarts at 0 and dVC keeps its sum, times
+// cos^2 (the lobe's forward and reverse pdfs are equal and cancel).
 bool walk_scatter(inout Walk w, PathVertex v, vec3 u, uint transport, bool update_mis) {
-    BsdfParams b = vertex_bsdf(v.material);
+    BsdfParams b = vertex_bsdf(v);
     BsdfSample bs;
     if (!bsdf_sample(b, scene.sample_mode, v.n, v.w, u, transport, bs)) return false;
-    float pdf_rev = material_pdf(b, v.n, bs.wi, v.w);
-    float cos_out = dot(v.n, bs.wi);
+    bool delta = (bs.flags & BSDF_LOBE_DELTA) != 0u;
+    float cos_signed = dot(v.n, bs.wi);
+    float cos_out = abs(cos_signed);
     w.beta = v.beta * bs.f * (cos_out / bs.pdf);
     if (w.beta == vec3(0.0)) return false;
     if (update_mis) {
-        w.dvc = mis(cos_out / bs.pdf) * (v.dvc * mis(pdf_rev) + v.dvcm);
-        w.dvcm = mis(1.0 / bs.pdf);
+        if (delta) {
+            w.dvcm = 0.0;
+            w.dvc *= mis(cos_out);
+        } else {
+            float pdf_rev = material_pdf(b, v.n, bs.wi, v.w);
+            w.dvc = mis(cos_out / bs.pdf) * (v.dvc * mis(pdf_rev) + v.dvcm);
+            w.dvcm = mis(1.0 / bs.pdf);
+        }
     }
     w.prev_pdf_w = bs.pdf;
+    w.prev_delta = delta;
     w.prev_p = v.p;
-    w.o = offset_ray_origin(v.p, v.n);
+    w.o = offset_ray_origin(v.p, cos_signed > 0.0 ? v.n : -v.n);
     w.d = bs.wi;
     return true;
 }
@@ -197,6 +215,7 @@ void camera_walk_start(vec2 film, out Walk w) {
     w.vertices = 0u;
     w.infinite = false;
     w.prev_pdf_w = 0.0;
+    w.prev_delta = false;
     w.prev_p = w.o;
 }
 
@@ -248,7 +267,7 @@ bool strategy_emitter_hit(Walk w, PathVertex z, out vec3 value, out float weight
         float w_cam = mis(pdf_pos) * z.dvcm + mis(pdf_emit) * z.dvc;
         weight = 1.0 / (1.0 + w_cam);
     } else {
-        weight = emitter_hit_mis_weight(z.emitter, w.prev_p, w.prev_pdf_w, z.p, z.ng);
+        weight = w.prev_delta ? 1.0 : emitter_hit_mis_weight(z.emitter, w.prev_p, w.prev_pdf_w, z.p, z.ng);
     }
     value = z.beta * Le;
     return true;
@@ -262,7 +281,7 @@ bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weigh
     if (scene.emitter_count == 0u) return false;
     uint e = pick_emitter(sample_u32(STREAM_CONNECT));
     vec2 u = sample_2d(STREAM_CONNECT);
-    BsdfParams b = vertex_bsdf(z.material);
+    BsdfParams b = vertex_bsdf(z);
     LightSample ls;
     vec3 f;
     float cos_z;
@@ -293,17 +312,18 @@ bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out 
     vec3 to_eye;
     float dist;
     if (!camera_project(y.p, px, to_eye, dist)) return false;
-    float cos_y = dot(y.n, to_eye);
+    float cos_signed = dot(y.n, to_eye);
+    float cos_y = abs(cos_signed);
     if (!(cos_y > 0.0)) return false;
-    BsdfParams b = vertex_bsdf(y.material);
-    vec3 f = bsdf_eval(b, y.n, to_eye, y.w, TRANSPORT_IMPORTANCE);
+    BsdfParams b = vertex_bsdf(y);
+    vec3 f = bsdf_eval(b, y.n, y.w, to_eye, TRANSPORT_IMPORTANCE);
     if (f == vec3(0.0)) return false;
     float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
     float pdf_rev = material_pdf(b, y.n, to_eye, y.w);
     float w_light = mis(pdf_cam_a / light_paths()) * (y.dvcm + y.dvc * mis(pdf_rev));
     weight = 1.0 / (1.0 + w_light);
     rays_traced++;
-    vec3 o = offset_ray_origin(y.p, y.n);
+    vec3 o = offset_ray_origin(y.p, cos_signed > 0.0 ? y.n : -y.n);
     if (trace_occluded(o, to_eye, length(scene.cam_eye.xyz - o))) return false;
     value = y.beta * f * (pdf_cam_a / light_paths());
     return true;
@@ -340,13 +360,16 @@ bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float w
     float d2 = dot(to, to);
     if (!(d2 > 0.0)) return false;
     vec3 dir = to * inversesqrt(d2);
-    float cos_z = dot(z.n, dir);
-    float cos_y = -dot(y.n, dir);
+    // (Either vertex may transmit: the cosines' signs say which side the segment leaves.)
+    float cz = dot(z.n, dir);
+    float cy = -dot(y.n, dir);
+    float cos_z = abs(cz);
+    float cos_y = abs(cy);
     if (!(cos_z > 0.0) || !(cos_y > 0.0)) return false;
-    BsdfParams bz = vertex_bsdf(z.material);
-    BsdfParams by = vertex_bsdf(y.material);
+    BsdfParams bz = vertex_bsdf(z);
+    BsdfParams by = vertex_bsdf(y);
     vec3 f_z = bsdf_eval(bz, z.n, z.w, dir, TRANSPORT_RADIANCE);
-    vec3 f_y = bsdf_eval(by, y.n, -dir, y.w, TRANSPORT_IMPORTANCE);
+    vec3 f_y = bsdf_eval(by, y.n, y.w, -dir, TRANSPORT_IMPORTANCE);
     vec3 c = z.beta * f_z * f_y * y.beta * (cos_z * cos_y / d2);
     if (c == vec3(0.0)) return false;
     float cam_dir = material_pdf(bz, z.n, z.w, dir);
@@ -356,7 +379,7 @@ bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float w
     float w_light = mis(cam_dir * cos_y / d2) * (y.dvcm + y.dvc * mis(light_rev));
     float w_cam = mis(light_dir * cos_z / d2) * (z.dvcm + z.dvc * mis(cam_rev));
     weight = 1.0 / (w_light + 1.0 + w_cam);
-    if (!visible(z.p, z.n, y.p, y.n)) return false;
+    if (!visible(z.p, cz > 0.0 ? z.n : -z.n, y.p, cy > 0.0 ? y.n : -y.n)) return false;
     value = c;
     return true;
 }

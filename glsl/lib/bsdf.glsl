@@ -8,11 +8,25 @@
 // TRANSPORT_IMPORTANCE on light subpaths) is an argument of evaluation and sampling:
 // the BRDFs here are symmetric and ignore it; refraction will not.
 //
-// Conventions: wo toward the viewer, wi toward the light, n the unit shading normal,
-// already flipped toward wo (dot(n, wo) >= 0; a slightly negative value from rounding is
-// clamped to 0 where a cosine is needed). Surfaces are two-sided, nothing is transmitted:
-// f = 0 and pdf = 0 for wi with dot(n, wi) <= 0, and a sampled wi below the surface is a
-// failed sample. bsdf_eval returns f itself, not f * cos(theta_i).
+// Conventions (pbrt-v4's): wo points where the path came from (toward the camera on a
+// camera subpath, toward the light on a light subpath, as `transport` says), wi the
+// other direction; n is the unit shading normal. bsdf_eval returns f itself, not
+// f * |cos(theta_i)|.
+//
+// The course's BRDFs (BSDF_PHONG, BSDF_GGX) are two-sided reflectors and take n flipped
+// toward wo (dot(n, wo) >= 0; a slightly negative value from rounding is clamped to 0
+// where a cosine is needed): f = 0 and pdf = 0 for wi with dot(n, wi) <= 0, and a sampled
+// wi below the surface is a failed sample.
+//
+// The dielectric, thin dielectric and conductor BSDFs (pbrt-v4's; their Fresnel and
+// microfacet terms are in microfacet.glsl) take wo and wi on either side of n. A
+// dielectric's `eta` is the relative index of refraction of the side n points away from
+// (material_bsdf makes it so from the material's index and which side n is on), so a
+// closed mesh or sphere is a solid of glass. Transmission in radiance mode carries the
+// 1/eta^2 of radiance crossing an interface; importance mode does not. Smooth ones (alpha
+// below MICROFACET_SMOOTH_ALPHA) and the thin dielectric are delta distributions: eval
+// and pdf are 0, and a sample's f and pdf are the lobe's weight and choice probability
+// (flag BSDF_LOBE_DELTA). They sample their own distribution whatever the mode.
 //
 // Degenerate parameters, the same rules in src/bsdf.rs:
 // - avg(c) = max((c.r + c.g + c.b) / 3, 0), so negative colours never give negative
@@ -30,6 +44,7 @@
 #define BSDF_GLSL
 #include "bindings.glsl"
 #include "sampling.glsl"
+#include "microfacet.glsl"
 
 // One surface's BSDF parameters (the BSDF_* kinds and SAMPLE_* modes are in abi.h).
 struct BsdfParams {
@@ -37,17 +52,37 @@ struct BsdfParams {
     vec3 kd;
     vec3 ks;
     float shininess;
-    float roughness;   // GGX alpha
+    float roughness;   // the course GGX's alpha
+    vec2 alpha;        // dielectric, conductor: microfacet alphas along the tangent and bitangent
+    vec3 eta;          // dielectric: x, relative to n's orientation; thin: x; conductor: per channel
+    vec3 k;            // conductor absorption
 };
 
-BsdfParams material_bsdf(GpuMaterial m) {
+// The BSDF of material m at a surface whose normal, as the caller will pass it, points to
+// the material's outside (front) or inside (!front).
+BsdfParams material_bsdf(GpuMaterial m, bool front) {
     BsdfParams b;
     b.kind = m.info.x;
     b.kd = m.diffuse.xyz;
     b.ks = m.specular.xyz;
     b.shininess = m.roughness.x;
     b.roughness = m.roughness.y;
+    b.alpha = m.roughness.yz;
+    b.eta = m.eta.xyz;
+    if (b.kind == BSDF_DIELECTRIC && !front) b.eta.x = 1.0 / b.eta.x;
+    b.k = m.k.xyz;
     return b;
+}
+
+bool bsdf_is_smooth(BsdfParams b) { return max(b.alpha.x, b.alpha.y) < MICROFACET_SMOOTH_ALPHA; }
+
+// Whether every lobe of the BSDF is a delta distribution (no light sampling or
+// connection can reach it).
+bool bsdf_is_delta(BsdfParams b) {
+    if (b.kind == BSDF_THIN_DIELECTRIC) return true;
+    if (b.kind == BSDF_DIELECTRIC) return bsdf_is_smooth(b) || b.eta.x == 1.0;
+    if (b.kind == BSDF_CONDUCTOR) return bsdf_is_smooth(b);
+    return false;
 }
 
 // A sampled direction: wi, the BSDF value f(wo, wi), the pdf of the sampling mode (the
@@ -162,6 +197,218 @@ vec3 sample_phong_lobe(vec2 u, float s) {
     return vec3(sin_t * cos(phi), sin_t * sin(phi), cos_t);
 }
 
+// ---- the interface BSDFs: dielectric, thin dielectric and conductor (pbrt-v4's, in the
+// local frame) --------------------------------------------------------------------------
+
+// The local frame of n: its tangent and bitangent from build_onb (the anisotropic
+// alphas are along them). flip is set when wo lies below n: the functions then work in
+// the mirrored frame (z negated) with the inverse relative index, so that wo.z >= 0.
+struct LocalFrame {
+    vec3 t;
+    vec3 b;
+    vec3 n;
+    bool flip;
+};
+
+LocalFrame local_frame(vec3 n, vec3 wo) {
+    LocalFrame f;
+    build_onb(n, f.t, f.b);
+    f.n = n;
+    f.flip = dot(n, wo) < 0.0;
+    return f;
+}
+
+vec3 to_local(LocalFrame f, vec3 v) {
+    vec3 l = vec3(dot(v, f.t), dot(v, f.b), dot(v, f.n));
+    return f.flip ? vec3(l.xy, -l.z) : l;
+}
+
+vec3 from_local(LocalFrame f, vec3 l) {
+    if (f.flip) l.z = -l.z;
+    return l.x * f.t + l.y * f.b + l.z * f.n;
+}
+
+// The relative index in the (possibly mirrored) frame.
+float local_eta(BsdfParams b, LocalFrame f) { return f.flip ? 1.0 / b.eta.x : b.eta.x; }
+
+float sqr(float x) { return x * x; }
+
+// Rough dielectric (Walter et al. 2007, pbrt-v4's DielectricBxDF) for local wo.z > 0.
+vec3 dielectric_f(vec2 a, float eta, vec3 wo, vec3 wi, uint transport) {
+    float cos_o = wo.z;
+    float cos_i = wi.z;
+    if (cos_i == 0.0 || !(cos_o > 0.0)) return vec3(0.0);
+    bool is_reflection = cos_i > 0.0;
+    float etap = is_reflection ? 1.0 : eta;
+    vec3 wm = wi * etap + wo;
+    if (dot(wm, wm) == 0.0) return vec3(0.0);
+    wm = normalize(wm);
+    if (wm.z < 0.0) wm = -wm;
+    if (dot(wm, wi) * cos_i < 0.0 || dot(wm, wo) * cos_o < 0.0) return vec3(0.0);
+    float F = fr_dielectric(dot(wo, wm), eta);
+    if (is_reflection) return vec3(tr_d(wm, a) * tr_g(wo, wi, a) * F / abs(4.0 * cos_i * cos_o));
+    float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap) * cos_i * cos_o;
+    float ft = tr_d(wm, a) * (1.0 - F) * tr_g(wo, wi, a) * abs(dot(wi, wm) * dot(wo, wm) / denom);
+    if (transport == TRANSPORT_RADIANCE) ft /= sqr(etap);
+    return vec3(ft);
+}
+
+float dielectric_pdf(vec2 a, float eta, vec3 wo, vec3 wi) {
+    float cos_o = wo.z;
+    float cos_i = wi.z;
+    if (cos_i == 0.0 || !(cos_o > 0.0)) return 0.0;
+    bool is_reflection = cos_i > 0.0;
+    float etap = is_reflection ? 1.0 : eta;
+    vec3 wm = wi * etap + wo;
+    if (dot(wm, wm) == 0.0) return 0.0;
+    wm = normalize(wm);
+    if (wm.z < 0.0) wm = -wm;
+    if (dot(wm, wi) * cos_i < 0.0 || dot(wm, wo) * cos_o < 0.0) return 0.0;
+    float R = fr_dielectric(dot(wo, wm), eta);
+    float T = 1.0 - R;
+    if (is_reflection) return tr_d_visible(wo, wm, a) / (4.0 * abs(dot(wo, wm))) * R / (R + T);
+    float dwm_dwi = abs(dot(wi, wm)) / sqr(dot(wi, wm) + dot(wo, wm) / etap);
+    return tr_d_visible(wo, wm, a) * dwm_dwi * T / (R + T);
+}
+
+bool dielectric_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
+    float eta = local_eta(b, fr);
+    vec3 wi;
+    if (bsdf_is_smooth(b) || eta == 1.0) {
+        float R = fr_dielectric(wo.z, eta);
+        float T = 1.0 - R;
+        if (u.x < R / (R + T)) {
+            wi = vec3(-wo.x, -wo.y, wo.z);
+            s.f = vec3(R / abs(wi.z));
+            s.pdf = R / (R + T);
+            s.flags = BSDF_LOBE_REFLECTION | BSDF_LOBE_DELTA;
+        } else {
+            float etap;
+            if (!refract_dir(wo, vec3(0.0, 0.0, 1.0), eta, etap, wi) || wi.z == 0.0) return false;
+            float ft = T / abs(wi.z);
+            if (transport == TRANSPORT_RADIANCE) ft /= sqr(etap);
+            s.f = vec3(ft);
+            s.pdf = T / (R + T);
+            s.flags = BSDF_LOBE_TRANSMISSION | BSDF_LOBE_DELTA;
+        }
+    } else {
+        vec3 wm = tr_sample_wm(wo, u.yz, b.alpha);
+        float R = fr_dielectric(dot(wo, wm), eta);
+        float T = 1.0 - R;
+        if (u.x < R / (R + T)) {
+            wi = reflect(-wo, wm);
+            if (!(wi.z > 0.0)) return false;
+            s.flags = BSDF_LOBE_REFLECTION;
+        } else {
+            float etap;
+            if (!refract_dir(wo, wm, eta, etap, wi) || !(wi.z < 0.0)) return false;
+            s.flags = BSDF_LOBE_TRANSMISSION;
+        }
+        // f and pdf as eval and pdf give them (the same half vector, up to rounding).
+        s.f = dielectric_f(b.alpha, eta, wo, wi, transport);
+        s.pdf = dielectric_pdf(b.alpha, eta, wo, wi);
+    }
+    s.wi = from_local(fr, wi);
+    return s.pdf > 0.0 && !isinf(s.pdf) && s.f != vec3(0.0);
+}
+
+// Thin dielectric (pbrt-v4's ThinDielectricBxDF): reflection and straight-through
+// transmission, with the multiple-bounce sum inside the slab. Delta.
+bool thin_dielectric_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, out BsdfSample s) {
+    float R = fr_dielectric(wo.z, b.eta.x);
+    float T = 1.0 - R;
+    if (R < 1.0) {
+        R += T * T * R / (1.0 - R * R);
+        T = 1.0 - R;
+    }
+    vec3 wi;
+    if (u.x < R / (R + T)) {
+        wi = vec3(-wo.x, -wo.y, wo.z);
+        s.f = vec3(R / abs(wi.z));
+        s.pdf = R / (R + T);
+        s.flags = BSDF_LOBE_REFLECTION | BSDF_LOBE_DELTA;
+    } else {
+        wi = -wo;
+        s.f = vec3(T / abs(wi.z));
+        s.pdf = T / (R + T);
+        s.flags = BSDF_LOBE_TRANSMISSION | BSDF_LOBE_DELTA;
+    }
+    s.wi = from_local(fr, wi);
+    return s.pdf > 0.0 && s.f != vec3(0.0);
+}
+
+// Conductor (pbrt-v4's ConductorBxDF): a mirror, or Trowbridge-Reitz reflection.
+vec3 conductor_f(BsdfParams b, vec3 wo, vec3 wi) {
+    if (!(wo.z > 0.0) || !(wi.z > 0.0)) return vec3(0.0);
+    vec3 wm = wi + wo;
+    if (dot(wm, wm) == 0.0) return vec3(0.0);
+    wm = normalize(wm);
+    vec3 F = fr_conductor(abs(dot(wo, wm)), b.eta, b.k);
+    return tr_d(wm, b.alpha) * F * tr_g(wo, wi, b.alpha) / (4.0 * wi.z * wo.z);
+}
+
+float conductor_pdf(BsdfParams b, vec3 wo, vec3 wi) {
+    if (!(wo.z > 0.0) || !(wi.z > 0.0)) return 0.0;
+    vec3 wm = wi + wo;
+    if (dot(wm, wm) == 0.0) return 0.0;
+    wm = normalize(wm);
+    if (wm.z < 0.0) wm = -wm;
+    return tr_d_visible(wo, wm, b.alpha) / (4.0 * abs(dot(wo, wm)));
+}
+
+bool conductor_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, out BsdfSample s) {
+    if (!(wo.z > 0.0)) return false;
+    vec3 wi;
+    if (bsdf_is_smooth(b)) {
+        wi = vec3(-wo.x, -wo.y, wo.z);
+        s.f = fr_conductor(wi.z, b.eta, b.k) / wi.z;
+        s.pdf = 1.0;
+        s.flags = BSDF_LOBE_REFLECTION | BSDF_LOBE_DELTA;
+    } else {
+        vec3 wm = tr_sample_wm(wo, u.yz, b.alpha);
+        wi = reflect(-wo, wm);
+        if (!(wi.z > 0.0)) return false;
+        s.f = conductor_f(b, wo, wi);
+        s.pdf = conductor_pdf(b, wo, wi);
+        s.flags = BSDF_LOBE_REFLECTION;
+    }
+    s.wi = from_local(fr, wi);
+    return s.pdf > 0.0 && !isinf(s.pdf) && s.f != vec3(0.0);
+}
+
+vec3 interface_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
+    if (bsdf_is_delta(b)) return vec3(0.0);
+    LocalFrame fr = local_frame(n, wo);
+    vec3 lo = to_local(fr, wo);
+    vec3 li = to_local(fr, wi);
+    if (b.kind == BSDF_DIELECTRIC) return dielectric_f(b.alpha, local_eta(b, fr), lo, li, transport);
+    return conductor_f(b, lo, li);
+}
+
+float interface_pdf(BsdfParams b, vec3 n, vec3 wo, vec3 wi) {
+    if (bsdf_is_delta(b)) return 0.0;
+    LocalFrame fr = local_frame(n, wo);
+    vec3 lo = to_local(fr, wo);
+    vec3 li = to_local(fr, wi);
+    if (b.kind == BSDF_DIELECTRIC) return dielectric_pdf(b.alpha, local_eta(b, fr), lo, li);
+    return conductor_pdf(b, lo, li);
+}
+
+bool interface_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
+    s.wi = vec3(0.0, 0.0, 1.0);
+    s.f = vec3(0.0);
+    s.pdf = 0.0;
+    s.flags = 0u;
+    LocalFrame fr = local_frame(n, wo);
+    vec3 lo = to_local(fr, wo);
+    if (!(lo.z > 0.0)) return false;
+    if (b.kind == BSDF_DIELECTRIC) return dielectric_sample(b, fr, lo, u, transport, s);
+    if (b.kind == BSDF_THIN_DIELECTRIC) return thin_dielectric_sample(b, fr, lo, u, s);
+    return conductor_sample(b, fr, lo, u, s);
+}
+
+bool bsdf_is_course_brdf(BsdfParams b) { return b.kind == BSDF_PHONG || b.kind == BSDF_GGX; }
+
 // lightpath profile: PROFILE_X2_BSDF evaluates, samples and weighs every BSDF twice
 // (the extra time is the BSDF's share of a pass; see src/profile.rs).
 #ifdef PROFILE_X2_BSDF
@@ -171,6 +418,7 @@ vec3 sample_phong_lobe(vec2 u, float s) {
 #endif
 
 vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
+    if (!bsdf_is_course_brdf(b)) return interface_eval(b, n, wo, wi, transport);
     float ci = dot(n, wi);
     if (!(ci > 0.0)) return vec3(0.0);
     vec3 f = b.kd * INV_PI;
@@ -186,6 +434,7 @@ vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
 }
 
 float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
+    if (!bsdf_is_course_brdf(b)) return interface_pdf(b, n, wo, wi);
     float ci = dot(n, wi);
     if (!(ci > 0.0)) return 0.0;
     if (mode == SAMPLE_HEMISPHERE) return INV_TWO_PI;
@@ -203,6 +452,7 @@ float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
 // u.x picks the lobe (SAMPLE_BRDF only), u.yz place the direction. False when the
 // direction falls below the surface or its pdf is not a positive finite number.
 bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
+    if (!bsdf_is_course_brdf(b)) return interface_sample(b, n, wo, u, transport, s);
     s.pdf = 0.0;
     s.f = vec3(0.0);
     s.flags = BSDF_LOBE_REFLECTION;

@@ -25,6 +25,23 @@ uint pick_emitter(uint x) {
 
 float emitter_pick_pdf(uint e) { return emitters[e].radiance.w; }
 
+// A spot light's falloff toward the unit direction w from it: pbrt-v4's smoothstep
+// between the cone angle (0) and the start of the falloff (1).
+float spot_falloff(GpuEmitter em, vec3 w) {
+    float c = dot(em.p1.xyz, w);
+    float lo = em.p1.w;
+    float hi = em.p2.x;
+    if (lo == hi) return c < lo ? 0.0 : 1.0;
+    float t = clamp((c - lo) / (hi - lo), 0.0, 1.0);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+// The solid-angle pdf of a spot light's emission: uniform over its cone.
+float spot_cone_pdf(GpuEmitter em, vec3 w) {
+    float cos_end = em.p1.w;
+    return dot(em.p1.xyz, w) >= cos_end ? 1.0 / (TWO_PI * (1.0 - cos_end)) : 0.0;
+}
+
 // Radiance leaving an emissive surface point with unit normal ng toward w.
 vec3 emitted_radiance(uint material, vec3 ng, vec3 w) {
     GpuMaterial m = materials[material];
@@ -105,6 +122,18 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
         ls.p = em.p0.xyz;
         return true;
     }
+    if (em.info.x == EMITTER_SPOT) {
+        vec3 to = em.p0.xyz - ref;
+        float d2 = dot(to, to);
+        if (d2 == 0.0) return false;
+        ls.dist = sqrt(d2);
+        ls.wi = to / ls.dist;
+        ls.L = em.radiance.xyz * (spot_falloff(em, -ls.wi) / d2);
+        ls.pdf = pick;
+        ls.delta = true;
+        ls.p = em.p0.xyz;
+        return ls.L != vec3(0.0);
+    }
     if (em.info.x == EMITTER_DIRECTIONAL) {
         ls.wi = em.p0.xyz;
         ls.dist = INF;
@@ -164,7 +193,8 @@ float emitter_pdf_solid_angle(uint e, vec3 ref, vec3 p, vec3 ng) {
 // and s = 0 strategies these are).
 
 // A light sample at a surface vertex (p, unit normal n on the side of wo) for the BSDF b:
-// the sample, the BSDF value toward it and the cosine there. False when it cannot
+// the sample, the BSDF value toward it and |cos| there (the light may lie behind a
+// transmitting surface). False when it cannot
 // contribute (no sample, below the surface, f = 0). The shadow ray is the caller's
 // (light_sample_visible), and so is the weighting: the estimate is f L cos / ls.pdf.
 bool sample_direct_light(BsdfParams b, uint e, vec3 p, vec3 n, vec3 wo, vec2 u, out LightSample ls,
@@ -172,8 +202,10 @@ bool sample_direct_light(BsdfParams b, uint e, vec3 p, vec3 n, vec3 wo, vec2 u, 
     f = vec3(0.0);
     cos_theta = 0.0;
     if (!sample_emitter(e, p, u, ls) || !(ls.pdf > 0.0)) return false;
-    cos_theta = dot(n, ls.wi);
-    if (!(cos_theta > 0.0)) return false;
+    // The course's BRDFs reflect only; the interface BSDFs may transmit toward the light.
+    float c = dot(n, ls.wi);
+    if (bsdf_is_course_brdf(b) ? !(c > 0.0) : !(c != 0.0)) return false;
+    cos_theta = abs(c);
     f = bsdf_eval(b, n, wo, ls.wi, TRANSPORT_RADIANCE);
     return f != vec3(0.0);
 }
@@ -196,7 +228,8 @@ float emitter_hit_mis_weight(uint e, vec3 prev_p, float prev_pdf, vec3 p, vec3 n
 //             sampling (sample_emitter) place points with the same density.
 //   pdf_emit: pdf_pos * solid-angle pdf of the direction. Area lights emit cosine-weighted
 //             around the normal (over both sides, each with probability 1/2, when
-//             two-sided); point lights uniformly over the sphere; directional lights
+//             two-sided); point lights uniformly over the sphere; spot lights uniformly
+//             over their cone; directional lights
 //             from a disk of the scene's bounding radius, pdf_emit = pick / (pi R^2).
 //   cos_l:    |cos| between the normal and the direction (1 for delta lights).
 
@@ -231,6 +264,13 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
         le.pdf_emit = pick * (0.25 * INV_PI);
         return pick > 0.0;
     }
+    if (em.info.x == EMITTER_SPOT) {
+        le.p = em.p0.xyz;
+        le.dir = to_world(sample_uniform_cone(u_dir.yz, em.p1.w), em.p1.xyz);
+        le.Le = em.radiance.xyz * spot_falloff(em, le.dir);
+        le.pdf_emit = pick * spot_cone_pdf(em, le.dir);
+        return le.pdf_emit > 0.0 && le.Le != vec3(0.0);
+    }
     if (em.info.x == EMITTER_DIRECTIONAL) {
         float r = scene.bounds.w;
         vec3 t;
@@ -264,7 +304,9 @@ void emitter_emission_pdfs(uint e, vec3 p, vec3 ng, vec3 w, out float pdf_pos, o
     pdf_pos = pick;
     if (em.info.x == EMITTER_POINT) {
         pdf_emit = pick * (0.25 * INV_PI);
-    } else if (em.info.x == EMITTER_DIRECTIONAL) {
+    } else if (em.info.x == EMITTER_SPOT) {
+        pdf_emit = pick * spot_cone_pdf(em, w);
+  } else if (em.info.x == EMITTER_DIRECTIONAL) {
         pdf_emit = pick / (PI * scene.bounds.w * scene.bounds.w);
     } else {
         pdf_pos = pick * emitter_area_pdf(e, p);

@@ -58,6 +58,15 @@ vec2 sample_uniform_triangle(vec2 u) {
     return vec2(1.0 - su, u.y * su);
 }
 
+// Uniform over the cone of directions within acos(cos_max) of +z, pdf
+// 1 / (2 pi (1 - cos_max)).
+vec3 sample_uniform_cone(vec2 u, float cos_max) {
+    float cos_t = (1.0 - u.x) + u.x * cos_max;
+    float sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+    float phi = TWO_PI * u.y;
+    return vec3(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+}
+
 // Veach's power heuristic (beta = 2): the MIS weight of the strategy with pdf a against
 // one with pdf b, a^2 / (a^2 + b^2) written as 1 / (1 + (b/a)^2) so that no square
 // overflows. a == 0 (or NaN) gives 0; an infinite a (a delta strategy) gives 1, or 1/2

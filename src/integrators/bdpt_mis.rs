@@ -304,6 +304,7 @@ mod tests {
             },
             shininess: rng.range(1.0, 60.0),
             roughness: rng.range(0.1, 0.8),
+            ..Default::default()
         }
     }
 

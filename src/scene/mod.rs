@@ -20,12 +20,29 @@ pub struct Material {
     pub diffuse: Vec3,
     pub specular: Vec3,
     pub shininess: f32,
+    /// The microfacet alpha (GGX; dielectric and conductor along the tangent; 0 is
+    /// smooth for those).
     pub roughness: f32,
+    /// Dielectric and conductor: the alpha along the bitangent (`roughness A AV`; the
+    /// same as `roughness` when one value is given).
+    pub roughness_v: f32,
+    /// Dielectric, thin dielectric: the index of refraction inside over outside.
+    pub ior: f32,
+    /// Conductor: the complex index of refraction eta + i k per channel.
+    pub eta: Vec3,
+    pub k: Vec3,
     pub emission: Vec3,
     /// `emission` emits from both sides; a `quadLight` only from its front
     /// (the side its geometric normal points to).
     pub two_sided_emission: bool,
 }
+
+/// A dielectric's index of refraction when the scene does not give one (glass).
+pub const DEFAULT_IOR: f32 = 1.5;
+/// A conductor's eta and k when the scene does not give them: copper, as RGB (pbrt-v4's
+/// default conductor is copper, "metal-Cu-eta" / "metal-Cu-k").
+pub const COPPER_ETA: Vec3 = Vec3::new(0.200_438, 0.924_033, 1.102_21);
+pub const COPPER_K: Vec3 = Vec3::new(3.912_95, 2.452_85, 2.142_19);
 
 impl Default for Material {
     fn default() -> Self {
@@ -35,6 +52,10 @@ impl Default for Material {
             specular: Vec3::ZERO,
             shininess: 1.0,
             roughness: 0.0,
+            roughness_v: 0.0,
+            ior: DEFAULT_IOR,
+            eta: COPPER_ETA,
+            k: COPPER_K,
             emission: Vec3::ZERO,
             two_sided_emission: true,
         }
@@ -54,9 +75,20 @@ impl Material {
             diffuse: self.diffuse.extend(0.0).to_array(),
             specular: self.specular.extend(0.0).to_array(),
             emission: self.emission.extend(0.0).to_array(),
-            eta: [0.0; 4],
-            k: [0.0; 4],
-            roughness: [self.shininess, self.roughness, self.roughness, 0.0],
+            // Only the fields of the material's own kind, so that materials differing
+            // only in another kind's parameters are one material.
+            eta: match self.bsdf {
+                BsdfKind::Dielectric | BsdfKind::ThinDielectric => {
+                    [self.ior, self.ior, self.ior, 0.0]
+                }
+                BsdfKind::Conductor => self.eta.extend(0.0).to_array(),
+                BsdfKind::Phong | BsdfKind::Ggx => [0.0; 4],
+            },
+            k: match self.bsdf {
+                BsdfKind::Conductor => self.k.extend(0.0).to_array(),
+                _ => [0.0; 4],
+            },
+            roughness: [self.shininess, self.roughness, self.roughness_v, 0.0],
             info: [
                 self.bsdf as u32,
                 if self.two_sided_emission {
@@ -107,6 +139,16 @@ pub enum DeltaLight {
     /// Light arriving from `direction` (pointing from the scene toward the light)
     /// with irradiance `radiance` on a surface facing it.
     Directional { direction: Vec3, radiance: Vec3 },
+    /// pbrt-v4's spot light: intensity `intensity` along the unit `direction` from
+    /// `position`, falling off by a smoothstep in cosθ from `cos_falloff_start` (full) to
+    /// `cos_falloff_end` (zero, the cone's edge), 1/d² with distance.
+    Spot {
+        position: Vec3,
+        direction: Vec3,
+        intensity: Vec3,
+        cos_falloff_start: f32,
+        cos_falloff_end: f32,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -217,13 +217,17 @@ const COMMANDS: &[(&str, &str)] = &[
     ("diffuse", "r g b"),
     ("specular", "r g b"),
     ("shininess", "s"),
-    ("roughness", "a"),
-    ("brdf", "phong|ggx"),
+    ("roughness", "a [av]"),
+    ("brdf", "phong|ggx|dielectric|thindielectric|conductor"),
+    ("ior", "ETA"),
+    ("eta", "r g b"),
+    ("k", "r g b"),
     ("emission", "r g b"),
     ("ambient", "r g b"),
     ("quadLight", "ax ay az bx by bz cx cy cz r g b"),
     ("point", "x y z r g b"),
     ("directional", "x y z r g b"),
+    ("spot", "fx fy fz tx ty tz r g b coneangle conedelta"),
     ("attenuation", "c l q"),
     ("integrator", "NAME"),
     ("maxdepth", "N"),
@@ -287,14 +291,20 @@ impl Command<'_> {
         let Some(&(keyword, usage)) = COMMANDS.iter().find(|(k, _)| *k == self.name) else {
             return Err(self.unknown());
         };
-        let expected = usage.split_whitespace().count();
-        if self.count == expected {
+        // Words in brackets are optional.
+        let total = usage.split_whitespace().count();
+        let required = usage
+            .split_whitespace()
+            .filter(|w| !w.starts_with('['))
+            .count();
+        if (required..=total).contains(&self.count) {
             return Ok(());
         }
-        let expected = match expected {
-            0 => "no arguments".to_owned(),
-            1 => "1 argument".to_owned(),
-            n => format!("{n} arguments"),
+        let expected = match (required, total) {
+            (0, 0) => "no arguments".to_owned(),
+            (1, 1) => "1 argument".to_owned(),
+            (r, t) if r == t => format!("{r} arguments"),
+            (r, t) => format!("{r} to {t} arguments"),
         };
         let usage = if usage.is_empty() {
             keyword.to_owned()
@@ -579,11 +589,42 @@ impl Parser {
             }
             "roughness" => {
                 let a = cmd.non_negative(0, "the roughness")?;
-                self.set_material(|m| m.roughness = a);
+                let av = if cmd.count > 1 {
+                    cmd.non_negative(1, "the roughness")?
+                } else {
+                    a
+                };
+                self.set_material(|m| {
+                    m.roughness = a;
+                    m.roughness_v = av;
+                });
             }
             "brdf" => {
-                let brdf = cmd.choice(&[("phong", BsdfKind::Phong), ("ggx", BsdfKind::Ggx)])?;
+                let brdf = cmd.choice(&[
+                    ("phong", BsdfKind::Phong),
+                    ("ggx", BsdfKind::Ggx),
+                    ("dielectric", BsdfKind::Dielectric),
+                    ("thindielectric", BsdfKind::ThinDielectric),
+                    ("conductor", BsdfKind::Conductor),
+                ])?;
                 self.set_material(|m| m.bsdf = brdf);
+            }
+            "ior" => {
+                let eta = cmd.float(0)?;
+                if eta <= 0.0 {
+                    return Err(cmd.error(format!(
+                        "the index of refraction must be positive, got {eta}"
+                    )));
+                }
+                self.set_material(|m| m.ior = eta);
+            }
+            "eta" => {
+                let eta = cmd.color(0, "eta")?;
+                self.set_material(|m| m.eta = eta);
+            }
+            "k" => {
+                let k = cmd.color(0, "k")?;
+                self.set_material(|m| m.k = k);
             }
             "emission" => {
                 let le = cmd.color(0, "the emission")?;
@@ -614,6 +655,33 @@ impl Parser {
                 self.scene.delta_lights.push(DeltaLight::Directional {
                     direction,
                     radiance,
+                });
+            }
+            "spot" => {
+                let position = cmd.vec3(0)?;
+                let target = cmd.vec3(3)?;
+                let intensity = cmd.color(6, "the intensity")?;
+                let cone = cmd.float(9)?;
+                let delta = cmd.float(10)?;
+                let Some(direction) = (target - position).try_normalize() else {
+                    return Err(cmd.error("the spot light's position and target must differ"));
+                };
+                if !(cone > 0.0 && cone < 180.0) {
+                    return Err(cmd.error(format!(
+                        "the cone angle must be between 0 and 180 degrees, got {cone}"
+                    )));
+                }
+                if !(0.0..=cone).contains(&delta) {
+                    return Err(cmd.error(format!(
+                        "the cone delta must be between 0 and the cone angle ({cone}), got {delta}"
+                    )));
+                }
+                self.scene.delta_lights.push(DeltaLight::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    cos_falloff_start: (cone - delta).to_radians().cos(),
+                    cos_falloff_end: cone.to_radians().cos(),
                 });
             }
             "integrator" => {
@@ -790,6 +858,7 @@ impl Parser {
             roughness: 0.0,
             emission: radiance,
             two_sided_emission: false,
+            ..Material::default()
         });
         // Both triangles' geometric normals cross(v1 - v0, v2 - v0) point along
         // cross(ac, ab), the emitting side.
@@ -1143,8 +1212,10 @@ mod tests {
             specular: Vec3::new(0.4, 0.5, 0.6),
             shininess: 30.0,
             roughness: 0.25,
+            roughness_v: 0.25,
             emission: Vec3::new(1.0, 2.0, 3.0),
             two_sided_emission: true,
+            ..Material::default()
         };
         assert_eq!(s.materials.len(), 2);
         assert_eq!(s.materials[s.triangles[0].material as usize], expected);
@@ -1243,6 +1314,7 @@ mod tests {
                 roughness: 0.0,
                 emission: radiance,
                 two_sided_emission: false,
+                ..Material::default()
             }
         );
         // Only the light's material exists: the sticky one was never used.
@@ -1412,6 +1484,7 @@ mod tests {
         "quadLight 0 1 0  1 0 0  0 0 1  5 5 5",
         "point 0 1 0  1 1 1",
         "directional 0 1 0  1 1 1",
+        "spot 0 2 0  0 0 0  5 5 5  30 5",
         "attenuation 1 0 0",
         "integrator bdpt",
         "maxdepth 3",
@@ -1424,6 +1497,9 @@ mod tests {
         "mmltchains 64",
         "mmltsigma 0.02",
         "mmltlargestep 0.5",
+        "ior 1.33",
+        "eta 0.2 0.9 1.1",
+        "k 3.9 2.4 2.1",
         "obj tests/data/tetrahedron.obj",
     ];
     const PREAMBLE: &str = "vertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\npushTransform\n";
@@ -1450,18 +1526,27 @@ mod tests {
     #[test]
     fn wrong_argument_counts() {
         for example in EXAMPLES {
-            let tokens: Vec<&str> = example.split_whitespace().collect();
-            let (keyword, args) = (tokens[0], &tokens[1..]);
-            let n = args.len();
-            let mut wrong = vec![format!("{example} 1"), format!("{example} {example}")];
-            if n > 0 {
-                wrong.push(tokens[..n].join(" "));
+            let keyword = example.split_whitespace().next().unwrap_or_default();
+            let usage = COMMANDS.iter().find(|(k, _)| *k == keyword).unwrap().1;
+            // Words in brackets are optional.
+            let total = usage.split_whitespace().count();
+            let required = usage
+                .split_whitespace()
+                .filter(|w| !w.starts_with('['))
+                .count();
+            let mut wrong = vec![
+                format!("{keyword}{}", " 1".repeat(total + 1)),
+                format!("{example} {example}"),
+            ];
+            if required > 0 {
+                wrong.push(format!("{keyword}{}", " 1".repeat(required - 1)));
                 wrong.push(keyword.to_owned());
             }
-            let expected = match n {
-                0 => "expected no arguments".to_owned(),
-                1 => "expected 1 argument ".to_owned(),
-                n => format!("expected {n} arguments"),
+            let expected = match (required, total) {
+                (0, 0) => "expected no arguments".to_owned(),
+                (1, 1) => "expected 1 argument ".to_owned(),
+                (r, t) if r == t => format!("expected {r} arguments"),
+                (r, t) => format!("expected {r} to {t} arguments"),
             };
             for line in wrong {
                 let e = check_err(&format!("{PREAMBLE}{line}\n"), 5, keyword, &expected);
@@ -1743,12 +1828,106 @@ mod tests {
     }
 
     #[test]
+    fn glass_and_metal_materials() {
+        let s = parse(
+            "vertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n\
+             brdf dielectric\nior 1.33\nroughness 0.2\ntri 0 1 2\n\
+             brdf conductor\neta 0.2 0.9 1.1\nk 3.9 2.4 2.1\nroughness 0.1 0.3\nsphere 0 0 0 1\n\
+             brdf thindielectric\nsphere 0 0 3 1\n\
+             brdf dielectric\nroughness 0\nsphere 0 0 6 1\n",
+        );
+        assert_eq!(s.materials.len(), 4);
+        let glass = s.materials[s.triangles[0].material as usize];
+        assert_eq!(glass.bsdf, BsdfKind::Dielectric);
+        assert_eq!(
+            (glass.ior, glass.roughness, glass.roughness_v),
+            (1.33, 0.2, 0.2)
+        );
+        let metal = s.materials[s.spheres[0].material as usize];
+        assert_eq!(metal.bsdf, BsdfKind::Conductor);
+        assert_eq!((metal.roughness, metal.roughness_v), (0.1, 0.3));
+        let r = metal.record();
+        assert_eq!(r.eta, [0.2, 0.9, 1.1, 0.0]);
+        assert_eq!(r.k, [3.9, 2.4, 2.1, 0.0]);
+        assert_eq!(r.roughness[1..3], [0.1, 0.3]);
+        let thin = s.materials[s.spheres[1].material as usize].record();
+        assert_eq!(thin.info[0], BsdfKind::ThinDielectric as u32);
+        assert_eq!(thin.eta[0], 1.33, "ior is sticky");
+        // A dielectric's record holds its ior, not the sticky conductor's eta and k.
+        let smooth = s.materials[s.spheres[2].material as usize].record();
+        assert_eq!((smooth.eta, smooth.k), ([1.33, 1.33, 1.33, 0.0], [0.0; 4]));
+        // Defaults: glass of index 1.5, copper.
+        let d = Material::default();
+        assert_eq!(d.ior, 1.5);
+        assert!(d.k.min_element() > 2.0);
+        // Bad values name the line.
+        check_err("ior 0", 1, "ior", "must be positive, got 0");
+        check_err("ior -1.5", 1, "ior", "must be positive");
+        check_err("ior inf", 1, "ior", "expected a finite number");
+        check_err("eta 1 -1 1", 1, "eta", "must not be negative");
+        check_err("k 1 1 -0.5", 1, "k", "must not be negative");
+        check_err("roughness 0.1 -0.2", 1, "roughness", "must not be negative");
+        check_err(
+            "roughness 0.1 0.2 0.3",
+            1,
+            "roughness",
+            "expected 1 to 2 arguments (roughness a [av]), got 3",
+        );
+    }
+
+    #[test]
+    fn spot_lights() {
+        let s = parse("translate 1 1 1\nspot 0 2 0  0 0 0  1 2 3  30 5\n");
+        let DeltaLight::Spot {
+            position,
+            direction,
+            intensity,
+            cos_falloff_start,
+            cos_falloff_end,
+        } = s.delta_lights[0]
+        else {
+            panic!("not a spot light");
+        };
+        // World space, like the other lights.
+        assert_eq!(position, Vec3::new(0.0, 2.0, 0.0));
+        assert_eq!(direction, Vec3::new(0.0, -1.0, 0.0));
+        assert_eq!(intensity, Vec3::new(1.0, 2.0, 3.0));
+        assert!((cos_falloff_end - 30f32.to_radians().cos()).abs() < 1e-6);
+        assert!((cos_falloff_start - 25f32.to_radians().cos()).abs() < 1e-6);
+        check_err(
+            "spot 0 0 0  0 0 0  1 1 1  30 5",
+            1,
+            "spot",
+            "position and target must differ",
+        );
+        check_err(
+            "spot 0 1 0  0 0 0  1 1 1  0 0",
+            1,
+            "spot",
+            "between 0 and 180 degrees, got 0",
+        );
+        check_err(
+            "spot 0 1 0  0 0 0  1 1 1  180 5",
+            1,
+            "spot",
+            "between 0 and 180 degrees",
+        );
+        check_err("spot 0 1 0  0 0 0  1 1 1  30 31", 1, "spot", "cone delta");
+        check_err(
+            "spot 0 1 0  0 0 0  1 -1 1  30 5",
+            1,
+            "spot",
+            "the intensity",
+        );
+    }
+
+    #[test]
     fn unknown_words() {
         check_err(
             "brdf blinn",
             1,
             "brdf",
-            "expected 'phong' or 'ggx', got 'blinn'",
+            "expected 'phong' or 'ggx' or 'dielectric' or 'thindielectric' or 'conductor', got 'blinn'",
         );
         check_err("brdf GGX", 1, "brdf", "got 'GGX'");
         let e = check_err(
