@@ -1,7 +1,7 @@
 // `analyticdirect`: the exact direct lighting of diffuse surfaces, with no visibility,
 // from polygonal emitters (Lambert's formula for the irradiance of a polygon:
 // E = L/2 * sum_i theta_i * dot(n, gamma_i), Arvo 1995), point, spot and directional
-// lights.
+// lights, and a constant environment (E = pi L).
 // A closed-form oracle for the Monte Carlo integrators on unoccluded scenes. Emissive
 // spheres are not polygons and are left out. No horizon clipping: lights must lie
 // entirely above the surfaces they light.
@@ -44,7 +44,10 @@ void main() {
         vec3 d = camera_ray_direction(pixel, rng_next2(rng));
         Hit hit;
         rays++;
-        if (!trace_closest(o, d, INF, hit)) continue;
+        if (!trace_closest(o, d, INF, hit)) {
+            if (scene.environment != NO_EMITTER) sum += environment_radiance(d);
+            continue;
+        }
         Surface s = surface_at(hit, o, d);
         vec3 wo = -d;
         vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
@@ -62,6 +65,9 @@ void main() {
                 vec3 to = em.p0.xyz - s.p;
                 float d2 = dot(to, to);
                 E += em.radiance.xyz * max(0.0, dot(n, to) / sqrt(d2)) / d2;
+            } else if (em.info.x == EMITTER_INFINITE) {
+                // The whole hemisphere, unoccluded: E = pi L.
+                E += PI * em.radiance.xyz;
             } else if (em.info.x == EMITTER_SPOT) {
                 vec3 to = em.p0.xyz - s.p;
                 float d2 = dot(to, to);

@@ -150,9 +150,13 @@ vec3 camera_subpath(uvec2 pixel, uint base, uint stored) {
     for (uint k = 1u; k <= max_vertices + 1u; ++k) {
         // The vertex z_k; strategies here have t = k + 1.
         PathVertex z;
-        if (!camera_walk_next(w, z)) break;
         vec3 value;
         float weight;
+        if (!camera_walk_next(w, z)) {
+            // s = 0 toward the environment (k - 1 scattering vertices).
+            if (w.escaped && k - 1u >= min_scatter() && strategy_environment_hit(w, value, weight)) add_camera(L, 0u, k + 1u, pixel_index, value, weight);
+            break;
+        }
         // s = 0: the camera subpath found an emitter (k - 1 scattering vertices).
         if (k - 1u >= min_scatter() && strategy_emitter_hit(w, z, value, weight)) add_camera(L, 0u, k + 1u, pixel_index, value, weight);
         if (k > max_vertices) break;

@@ -86,10 +86,17 @@ vec3 mmlt_path(uint depth, out uint pixel) {
         camera_walk_start(film, cw);
         PathVertex z;
         bool alive = true;
+        bool escaped = false;   // the last vertex is the environment
         for (uint k = 1u; alive && k < t; ++k) {
-            alive = (k == 1u || camera_walk_extend(cw, z)) && camera_walk_next(cw, z);
+            alive = k == 1u || camera_walk_extend(cw, z);
+            if (alive) {
+                alive = camera_walk_next(cw, z);
+                escaped = !alive && cw.escaped && k == t - 1u;
+            }
         }
-        if (alive) {
+        if (escaped && s == 0u) {
+            found = strategy_environment_hit(cw, value, weight);
+        } else if (alive) {
             if (s == 0u) {
                 found = strategy_emitter_hit(cw, z, value, weight);
             } else if (s == 1u) {

@@ -51,7 +51,18 @@ vec3 path_sample(uvec2 pixel, inout Rng rng) {
     vec3 prev_p = o;
     for (uint depth = 0u;; ++depth) {
         Hit hit;
-        if (!closest(o, d, hit)) break;
+        if (!closest(o, d, hit)) {
+            // The environment, found by the path itself.
+            if (scene.environment != NO_EMITTER) {
+                vec3 Le = environment_radiance(d);
+                if (depth == 0u || nee == NEE_OFF || prev_delta) {
+                    L += beta * Le;
+                } else if (nee == NEE_MIS) {
+                    L += beta * Le * power_heuristic(prev_pdf, environment_pdf(d));
+                }
+            }
+            break;
+        }
         Surface s = surface_at(hit, o, d);
         vec3 wo = -d;
         BsdfParams b = material_bsdf(materials[s.material], dot(s.ng, wo) >= 0.0);
@@ -101,7 +112,7 @@ vec3 direct_sample(uvec2 pixel, inout Rng rng) {
     vec3 o = scene.cam_eye.xyz;
     vec3 d = camera_ray_direction(pixel, rng_next2(rng));
     Hit hit;
-    if (!closest(o, d, hit)) return vec3(0.0);
+    if (!closest(o, d, hit)) return scene.environment != NO_EMITTER ? environment_radiance(d) : vec3(0.0);
     Surface s = surface_at(hit, o, d);
     vec3 wo = -d;
     vec3 L = vec3(0.0);

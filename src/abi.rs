@@ -78,7 +78,7 @@ pub struct SceneParams {
     pub min_depth: u32,
     pub strategy_first: u32,
     pub strategy_count: u32,
-    pub reserved0: u32,
+    pub environment: u32,
     pub reserved1: u32,
 }
 
@@ -256,7 +256,7 @@ pub fn layouts() -> Vec<StructLayout> {
             min_depth,
             strategy_first,
             strategy_count,
-            reserved0,
+            environment,
             reserved1
         ),
         layout!(GpuPathVertex, p, n, wi, beta),

@@ -37,6 +37,8 @@ pub struct EmitterTable {
     /// Per triangle and per sphere: index of its emitter, or NO_EMITTER.
     pub triangle_emitter: Vec<u32>,
     pub sphere_emitter: Vec<u32>,
+    /// The environment light's emitter, or NO_EMITTER.
+    pub environment: u32,
 }
 
 fn avg(v: Vec3) -> f32 {
@@ -183,6 +185,17 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
             }
         }
     }
+    // The environment (pbrt-v4's UniformInfiniteLight::Phi: 4π · πR² · L) comes last.
+    let mut environment = NO_EMITTER;
+    if let Some(radiance) = scene.environment.filter(|l| avg(*l) > 0.0) {
+        environment = emitters.len() as u32;
+        power.push(4.0 * pi * pi * radius * radius * avg(radiance));
+        emitters.push(GpuEmitter {
+            radiance: radiance.extend(0.0).to_array(),
+            info: [EMITTER_INFINITE, 0, 0, 0],
+            ..Default::default()
+        });
+    }
     let total: f64 = power.iter().map(|&p| p.max(0.0) as f64).sum();
     let n = emitters.len();
     // Each emitter owns a range of the 2^32 values of a random integer, of a length
@@ -215,6 +228,7 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
         cdf,
         triangle_emitter,
         sphere_emitter,
+        environment,
     }
 }
 
@@ -276,7 +290,7 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
         min_depth: 0,
         strategy_first: 0,
         strategy_count: 0,
-        reserved0: 0,
+        environment: NO_EMITTER,
         reserved1: 0,
     }
 }
@@ -322,6 +336,7 @@ impl GpuScene {
         let materials: Vec<GpuMaterial> = scene.materials.iter().map(|m| m.record()).collect();
         let mut params = params;
         params.emitter_count = table.emitters.len() as u32;
+        params.environment = table.environment;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let triangle_usage = if backend == Backend::RayQuery {
             storage
@@ -442,6 +457,25 @@ mod tests {
             (t.emitters[1].p1[3] - 0.5).abs() < 1e-6,
             "cos of the cone angle"
         );
+    }
+
+    #[test]
+    fn the_environment_is_the_last_emitter_with_its_power() {
+        // Bounding radius √3 (the corners of a unit cube), L = 1: power 4π · π · 3 = 12π²;
+        // a point light of intensity 3π has 4π · 3π = 12π² too: equal shares.
+        let s = parse_str(
+            "vertex -1 -1 -1\nvertex 1 1 1\nvertex 1 -1 1\ntri 0 1 2\n\
+             point 0 0 0  9.424778 9.424778 9.424778\nenvlight 1 1 1\n",
+            "t",
+        )
+        .unwrap();
+        let t = emitter_table(&s);
+        assert_eq!(t.environment, 1);
+        assert_eq!(t.emitters[1].info[0], EMITTER_INFINITE);
+        let share = t.emitters[1].radiance[3];
+        assert!((share - 0.5).abs() < 1e-5, "{share}");
+        let none = emitter_table(&parse_str("envlight 0 0 0\n", "t").unwrap());
+        assert_eq!(none.environment, NO_EMITTER);
     }
 
     #[test]

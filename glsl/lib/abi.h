@@ -43,6 +43,7 @@
 #define EMITTER_POINT 2
 #define EMITTER_DIRECTIONAL 3
 #define EMITTER_SPOT 4
+#define EMITTER_INFINITE 5
 
 // Integrators (SceneParams.integrator): each has its own code.
 #define INTEGRATOR_PATHTRACER 0
@@ -163,6 +164,7 @@ struct GpuMaterial {
 // p0 the position. Directional: p0 the unit direction toward the light. Spot: p0 the
 // position, p1.xyz the unit axis, p1.w the cosine of the cone angle, p2.x the cosine of
 // the angle where the falloff starts (pbrt-v4's cosFalloffEnd and cosFalloffStart).
+// Infinite (the environment): radiance the constant radiance arriving from every direction.
 // radiance.w: the probability of picking this emitter. info: x kind, y primitive,
 // z 1 when two-sided, w unused. p0.w: area (triangles, spheres).
 struct GpuEmitter {
@@ -199,7 +201,7 @@ struct SceneParams {
     uint min_depth;      // bdpt: add only paths of at least this many scattering vertices (MMLT's tail)
     uint strategy_first; // bdpt: record the images of strategies first ..
     uint strategy_count; //       .. first + count (0: none)
-    uint reserved0;
+    uint environment;    // the emitter of the environment light, or NO_EMITTER
     uint reserved1;
 };
 

@@ -100,6 +100,7 @@ struct Walk {
     float prev_pdf_w;  // camera walks beyond max_scatter(): the last bounce's BSDF pdf,
     bool prev_delta;   // ... whether it was a delta lobe,
     vec3 prev_p;       // ... and the vertex it left from
+    bool escaped;      // the last ray left the scene (toward the environment)
 };
 
 PathVertex vertex_at(Walk w, Surface s, vec3 toward_prev) {
@@ -131,17 +132,18 @@ bool light_walk_start(out Walk w, out LightEmission le, out uint e) {
     w.prev_pdf_w = 0.0;
     w.prev_delta = false;
     w.prev_p = vec3(0.0);
+    w.escaped = false;
     e = 0u;
     if (scene.emitter_count == 0u) return false;
     e = pick_emitter(sample_u32(STREAM_LIGHT));
     vec2 u_pos = sample_2d(STREAM_LIGHT);
     vec3 u_dir = sample_3d(STREAM_LIGHT);
     if (!sample_light_emission(e, u_pos, u_dir, le)) return false;
-    bool delta = le.kind >= EMITTER_POINT;
+    bool delta = emitter_kind_is_delta(le.kind);
     w.beta = le.Le * (le.cos_l / le.pdf_emit);
     w.dvcm = mis(le.pdf_pos / le.pdf_emit);
     w.dvc = delta ? 0.0 : mis(le.cos_l / le.pdf_emit);
-    w.infinite = le.kind == EMITTER_DIRECTIONAL;
+    w.infinite = le.kind == EMITTER_DIRECTIONAL || le.kind == EMITTER_INFINITE;
     w.o = delta ? le.p : offset_ray_origin(le.p, dot(le.n, le.dir) > 0.0 ? le.n : -le.n);
     w.d = le.dir;
     return true;
@@ -217,6 +219,7 @@ void camera_walk_start(vec2 film, out Walk w) {
     w.prev_pdf_w = 0.0;
     w.prev_delta = false;
     w.prev_p = w.o;
+    w.escaped = false;
 }
 
 // The next surface vertex z_k of a camera subpath (k = w.vertices after the call;
@@ -224,7 +227,10 @@ void camera_walk_start(vec2 film, out Walk w) {
 // where only s = 0 and s = 1 remain (bdpt's beyond-the-cap regime).
 bool camera_walk_next(inout Walk w, out PathVertex v) {
     Hit hit;
-    if (!closest(w.o, w.d, hit)) return false;
+    if (!closest(w.o, w.d, hit)) {
+        w.escaped = true;
+        return false;
+    }
     Surface s = surface_at(hit, w.o, w.d);
     vec3 wo = -w.d;
     float cos_in = abs(dot(s.ng, wo));
@@ -270,6 +276,30 @@ bool strategy_emitter_hit(Walk w, PathVertex z, out vec3 value, out float weight
         weight = w.prev_delta ? 1.0 : emitter_hit_mis_weight(z.emitter, w.prev_p, w.prev_pdf_w, z.p, z.ng);
     }
     value = z.beta * Le;
+    return true;
+}
+
+// s = 0 toward the environment: the camera subpath's last ray escaped. The path has
+// w.vertices scattering vertices. (A camera ray that escapes at once has only this
+// strategy: no light subpath reaches the camera from infinity.)
+bool strategy_environment_hit(Walk w, out vec3 value, out float weight) {
+    value = vec3(0.0);
+    weight = 0.0;
+    if (scene.environment == NO_EMITTER || !w.escaped) return false;
+    vec3 Le = environment_radiance(w.d);
+    if (Le == vec3(0.0)) return false;
+    if (w.vertices == 0u) {
+        weight = 1.0;
+    } else if (w.vertices <= max_scatter()) {
+        float pdf_pos;
+        float pdf_emit;
+        emitter_emission_pdfs(scene.environment, w.o, vec3(0.0), -w.d, pdf_pos, pdf_emit);
+        float w_cam = mis(pdf_pos) * w.dvcm + mis(pdf_emit) * w.dvc;
+        weight = 1.0 / (1.0 + w_cam);
+    } else {
+        weight = w.prev_delta ? 1.0 : power_heuristic(w.prev_pdf_w, environment_pdf(w.d));
+    }
+    value = w.beta * Le;
     return true;
 }
 

@@ -25,6 +25,17 @@ uint pick_emitter(uint x) {
 
 float emitter_pick_pdf(uint e) { return emitters[e].radiance.w; }
 
+// Point, spot and directional lights: positions or directions no ray can hit.
+bool emitter_kind_is_delta(uint kind) {
+    return kind == EMITTER_POINT || kind == EMITTER_SPOT || kind == EMITTER_DIRECTIONAL;
+}
+
+// The environment light (pbrt-v4's uniform infinite light): radiance arriving along -dir
+// (dir the direction of an escaping ray), and the solid-angle pdf, pick included, with
+// which light sampling draws dir (uniform over the sphere).
+vec3 environment_radiance(vec3 dir) { return emitters[scene.environment].radiance.xyz; }
+float environment_pdf(vec3 dir) { return emitter_pick_pdf(scene.environment) * (0.25 * INV_PI); }
+
 // A spot light's falloff toward the unit direction w from it: pbrt-v4's smoothstep
 // between the cone angle (0) and the start of the falloff (1).
 float spot_falloff(GpuEmitter em, vec3 w) {
@@ -134,6 +145,13 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
         ls.p = em.p0.xyz;
         return ls.L != vec3(0.0);
     }
+    if (em.info.x == EMITTER_INFINITE) {
+        ls.wi = sample_uniform_sphere(u);
+        ls.dist = INF;
+        ls.L = em.radiance.xyz;
+        ls.pdf = pick * (0.25 * INV_PI);
+        return ls.pdf > 0.0;
+    }
     if (em.info.x == EMITTER_DIRECTIONAL) {
         ls.wi = em.p0.xyz;
         ls.dist = INF;
@@ -224,12 +242,15 @@ float emitter_hit_mis_weight(uint e, vec3 prev_p, float prev_pdf, vec3 p, vec3 n
 // ---------------------------------------------------------------------------------------
 // Light subpaths (BDPT, MMLT): emission of a ray from an emitter, and the pdfs a vertex on
 // an emitter would have had under that sampling. Conventions, used by the MIS weights:
-//   pdf_pos:  pick * area pdf of the point (delta lights: pick). Light subpaths and light
-//             sampling (sample_emitter) place points with the same density.
+//   pdf_pos:  pick * area pdf of the point (delta lights: pick; the environment: pick *
+//             the solid-angle pdf of its direction). Light subpaths and light sampling
+//             (sample_emitter) place points with the same density.
 //   pdf_emit: pdf_pos * solid-angle pdf of the direction. Area lights emit cosine-weighted
 //             around the normal (over both sides, each with probability 1/2, when
 //             two-sided); point lights uniformly over the sphere; spot lights uniformly
-//             over their cone; directional lights
+//             over their cone; the environment from a disk of the scene's bounding
+//             radius facing a uniformly drawn direction, pdf_emit = pdf_pos / (pi R^2);
+//             directional lights
 //             from a disk of the scene's bounding radius, pdf_emit = pick / (pi R^2).
 //   cos_l:    |cos| between the normal and the direction (1 for delta lights).
 
@@ -271,6 +292,22 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
         le.pdf_emit = pick * spot_cone_pdf(em, le.dir);
         return le.pdf_emit > 0.0 && le.Le != vec3(0.0);
     }
+    if (em.info.x == EMITTER_INFINITE) {
+        // A direction toward the environment, uniform over the sphere, and parallel rays
+        // from a disk of the scene's bounding radius facing it (pbrt-v4's SampleLe).
+        float r = scene.bounds.w;
+        vec3 toward = sample_uniform_sphere(u_dir.yz);
+        vec3 t;
+        vec3 b;
+        build_onb(toward, t, b);
+        float rad = r * sqrt(u_pos.x);
+        float phi = TWO_PI * u_pos.y;
+        le.dir = -toward;
+        le.p = scene.bounds.xyz + r * toward + rad * (cos(phi) * t + sin(phi) * b);
+        le.pdf_pos = pick * (0.25 * INV_PI);
+        le.pdf_emit = le.pdf_pos / (PI * r * r);
+        return pick > 0.0 && le.Le != vec3(0.0);
+    }
     if (em.info.x == EMITTER_DIRECTIONAL) {
         float r = scene.bounds.w;
         vec3 t;
@@ -304,6 +341,9 @@ void emitter_emission_pdfs(uint e, vec3 p, vec3 ng, vec3 w, out float pdf_pos, o
     pdf_pos = pick;
     if (em.info.x == EMITTER_POINT) {
         pdf_emit = pick * (0.25 * INV_PI);
+    } else if (em.info.x == EMITTER_INFINITE) {
+        pdf_pos = pick * (0.25 * INV_PI);
+        pdf_emit = pdf_pos / (PI * scene.bounds.w * scene.bounds.w);
     } else if (em.info.x == EMITTER_SPOT) {
         pdf_emit = pick * spot_cone_pdf(em, w);
   } else if (em.info.x == EMITTER_DIRECTIONAL) {

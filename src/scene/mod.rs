@@ -286,6 +286,9 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     pub quad_lights: Vec<QuadLight>,
     pub delta_lights: Vec<DeltaLight>,
+    /// The environment light (`envlight`): radiance arriving from every direction that
+    /// leaves the scene. None: black.
+    pub environment: Option<Vec3>,
 }
 
 impl Default for Scene {
@@ -302,6 +305,7 @@ impl Default for Scene {
             spheres: Vec::new(),
             quad_lights: Vec::new(),
             delta_lights: Vec::new(),
+            environment: None,
         }
     }
 }

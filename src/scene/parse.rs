@@ -228,6 +228,7 @@ const COMMANDS: &[(&str, &str)] = &[
     ("point", "x y z r g b"),
     ("directional", "x y z r g b"),
     ("spot", "fx fy fz tx ty tz r g b coneangle conedelta"),
+    ("envlight", "r g b"),
     ("attenuation", "c l q"),
     ("integrator", "NAME"),
     ("maxdepth", "N"),
@@ -683,6 +684,10 @@ impl Parser {
                     cos_falloff_start: (cone - delta).to_radians().cos(),
                     cos_falloff_end: cone.to_radians().cos(),
                 });
+            }
+            "envlight" => {
+                let radiance = cmd.color(0, "the environment radiance")?;
+                self.scene.environment = Some(radiance);
             }
             "integrator" => {
                 let name = cmd.args[0];
@@ -1485,6 +1490,7 @@ mod tests {
         "point 0 1 0  1 1 1",
         "directional 0 1 0  1 1 1",
         "spot 0 2 0  0 0 0  5 5 5  30 5",
+        "envlight 0.5 0.6 0.7",
         "attenuation 1 0 0",
         "integrator bdpt",
         "maxdepth 3",
@@ -1919,6 +1925,9 @@ mod tests {
             "spot",
             "the intensity",
         );
+        let s = parse("envlight 0.5 0.6 0.7\n");
+        assert_eq!(s.environment, Some(Vec3::new(0.5, 0.6, 0.7)));
+        check_err("envlight 1 -1 1", 1, "envlight", "must not be negative");
     }
 
     #[test]
