@@ -1251,6 +1251,14 @@ mod tests {
         (chi2, bins.saturating_sub(1))
     }
 
+    /// The χ² test's verdict on one case: a message when it fails at `alpha`.
+    fn chi2_failure(observed: &[u64], expected: &[f64], label: &str, alpha: f64) -> Option<String> {
+        let (chi2, dof) = chi2_statistic(observed, expected, label);
+        let p = chi2_sf(chi2, dof as f64);
+        (p < alpha)
+            .then(|| format!("{label}: chi2 {chi2:.1} dof {dof} p {p:.3e} (threshold {alpha:.3e})"))
+    }
+
     const CHI2_SAMPLES: u64 = 200_000;
     const CHI2_ALPHA: f64 = 0.01;
 
@@ -1281,14 +1289,12 @@ mod tests {
                     None => observed[N_COS * N_PHI] += 1,
                 }
             }
-            let (chi2, dof) = chi2_statistic(&observed, &expected, &case.label);
-            let p = chi2_sf(chi2, dof as f64);
-            if p < per_test_alpha {
-                failures.push(format!(
-                    "{}: chi2 {chi2:.1} dof {dof} p {p:.3e} (threshold {per_test_alpha:.3e})",
-                    case.label
-                ));
-            }
+            failures.extend(chi2_failure(
+                &observed,
+                &expected,
+                &case.label,
+                per_test_alpha,
+            ));
         }
         assert!(failures.is_empty(), "χ² failures:\n{}", failures.join("\n"));
     }
@@ -1843,14 +1849,12 @@ mod tests {
                     None => observed[2 * N_COS * N_PHI] += 1,
                 }
             }
-            let (chi2, dof) = chi2_statistic(&observed, &expected, &case.label);
-            let p = chi2_sf(chi2, dof as f64);
-            if p < per_test_alpha {
-                failures.push(format!(
-                    "{}: chi2 {chi2:.1} dof {dof} p {p:.3e} (threshold {per_test_alpha:.3e})",
-                    case.label
-                ));
-            }
+            failures.extend(chi2_failure(
+                &observed,
+                &expected,
+                &case.label,
+                per_test_alpha,
+            ));
         }
         assert!(failures.is_empty(), "χ² failures:\n{}", failures.join("\n"));
     }

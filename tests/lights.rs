@@ -38,24 +38,17 @@ fn a_spot_light_matches_its_irradiance_formula_in_every_integrator() {
     let mut pt = with_integrator(s.clone(), IntegratorKind::PathTracer, 16);
     pt.settings.nee = NextEventEstimation::On;
     assert_agree("pt spot", &estimate(&pt, 4, 4, Bvh), &reference, 5.0, 0.01);
-    let bdpt = with_integrator(s.clone(), IntegratorKind::Bdpt, 16);
-    assert_agree(
-        "bdpt spot",
-        &estimate(&bdpt, 4, 4, Bvh),
-        &reference,
-        5.0,
-        0.01,
-    );
-    let mut mmlt = with_integrator(s, IntegratorKind::Mmlt, 64);
-    mmlt.settings.mmlt.chains = Some(512);
-    mmlt.settings.mmlt.bootstrap = Some(8192);
-    assert_agree(
-        "mmlt spot",
-        &estimate(&mmlt, 4, 4, Bvh),
-        &reference,
-        5.0,
-        0.02,
-    );
+    assert_bdpt_and_mmlt_agree("spot", &s, 16, &reference);
+}
+
+/// BDPT (`bdpt_spp`) and MMLT (64 mutations per pixel) estimates of `s` agree with
+/// `reference`, region by region (4 × 4, 4 seeds).
+fn assert_bdpt_and_mmlt_agree(what: &str, s: &Scene, bdpt_spp: u32, reference: &Estimate) {
+    let bdpt = with_integrator(s.clone(), IntegratorKind::Bdpt, bdpt_spp);
+    let b = estimate(&bdpt, 4, 4, Bvh);
+    assert_agree(&format!("bdpt {what}"), &b, reference, 5.0, 0.01);
+    let m = estimate(&with_mmlt(s.clone(), 64), 4, 4, Bvh);
+    assert_agree(&format!("mmlt {what}"), &m, reference, 5.0, 0.02);
 }
 
 /// A diffuse sphere (albedo 0.5) and a sphere of `second` in a uniform white
@@ -110,24 +103,7 @@ fn a_uniform_environment_renders_its_closed_forms_in_every_integrator() {
             0.01,
         );
     }
-    let bdpt = with_integrator(s.clone(), IntegratorKind::Bdpt, 32);
-    assert_agree(
-        "bdpt environment",
-        &estimate(&bdpt, 4, 4, Bvh),
-        &exact,
-        5.0,
-        0.01,
-    );
-    let mut mmlt = with_integrator(s, IntegratorKind::Mmlt, 64);
-    mmlt.settings.mmlt.chains = Some(512);
-    mmlt.settings.mmlt.bootstrap = Some(8192);
-    assert_agree(
-        "mmlt environment",
-        &estimate(&mmlt, 4, 4, Bvh),
-        &exact,
-        5.0,
-        0.02,
-    );
+    assert_bdpt_and_mmlt_agree("environment", &s, 32, &exact);
 }
 
 /// Environment light with shadows: a sphere over a plane. Light sampling alone (NEE on,

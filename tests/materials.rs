@@ -102,9 +102,7 @@ fn bdpt_and_mmlt_render_the_glass_furnace_at_one() {
         5.0,
         0.01,
     );
-    let mut mmlt = with_integrator(glass, IntegratorKind::Mmlt, 32);
-    mmlt.settings.mmlt.chains = Some(512);
-    mmlt.settings.mmlt.bootstrap = Some(8192);
+    let mmlt = with_mmlt(glass, 32);
     assert_agree(
         "mmlt glass furnace",
         &estimate(&mmlt, 4, 3, Bvh),
@@ -143,9 +141,7 @@ fn pt_bdpt_and_mmlt_agree_on_glass_and_metal() {
             5.0,
             0.02,
         );
-        let mut mmlt = with_integrator(scene, IntegratorKind::Mmlt, 128);
-        mmlt.settings.mmlt.chains = Some(512);
-        mmlt.settings.mmlt.bootstrap = Some(8192);
+        let mmlt = with_mmlt(scene, 128);
         assert_agree(
             &format!("mmlt vs pt, glass roughness {roughness}"),
             &estimate(&mmlt, 4, 3, Bvh),

@@ -11,16 +11,6 @@ use lightpath::render::{AccelChoice, AccelChoice::Bvh, AccelChoice::RayQuery, Re
 use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene};
 use lightpath::trace::Trace;
 
-/// Small, test-sized MMLT settings: few chains (so that each makes many mutations) and
-/// a small bootstrap.
-fn mmlt(mut s: Scene, mutations_per_pixel: u32) -> Scene {
-    s.settings.integrator = IntegratorKind::Mmlt;
-    s.settings.spp = mutations_per_pixel;
-    s.settings.mmlt.chains = Some(512);
-    s.settings.mmlt.bootstrap = Some(8192);
-    s
-}
-
 fn render_mmlt(scene: &Scene, seed: u32, accel: AccelChoice, depths: bool) -> RenderOutput {
     let mut r = renderer(accel);
     r.options.mmlt.record_depths = depths;
@@ -45,7 +35,7 @@ fn mmlt_estimate(scene: &Scene, seeds: u32, grid: u32, accel: AccelChoice) -> Es
 
 /// MMLT against BDPT (and, on the whole image, the path tracer) on the same scene.
 fn assert_mmlt_matches_bdpt(what: &str, scene: Scene) {
-    let m = mmlt_estimate(&mmlt(scene.clone(), 64), 6, 2, Bvh);
+    let m = mmlt_estimate(&with_mmlt(scene.clone(), 64), 6, 2, Bvh);
     let b = estimate(
         &with_integrator(scene.clone(), IntegratorKind::Bdpt, 64),
         4,
@@ -100,7 +90,7 @@ fn mmlt_furnace_matches_the_closed_form() {
     s.width = 16;
     s.height = 16;
     s.settings.max_depth = 3;
-    let s = mmlt(s, 32);
+    let s = with_mmlt(s, 32);
     let a = mmlt_estimate(&s, 4, 2, Bvh);
     let n = a.mean.len();
     assert_agree("mmlt furnace", &a, &exact([1.875; 3], n), 5.0, 0.002);
@@ -117,7 +107,7 @@ fn add(a: &mut Image, b: &Image) {
 #[test]
 fn each_depth_matches_the_sum_of_bdpt_strategy_images_of_that_depth() {
     let scene = sized("cornell-box.test", 16, 16, 3);
-    let m = mmlt(scene.clone(), 64);
+    let m = with_mmlt(scene.clone(), 64);
     let mut per_depth_runs: Vec<Vec<Vec<[f64; 3]>>> = vec![Vec::new(); 4];
     for seed in 0..6 {
         let out = render_mmlt(&m, 300 + seed, Bvh, true);
@@ -173,7 +163,7 @@ fn each_depth_matches_the_sum_of_bdpt_strategy_images_of_that_depth() {
 
 #[test]
 fn mmlt_is_deterministic_per_seed_and_seeds_are_independent() {
-    let s = mmlt(sized("cornell-box.test", 20, 14, 3), 16);
+    let s = with_mmlt(sized("cornell-box.test", 20, 14, 3), 16);
     let a = render_mmlt(&s, 5, Bvh, false);
     let b = render_mmlt(&s, 5, Bvh, false);
     let c = render_mmlt(&s, 6, Bvh, false);
@@ -192,7 +182,7 @@ fn mmlt_is_deterministic_per_seed_and_seeds_are_independent() {
 
 #[test]
 fn ray_query_and_bvh_mmlt_agree() {
-    let s = mmlt(sized("cornell-glossy.test", 16, 16, 3), 32);
+    let s = with_mmlt(sized("cornell-glossy.test", 16, 16, 3), 32);
     let a = mmlt_estimate(&s, 4, 1, RayQuery);
     let b = mmlt_estimate(&s, 4, 1, Bvh);
     assert_agree("mmlt ray query vs bvh", &a, &b, 5.0, 0.01);
@@ -200,7 +190,7 @@ fn ray_query_and_bvh_mmlt_agree() {
 
 #[test]
 fn mmlt_statistics_make_sense() {
-    let s = mmlt(sized("cornell-box.test", 16, 16, 4), 16);
+    let s = with_mmlt(sized("cornell-box.test", 16, 16, 4), 16);
     let out = render_mmlt(&s, 1, Bvh, false);
     let r = mmlt_report(&out);
     assert_eq!(r.chains, 512);
@@ -248,7 +238,7 @@ fn mmlt_with_no_reachable_light_renders_black() {
          diffuse 0.5 0.5 0.5\ntri 0 1 2\ntri 0 2 3\n\
          quadLight -0.5 -0.5 5  0 1 0  1 0 0  5 5 5\n",
     );
-    let out = render_mmlt(&mmlt(s, 4), 0, Bvh, false);
+    let out = render_mmlt(&with_mmlt(s, 4), 0, Bvh, false);
     let r = mmlt_report(&out);
     assert_eq!(r.b, 0.0);
     assert_eq!(r.mutations, 0);
@@ -263,7 +253,7 @@ fn mmlt_at_maxdepth_minus_one_matches_bdpt_on_a_course_scene() {
         .expect("course scene parses");
     s.width = 16;
     s.height = 16;
-    let mut m = mmlt(s.clone(), 64);
+    let mut m = with_mmlt(s.clone(), 64);
     m.settings.mmlt.bootstrap = Some(2048);
     let a = mmlt_estimate(&m, 4, 1, Bvh);
     let b = estimate(&with_integrator(s, IntegratorKind::Bdpt, 32), 4, 1, Bvh);
@@ -278,7 +268,7 @@ fn mmlt_renders_every_project_and_course_scene_on_both_backends() {
     for accel in [Bvh, RayQuery] {
         for path in &paths {
             let s = lightpath::scene::parse_file(path).expect("scene parses");
-            let mut s = mmlt(s, 2);
+            let mut s = with_mmlt(s, 2);
             s.width = 16;
             s.height = 12;
             s.settings.mmlt.chains = Some(64);

@@ -151,6 +151,15 @@ pub fn with_integrator(mut s: Scene, integrator: IntegratorKind, spp: u32) -> Sc
     s
 }
 
+/// MMLT with test-sized settings: few chains (so that each makes many mutations) and a
+/// small bootstrap.
+pub fn with_mmlt(s: Scene, mutations_per_pixel: u32) -> Scene {
+    let mut s = with_integrator(s, IntegratorKind::Mmlt, mutations_per_pixel);
+    s.settings.mmlt.chains = Some(512);
+    s.settings.mmlt.bootstrap = Some(8192);
+    s
+}
+
 /// A project scene at `w` × `h` with the given maxdepth.
 pub fn sized(name: &str, w: u32, h: u32, max_depth: i32) -> Scene {
     let mut s = load(name);
