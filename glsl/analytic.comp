@@ -77,7 +77,7 @@ void main() {
                 E += em.radiance.xyz * max(0.0, dot(n, em.p0.xyz));
             }
         }
-        sum += L + materials[s.material].diffuse.xyz * INV_PI * E;
+        sum += L + material_bsdf(materials[s.material], true, s.uv).kd * INV_PI * E;
     }
     film[index] += vec4(sum, float(rays));
 }

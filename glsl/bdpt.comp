@@ -102,10 +102,12 @@ uint light_subpath(uint base) {
         // with t >= 2) are stored.
         if (i < max_scatter()) {
             GpuPathVertex v;
-            v.p = vec4(y.p, uintBitsToFloat(y.material));
+            bool front = dot(y.n, y.ng) > 0.0;
+            v.p = vec4(y.p, uintBitsToFloat(y.material | (front ? PATH_VERTEX_FRONT : 0u)));
             v.n = vec4(y.n, y.dvcm);
             v.wi = vec4(y.w, y.dvc);
-            v.beta = vec4(y.beta, dot(y.n, y.ng) > 0.0 ? 1.0 : 0.0);
+            v.beta = vec4(y.beta, y.uv.y);
+            v.ns = vec4(y.ns, y.uv.x);
             light_vertices[base + i - 1u] = v;
             stored = i;
         }
@@ -120,14 +122,17 @@ PathVertex stored_light_vertex(uint index) {
     GpuPathVertex g = light_vertices[index];
     PathVertex y;
     y.p = g.p.xyz;
-    y.material = floatBitsToUint(g.p.w);
+    uint m = floatBitsToUint(g.p.w);
+    y.material = m & ~PATH_VERTEX_FRONT;
     y.n = g.n.xyz;
     y.dvcm = g.n.w;
     y.w = g.wi.xyz;
     y.dvc = g.wi.w;
     y.beta = g.beta.xyz;
     y.emitter = NO_EMITTER;
-    y.ng = g.beta.w > 0.5 ? y.n : -y.n;   // (only its side matters: emission is not read here)
+    y.ng = (m & PATH_VERTEX_FRONT) != 0u ? y.n : -y.n;   // (only its side matters: emission is not read here)
+    y.uv = vec2(g.ns.w, g.beta.w);
+    y.ns = g.ns.xyz;
     return y;
 }
 

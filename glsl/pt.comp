@@ -23,15 +23,16 @@ bool light_visible(vec3 p, vec3 n, LightSample ls) {
     return light_sample_visible(p, n, ls);
 }
 
-// Light sampling at a surface point: f * cos * L / pdf, MIS-weighted when asked.
-vec3 estimate_direct(BsdfParams b, vec3 p, vec3 n, vec3 wo, uint e, vec2 u, bool mis, uint mode) {
+// Light sampling at a surface point (geometric normal n and shading normal ns on the side
+// of wo): f * cos * L / pdf, MIS-weighted when asked.
+vec3 estimate_direct(BsdfParams b, vec3 p, vec3 n, vec3 ns, vec3 wo, uint e, vec2 u, bool mis, uint mode) {
     LightSample ls;
     vec3 f;
     float cos_s;
-    if (!sample_direct_light(b, e, p, n, wo, u, ls, f, cos_s)) return vec3(0.0);
+    if (!sample_direct_light(b, e, p, n, ns, wo, u, ls, f, cos_s)) return vec3(0.0);
     if (!light_visible(p, n, ls)) return vec3(0.0);
     float w = 1.0;
-    if (mis) w = light_sample_mis_weight(ls, bsdf_pdf(b, mode, n, wo, ls.wi));
+    if (mis) w = light_sample_mis_weight(ls, bsdf_pdf(b, mode, ns, wo, ls.wi));
     return f * ls.L * (cos_s * w / ls.pdf);
 }
 
@@ -65,7 +66,7 @@ vec3 path_sample(uvec2 pixel, inout Rng rng) {
         }
         Surface s = surface_at(hit, o, d);
         vec3 wo = -d;
-        BsdfParams b = material_bsdf(materials[s.material], dot(s.ng, wo) >= 0.0);
+        BsdfParams b = material_bsdf(materials[s.material], dot(s.ng, wo) >= 0.0, s.uv);
         // Emission found by the path itself.
         if (s.emitter != NO_EMITTER) {
             vec3 Le = emitted_radiance(s.material, s.ng, wo);
@@ -78,19 +79,23 @@ vec3 path_sample(uvec2 pixel, inout Rng rng) {
         // This hit is scattering vertex depth+1; paths have at most max_vertices of them.
         if (depth + 1u > max_vertices) break;
         vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
+        vec3 ns = dot(s.ng, wo) < 0.0 ? -s.ns : s.ns;
+        // Seen from behind its shading normal, the surface reflects nothing.
+        if (!(dot(ns, wo) > 0.0)) break;
         // (A delta BSDF cannot be reached by a light sample: no NEE there.)
         bool delta = bsdf_is_delta(b);
         if (nee != NEE_OFF && have_emitters && !delta) {
             uint e = pick_emitter(rng_block(rng).x);
-            L += beta * estimate_direct(b, s.p, n, wo, e, rng_next2(rng), nee == NEE_MIS, mode);
+            L += beta * estimate_direct(b, s.p, n, ns, wo, e, rng_next2(rng), nee == NEE_MIS, mode);
         }
         // With NEE on, emission found by the next bounce would not count (unless this
         // vertex is a delta one): stop here.
         if (nee == NEE_ON && depth + 1u == max_vertices && !delta) break;
         BsdfSample bs;
-        if (!bsdf_sample(b, mode, n, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) break;
+        if (!bsdf_sample(b, mode, ns, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) break;
+        if (!shading_side_agrees(n, ns, bs.wi)) break;
         float cos_i = dot(n, bs.wi);
-        beta *= bs.f * (abs(cos_i) / bs.pdf);
+        beta *= bs.f * (abs(dot(ns, bs.wi)) / bs.pdf);
         if (beta == vec3(0.0)) break;
         if (rr) {
             float survive = min(1.0, max(beta.x, max(beta.y, beta.z)));
@@ -118,8 +123,9 @@ vec3 direct_sample(uvec2 pixel, inout Rng rng) {
     vec3 L = vec3(0.0);
     if (s.emitter != NO_EMITTER) L += emitted_radiance(s.material, s.ng, wo);
     if (scene.emitter_count == 0u || (scene.max_depth == 0u && scene.unbounded == 0u)) return L;
-    BsdfParams b = material_bsdf(materials[s.material], dot(s.ng, wo) >= 0.0);
+    BsdfParams b = material_bsdf(materials[s.material], dot(s.ng, wo) >= 0.0, s.uv);
     vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
+    vec3 ns = dot(s.ng, wo) < 0.0 ? -s.ns : s.ns;
     uint count = max(scene.light_samples, 1u);
     uint strata = scene.light_stratify != 0u ? uint(floor(sqrt(float(count)) + 1e-3)) : 0u;
     vec3 sum = vec3(0.0);
@@ -127,7 +133,7 @@ vec3 direct_sample(uvec2 pixel, inout Rng rng) {
         uint e = pick_emitter(rng_block(rng).x);
         vec2 u = rng_next2(rng);
         if (k < strata * strata) u = (vec2(float(k % strata), float(k / strata)) + u) / float(strata);
-        sum += estimate_direct(b, s.p, n, wo, e, u, false, SAMPLE_BRDF);
+        sum += estimate_direct(b, s.p, n, ns, wo, e, u, false, SAMPLE_BRDF);
     }
     return L + sum / float(count);
 }

@@ -18,6 +18,26 @@ pub struct GpuTriangle {
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuTriangleAttributes {
+    pub uv01: [f32; 4],
+    pub uv2: [f32; 4],
+    pub n0: [f32; 4],
+    pub n1: [f32; 4],
+    pub n2: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuTexture {
+    pub info: [u32; 4],
+    pub flags: [u32; 4],
+    pub scale: [f32; 4],
+    pub other: [f32; 4],
+    pub mapping: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct GpuSphere {
     pub o2w0: [f32; 4],
     pub o2w1: [f32; 4],
@@ -79,7 +99,14 @@ pub struct SceneParams {
     pub strategy_first: u32,
     pub strategy_count: u32,
     pub environment: u32,
+    pub env_texture: u32,
+    pub env_mapping: u32,
+    pub env_marginal: u32,
+    pub env_conditional: u32,
     pub reserved1: u32,
+    pub env_x: [f32; 4],
+    pub env_y: [f32; 4],
+    pub env_z: [f32; 4],
 }
 
 #[repr(C)]
@@ -89,6 +116,7 @@ pub struct GpuPathVertex {
     pub n: [f32; 4],
     pub wi: [f32; 4],
     pub beta: [f32; 4],
+    pub ns: [f32; 4],
 }
 
 /// A pass's push constants (abi.h).
@@ -257,9 +285,18 @@ pub fn layouts() -> Vec<StructLayout> {
             strategy_first,
             strategy_count,
             environment,
-            reserved1
+            env_texture,
+            env_mapping,
+            env_marginal,
+            env_conditional,
+            reserved1,
+            env_x,
+            env_y,
+            env_z
         ),
-        layout!(GpuPathVertex, p, n, wi, beta),
+        layout!(GpuPathVertex, p, n, wi, beta, ns),
+        layout!(GpuTriangleAttributes, uv01, uv2, n0, n1, n2),
+        layout!(GpuTexture, info, flags, scale, other, mapping),
         layout!(PassParams, first_sample, samples, row_begin, row_end),
         layout!(
             MmltParams,
@@ -290,6 +327,6 @@ const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuEmitter>() == 80);
-const _: () = assert!(std::mem::size_of::<SceneParams>() == 160);
+const _: () = assert!(std::mem::size_of::<SceneParams>() == 224);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);
-const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 80);

@@ -8,7 +8,9 @@ use crate::gpu::buffer::Buffer;
 use crate::gpu::kernels::{Backend, Resource};
 use crate::gpu::rayquery::RayQueryScene;
 use crate::gpu::{other_error, Device};
-use crate::scene::{DeltaLight, NextEventEstimation, Scene};
+use crate::io::Image;
+use crate::scene::{DeltaLight, NextEventEstimation, Scene, Texture, UV_MAPPING};
+use crate::texture::{environment_mean, environment_weights, Distribution2D, EnvMapping};
 use anyhow::Result;
 use ash::vk;
 use glam::{Mat3, Vec3};
@@ -24,6 +26,9 @@ pub struct GpuScene {
     pub materials: Buffer,
     pub emitters: Buffer,
     pub emitter_cdf: Buffer,
+    pub textures: Buffer,
+    pub texels: Buffer,
+    pub triangle_attributes: Buffer,
     pub bvh_nodes: Option<Buffer>,
     pub bvh_prims: Option<Buffer>,
 }
@@ -185,16 +190,23 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
             }
         }
     }
-    // The environment (pbrt-v4's UniformInfiniteLight::Phi: 4π · πR² · L) comes last.
+    // The environment (pbrt-v4's infinite lights' Phi: 4π · πR² · the mean radiance over
+    // the sphere) comes last.
     let mut environment = NO_EMITTER;
-    if let Some(radiance) = scene.environment.filter(|l| avg(*l) > 0.0) {
-        environment = emitters.len() as u32;
-        power.push(4.0 * pi * pi * radius * radius * avg(radiance));
-        emitters.push(GpuEmitter {
-            radiance: radiance.extend(0.0).to_array(),
-            info: [EMITTER_INFINITE, 0, 0, 0],
-            ..Default::default()
-        });
+    if let Some(env) = &scene.environment {
+        let mean = match &env.map {
+            None => env.radiance,
+            Some(map) => env.radiance * environment_mean(&map.image, map.mapping),
+        };
+        if avg(mean) > 0.0 {
+            environment = emitters.len() as u32;
+            power.push(4.0 * pi * pi * radius * radius * avg(mean));
+            emitters.push(GpuEmitter {
+                radiance: env.radiance.extend(0.0).to_array(),
+                info: [EMITTER_INFINITE, 0, 0, 0],
+                ..Default::default()
+            });
+        }
     }
     let total: f64 = power.iter().map(|&p| p.max(0.0) as f64).sum();
     let n = emitters.len();
@@ -232,6 +244,119 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
     }
 }
 
+/// The textures, their texels and the environment map's sampling distribution, as the
+/// kernels read them (abi.h `GpuTexture`, the texel buffer of floats).
+pub struct TextureData {
+    pub textures: Vec<GpuTexture>,
+    pub texels: Vec<f32>,
+    /// The environment map's texture and the first floats of its marginal and
+    /// conditional CDFs in `texels`, if the scene has a map.
+    pub environment: Option<(u32, u32, u32)>,
+}
+
+fn push_image(texels: &mut Vec<f32>, image: &Image) -> u32 {
+    let first = texels.len() as u32;
+    texels.extend(image.pixels.iter().flatten());
+    first
+}
+
+pub fn texture_data(scene: &Scene) -> TextureData {
+    let mut textures = Vec::new();
+    let mut texels = Vec::new();
+    for t in &scene.textures {
+        textures.push(match t {
+            Texture::Image {
+                image,
+                scale,
+                mapping,
+            } => GpuTexture {
+                info: [
+                    TEXTURE_IMAGE,
+                    push_image(&mut texels, image),
+                    image.width,
+                    image.height,
+                ],
+                flags: [TEXTURE_WRAP_REPEAT, 0, 0, 0],
+                scale: scale.extend(0.0).to_array(),
+                other: [0.0; 4],
+                mapping: *mapping,
+            },
+            Texture::Checkerboard { even, odd, mapping } => GpuTexture {
+                info: [TEXTURE_CHECKERBOARD, 0, 0, 0],
+                flags: [0; 4],
+                scale: even.extend(0.0).to_array(),
+                other: odd.extend(0.0).to_array(),
+                mapping: *mapping,
+            },
+        });
+    }
+    let mut environment = None;
+    if let Some(map) = scene.environment.as_ref().and_then(|e| e.map.as_ref()) {
+        let image = &map.image;
+        let index = textures.len() as u32;
+        textures.push(GpuTexture {
+            info: [
+                TEXTURE_IMAGE,
+                push_image(&mut texels, image),
+                image.width,
+                image.height,
+            ],
+            flags: [
+                match map.mapping {
+                    EnvMapping::LatLong => TEXTURE_WRAP_REPEAT_U,
+                    EnvMapping::EqualArea => TEXTURE_WRAP_CLAMP,
+                },
+                1,
+                0,
+                0,
+            ],
+            scale: [1.0; 4],
+            other: [0.0; 4],
+            mapping: UV_MAPPING,
+        });
+        let weights = environment_weights(image, map.mapping);
+        let d = Distribution2D::new(&weights, image.width as usize, image.height as usize);
+        let marginal = texels.len() as u32;
+        texels.extend(&d.marginal);
+        let conditional = texels.len() as u32;
+        texels.extend(&d.conditional);
+        environment = Some((index, marginal, conditional));
+    }
+    TextureData {
+        textures,
+        texels,
+        environment,
+    }
+}
+
+/// The per-triangle attribute records and each triangle's index into them
+/// (NO_ATTRIBUTES for a triangle with neither texture coordinates nor shading normals).
+pub fn triangle_attributes(scene: &Scene) -> (Vec<GpuTriangleAttributes>, Vec<u32>) {
+    let mut records = Vec::new();
+    let mut index = Vec::with_capacity(scene.triangles.len());
+    for t in &scene.triangles {
+        if t.uv.is_none() && t.normals.is_none() {
+            index.push(NO_ATTRIBUTES);
+            continue;
+        }
+        let uv = t.uv.unwrap_or([
+            glam::Vec2::new(0.0, 0.0),
+            glam::Vec2::new(1.0, 0.0),
+            glam::Vec2::new(1.0, 1.0),
+        ]);
+        let n = t.normals.unwrap_or([Vec3::ZERO; 3]);
+        index.push(records.len() as u32);
+        records.push(GpuTriangleAttributes {
+            uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
+            uv2: [uv[2].x, uv[2].y, t.normals.is_some() as u32 as f32, 0.0],
+            n0: n[0].extend(0.0).to_array(),
+            n1: n[1].extend(0.0).to_array(),
+            n2: n[2].extend(0.0).to_array(),
+        });
+    }
+    (records, index)
+}
+
 /// CPU mirror of lights.glsl's `pick_emitter`: the first i with x < cdf[i], else the
 /// last emitter.
 pub fn pick_emitter(cdf: &[u32], x: u32) -> usize {
@@ -257,6 +382,8 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
     let up = right.cross(forward);
     let s = &scene.settings;
     let (center, radius) = scene_bounds(scene);
+    let env_map = scene.environment.as_ref().and_then(|e| e.map.as_ref());
+    let env_to_world = env_map.map_or(Mat3::IDENTITY, |m| m.to_world);
     SceneParams {
         cam_eye: c
             .eye
@@ -291,7 +418,14 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
         strategy_first: 0,
         strategy_count: 0,
         environment: NO_EMITTER,
+        env_texture: NO_TEXTURE,
+        env_mapping: env_map.map_or(ENV_MAPPING_LATLONG, |m| m.mapping.code()),
+        env_marginal: 0,
+        env_conditional: 0,
         reserved1: 0,
+        env_x: env_to_world.col(0).extend(0.0).to_array(),
+        env_y: env_to_world.col(1).extend(0.0).to_array(),
+        env_z: env_to_world.col(2).extend(0.0).to_array(),
     }
 }
 
@@ -304,6 +438,8 @@ impl GpuScene {
         params: SceneParams,
     ) -> Result<GpuScene> {
         let table = emitter_table(scene);
+        let textures = texture_data(scene);
+        let (attributes, attribute_index) = triangle_attributes(scene);
         let bits = f32::from_bits;
         let triangles: Vec<GpuTriangle> = scene
             .triangles
@@ -312,7 +448,7 @@ impl GpuScene {
             .map(|(i, t)| GpuTriangle {
                 v0: t.v[0].extend(bits(t.material)).to_array(),
                 v1: t.v[1].extend(bits(table.triangle_emitter[i])).to_array(),
-                v2: t.v[2].extend(0.0).to_array(),
+                v2: t.v[2].extend(bits(attribute_index[i])).to_array(),
             })
             .collect();
         let spheres: Vec<GpuSphere> = scene
@@ -337,6 +473,11 @@ impl GpuScene {
         let mut params = params;
         params.emitter_count = table.emitters.len() as u32;
         params.environment = table.environment;
+        if let Some((texture, marginal, conditional)) = textures.environment {
+            params.env_texture = texture;
+            params.env_marginal = marginal;
+            params.env_conditional = conditional;
+        }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let triangle_usage = if backend == Backend::RayQuery {
             storage
@@ -355,6 +496,9 @@ impl GpuScene {
             ),
             ("BVH nodes", bvh.nodes.len()),
             ("emitters", table.emitters.len() * 80),
+            ("texels", textures.texels.len() * 4),
+            ("textures", textures.textures.len() * 80),
+            ("triangle attributes", attributes.len() * 80),
         ] {
             if bytes as u64 > limit {
                 return Err(other_error(
@@ -410,6 +554,24 @@ impl GpuScene {
                 bytemuck::cast_slice(&table.cdf),
                 storage,
             )?,
+            textures: Buffer::with_data(
+                device,
+                "textures",
+                bytemuck::cast_slice(&textures.textures),
+                storage,
+            )?,
+            texels: Buffer::with_data(
+                device,
+                "texels",
+                bytemuck::cast_slice(&textures.texels),
+                storage,
+            )?,
+            triangle_attributes: Buffer::with_data(
+                device,
+                "triangle attributes",
+                bytemuck::cast_slice(&attributes),
+                storage,
+            )?,
             bvh_nodes,
             bvh_prims,
         })
@@ -425,6 +587,12 @@ impl GpuScene {
             (BINDING_MATERIALS, Resource::Buffer(self.materials.raw)),
             (BINDING_EMITTERS, Resource::Buffer(self.emitters.raw)),
             (BINDING_EMITTER_CDF, Resource::Buffer(self.emitter_cdf.raw)),
+            (BINDING_TEXTURES, Resource::Buffer(self.textures.raw)),
+            (BINDING_TEXELS, Resource::Buffer(self.texels.raw)),
+            (
+                BINDING_TRIANGLE_ATTRIBUTES,
+                Resource::Buffer(self.triangle_attributes.raw),
+            ),
         ];
         if let (Some(n), Some(p)) = (&self.bvh_nodes, &self.bvh_prims) {
             list.push((BINDING_BVH_NODES, Resource::Buffer(n.raw)));

@@ -14,4 +14,5 @@ pub mod probe;
 pub mod profile;
 pub mod render;
 pub mod scene;
+pub mod texture;
 pub mod trace;

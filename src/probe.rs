@@ -94,6 +94,9 @@ pub fn bsdf(
     let materials_buffer =
         engine.buffer_with("probe materials", bytemuck::cast_slice(materials))?;
     let inputs_buffer = engine.buffer_with("probe inputs", bytemuck::cast_slice(inputs))?;
+    // The probe's materials have no textures; the kernel still declares the buffers.
+    let textures = engine.buffer_with("probe textures", &[0u8; 80])?;
+    let texels = engine.buffer_with("probe texels", &[0u8; 16])?;
     let out_bytes = (inputs.len() * std::mem::size_of::<BsdfProbeOutput>()).max(16) as u64;
     let out = engine.storage_buffer("probe outputs", out_bytes)?;
     let kernel = engine.kernel("bsdf_probe", None)?;
@@ -104,6 +107,8 @@ pub fn bsdf(
             (BINDING_MATERIALS, &materials_buffer),
             (BINDING_BSDF_PROBE_INPUTS, &inputs_buffer),
             (BINDING_BSDF_PROBE_OUTPUTS, &out),
+            (BINDING_TEXTURES, &textures),
+            (BINDING_TEXELS, &texels),
         ],
     )?;
     let params = PassParams {
@@ -245,7 +250,7 @@ mod tests {
             match p {
                 Prim::Triangle(v) => {
                     ids.push(scene.triangles.len() as u32);
-                    scene.triangles.push(Triangle { v: *v, material: 0 });
+                    scene.triangles.push(Triangle::new(*v, 0));
                 }
                 Prim::Sphere(s) => {
                     ids.push(ntri + scene.spheres.len() as u32);

@@ -254,10 +254,10 @@ fn bdpt_is_deterministic_per_seed_and_tiling_does_not_change_the_image() {
         max_relative_difference(&a, &c) > 0.1,
         "different seeds, same image"
     );
-    // Tiles of 3 rows (4 stored vertices of 64 bytes per pixel): the kernel must index
+    // Tiles of 3 rows (4 stored vertices of 80 bytes per pixel): the kernel must index
     // each tile's vertex slice from the tile's first row.
     let tiled = render_with(&scene, 3, Bvh, |r| {
-        r.options.bdpt.vertex_buffer_limit = Some(40 * 3 * 4 * 64)
+        r.options.bdpt.vertex_buffer_limit = Some(40 * 3 * 4 * 80)
     })
     .expect("tiled render")
     .image;

@@ -36,6 +36,10 @@
 #define BINDING_PROBE_HITS 19
 #define BINDING_BSDF_PROBE_INPUTS 20
 #define BINDING_BSDF_PROBE_OUTPUTS 21
+// Textures and surface attributes (the scene, continued):
+#define BINDING_TEXTURES 22
+#define BINDING_TEXELS 23
+#define BINDING_TRIANGLE_ATTRIBUTES 24
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -67,8 +71,28 @@
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
 
-// No texture (GpuMaterial.info.zw).
+// No texture (GpuMaterial.info.zw, SceneParams.env_texture).
 #define NO_TEXTURE 4294967295
+
+// Texture kinds (GpuTexture.info.x).
+#define TEXTURE_IMAGE 0
+#define TEXTURE_CHECKERBOARD 1
+// How an image texture wraps (GpuTexture.flags.x).
+#define TEXTURE_WRAP_REPEAT 0
+// u repeats, v clamps (latitude-longitude environment maps).
+#define TEXTURE_WRAP_REPEAT_U 1
+#define TEXTURE_WRAP_CLAMP 2
+
+// How an environment map covers the sphere (SceneParams.env_mapping); src/texture.rs
+// (EnvMapping) says which pixel is which direction.
+#define ENV_MAPPING_LATLONG 0
+#define ENV_MAPPING_EQUAL_AREA 1
+
+// A triangle without texture coordinates or shading normals (GpuTriangle.v2.w).
+#define NO_ATTRIBUTES 4294967295
+
+// The bit of GpuPathVertex.p.w that marks a vertex seen from its material's outside.
+#define PATH_VERTEX_FRONT 2147483648
 
 // How directions are sampled (SceneParams.sample_mode: the scene's importancesampling);
 // src/abi.rs mirrors them as `SampleMode`.
@@ -128,11 +152,34 @@
 
 #ifdef GL_core_profile
 // A world-space triangle. v0.w: material index, v1.w: emitter index (NO_EMITTER if
-// none), both as uint bits.
+// none), v2.w: its attributes (NO_ATTRIBUTES if none), all as uint bits.
 struct GpuTriangle {
     vec4 v0;
     vec4 v1;
     vec4 v2;
+};
+
+// A triangle's texture coordinates and shading normals at its corners. Without
+// attributes a triangle has pbrt's (0,0), (1,0), (1,1) and its geometric normal.
+struct GpuTriangleAttributes {
+    vec4 uv01;          // (u0, v0, u1, v1)
+    vec4 uv2;           // xy: (u2, v2), z: 1 when n0..n2 hold shading normals
+    vec4 n0;
+    vec4 n1;
+    vec4 n2;
+};
+
+// A texture. Images: texels are RGB float triples in the texel buffer from float
+// info.y on, row-major from the top row; t = 0 is the bottom row unless flags.y is 1
+// (environment maps: v = 0 is the top row). Values are scale * the bilinear lookup.
+// Checkerboards: scale where floor(s) + floor(t) is even, other where odd.
+// (s, t) = (mapping.x u + mapping.z, mapping.y v + mapping.w).
+struct GpuTexture {
+    uvec4 info;         // x kind (TEXTURE_*), y first float, z width, w height
+    uvec4 flags;        // x wrap (TEXTURE_WRAP_*), y 1: rows top-down in v
+    vec4 scale;
+    vec4 other;
+    vec4 mapping;
 };
 
 // The unit sphere under an affine transform: rows of object-to-world and
@@ -202,18 +249,27 @@ struct SceneParams {
     uint strategy_first; // bdpt: record the images of strategies first ..
     uint strategy_count; //       .. first + count (0: none)
     uint environment;    // the emitter of the environment light, or NO_EMITTER
+    uint env_texture;    // its image (a GpuTexture), or NO_TEXTURE: constant
+    uint env_mapping;    // ENV_MAPPING_*
+    uint env_marginal;   // first float of the map's marginal CDF (height + 1) ..
+    uint env_conditional;// .. and of its rows' CDFs (height rows of width + 1), in the texel buffer
     uint reserved1;
+    vec4 env_x;          // the world directions of the map frame's axes
+    vec4 env_y;
+    vec4 env_z;
 };
 
 // A vertex of a BDPT light subpath (stored per pixel, read back by the camera subpath).
-// p.w: material (uint bits); n: unit normal on the side the path arrived from, w: dVCM;
-// wi: unit direction toward the previous vertex, w: dVC; beta: throughput, w: 1 when n is
-// on the material's outside (the geometric normal's side).
+// p.w: material (uint bits), with PATH_VERTEX_FRONT set when n is on the material's
+// outside (the geometric normal's side); n: unit normal on the side the path arrived
+// from, w: dVCM; wi: unit direction toward the previous vertex, w: dVC; beta: throughput,
+// w: the texture coordinate v; ns: the unit shading normal on n's side, w: u.
 struct GpuPathVertex {
     vec4 p;
     vec4 n;
     vec4 wi;
     vec4 beta;
+    vec4 ns;
 };
 
 // A pass's push constants: samples first_sample .. first_sample + samples of the rows

@@ -64,7 +64,7 @@ float camera_pdf_w(vec3 w) {
 }
 
 // The pdf of the scene's importancesampling mode (wo where the walk came from, wi the
-// other direction; n on the side of the arriving path).
+// other direction; n the shading normal on the side of the arriving path).
 float material_pdf(BsdfParams b, vec3 n, vec3 wo, vec3 wi) {
     return bsdf_pdf(b, scene.sample_mode, n, wo, wi);
 }
@@ -73,7 +73,7 @@ float material_pdf(BsdfParams b, vec3 n, vec3 wo, vec3 wi) {
 struct PathVertex {
     vec3 p;
     uint material;
-    vec3 n;          // unit normal on the side the path arrived from
+    vec3 n;          // unit geometric normal on the side the path arrived from
     float dvcm;      // MIS running sums at this vertex
     vec3 w;          // unit direction toward the previous vertex
     float dvc;
@@ -81,11 +81,14 @@ struct PathVertex {
     uint emitter;    // NO_EMITTER unless the surface emits
     vec3 ng;         // geometric normal as the surface has it (emission sides, and the
                      // material's outside for refraction)
+    vec2 uv;         // texture coordinates
+    vec3 ns;         // unit shading normal on n's side: the BSDF's frame (geometric
+                     // normals convert densities and place rays)
 };
 
 // The BSDF at a path vertex: its material, seen from the side of its normal n.
 BsdfParams vertex_bsdf(PathVertex v) {
-    return material_bsdf(materials[v.material], dot(v.n, v.ng) > 0.0);
+    return material_bsdf(materials[v.material], dot(v.n, v.ng) > 0.0, v.uv);
 }
 
 // A subpath being walked: the next ray and the running throughput and MIS sums.
@@ -108,12 +111,14 @@ PathVertex vertex_at(Walk w, Surface s, vec3 toward_prev) {
     v.p = s.p;
     v.material = s.material;
     v.n = dot(s.ng, toward_prev) < 0.0 ? -s.ng : s.ng;
+    v.ns = dot(s.ng, toward_prev) < 0.0 ? -s.ns : s.ns;
     v.w = toward_prev;
     v.beta = w.beta;
     v.dvcm = w.dvcm;
     v.dvc = w.dvc;
     v.emitter = s.emitter;
     v.ng = s.ng;
+    v.uv = s.uv;
     return v;
 }
 
@@ -176,18 +181,20 @@ bool light_walk_next(inout Walk w, out PathVertex v) {
 bool walk_scatter(inout Walk w, PathVertex v, vec3 u, uint transport, bool update_mis) {
     BsdfParams b = vertex_bsdf(v);
     BsdfSample bs;
-    if (!bsdf_sample(b, scene.sample_mode, v.n, v.w, u, transport, bs)) return false;
+    if (!(dot(v.ns, v.w) > 0.0)) return false;
+    if (!bsdf_sample(b, scene.sample_mode, v.ns, v.w, u, transport, bs)) return false;
+    if (!shading_side_agrees(v.n, v.ns, bs.wi)) return false;
     bool delta = (bs.flags & BSDF_LOBE_DELTA) != 0u;
     float cos_signed = dot(v.n, bs.wi);
-    float cos_out = abs(cos_signed);
-    w.beta = v.beta * bs.f * (cos_out / bs.pdf);
+    float cos_out = abs(cos_signed);   // geometric: for the MIS sums' densities
+    w.beta = v.beta * bs.f * (shading_cosine(v.n, v.ns, v.w, bs.wi, transport) / bs.pdf);
     if (w.beta == vec3(0.0)) return false;
     if (update_mis) {
         if (delta) {
             w.dvcm = 0.0;
             w.dvc *= mis(cos_out);
         } else {
-            float pdf_rev = material_pdf(b, v.n, bs.wi, v.w);
+            float pdf_rev = material_pdf(b, v.ns, bs.wi, v.w);
             w.dvc = mis(cos_out / bs.pdf) * (v.dvc * mis(pdf_rev) + v.dvcm);
             w.dvcm = mis(1.0 / bs.pdf);
         }
@@ -314,11 +321,12 @@ bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weigh
     BsdfParams b = vertex_bsdf(z);
     LightSample ls;
     vec3 f;
-    float cos_z;
-    if (!sample_direct_light(b, e, z.p, z.n, z.w, u, ls, f, cos_z)) return false;
-    float pdf_dir = material_pdf(b, z.n, z.w, ls.wi);
+    float cos_s;
+    if (!sample_direct_light(b, e, z.p, z.n, z.ns, z.w, u, ls, f, cos_s)) return false;
+    float cos_z = abs(dot(z.n, ls.wi));
+    float pdf_dir = material_pdf(b, z.ns, z.w, ls.wi);
     if (w.vertices <= max_scatter()) {
-        float pdf_rev = material_pdf(b, z.n, ls.wi, z.w);
+        float pdf_rev = material_pdf(b, z.ns, ls.wi, z.w);
         float pdf_pos;
         float pdf_emit;
         emitter_emission_pdfs(e, ls.p, ls.n, -ls.wi, pdf_pos, pdf_emit);
@@ -331,7 +339,7 @@ bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weigh
     }
     rays_traced++;
     if (!light_sample_visible(z.p, z.n, ls)) return false;
-    value = z.beta * f * ls.L * (cos_z / ls.pdf);
+    value = z.beta * f * ls.L * (cos_s / ls.pdf);
     return true;
 }
 
@@ -345,11 +353,15 @@ bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out 
     float cos_signed = dot(y.n, to_eye);
     float cos_y = abs(cos_signed);
     if (!(cos_y > 0.0)) return false;
+    if (!(dot(y.ns, y.w) > 0.0) || !shading_side_agrees(y.n, y.ns, to_eye)) return false;
     BsdfParams b = vertex_bsdf(y);
-    vec3 f = bsdf_eval(b, y.n, y.w, to_eye, TRANSPORT_IMPORTANCE);
+    vec3 f = bsdf_eval(b, y.ns, y.w, to_eye, TRANSPORT_IMPORTANCE);
     if (f == vec3(0.0)) return false;
+    // The measurement's cosine at y is the geometric cos_y (in pdf_cam_a) times the
+    // adjoint BSDF's shading correction (shading_cosine's importance form).
+    f *= abs(dot(y.ns, y.w)) / abs(dot(y.n, y.w));
     float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
-    float pdf_rev = material_pdf(b, y.n, to_eye, y.w);
+    float pdf_rev = material_pdf(b, y.ns, to_eye, y.w);
     float w_light = mis(pdf_cam_a / light_paths()) * (y.dvcm + y.dvc * mis(pdf_rev));
     weight = 1.0 / (1.0 + w_light);
     rays_traced++;
@@ -396,16 +408,21 @@ bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float w
     float cos_z = abs(cz);
     float cos_y = abs(cy);
     if (!(cos_z > 0.0) || !(cos_y > 0.0)) return false;
+    if (!(dot(z.ns, z.w) > 0.0) || !(dot(y.ns, y.w) > 0.0)) return false;
+    if (!shading_side_agrees(z.n, z.ns, dir) || !shading_side_agrees(y.n, y.ns, -dir)) return false;
     BsdfParams bz = vertex_bsdf(z);
     BsdfParams by = vertex_bsdf(y);
-    vec3 f_z = bsdf_eval(bz, z.n, z.w, dir, TRANSPORT_RADIANCE);
-    vec3 f_y = bsdf_eval(by, y.n, y.w, -dir, TRANSPORT_IMPORTANCE);
-    vec3 c = z.beta * f_z * f_y * y.beta * (cos_z * cos_y / d2);
+    vec3 f_z = bsdf_eval(bz, z.ns, z.w, dir, TRANSPORT_RADIANCE);
+    vec3 f_y = bsdf_eval(by, y.ns, y.w, -dir, TRANSPORT_IMPORTANCE);
+    float g = shading_cosine(z.n, z.ns, z.w, dir, TRANSPORT_RADIANCE)
+            * shading_cosine(y.n, y.ns, y.w, -dir, TRANSPORT_IMPORTANCE) / d2;
+    vec3 c = z.beta * f_z * f_y * y.beta * g;
     if (c == vec3(0.0)) return false;
-    float cam_dir = material_pdf(bz, z.n, z.w, dir);
-    float cam_rev = material_pdf(bz, z.n, dir, z.w);
-    float light_dir = material_pdf(by, y.n, y.w, -dir);
-    float light_rev = material_pdf(by, y.n, -dir, y.w);
+    // The densities convert with the geometric cosines.
+    float cam_dir = material_pdf(bz, z.ns, z.w, dir);
+    float cam_rev = material_pdf(bz, z.ns, dir, z.w);
+    float light_dir = material_pdf(by, y.ns, y.w, -dir);
+    float light_rev = material_pdf(by, y.ns, -dir, y.w);
     float w_light = mis(cam_dir * cos_y / d2) * (y.dvcm + y.dvc * mis(light_rev));
     float w_cam = mis(light_dir * cos_z / d2) * (z.dvcm + z.dvc * mis(cam_rev));
     weight = 1.0 / (w_light + 1.0 + w_cam);

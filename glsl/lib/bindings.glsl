@@ -9,6 +9,9 @@ layout(std430, set = 0, binding = BINDING_SPHERES) readonly buffer SphereBuffer 
 layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer MaterialBuffer { GpuMaterial materials[]; };
 layout(std430, set = 0, binding = BINDING_EMITTERS) readonly buffer EmitterBuffer { GpuEmitter emitters[]; };
 layout(std430, set = 0, binding = BINDING_EMITTER_CDF) readonly buffer EmitterCdfBuffer { uint emitter_cdf[]; };
+layout(std430, set = 0, binding = BINDING_TEXTURES) readonly buffer TextureBuffer { GpuTexture textures[]; };
+layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer TexelBuffer { float texels[]; };
+layout(std430, set = 0, binding = BINDING_TRIANGLE_ATTRIBUTES) readonly buffer TriangleAttributeBuffer { GpuTriangleAttributes triangle_attributes[]; };
 layout(std430, set = 0, binding = BINDING_FILM) buffer FilmBuffer { vec4 film[]; };
 layout(std430, set = 0, binding = BINDING_STATS) buffer StatsBuffer { uint stats[]; };
 

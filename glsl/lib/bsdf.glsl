@@ -45,6 +45,7 @@
 #include "bindings.glsl"
 #include "sampling.glsl"
 #include "microfacet.glsl"
+#include "texture.glsl"
 
 // One surface's BSDF parameters (the BSDF_* kinds and SAMPLE_* modes are in abi.h).
 struct BsdfParams {
@@ -58,9 +59,9 @@ struct BsdfParams {
     vec3 k;            // conductor absorption
 };
 
-// The BSDF of material m at a surface whose normal, as the caller will pass it, points to
-// the material's outside (front) or inside (!front).
-BsdfParams material_bsdf(GpuMaterial m, bool front) {
+// The BSDF of material m at a surface point with texture coordinates uv whose normal, as
+// the caller will pass it, points to the material's outside (front) or inside (!front).
+BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv) {
     BsdfParams b;
     b.kind = m.info.x;
     b.kd = m.diffuse.xyz;
@@ -71,7 +72,30 @@ BsdfParams material_bsdf(GpuMaterial m, bool front) {
     b.eta = m.eta.xyz;
     if (b.kind == BSDF_DIELECTRIC && !front) b.eta.x = 1.0 / b.eta.x;
     b.k = m.k.xyz;
+    // Textures replace the diffuse reflectance and the roughness (first channel).
+    if (m.info.z != NO_TEXTURE) b.kd = texture_value(m.info.z, uv);
+    if (m.info.w != NO_TEXTURE) {
+        float a = texture_value(m.info.w, uv).x;
+        b.roughness = a;
+        b.alpha = vec2(a);
+    }
     return b;
+}
+
+// Shading normals. Every BSDF is evaluated about the shading normal ns (on the side of the
+// geometric normal n), and is 0 for a direction w on different sides of the two: the test
+// is symmetric in wo and wi, so camera and light subpaths see one BSDF, and light does not
+// leak through a surface.
+bool shading_side_agrees(vec3 n, vec3 ns, vec3 w) { return dot(n, w) * dot(ns, w) > 0.0; }
+
+// The cosine that multiplies f(wo, wi) in a path's throughput toward wi: |ns.wi| for
+// radiance; for importance, Veach's adjoint BSDF with shading normals (thesis, 5.3; pbrt's
+// CorrectShadingNormal) turns it into |n.wi| |ns.wo| / |n.wo|. Without shading normals
+// (ns = n) both are |n.wi|.
+float shading_cosine(vec3 n, vec3 ns, vec3 wo, vec3 wi, uint transport) {
+    if (transport == TRANSPORT_RADIANCE) return abs(dot(ns, wi));
+    float den = abs(dot(n, wo));
+    return den > 0.0 ? abs(dot(n, wi)) * (abs(dot(ns, wo)) / den) : 0.0;
 }
 
 bool bsdf_is_smooth(BsdfParams b) { return max(b.alpha.x, b.alpha.y) < MICROFACET_SMOOTH_ALPHA; }

@@ -81,7 +81,19 @@ struct Surface {
     uint material;
     uint emitter; // NO_EMITTER if the primitive emits nothing
     uint prim;
+    vec2 uv;      // texture coordinates
+    vec3 ns;      // unit shading normal (interpolated from a mesh's normals; else ng), on
+                  // ng's side (the parser winds meshes so)
 };
+
+// pbrt's (u, v) of a point q on the unit sphere: u the azimuth about +z from +x over
+// 2 pi, v from the -z pole (0) to the +z pole (1).
+vec2 sphere_uv(vec3 q) {
+    q = normalize(q);
+    float phi = atan(q.y, q.x);
+    if (phi < 0.0) phi += 2.0 * 3.14159265358979;
+    return vec2(phi * (0.5 / 3.14159265358979), 1.0 - acos(clamp(q.z, -1.0, 1.0)) * (1.0 / 3.14159265358979));
+}
 
 Surface surface_at(Hit hit, vec3 o, vec3 d) {
     Surface s;
@@ -95,6 +107,21 @@ Surface surface_at(Hit hit, vec3 o, vec3 d) {
         s.ng = normalize(cross(e1, e2));
         s.material = floatBitsToUint(tri.v0.w);
         s.emitter = floatBitsToUint(tri.v1.w);
+        uint a = floatBitsToUint(tri.v2.w);
+        float b0 = 1.0 - hit.bary.x - hit.bary.y;
+        s.ns = s.ng;
+        if (a == NO_ATTRIBUTES) {
+            // pbrt's default (0,0), (1,0), (1,1).
+            s.uv = vec2(hit.bary.x + hit.bary.y, hit.bary.y);
+        } else {
+            GpuTriangleAttributes at = triangle_attributes[a];
+            s.uv = b0 * at.uv01.xy + hit.bary.x * at.uv01.zw + hit.bary.y * at.uv2.xy;
+            if (at.uv2.z != 0.0) {
+                vec3 ns = b0 * at.n0.xyz + hit.bary.x * at.n1.xyz + hit.bary.y * at.n2.xyz;
+                float l = length(ns);
+                if (l > 0.0) s.ns = ns / l;
+            }
+        }
     } else {
         GpuSphere sp = spheres[hit.prim - ntri];
         s.p = o + hit.t * d;
@@ -102,6 +129,8 @@ Surface surface_at(Hit hit, vec3 o, vec3 d) {
         s.ng = normalize(sphere_normal_unnormalized(sp, q));
         s.material = sp.info.x;
         s.emitter = sp.info.y;
+        s.uv = sphere_uv(q);
+        s.ns = s.ng;
     }
     return s;
 }

@@ -7,6 +7,7 @@
 #include "sampling.glsl"
 #include "bsdf.glsl"
 #include "trace.glsl"
+#include "texture.glsl"
 
 // Pick an emitter by power with a uniform 32-bit integer x: the first i with
 // x < cdf[i] (the last emitter when none). cdf[i] is the end of emitter i's range of
@@ -30,11 +31,139 @@ bool emitter_kind_is_delta(uint kind) {
     return kind == EMITTER_POINT || kind == EMITTER_SPOT || kind == EMITTER_DIRECTIONAL;
 }
 
-// The environment light (pbrt-v4's uniform infinite light): radiance arriving along -dir
-// (dir the direction of an escaping ray), and the solid-angle pdf, pick included, with
-// which light sampling draws dir (uniform over the sphere).
-vec3 environment_radiance(vec3 dir) { return emitters[scene.environment].radiance.xyz; }
-float environment_pdf(vec3 dir) { return emitter_pick_pdf(scene.environment) * (0.25 * INV_PI); }
+// ---- the environment light ------------------------------------------------------
+// Constant (pbrt-v4's uniform infinite light: uniform sampling over the sphere) or an
+// image over the sphere (its image infinite light: a piecewise-constant distribution over
+// the map, built by the host from the map's dilated values times the mapping's solid
+// angle per pixel). CPU mirror of the mappings and the distribution: src/texture.rs.
+
+vec3 env_to_local(vec3 d) {
+    return vec3(dot(d, scene.env_x.xyz), dot(d, scene.env_y.xyz), dot(d, scene.env_z.xyz));
+}
+vec3 env_to_world(vec3 l) {
+    return l.x * scene.env_x.xyz + l.y * scene.env_y.xyz + l.z * scene.env_z.xyz;
+}
+
+// The map point (u right, v down from the top row) of the unit direction l in the map's
+// frame, and back (src/texture.rs EnvMapping).
+vec2 env_uv(vec3 l) {
+    if (scene.env_mapping == ENV_MAPPING_LATLONG) {
+        return vec2(atan(l.x, -l.z) * (0.5 * INV_PI) + 0.5, acos(clamp(l.y, -1.0, 1.0)) * INV_PI);
+    }
+    // Equal-area square (Clarberg): the inverse of env_direction below.
+    vec3 a = abs(l);
+    float r = sqrt(max(1.0 - a.z, 0.0));
+    float big = max(a.x, a.y);
+    float small = big == 0.0 ? 0.0 : min(a.x, a.y) / big;
+    float phi = atan(small) * (2.0 * INV_PI);
+    if (a.x < a.y) phi = 1.0 - phi;
+    float v = phi * r;
+    float u = r - v;
+    if (l.z < 0.0) {
+        float t = u;
+        u = 1.0 - v;
+        v = 1.0 - t;
+    }
+    u = l.x < 0.0 ? -u : u;
+    v = l.y < 0.0 ? -v : v;
+    return 0.5 * vec2(u + 1.0, v + 1.0);
+}
+
+vec3 env_direction(vec2 uv) {
+    if (scene.env_mapping == ENV_MAPPING_LATLONG) {
+        float theta = PI * uv.y;
+        float phi = TWO_PI * (uv.x - 0.5);
+        float s = sin(theta);
+        return vec3(s * sin(phi), cos(theta), -s * cos(phi));
+    }
+    float u = 2.0 * uv.x - 1.0;
+    float v = 2.0 * uv.y - 1.0;
+    float signed_d = 1.0 - (abs(u) + abs(v));
+    float r = 1.0 - abs(signed_d);
+    float phi = (r == 0.0 ? 1.0 : (abs(v) - abs(u)) / r + 1.0) * (PI / 4.0);
+    float z = signed_d < 0.0 ? -(1.0 - r * r) : 1.0 - r * r;
+    float s = r * sqrt(max(2.0 - r * r, 0.0));
+    float c = cos(phi);
+    float sn = sin(phi);
+    return vec3((u < 0.0 ? -c : c) * s, (v < 0.0 ? -sn : sn) * s, z);
+}
+
+// Solid angle per unit of map area at uv. Within 1e-4 rad of a latitude-longitude map's
+// poles it is taken as 0 (those directions, 3e-8 sr, are left to BSDF sampling): there
+// the density 1/sin(theta) of a sampled direction grows without bound, and its square in
+// the MIS sums overflows.
+float env_jacobian(vec2 uv) {
+    if (scene.env_mapping != ENV_MAPPING_LATLONG) return 4.0 * PI;
+    float s = sin(PI * uv.y);
+    return s > 1e-4 ? 2.0 * PI * PI * s : 0.0;
+}
+
+// The last i in 0 .. n-1 with cdf[i] <= u, for the n + 1 CDF entries from texels[first].
+uint env_find_interval(uint first, uint n, float u) {
+    uint lo = 0u;
+    uint hi = n - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi + 1u) >> 1;
+        if (texels[first + mid] <= u) lo = mid; else hi = mid - 1u;
+    }
+    return lo;
+}
+
+// The map distribution's density at uv (with respect to map area).
+float env_map_pdf(vec2 uv) {
+    GpuTexture t = textures[scene.env_texture];
+    uint w = t.info.z;
+    uint h = t.info.w;
+    uint x = min(uint(uv.x * float(w)), w - 1u);
+    uint y = min(uint(uv.y * float(h)), h - 1u);
+    uint row = scene.env_conditional + y * (w + 1u);
+    float marginal = texels[scene.env_marginal + y + 1u] - texels[scene.env_marginal + y];
+    return marginal * (texels[row + x + 1u] - texels[row + x]) * float(w * h);
+}
+
+// Radiance arriving along -dir (dir the unit direction of an escaping ray).
+vec3 environment_radiance(vec3 dir) {
+    vec3 L = emitters[scene.environment].radiance.xyz;
+    if (scene.env_texture == NO_TEXTURE) return L;
+    return L * texture_value(scene.env_texture, env_uv(env_to_local(dir)));
+}
+
+// The solid-angle density with which light sampling draws the direction dir (no pick).
+float environment_direction_pdf(vec3 dir) {
+    if (scene.env_texture == NO_TEXTURE) return 0.25 * INV_PI;
+    vec2 uv = env_uv(env_to_local(dir));
+    float jac = env_jacobian(uv);
+    return jac > 0.0 ? env_map_pdf(uv) / jac : 0.0;
+}
+
+// A direction toward the environment for uniforms u, with its solid-angle density.
+vec3 sample_environment_direction(vec2 u, out float pdf) {
+    if (scene.env_texture == NO_TEXTURE) {
+        pdf = 0.25 * INV_PI;
+        return sample_uniform_sphere(u);
+    }
+    GpuTexture t = textures[scene.env_texture];
+    uint w = t.info.z;
+    uint h = t.info.w;
+    uint y = env_find_interval(scene.env_marginal, h, u.y);
+    float m0 = texels[scene.env_marginal + y];
+    float m1 = texels[scene.env_marginal + y + 1u];
+    uint row = scene.env_conditional + y * (w + 1u);
+    uint x = env_find_interval(row, w, u.x);
+    float c0 = texels[row + x];
+    float c1 = texels[row + x + 1u];
+    float fy = m1 > m0 ? clamp((u.y - m0) / (m1 - m0), 0.0, 1.0) : 0.5;
+    float fx = c1 > c0 ? clamp((u.x - c0) / (c1 - c0), 0.0, 1.0) : 0.5;
+    vec2 uv = min(vec2((float(x) + fx) / float(w), (float(y) + fy) / float(h)), vec2(0.99999994));
+    float jac = env_jacobian(uv);
+    pdf = jac > 0.0 ? (m1 - m0) * (c1 - c0) * float(w * h) / jac : 0.0;
+    return env_to_world(env_direction(uv));
+}
+
+// The solid-angle pdf, pick included, with which light sampling draws dir.
+float environment_pdf(vec3 dir) {
+    return emitter_pick_pdf(scene.environment) * environment_direction_pdf(dir);
+}
 
 // A spot light's falloff toward the unit direction w from it: pbrt-v4's smoothstep
 // between the cone angle (0) and the start of the falloff (1).
@@ -146,11 +275,12 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
         return ls.L != vec3(0.0);
     }
     if (em.info.x == EMITTER_INFINITE) {
-        ls.wi = sample_uniform_sphere(u);
+        float pdf_dir;
+        ls.wi = sample_environment_direction(u, pdf_dir);
         ls.dist = INF;
-        ls.L = em.radiance.xyz;
-        ls.pdf = pick * (0.25 * INV_PI);
-        return ls.pdf > 0.0;
+        ls.L = environment_radiance(ls.wi);
+        ls.pdf = pick * pdf_dir;
+        return ls.pdf > 0.0 && ls.L != vec3(0.0);
     }
     if (em.info.x == EMITTER_DIRECTIONAL) {
         ls.wi = em.p0.xyz;
@@ -210,21 +340,22 @@ float emitter_pdf_solid_angle(uint e, vec3 ref, vec3 p, vec3 ng) {
 // Next-event estimation and emitter hits, shared by the path tracer and BDPT (whose s = 1
 // and s = 0 strategies these are).
 
-// A light sample at a surface vertex (p, unit normal n on the side of wo) for the BSDF b:
-// the sample, the BSDF value toward it and |cos| there (the light may lie behind a
-// transmitting surface). False when it cannot
-// contribute (no sample, below the surface, f = 0). The shadow ray is the caller's
+// A light sample at a surface vertex (p, unit geometric normal n on the side of wo, shading
+// normal ns on n's side) for the BSDF b: the sample, the BSDF value toward it and the
+// shading cosine |ns.wi| (the light may lie behind a transmitting surface). False when it
+// cannot contribute (no sample, below the surface, f = 0). The shadow ray is the caller's
 // (light_sample_visible), and so is the weighting: the estimate is f L cos / ls.pdf.
-bool sample_direct_light(BsdfParams b, uint e, vec3 p, vec3 n, vec3 wo, vec2 u, out LightSample ls,
-                         out vec3 f, out float cos_theta) {
+bool sample_direct_light(BsdfParams b, uint e, vec3 p, vec3 n, vec3 ns, vec3 wo, vec2 u,
+                         out LightSample ls, out vec3 f, out float cos_theta) {
     f = vec3(0.0);
     cos_theta = 0.0;
     if (!sample_emitter(e, p, u, ls) || !(ls.pdf > 0.0)) return false;
+    if (!(dot(ns, wo) > 0.0) || !shading_side_agrees(n, ns, ls.wi)) return false;
     // The course's BRDFs reflect only; the interface BSDFs may transmit toward the light.
-    float c = dot(n, ls.wi);
-    if (bsdf_is_course_brdf(b) ? !(c > 0.0) : !(c != 0.0)) return false;
+    float c = dot(ns, ls.wi);
+    if (bsdf_is_course_brdf(b) && !(c > 0.0)) return false;
     cos_theta = abs(c);
-    f = bsdf_eval(b, n, wo, ls.wi, TRANSPORT_RADIANCE);
+    f = bsdf_eval(b, ns, wo, ls.wi, TRANSPORT_RADIANCE);
     return f != vec3(0.0);
 }
 
@@ -293,10 +424,11 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
         return le.pdf_emit > 0.0 && le.Le != vec3(0.0);
     }
     if (em.info.x == EMITTER_INFINITE) {
-        // A direction toward the environment, uniform over the sphere, and parallel rays
-        // from a disk of the scene's bounding radius facing it (pbrt-v4's SampleLe).
+        // A direction toward the environment, as light sampling draws it, and parallel
+        // rays from a disk of the scene's bounding radius facing it (pbrt-v4's SampleLe).
         float r = scene.bounds.w;
-        vec3 toward = sample_uniform_sphere(u_dir.yz);
+        float pdf_dir;
+        vec3 toward = sample_environment_direction(u_dir.yz, pdf_dir);
         vec3 t;
         vec3 b;
         build_onb(toward, t, b);
@@ -304,9 +436,10 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
         float phi = TWO_PI * u_pos.y;
         le.dir = -toward;
         le.p = scene.bounds.xyz + r * toward + rad * (cos(phi) * t + sin(phi) * b);
-        le.pdf_pos = pick * (0.25 * INV_PI);
+        le.Le = environment_radiance(toward);
+        le.pdf_pos = pick * pdf_dir;
         le.pdf_emit = le.pdf_pos / (PI * r * r);
-        return pick > 0.0 && le.Le != vec3(0.0);
+        return le.pdf_pos > 0.0 && le.Le != vec3(0.0);
     }
     if (em.info.x == EMITTER_DIRECTIONAL) {
         float r = scene.bounds.w;
@@ -342,11 +475,11 @@ void emitter_emission_pdfs(uint e, vec3 p, vec3 ng, vec3 w, out float pdf_pos, o
     if (em.info.x == EMITTER_POINT) {
         pdf_emit = pick * (0.25 * INV_PI);
     } else if (em.info.x == EMITTER_INFINITE) {
-        pdf_pos = pick * (0.25 * INV_PI);
+        pdf_pos = pick * environment_direction_pdf(-w);
         pdf_emit = pdf_pos / (PI * scene.bounds.w * scene.bounds.w);
     } else if (em.info.x == EMITTER_SPOT) {
         pdf_emit = pick * spot_cone_pdf(em, w);
-  } else if (em.info.x == EMITTER_DIRECTIONAL) {
+    } else if (em.info.x == EMITTER_DIRECTIONAL) {
         pdf_emit = pick / (PI * scene.bounds.w * scene.bounds.w);
     } else {
         pdf_pos = pick * emitter_area_pdf(e, p);

@@ -355,9 +355,9 @@ mod tests {
     #[test]
     fn bdpt_bands_fit_the_storage_buffer_range() {
         let range = 128 << 20; // lavapipe
-                               // 1920x1080 at maxdepth 10: 9 stored vertices (576 bytes) per pixel.
+                               // 1920x1080 at maxdepth 10: 9 stored vertices (720 bytes) per pixel.
         let per_pixel = bdpt_vertex_bytes_per_pixel(10);
-        assert_eq!(per_pixel, 9 * 64);
+        assert_eq!(per_pixel, 9 * 80);
         let rows = band_rows(1920, 1080, per_pixel, range).unwrap();
         assert!(rows as u64 * 1920 * per_pixel <= range);
         assert_eq!(rows % WORKGROUP_SIZE_Y, 0);

@@ -7,8 +7,9 @@ mod parse;
 
 pub use parse::{parse_file, parse_str, ParseError};
 
-use glam::{Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::path::PathBuf;
+use std::sync::Arc;
 
 pub use crate::abi::{BsdfKind, SampleMode};
 use crate::abi::{GpuMaterial, MATERIAL_TWO_SIDED_EMISSION, NO_TEXTURE};
@@ -35,6 +36,11 @@ pub struct Material {
     /// `emission` emits from both sides; a `quadLight` only from its front
     /// (the side its geometric normal points to).
     pub two_sided_emission: bool,
+    /// The texture (an index into `Scene::textures`) that replaces `diffuse`.
+    pub diffuse_texture: Option<u32>,
+    /// The float texture (its first channel) that replaces the microfacet alpha
+    /// (`roughness` and `roughness_v` alike).
+    pub roughness_texture: Option<u32>,
 }
 
 /// A dielectric's index of refraction when the scene does not give one (glass).
@@ -58,6 +64,8 @@ impl Default for Material {
             k: COPPER_K,
             emission: Vec3::ZERO,
             two_sided_emission: true,
+            diffuse_texture: None,
+            roughness_texture: None,
         }
     }
 }
@@ -96,8 +104,8 @@ impl Material {
                 } else {
                     0
                 },
-                NO_TEXTURE,
-                NO_TEXTURE,
+                self.diffuse_texture.unwrap_or(NO_TEXTURE),
+                self.roughness_texture.unwrap_or(NO_TEXTURE),
             ],
         }
     }
@@ -108,6 +116,84 @@ impl Material {
 pub struct Triangle {
     pub v: [Vec3; 3],
     pub material: u32,
+    /// Texture coordinates at the corners; `None`: pbrt's (0,0), (1,0), (1,1).
+    pub uv: Option<[Vec2; 3]>,
+    /// Unit shading normals at the corners (world space), interpolated across the
+    /// triangle; `None`: the geometric normal.
+    pub normals: Option<[Vec3; 3]>,
+}
+
+impl Triangle {
+    pub fn new(v: [Vec3; 3], material: u32) -> Triangle {
+        Triangle {
+            v,
+            material,
+            uv: None,
+            normals: None,
+        }
+    }
+
+    /// The triangle wound so that its geometric normal lies on the side of its shading
+    /// normals (as pbrt-v4 turns a mesh's geometric normal toward its shading normal):
+    /// which side is the outside of a glass object then follows the mesh's normals.
+    pub fn facing_its_normals(mut self) -> Triangle {
+        if let Some(n) = self.normals {
+            let ng = (self.v[1] - self.v[0]).cross(self.v[2] - self.v[0]);
+            if ng.dot(n[0] + n[1] + n[2]) < 0.0 {
+                self.v.swap(1, 2);
+                n_swap(&mut self.normals);
+                if let Some(uv) = &mut self.uv {
+                    uv.swap(1, 2);
+                }
+            }
+        }
+        self
+    }
+}
+
+fn n_swap(n: &mut Option<[Vec3; 3]>) {
+    if let Some(n) = n {
+        n.swap(1, 2);
+    }
+}
+
+/// A texture: what a material reads at a surface point's (u, v), after the mapping
+/// `(s, t) = (su u + du, sv v + dv)` (`mapping` holds su, sv, du, dv).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Texture {
+    /// An image, bilinearly filtered, repeating; t = 0 is its bottom row (as pbrt's).
+    /// Values are `scale` times the (linear) texels.
+    Image {
+        image: Arc<crate::io::Image>,
+        scale: Vec3,
+        mapping: [f32; 4],
+    },
+    /// pbrt's 2D checkerboard: `even` where floor(s) + floor(t) is even, else `odd`.
+    Checkerboard {
+        even: Vec3,
+        odd: Vec3,
+        mapping: [f32; 4],
+    },
+}
+
+/// The identity texture mapping.
+pub const UV_MAPPING: [f32; 4] = [1.0, 1.0, 0.0, 0.0];
+
+/// An environment map: an image over the sphere of directions.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvironmentMap {
+    pub image: Arc<crate::io::Image>,
+    pub mapping: crate::texture::EnvMapping,
+    /// The rotation from the map's frame to the world.
+    pub to_world: Mat3,
+}
+
+/// The environment light: radiance arriving from every direction that leaves the scene,
+/// `radiance` times the map's value in that direction (1 without a map).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Environment {
+    pub radiance: Vec3,
+    pub map: Option<EnvironmentMap>,
 }
 
 /// A sphere as the unit sphere at the origin under an affine `object_to_world`
@@ -286,9 +372,10 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     pub quad_lights: Vec<QuadLight>,
     pub delta_lights: Vec<DeltaLight>,
-    /// The environment light (`envlight`): radiance arriving from every direction that
-    /// leaves the scene. None: black.
-    pub environment: Option<Vec3>,
+    /// The environment light (`envlight`, `envmap`). None: black.
+    pub environment: Option<Environment>,
+    /// The textures materials refer to.
+    pub textures: Vec<Texture>,
 }
 
 impl Default for Scene {
@@ -306,6 +393,7 @@ impl Default for Scene {
             quad_lights: Vec::new(),
             delta_lights: Vec::new(),
             environment: None,
+            textures: Vec::new(),
         }
     }
 }

@@ -6,13 +6,15 @@
 //! Material state is sticky; identical materials share one index.
 
 use super::{
-    BsdfKind, Camera, DeltaLight, IntegratorKind, Material, NextEventEstimation, QuadLight,
-    SampleMode, Scene, Sphere, Triangle,
+    BsdfKind, Camera, DeltaLight, Environment, EnvironmentMap, IntegratorKind, Material,
+    NextEventEstimation, QuadLight, SampleMode, Scene, Sphere, Texture, Triangle, UV_MAPPING,
 };
-use glam::{Mat4, Vec3};
+use crate::texture::{load_image, EnvMapping, Encoding};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::collections::HashMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Why a scene could not be parsed.
 ///
@@ -242,6 +244,12 @@ const COMMANDS: &[(&str, &str)] = &[
     ("mmltsigma", "s"),
     ("mmltlargestep", "p"),
     ("obj", "FILE"),
+    ("texture", "FILE|none [srgb|linear]"),
+    ("roughnesstexture", "FILE|none [srgb|linear]"),
+    ("checkerboard", "r g b r g b su sv"),
+    ("reflectance", "r g b"),
+    ("envmap", "FILE SCALE"),
+    ("envmapsquare", "FILE SCALE"),
 ];
 
 /// The most arguments any command takes (`quadLight`).
@@ -470,6 +478,8 @@ struct Parser {
     material_lookup: HashMap<MaterialKey, u32>,
     /// The directory `obj` paths are relative to.
     base: PathBuf,
+    /// Image textures already read: (path, encoding) to their texture index.
+    image_textures: HashMap<(PathBuf, Encoding), u32>,
 }
 
 impl Default for Parser {
@@ -483,6 +493,7 @@ impl Default for Parser {
             material_index: None,
             material_lookup: HashMap::new(),
             base: PathBuf::new(),
+            image_textures: HashMap::new(),
         }
     }
 }
@@ -687,7 +698,53 @@ impl Parser {
             }
             "envlight" => {
                 let radiance = cmd.color(0, "the environment radiance")?;
-                self.scene.environment = Some(radiance);
+                self.scene.environment = Some(Environment {
+                    radiance,
+                    map: None,
+                });
+            }
+            "envmap" => self.envmap(cmd, EnvMapping::LatLong)?,
+            "envmapsquare" => self.envmap(cmd, EnvMapping::EqualArea)?,
+            "texture" => {
+                let texture = self.image_texture_argument(cmd)?;
+                self.set_material(|m| m.diffuse_texture = texture);
+            }
+            "roughnesstexture" => {
+                let texture = self.image_texture_argument(cmd)?;
+                self.set_material(|m| m.roughness_texture = texture);
+            }
+            "checkerboard" => {
+                let even = cmd.color(0, "the first colour")?;
+                let odd = cmd.color(3, "the second colour")?;
+                let su = cmd.float(6)?;
+                let sv = cmd.float(7)?;
+                self.scene.textures.push(Texture::Checkerboard {
+                    even,
+                    odd,
+                    mapping: [su, sv, 0.0, 0.0],
+                });
+                let index = (self.scene.textures.len() - 1) as u32;
+                self.set_material(|m| m.diffuse_texture = Some(index));
+            }
+            "reflectance" => {
+                // pbrt-v4's conductor from a reflectance r: eta = 1 and k = 2 sqrt(r) /
+                // sqrt(1 - r), whose normal-incidence Fresnel reflectance is r.
+                let r = cmd.color(0, "the reflectance")?;
+                if r.max_element() >= 1.0 {
+                    return Err(cmd.error(format!(
+                        "the reflectance must be below 1 in every channel, got ({}, {}, {})",
+                        r.x, r.y, r.z
+                    )));
+                }
+                let k = Vec3::new(
+                    2.0 * r.x.sqrt() / (1.0 - r.x).sqrt(),
+                    2.0 * r.y.sqrt() / (1.0 - r.y).sqrt(),
+                    2.0 * r.z.sqrt() / (1.0 - r.z).sqrt(),
+                );
+                self.set_material(|m| {
+                    m.eta = Vec3::ONE;
+                    m.k = k;
+                });
             }
             "integrator" => {
                 let name = cmd.args[0];
@@ -764,7 +821,7 @@ impl Parser {
             *corner = self.transform.transform_point3(vertex);
         }
         let material = self.current_material();
-        self.scene.triangles.push(Triangle { v, material });
+        self.scene.triangles.push(Triangle::new(v, material));
         Ok(())
     }
 
@@ -780,9 +837,9 @@ impl Parser {
         }
         let options = tobj::LoadOptions {
             triangulate: true,
+            single_index: true,
             ignore_points: true,
             ignore_lines: true,
-            ..Default::default()
         };
         let (models, _materials) = tobj::load_obj_buf(&mut text.as_bytes(), &options, |_| {
             Err(tobj::LoadError::OpenFileFailed)
@@ -790,28 +847,133 @@ impl Parser {
         .map_err(|e| cmd.error(format!("OBJ file {}: {e}", path.display())))?;
         let material = self.current_material();
         let before = self.scene.triangles.len();
+        // Normals transform by the inverse transpose.
+        let normal_matrix = Mat3::from_mat4(self.transform).inverse().transpose();
+        let missing = || {
+            cmd.error(format!(
+                "OBJ file {}: a face refers to a missing vertex",
+                path.display()
+            ))
+        };
         for model in &models {
-            let p = &model.mesh.positions;
-            for face in model.mesh.indices.chunks_exact(3) {
+            let mesh = &model.mesh;
+            let has_uv = !mesh.texcoords.is_empty();
+            let has_n = !mesh.normals.is_empty();
+            for face in mesh.indices.chunks_exact(3) {
                 let mut v = [Vec3::ZERO; 3];
-                for (corner, &i) in v.iter_mut().zip(face) {
-                    let i = i as usize * 3;
-                    let Some(xyz) = p.get(i..i + 3) else {
-                        return Err(cmd.error(format!(
-                            "OBJ file {}: a face refers to a missing vertex",
-                            path.display()
-                        )));
-                    };
-                    *corner = self
+                let mut uv = [Vec2::ZERO; 3];
+                let mut n = [Vec3::ZERO; 3];
+                for (corner, &i) in face.iter().enumerate() {
+                    let i = i as usize;
+                    let xyz = mesh.positions.get(3 * i..3 * i + 3).ok_or_else(missing)?;
+                    v[corner] = self
                         .transform
                         .transform_point3(Vec3::new(xyz[0], xyz[1], xyz[2]));
+                    if has_uv {
+                        let t = mesh.texcoords.get(2 * i..2 * i + 2).ok_or_else(missing)?;
+                        uv[corner] = Vec2::new(t[0], t[1]);
+                    }
+                    if has_n {
+                        let m = mesh.normals.get(3 * i..3 * i + 3).ok_or_else(missing)?;
+                        n[corner] = (normal_matrix * Vec3::new(m[0], m[1], m[2]))
+                            .try_normalize()
+                            .unwrap_or(Vec3::ZERO);
+                    }
                 }
-                self.scene.triangles.push(Triangle { v, material });
+                let mut t = Triangle::new(v, material);
+                t.uv = has_uv.then_some(uv);
+                // A zero normal (a "vn 0 0 0") leaves the face flat.
+                t.normals = (has_n && n.iter().all(|x| *x != Vec3::ZERO)).then_some(n);
+                self.scene.triangles.push(t.facing_its_normals());
             }
         }
         if self.scene.triangles.len() == before {
             return Err(cmd.error(format!("OBJ file {} has no faces", path.display())));
         }
+        Ok(())
+    }
+
+    /// `texture FILE|none [srgb|linear]` and `roughnesstexture`: the texture index of
+    /// the image (read once per file and encoding), or None.
+    fn image_texture_argument(&mut self, cmd: &Command) -> Result<Option<u32>, ParseError> {
+        if cmd.args[0] == "none" {
+            if cmd.count > 1 {
+                return Err(cmd.error("'none' takes no encoding"));
+            }
+            return Ok(None);
+        }
+        let encoding = match (cmd.count > 1).then_some(cmd.args[1]) {
+            None | Some("srgb") => Encoding::Srgb,
+            Some("linear") => Encoding::Linear,
+            Some(other) => {
+                return Err(cmd.error(format!(
+                    "argument 2: expected 'srgb' or 'linear', got '{other}'"
+                )))
+            }
+        };
+        let path = self.base.join(cmd.args[0]);
+        if let Some(&index) = self.image_textures.get(&(path.clone(), encoding)) {
+            return Ok(Some(index));
+        }
+        let image = load_image(&path, encoding).map_err(|e| cmd.error(e))?;
+        self.scene.textures.push(Texture::Image {
+            image: Arc::new(image),
+            scale: Vec3::ONE,
+            mapping: UV_MAPPING,
+        });
+        let index = (self.scene.textures.len() - 1) as u32;
+        self.image_textures.insert((path, encoding), index);
+        Ok(Some(index))
+    }
+
+    /// `envmap FILE SCALE` (latitude-longitude, 2:1) and `envmapsquare FILE SCALE`
+    /// (pbrt's equal-area square): the environment light, turned by the rotation of the
+    /// current transform.
+    fn envmap(&mut self, cmd: &Command, mapping: EnvMapping) -> Result<(), ParseError> {
+        let scale = cmd.float(1)?;
+        if scale < 0.0 {
+            return Err(cmd.error(format!("the scale must not be negative, got {scale}")));
+        }
+        let path = self.base.join(cmd.args[0]);
+        let image = load_image(&path, Encoding::Srgb).map_err(|e| cmd.error(e))?;
+        let (w, h) = (image.width, image.height);
+        match mapping {
+            EnvMapping::LatLong if w != 2 * h => {
+                return Err(cmd.error(format!(
+                    "{}: a latitude-longitude map is twice as wide as high, this one is {w}x{h}{}",
+                    path.display(),
+                    if w == h { " (an equal-area square map is read by 'envmapsquare')" } else { "" }
+                )))
+            }
+            EnvMapping::EqualArea if w != h => {
+                return Err(cmd.error(format!(
+                    "{}: an equal-area map is square, this one is {w}x{h}",
+                    path.display()
+                )))
+            }
+            _ => {}
+        }
+        let linear = Mat3::from_mat4(self.transform);
+        let scale_of = linear.col(0).length();
+        let rotation = linear * (1.0 / scale_of);
+        let orthonormal = (rotation.transpose() * rotation - Mat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .all(|x| x.abs() < 1e-4);
+        if !orthonormal || rotation.determinant() < 0.0 {
+            return Err(cmd.error(
+                "the current transform turns the environment map by more than a rotation \
+                 (a shear, a non-uniform scale or a mirror)",
+            ));
+        }
+        self.scene.environment = Some(Environment {
+            radiance: Vec3::splat(scale),
+            map: Some(EnvironmentMap {
+                image: Arc::new(image),
+                mapping,
+                to_world: rotation,
+            }),
+        });
         Ok(())
     }
 
@@ -868,14 +1030,8 @@ impl Parser {
         // Both triangles' geometric normals cross(v1 - v0, v2 - v0) point along
         // cross(ac, ab), the emitting side.
         let (b, c, d) = (a + ab, a + ac, a + ab + ac);
-        self.scene.triangles.push(Triangle {
-            v: [a, c, b],
-            material,
-        });
-        self.scene.triangles.push(Triangle {
-            v: [c, d, b],
-            material,
-        });
+        self.scene.triangles.push(Triangle::new([a, c, b], material));
+        self.scene.triangles.push(Triangle::new([c, d, b], material));
         Ok(())
     }
 }
@@ -1507,6 +1663,12 @@ mod tests {
         "eta 0.2 0.9 1.1",
         "k 3.9 2.4 2.1",
         "obj tests/data/tetrahedron.obj",
+        "texture tests/data/checker.png srgb",
+        "roughnesstexture tests/data/checker.png linear",
+        "checkerboard 1 1 1  0 0 0  4 4",
+        "reflectance 0.9 0.6 0.3",
+        "envmap tests/data/sky.pfm 2",
+        "envmapsquare tests/data/sky-square.pfm 2",
     ];
     const PREAMBLE: &str = "vertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\npushTransform\n";
 
@@ -1926,7 +2088,13 @@ mod tests {
             "the intensity",
         );
         let s = parse("envlight 0.5 0.6 0.7\n");
-        assert_eq!(s.environment, Some(Vec3::new(0.5, 0.6, 0.7)));
+        assert_eq!(
+            s.environment,
+            Some(Environment {
+                radiance: Vec3::new(0.5, 0.6, 0.7),
+                map: None
+            })
+        );
         check_err("envlight 1 -1 1", 1, "envlight", "must not be negative");
     }
 

@@ -1,0 +1,47 @@
+// Textures: image lookup (bilinear, wrapped) and pbrt's 2D checkerboard. CPU mirror:
+// src/texture.rs (`texture_value`).
+#ifndef TEXTURE_GLSL
+#define TEXTURE_GLSL
+#include "bindings.glsl"
+
+vec3 texel(GpuTexture t, int x, int y) {
+    uint i = t.info.y + 3u * (uint(y) * t.info.z + uint(x));
+    return vec3(texels[i], texels[i + 1u], texels[i + 2u]);
+}
+
+// The texel index of the (floored) coordinate i along a side of n texels.
+int wrap_texel(float i, int n, bool repeat) {
+    float fn = float(n);
+    if (repeat) i -= fn * floor(i / fn);
+    return clamp(int(i), 0, n - 1);
+}
+
+// The value of texture `index` at the surface coordinates uv.
+vec3 texture_value(uint index, vec2 uv) {
+    GpuTexture t = textures[index];
+    vec2 st = t.mapping.xy * uv + t.mapping.zw;
+    if (t.info.x == TEXTURE_CHECKERBOARD) {
+        float parity = mod(floor(st.x) + floor(st.y), 2.0);
+        return parity == 0.0 ? t.scale.xyz : t.other.xyz;
+    }
+    int w = int(t.info.z);
+    int h = int(t.info.w);
+    if (t.flags.y == 0u) st.y = 1.0 - st.y;
+    // Texel centres at half-integers.
+    float x = st.x * float(w) - 0.5;
+    float y = st.y * float(h) - 0.5;
+    float fx = floor(x);
+    float fy = floor(y);
+    float ax = x - fx;
+    float ay = y - fy;
+    bool repeat_u = t.flags.x != TEXTURE_WRAP_CLAMP;
+    bool repeat_v = t.flags.x == TEXTURE_WRAP_REPEAT;
+    int x0 = wrap_texel(fx, w, repeat_u);
+    int x1 = wrap_texel(fx + 1.0, w, repeat_u);
+    int y0 = wrap_texel(fy, h, repeat_v);
+    int y1 = wrap_texel(fy + 1.0, h, repeat_v);
+    vec3 top = mix(texel(t, x0, y0), texel(t, x1, y0), ax);
+    vec3 bottom = mix(texel(t, x0, y1), texel(t, x1, y1), ax);
+    return t.scale.xyz * mix(top, bottom, ay);
+}
+#endif

@@ -1,0 +1,634 @@
+//! Images read as textures and environment maps, the mappings between an environment
+//! map's (u, v) and directions, and the piecewise-constant 2D distribution that
+//! importance-samples a map. The kernels' versions are in glsl/lib/texture.glsl and
+//! glsl/lib/lights.glsl; these are their CPU mirrors and what the host builds.
+use crate::io::Image;
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+use std::path::Path;
+
+/// How the integers of an 8- or 16-bit image become linear values (float images are
+/// linear already). pbrt-v4's `imagemap` decodes them from sRGB unless told otherwise.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Encoding {
+    Srgb,
+    Linear,
+}
+
+/// The sRGB transfer function's inverse (IEC 61966-2-1).
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Reads an image file as linear RGB: PNG, TGA (8 or 16 bits, decoded per `encoding`),
+/// Radiance HDR, OpenEXR and PFM (linear floats). The error says what is wrong with the
+/// file (the caller adds where it was named).
+pub fn load_image(path: &Path, encoding: Encoding) -> Result<Image, String> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let image = match ext.as_str() {
+        "exr" => crate::io::read_exr(path).map_err(|e| format!("{e:#}"))?,
+        "pfm" => {
+            let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            read_pfm(&bytes).map_err(|e| format!("{}: {e}", path.display()))?
+        }
+        "png" | "tga" | "hdr" => {
+            let img = image::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let integer = !matches!(
+                img.color(),
+                image::ColorType::Rgb32F | image::ColorType::Rgba32F
+            );
+            let rgb = img.to_rgb32f();
+            let decode = |c: f32| {
+                if integer && encoding == Encoding::Srgb {
+                    srgb_to_linear(c)
+                } else {
+                    c
+                }
+            };
+            Image {
+                width: rgb.width(),
+                height: rgb.height(),
+                pixels: rgb
+                    .pixels()
+                    .map(|p| [decode(p[0]), decode(p[1]), decode(p[2])])
+                    .collect(),
+            }
+        }
+        _ => {
+            return Err(format!(
+                "{}: unsupported image format (expected .png, .tga, .hdr, .exr or .pfm)",
+                path.display()
+            ))
+        }
+    };
+    if image.width == 0 || image.height == 0 {
+        return Err(format!("{}: the image is empty", path.display()));
+    }
+    if let Some(bad) = image.pixels.iter().flatten().find(|c| !c.is_finite() || **c < 0.0) {
+        return Err(format!(
+            "{}: pixel values must be finite and not negative, found {bad}",
+            path.display()
+        ));
+    }
+    Ok(image)
+}
+
+/// A Portable Float Map: "PF" (RGB) or "Pf" (grey), width and height, a scale whose sign
+/// is the byte order (negative: little-endian), then rows of 32-bit floats from the
+/// bottom of the image up.
+pub fn read_pfm(bytes: &[u8]) -> Result<Image, String> {
+    let mut pos = 0;
+    let mut token = || -> Result<String, String> {
+        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        let start = pos;
+        while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        if start == pos {
+            return Err("truncated PFM header".into());
+        }
+        let t = String::from_utf8_lossy(&bytes[start..pos]).to_string();
+        pos += 1; // the single whitespace byte after each header field
+        Ok(t)
+    };
+    let channels = match token()?.as_str() {
+        "PF" => 3,
+        "Pf" => 1,
+        other => return Err(format!("not a PFM file (magic '{other}')")),
+    };
+    let width: usize = token()?.parse().map_err(|_| "bad PFM width")?;
+    let height: usize = token()?.parse().map_err(|_| "bad PFM height")?;
+    let scale: f32 = token()?.parse().map_err(|_| "bad PFM scale")?;
+    if scale == 0.0 || !scale.is_finite() {
+        return Err("bad PFM scale".into());
+    }
+    let little = scale < 0.0;
+    let count = width
+        .checked_mul(height)
+        .and_then(|n| n.checked_mul(channels * 4))
+        .ok_or("PFM too large")?;
+    let data = bytes.get(pos..pos + count).ok_or_else(|| {
+        format!("truncated PFM data: {width}x{height} needs {count} bytes")
+    })?;
+    let value = |i: usize| {
+        let b = [data[4 * i], data[4 * i + 1], data[4 * i + 2], data[4 * i + 3]];
+        if little {
+            f32::from_le_bytes(b)
+        } else {
+            f32::from_be_bytes(b)
+        }
+    };
+    let mut pixels = vec![[0.0; 3]; width * height];
+    for y in 0..height {
+        let row = height - 1 - y; // the file starts at the bottom row
+        for x in 0..width {
+            let i = (y * width + x) * channels;
+            pixels[row * width + x] = if channels == 3 {
+                [value(i), value(i + 1), value(i + 2)]
+            } else {
+                [value(i); 3]
+            };
+        }
+    }
+    Ok(Image {
+        width: width as u32,
+        height: height as u32,
+        pixels,
+    })
+}
+
+/// Bilinear lookup of `image` at (x, y) in [0,1]² from its top-left corner (texel
+/// centres at half-integers of x·width, y·height), repeating or clamping at each side.
+pub fn bilinear(image: &Image, p: Vec2, repeat_x: bool, repeat_y: bool) -> Vec3 {
+    let (w, h) = (image.width as i64, image.height as i64);
+    let wrap = |i: f32, n: i64, repeat: bool| -> usize {
+        let i = if repeat { i - n as f32 * (i / n as f32).floor() } else { i };
+        (i as i64).clamp(0, n - 1) as usize
+    };
+    let x = p.x * w as f32 - 0.5;
+    let y = p.y * h as f32 - 0.5;
+    let (fx, fy) = (x.floor(), y.floor());
+    let (ax, ay) = (x - fx, y - fy);
+    let at = |i: f32, j: f32| {
+        let c = image.pixels[wrap(j, h, repeat_y) * w as usize + wrap(i, w, repeat_x)];
+        Vec3::from_array(c)
+    };
+    let top = at(fx, fy).lerp(at(fx + 1.0, fy), ax);
+    let bottom = at(fx, fy + 1.0).lerp(at(fx + 1.0, fy + 1.0), ax);
+    top.lerp(bottom, ay)
+}
+
+/// CPU mirror of texture.glsl's `texture_value`: the texture at surface coordinates uv.
+pub fn texture_value(t: &crate::scene::Texture, uv: Vec2) -> Vec3 {
+    use crate::scene::Texture;
+    let st = |m: &[f32; 4]| Vec2::new(m[0] * uv.x + m[2], m[1] * uv.y + m[3]);
+    match t {
+        Texture::Checkerboard { even, odd, mapping } => {
+            let st = st(mapping);
+            if (st.x.floor() + st.y.floor()).rem_euclid(2.0) == 0.0 {
+                *even
+            } else {
+                *odd
+            }
+        }
+        Texture::Image {
+            image,
+            scale,
+            mapping,
+        } => {
+            let st = st(mapping);
+            *scale * bilinear(image, Vec2::new(st.x, 1.0 - st.y), true, true)
+        }
+    }
+}
+
+/// CPU mirror of lights.glsl's `environment_radiance`: radiance arriving along -dir.
+pub fn environment_radiance(env: &crate::scene::Environment, dir: Vec3) -> Vec3 {
+    let Some(map) = &env.map else {
+        return env.radiance;
+    };
+    let local = map.to_world.transpose() * dir;
+    let uv = map.mapping.uv(local);
+    let repeat_x = map.mapping == EnvMapping::LatLong;
+    env.radiance * bilinear(&map.image, uv, repeat_x, false)
+}
+
+/// How an environment map's (u, v) in [0,1]² (u to the right, v down from the top row)
+/// covers the sphere of directions, in the map's own frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EnvMapping {
+    /// Latitude-longitude (2:1), +y up: v = θ/π from +y; u = 1/2 looks along -z and u
+    /// grows toward +x (so the default camera sees the map unmirrored, its centre ahead).
+    LatLong,
+    /// pbrt-v4's equal-area square (Clarberg's octahedral map), +z at the centre.
+    EqualArea,
+}
+
+impl EnvMapping {
+    pub fn code(self) -> u32 {
+        match self {
+            EnvMapping::LatLong => crate::abi::ENV_MAPPING_LATLONG,
+            EnvMapping::EqualArea => crate::abi::ENV_MAPPING_EQUAL_AREA,
+        }
+    }
+
+    /// The unit direction of the map point uv.
+    pub fn direction(self, uv: Vec2) -> Vec3 {
+        match self {
+            EnvMapping::LatLong => {
+                let theta = PI * uv.y;
+                let phi = 2.0 * PI * (uv.x - 0.5);
+                let s = theta.sin();
+                Vec3::new(s * phi.sin(), theta.cos(), -s * phi.cos())
+            }
+            EnvMapping::EqualArea => equal_area_square_to_sphere(uv),
+        }
+    }
+
+    /// The map point of the unit direction d (the inverse of `direction`).
+    pub fn uv(self, d: Vec3) -> Vec2 {
+        match self {
+            EnvMapping::LatLong => {
+                let v = d.y.clamp(-1.0, 1.0).acos() / PI;
+                let u = d.x.atan2(-d.z) / (2.0 * PI) + 0.5;
+                Vec2::new(u, v)
+            }
+            EnvMapping::EqualArea => equal_area_sphere_to_square(d),
+        }
+    }
+
+    /// dω/d(u v): the solid angle per unit of map area at uv; 0 within 1e-4 rad of a
+    /// latitude-longitude map's poles, which the kernels leave to BSDF sampling (the
+    /// density of a direction sampled there, 1/sin θ, overflows the MIS sums).
+    pub fn jacobian(self, uv: Vec2) -> f32 {
+        match self {
+            EnvMapping::LatLong => {
+                let s = (PI * uv.y).sin();
+                if s > 1e-4 {
+                    2.0 * PI * PI * s
+                } else {
+                    0.0
+                }
+            }
+            EnvMapping::EqualArea => 4.0 * PI,
+        }
+    }
+}
+
+/// The equal-area map from the square to the sphere: the square's diamond (|x|+|y| < 1
+/// in [-1,1]²) covers z > 0, its corners z < 0; the distance from the diagonal sets z,
+/// the position along it the azimuth, so equal areas map to equal solid angles.
+pub fn equal_area_square_to_sphere(p: Vec2) -> Vec3 {
+    let u = 2.0 * p.x - 1.0;
+    let v = 2.0 * p.y - 1.0;
+    let (au, av) = (u.abs(), v.abs());
+    let signed = 1.0 - (au + av);
+    let r = 1.0 - signed.abs();
+    let phi = if r == 0.0 { 1.0 } else { (av - au) / r + 1.0 } * PI / 4.0;
+    let z = (1.0 - r * r).copysign(signed);
+    let s = r * (2.0 - r * r).max(0.0).sqrt();
+    Vec3::new(phi.cos().copysign(u) * s, phi.sin().copysign(v) * s, z)
+}
+
+/// The inverse of [`equal_area_square_to_sphere`].
+pub fn equal_area_sphere_to_square(d: Vec3) -> Vec2 {
+    let (x, y, z) = (d.x.abs(), d.y.abs(), d.z.abs());
+    let r = (1.0 - z).max(0.0).sqrt();
+    let a = x.max(y);
+    let b = if a == 0.0 { 0.0 } else { x.min(y) / a };
+    let mut phi = b.atan() * 2.0 / PI;
+    if x < y {
+        phi = 1.0 - phi;
+    }
+    let mut v = phi * r;
+    let mut u = r - v;
+    if d.z < 0.0 {
+        std::mem::swap(&mut u, &mut v);
+        u = 1.0 - u;
+        v = 1.0 - v;
+    }
+    Vec2::new(0.5 * (u.copysign(d.x) + 1.0), 0.5 * (v.copysign(d.y) + 1.0))
+}
+
+/// A piecewise-constant distribution over [0,1]² on a width × height grid (row 0 at
+/// v = 0): a marginal CDF over rows and one CDF per row. Sampling and the pdf both read
+/// only the CDFs (a cell's probability is a difference of two entries), so the pdf a
+/// sample reports is exactly the density it was drawn with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Distribution2D {
+    pub width: usize,
+    pub height: usize,
+    /// height + 1 entries, 0 .. 1.
+    pub marginal: Vec<f32>,
+    /// height rows of width + 1 entries, each 0 .. 1.
+    pub conditional: Vec<f32>,
+}
+
+fn cdf_of(f: &[f64]) -> (Vec<f32>, f64) {
+    let total: f64 = f.iter().sum();
+    let mut cdf = Vec::with_capacity(f.len() + 1);
+    cdf.push(0.0);
+    let mut acc = 0.0;
+    for (i, &x) in f.iter().enumerate() {
+        acc += x;
+        cdf.push(if i + 1 == f.len() {
+            1.0
+        } else if total > 0.0 {
+            (acc / total) as f32
+        } else {
+            (i + 1) as f32 / f.len() as f32
+        });
+    }
+    (cdf, total)
+}
+
+/// The last i in 0..n with cdf[i] <= u (cdf has n + 1 entries, cdf[0] = 0).
+fn find_interval(cdf: &[f32], u: f32) -> usize {
+    let (mut lo, mut hi) = (0usize, cdf.len() - 2);
+    while lo < hi {
+        let mid = (lo + hi + 1) / 2;
+        if cdf[mid] <= u {
+            lo = mid;
+        } else {
+            hi = mid - 1;
+        }
+    }
+    lo
+}
+
+impl Distribution2D {
+    /// From non-negative cell weights, row-major.
+    pub fn new(weights: &[f32], width: usize, height: usize) -> Distribution2D {
+        assert_eq!(weights.len(), width * height);
+        let mut conditional = Vec::with_capacity(height * (width + 1));
+        let mut rows = Vec::with_capacity(height);
+        for y in 0..height {
+            let row: Vec<f64> = weights[y * width..(y + 1) * width]
+                .iter()
+                .map(|&w| w.max(0.0) as f64)
+                .collect();
+            let (cdf, total) = cdf_of(&row);
+            conditional.extend(cdf);
+            rows.push(total);
+        }
+        let (marginal, _) = cdf_of(&rows);
+        Distribution2D {
+            width,
+            height,
+            marginal,
+            conditional,
+        }
+    }
+
+    fn row(&self, y: usize) -> &[f32] {
+        &self.conditional[y * (self.width + 1)..(y + 1) * (self.width + 1)]
+    }
+
+    /// A point of [0,1]² for uniforms u, with its density (0 when the cell has none).
+    pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
+        let y = find_interval(&self.marginal, u.y);
+        let (m0, m1) = (self.marginal[y], self.marginal[y + 1]);
+        let row = self.row(y);
+        let x = find_interval(row, u.x);
+        let (c0, c1) = (row[x], row[x + 1]);
+        let fy = if m1 > m0 { ((u.y - m0) / (m1 - m0)).clamp(0.0, 1.0) } else { 0.5 };
+        let fx = if c1 > c0 { ((u.x - c0) / (c1 - c0)).clamp(0.0, 1.0) } else { 0.5 };
+        let p = Vec2::new(
+            ((x as f32 + fx) / self.width as f32).min(1.0 - f32::EPSILON / 2.0),
+            ((y as f32 + fy) / self.height as f32).min(1.0 - f32::EPSILON / 2.0),
+        );
+        (p, (m1 - m0) * (c1 - c0) * (self.width * self.height) as f32)
+    }
+
+    /// The density at the point p of [0,1]².
+    pub fn pdf(&self, p: Vec2) -> f32 {
+        let x = ((p.x * self.width as f32) as usize).min(self.width - 1);
+        let y = ((p.y * self.height as f32) as usize).min(self.height - 1);
+        let row = self.row(y);
+        (self.marginal[y + 1] - self.marginal[y])
+            * (row[x + 1] - row[x])
+            * (self.width * self.height) as f32
+    }
+}
+
+/// The sampling weights of an environment map: each pixel's mean channel, dilated to the
+/// largest of its 3×3 neighbourhood (so every direction that bilinear lookup gives
+/// radiance has density), times the mapping's solid angle per pixel.
+pub fn environment_weights(image: &Image, mapping: EnvMapping) -> Vec<f32> {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let mean = |x: usize, y: usize| {
+        let p = image.pixels[y * w + x];
+        (p[0] + p[1] + p[2]) / 3.0
+    };
+    let mut weights = vec![0.0; w * h];
+    for y in 0..h {
+        let jac = mapping.jacobian(Vec2::new(0.5, (y as f32 + 0.5) / h as f32));
+        for x in 0..w {
+            let mut m = 0.0f32;
+            for dy in -1i64..=1 {
+                let yy = (y as i64 + dy).clamp(0, h as i64 - 1) as usize;
+                for dx in -1i64..=1 {
+                    let xx = match mapping {
+                        EnvMapping::LatLong => (x as i64 + dx).rem_euclid(w as i64) as usize,
+                        EnvMapping::EqualArea => (x as i64 + dx).clamp(0, w as i64 - 1) as usize,
+                    };
+                    m = m.max(mean(xx, yy));
+                }
+            }
+            weights[y * w + x] = m * jac;
+        }
+    }
+    weights
+}
+
+/// The radiance of the map averaged over the sphere of directions (each pixel weighted
+/// by its solid angle), for the light's power.
+pub fn environment_mean(image: &Image, mapping: EnvMapping) -> Vec3 {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let mut sum = [0.0f64; 3];
+    let mut total = 0.0f64;
+    for y in 0..h {
+        let jac = mapping.jacobian(Vec2::new(0.5, (y as f32 + 0.5) / h as f32)) as f64;
+        for x in 0..w {
+            let p = image.pixels[y * w + x];
+            for c in 0..3 {
+                sum[c] += p[c] as f64 * jac;
+            }
+            total += jac;
+        }
+    }
+    if total == 0.0 {
+        return Vec3::ZERO;
+    }
+    Vec3::new(
+        (sum[0] / total) as f32,
+        (sum[1] / total) as f32,
+        (sum[2] / total) as f32,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rng(state: &mut u64) -> f32 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*state >> 40) as f32) / (1u64 << 24) as f32
+    }
+
+    #[test]
+    fn the_mappings_invert_exactly() {
+        let mut s = 7u64;
+        for mapping in [EnvMapping::LatLong, EnvMapping::EqualArea] {
+            for _ in 0..20_000 {
+                let uv = Vec2::new(rng(&mut s), rng(&mut s).clamp(1e-4, 1.0 - 1e-4));
+                let d = mapping.direction(uv);
+                assert!((d.length() - 1.0).abs() < 1e-5, "{mapping:?} {uv} -> {d}");
+                let back = mapping.uv(d);
+                let mut du = (back.x - uv.x).abs();
+                if mapping == EnvMapping::LatLong {
+                    du = du.min(1.0 - du); // u wraps
+                }
+                assert!(
+                    du < 2e-4 && (back.y - uv.y).abs() < 2e-4,
+                    "{mapping:?}: {uv} -> {d} -> {back}"
+                );
+                // And from the direction side.
+                let again = mapping.direction(back);
+                assert!((again - d).length() < 1e-3, "{mapping:?}: {d} -> {again}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_lat_long_map_is_oriented_as_documented() {
+        let m = EnvMapping::LatLong;
+        assert!((m.direction(Vec2::new(0.5, 0.5)) - Vec3::NEG_Z).length() < 1e-6);
+        assert!((m.direction(Vec2::new(0.75, 0.5)) - Vec3::X).length() < 1e-6);
+        assert!((m.direction(Vec2::new(0.25, 0.5)) - Vec3::NEG_X).length() < 1e-6);
+        assert!((m.direction(Vec2::new(0.0, 0.5)) - Vec3::Z).length() < 1e-6);
+        assert!((m.direction(Vec2::new(0.3, 0.0)) - Vec3::Y).length() < 1e-6);
+        assert!((m.direction(Vec2::new(0.3, 1.0)) - Vec3::NEG_Y).length() < 1e-6);
+        let e = EnvMapping::EqualArea;
+        assert!((e.direction(Vec2::new(0.5, 0.5)) - Vec3::Z).length() < 1e-6);
+        assert!((e.direction(Vec2::new(0.0, 0.0)) - Vec3::NEG_Z).length() < 1e-6);
+        assert!((e.direction(Vec2::new(1.0, 0.5)) - Vec3::X).length() < 1e-6);
+    }
+
+    /// The Jacobians are right: ∫ jacobian du dv over the square is 4π, and the
+    /// equal-area map's cells all cover the same solid angle (checked by the spread of
+    /// directions of cells' corners: the area of a cell's spherical quad).
+    #[test]
+    fn the_jacobians_integrate_to_the_sphere() {
+        for mapping in [EnvMapping::LatLong, EnvMapping::EqualArea] {
+            let n = 400;
+            let mut sum = 0.0f64;
+            for j in 0..n {
+                for i in 0..n {
+                    let uv = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    sum += mapping.jacobian(uv) as f64 / (n * n) as f64;
+                }
+            }
+            assert!((sum - 4.0 * std::f64::consts::PI).abs() < 1e-3, "{mapping:?}: {sum}");
+        }
+        // Equal area: a cell's solid angle by the triangle-fan area of its corners.
+        let m = EnvMapping::EqualArea;
+        let n = 16;
+        let tri = |a: Vec3, b: Vec3, c: Vec3| {
+            // Van Oosterom & Strackee.
+            let num = a.dot(b.cross(c)).abs();
+            let den = 1.0 + a.dot(b) + b.dot(c) + c.dot(a);
+            2.0 * num.atan2(den)
+        };
+        for j in 0..n {
+            for i in 0..n {
+                // Subdivide each cell finely so the spherical quad is well approximated.
+                let k = 8;
+                let mut area = 0.0;
+                for b in 0..k {
+                    for a in 0..k {
+                        let p = |da: usize, db: usize| {
+                            m.direction(Vec2::new(
+                                (i as f32 + (a + da) as f32 / k as f32) / n as f32,
+                                (j as f32 + (b + db) as f32 / k as f32) / n as f32,
+                            ))
+                        };
+                        area += tri(p(0, 0), p(1, 0), p(1, 1)) + tri(p(0, 0), p(1, 1), p(0, 1));
+                    }
+                }
+                let expected = 4.0 * PI / (n * n) as f32;
+                assert!(
+                    (area - expected).abs() < 0.02 * expected,
+                    "cell ({i},{j}): {area} vs {expected}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn distribution_samples_follow_their_pdf() {
+        let (w, h) = (7, 5);
+        let weights: Vec<f32> = (0..w * h)
+            .map(|i| if i % 6 == 0 { 0.0 } else { (i % 5) as f32 + 0.5 })
+            .collect();
+        let d = Distribution2D::new(&weights, w, h);
+        let total: f32 = weights.iter().sum();
+        let mut counts = vec![0u32; w * h];
+        let mut s = 3u64;
+        let n = 200_000;
+        for _ in 0..n {
+            let (p, pdf) = d.sample(Vec2::new(rng(&mut s), rng(&mut s)));
+            assert!((d.pdf(p) - pdf).abs() <= 1e-5 * pdf.max(1.0), "{p}: {pdf} vs {}", d.pdf(p));
+            assert!(pdf > 0.0);
+            let x = (p.x * w as f32) as usize;
+            let y = (p.y * h as f32) as usize;
+            counts[y * w + x] += 1;
+        }
+        for i in 0..w * h {
+            let expected = weights[i] / total;
+            let got = counts[i] as f32 / n as f32;
+            assert!((got - expected).abs() < 0.005, "cell {i}: {got} vs {expected}");
+            // The pdf of a cell is its share times the cell count.
+            let p = Vec2::new(((i % w) as f32 + 0.5) / w as f32, ((i / w) as f32 + 0.5) / h as f32);
+            assert!((d.pdf(p) - expected * (w * h) as f32).abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn eight_bit_images_are_decoded_from_srgb_unless_linear() {
+        let dir = std::env::temp_dir().join(format!("lightpath-srgb-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("grey.png");
+        image::save_buffer(&path, &[128, 255, 0], 1, 1, image::ExtendedColorType::Rgb8).unwrap();
+        let srgb = load_image(&path, Encoding::Srgb).unwrap().pixels[0];
+        assert!((srgb[0] - 0.215_861).abs() < 1e-4, "{srgb:?}");
+        assert_eq!((srgb[1], srgb[2]), (1.0, 0.0));
+        let linear = load_image(&path, Encoding::Linear).unwrap().pixels[0];
+        assert!((linear[0] - 128.0 / 255.0).abs() < 1e-6);
+        // Texture lookup: t = 0 is the bottom row; the image repeats.
+        let img = Image {
+            width: 2,
+            height: 2,
+            pixels: vec![[1.0; 3], [2.0; 3], [3.0; 3], [4.0; 3]],
+        };
+        let t = crate::scene::Texture::Image {
+            image: std::sync::Arc::new(img),
+            scale: Vec3::ONE,
+            mapping: crate::scene::UV_MAPPING,
+        };
+        assert_eq!(texture_value(&t, Vec2::new(0.25, 0.25)), Vec3::splat(3.0));
+        assert_eq!(texture_value(&t, Vec2::new(1.75, 0.75)), Vec3::splat(2.0));
+        assert_eq!(texture_value(&t, Vec2::new(0.5, 0.25)), Vec3::splat(3.5));
+    }
+
+    #[test]
+    fn pfm_reads_both_byte_orders_bottom_up() {
+        let mut le = b"PF\n2 1\n-1.0\n".to_vec();
+        for v in [1.0f32, 2.0, 3.0, 4.0, 5.0, 6.0] {
+            le.extend(v.to_le_bytes());
+        }
+        let img = read_pfm(&le).unwrap();
+        assert_eq!((img.width, img.height), (2, 1));
+        assert_eq!(img.pixels, vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
+        let mut be = b"Pf\n1 2\n1.0\n".to_vec();
+        for v in [7.0f32, 8.0] {
+            be.extend(v.to_be_bytes());
+        }
+        let img = read_pfm(&be).unwrap();
+        // The first row in the file is the bottom one.
+        assert_eq!(img.pixels, vec![[8.0; 3], [7.0; 3]]);
+        assert!(read_pfm(b"PF\n2 2\n-1.0\n1234").unwrap_err().contains("truncated"));
+        assert!(read_pfm(b"P6\n2 2\n").is_err());
+    }
+}

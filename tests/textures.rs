@@ -1,0 +1,303 @@
+//! Textures, texture coordinates and environment maps, on the Vulkan device (lavapipe in
+//! CI): renders whose every pixel is known from the CPU mirrors in src/texture.rs (a
+//! textured surface alone under a white environment, sampled by its cosine-weighted
+//! BSDF, renders its reflectance exactly; the environment seen directly renders its
+//! lookup), and the integrators' agreement on a textured, environment-mapped scene.
+mod common;
+
+use common::*;
+use glam::{Vec2, Vec3};
+use lightpath::gpu_scene::scene_params;
+use lightpath::io::Image;
+use lightpath::render::AccelChoice::Bvh;
+use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene};
+use lightpath::texture::{environment_radiance, texture_value};
+use std::path::PathBuf;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lightpath-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn write_pfm(path: &std::path::Path, w: u32, h: u32, f: impl Fn(u32, u32) -> [f32; 3]) {
+    let mut bytes = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
+    for y in (0..h).rev() {
+        for x in 0..w {
+            for c in f(x, y) {
+                bytes.extend(c.to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// The camera ray direction through film point (fx, fy) ∈ [0,1)² (camera.glsl's).
+fn camera_ray(s: &Scene, fx: f32, fy: f32) -> (Vec3, Vec3) {
+    let p = scene_params(s, 0);
+    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+    let (tan_half, aspect) = (p.cam_eye[3], p.cam_right[3]);
+    let sx = (2.0 * fx - 1.0) * tan_half * aspect;
+    let sy = (1.0 - 2.0 * fy) * tan_half;
+    let d = (v(p.cam_forward) + sx * v(p.cam_right) + sy * v(p.cam_up)).normalize();
+    (v(p.cam_eye), d)
+}
+
+/// Each pixel's mean of `f` over an 8 × 8 grid of camera rays through it.
+fn expected_image(s: &Scene, f: impl Fn(Vec3, Vec3) -> Vec3) -> Image {
+    let n = 8;
+    let mut pixels = Vec::new();
+    for y in 0..s.height {
+        for x in 0..s.width {
+            let mut sum = Vec3::ZERO;
+            for j in 0..n {
+                for i in 0..n {
+                    let fx = (x as f32 + (i as f32 + 0.5) / n as f32) / s.width as f32;
+                    let fy = (y as f32 + (j as f32 + 0.5) / n as f32) / s.height as f32;
+                    let (o, d) = camera_ray(s, fx, fy);
+                    sum += f(o, d);
+                }
+            }
+            pixels.push((sum / (n * n) as f32).to_array());
+        }
+    }
+    Image {
+        width: s.width,
+        height: s.height,
+        pixels,
+    }
+}
+
+/// The mean and the largest absolute per-channel difference between two images.
+fn differences(a: &Image, b: &Image) -> (f32, f32) {
+    let d: Vec<f32> = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
+        .collect();
+    (d.iter().sum::<f32>() / d.len() as f32, d.iter().fold(0.0, |m, x| m.max(*x)))
+}
+
+/// A surface alone under a white environment, depth 1, cosine-sampled: every path
+/// escapes and carries f cos / pdf = kd, so each sample is the reflectance at its uv.
+const WHITE_WORLD: &str = "envlight 1 1 1\nmaxdepth 1\nimportancesampling cosine\nnexteventestimation off\n";
+
+#[test]
+fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
+    let dir = temp_dir("texture");
+    // A 4 × 3 image of distinct colours, as an 8-bit PNG (so decoded from sRGB).
+    let colours: Vec<[u8; 3]> = (0..12u8)
+        .map(|i| [20 * i + 10, 250 - 19 * i, if i % 2 == 0 { 230 } else { 40 }])
+        .collect();
+    let png = dir.join("colours.png");
+    image::save_buffer(&png, &colours.concat(), 4, 3, image::ExtendedColorType::Rgb8).unwrap();
+    // A square facing the camera whose texture coordinates are turned a quarter and
+    // stretched (u runs down the square, v to the right, 1.5 repeats of u).
+    let obj = dir.join("square.obj");
+    std::fs::write(
+        &obj,
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n\
+         vt 1.5 0\nvt 1.5 1\nvt 0 1\nvt 0 0\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n",
+    )
+    .unwrap();
+    let s = parse(&format!(
+        "size 24 24\ncamera 0 0 2.6  0 0 0  0 1 0  40\n{WHITE_WORLD}\
+         diffuse 1 1 1\ntexture {}\nobj {}\n",
+        png.display(),
+        obj.display()
+    ));
+    let texture = s.textures[0].clone();
+    let expected = expected_image(&s, |o, d| {
+        let t = -o.z / d.z;
+        let p = o + t * d;
+        if p.x.abs() > 1.0 || p.y.abs() > 1.0 {
+            return Vec3::ONE;
+        }
+        // Bilinear in the square's corners: u = 1.5 (1 - y') , v = x' with x', y' in [0,1].
+        let (x, y) = ((p.x + 1.0) / 2.0, (p.y + 1.0) / 2.0);
+        texture_value(&texture, Vec2::new(1.5 * (1.0 - y), x))
+    });
+    let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 1, Bvh);
+    let (mean, max) = differences(&img, &expected);
+    assert!(mean < 0.01 && max < 0.1, "mean difference {mean}, largest {max}");
+}
+
+#[test]
+fn a_checkerboard_on_a_sphere_follows_pbrts_sphere_coordinates() {
+    // 3 checks around, 2 from pole to pole; the sphere turned so both poles show.
+    let s = parse(&format!(
+        "size 24 24\ncamera 0 2.2 2.2  0 0 0  0 1 0  45\n{WHITE_WORLD}\
+         checkerboard 0.9 0.2 0.1  0.1 0.3 0.8  3 2\nsphere 0 0 0 1\n"
+    ));
+    let texture = s.textures[0].clone();
+    let expected = expected_image(&s, |o, d| {
+        // Unit sphere at the origin.
+        let b = o.dot(d);
+        let disc = b * b - (o.dot(o) - 1.0);
+        if disc < 0.0 {
+            return Vec3::ONE;
+        }
+        let q = (o + (-b - disc.sqrt()) * d).normalize();
+        let mut phi = q.y.atan2(q.x);
+        if phi < 0.0 {
+            phi += 2.0 * std::f32::consts::PI;
+        }
+        let uv = Vec2::new(
+            phi / (2.0 * std::f32::consts::PI),
+            1.0 - q.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
+        );
+        texture_value(&texture, uv)
+    });
+    let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 2, Bvh);
+    let (mean, max) = differences(&img, &expected);
+    // Pixels on a check's edge see a fraction of each colour: noisier than the image.
+    assert!(mean < 0.02 && max < 0.25, "mean difference {mean}, largest {max}");
+}
+
+/// A smooth 16 × 8 map with values from 0.2 to 2.
+fn smooth_map(x: u32, y: u32) -> [f32; 3] {
+    let (u, v) = (x as f32 / 16.0, y as f32 / 8.0);
+    [
+        1.1 + 0.9 * (6.28 * u).sin(),
+        0.2 + 1.8 * v,
+        1.0 + 0.5 * (12.56 * u).cos() * (3.14 * v).sin(),
+    ]
+}
+
+#[test]
+fn environment_maps_seen_directly_are_their_lookup() {
+    let dir = temp_dir("envmap");
+    let latlong = dir.join("latlong.pfm");
+    write_pfm(&latlong, 16, 8, smooth_map);
+    let square = dir.join("square.pfm");
+    write_pfm(&square, 8, 8, |x, y| smooth_map(2 * x, y));
+    for (command, file, rotate) in [
+        ("envmap", &latlong, "rotate 0 1 0 30"),
+        ("envmap", &latlong, "rotate 1 0 0 -20"),
+        ("envmapsquare", &square, "rotate 1 0 0 -90"),
+    ] {
+        // Looking up and to the side, so the view crosses the map's seam or pole.
+        let s = parse(&format!(
+            "size 32 16\ncamera 0 0 0  -1 2 1  0 1 0  80\nmaxdepth 1\n\
+             {rotate}\n{command} {} 1.5\n",
+            file.display()
+        ));
+        let env = s.environment.clone().unwrap();
+        let expected = expected_image(&s, |_, d| environment_radiance(&env, d));
+        let img = render(&with_integrator(s, IntegratorKind::PathTracer, 64), 3, Bvh);
+        let (mean, max) = differences(&img, &expected);
+        assert!(
+            mean < 0.01 && max < 0.08,
+            "{command} ({rotate}): mean difference {mean}, largest {max}"
+        );
+    }
+}
+
+/// A checkerboard floor and a sphere of rough copper whose roughness is an image, under
+/// a map with a small bright sun: light sampling of the map alone agrees with BSDF
+/// sampling alone, and BDPT and MMLT (whose light vertices carry texture coordinates)
+/// with both.
+#[test]
+fn a_textured_scene_under_an_environment_map_agrees_across_integrators() {
+    let dir = temp_dir("envscene");
+    let map = dir.join("sky.pfm");
+    write_pfm(&map, 32, 16, |x, y| {
+        if (x as i32 - 20).abs() <= 1 && (y as i32 - 4).abs() <= 1 {
+            [40.0, 36.0, 30.0]
+        } else if y < 8 {
+            [0.3, 0.4, 0.6]
+        } else {
+            [0.2, 0.15, 0.1]
+        }
+    });
+    let roughness = dir.join("roughness.pfm");
+    write_pfm(&roughness, 4, 4, |x, y| [0.05 + 0.1 * ((x + y) % 4) as f32; 3]);
+    let s = parse(&format!(
+        "size 24 24\ncamera 0 2.5 3.5  0 0.3 0  0 1 0  45\nmaxdepth 3\n\
+         envmap {} 1\n\
+         checkerboard 0.8 0.8 0.8  0.2 0.3 0.6  6 6\n\
+         vertex -3 0 -3\nvertex -3 0 3\nvertex 3 0 3\nvertex 3 0 -3\ntri 0 1 2\ntri 0 2 3\n\
+         texture none\nbrdf conductor\nroughnesstexture {} linear\nsphere 0 0.8 0 0.8\n",
+        map.display(),
+        roughness.display()
+    ));
+    let mut mis = with_integrator(s.clone(), IntegratorKind::PathTracer, 64);
+    mis.settings.nee = NextEventEstimation::Mis;
+    let reference = estimate(&mis, 4, 3, Bvh);
+    let mut bsdf = with_integrator(s.clone(), IntegratorKind::PathTracer, 256);
+    bsdf.settings.nee = NextEventEstimation::Off;
+    assert_agree("bsdf sampling alone", &estimate(&bsdf, 4, 3, Bvh), &reference, 5.0, 0.01);
+    let mut direct = s.clone();
+    direct.settings.max_depth = 1;
+    let mut nee = with_integrator(direct.clone(), IntegratorKind::PathTracer, 64);
+    nee.settings.nee = NextEventEstimation::On;
+    let mut off = with_integrator(direct, IntegratorKind::PathTracer, 256);
+    off.settings.nee = NextEventEstimation::Off;
+    assert_agree(
+        "direct light: the map sampled alone vs bsdf sampling alone",
+        &estimate(&nee, 4, 3, Bvh),
+        &estimate(&off, 4, 3, Bvh),
+        5.0,
+        0.01,
+    );
+    let bdpt = with_integrator(s.clone(), IntegratorKind::Bdpt, 16);
+    assert_agree("bdpt", &estimate(&bdpt, 4, 3, Bvh), &reference, 5.0, 0.01);
+    let mmlt = with_mmlt(s, 64);
+    assert_agree("mmlt", &estimate(&mmlt, 4, 3, Bvh), &reference, 5.0, 0.03);
+}
+
+fn parse_error(text: &str) -> String {
+    lightpath::scene::parse_str(text, "t").unwrap_err().to_string()
+}
+
+#[test]
+fn bad_textures_and_maps_are_errors_naming_the_line() {
+    let dir = temp_dir("bad");
+    let wide = dir.join("wide.pfm");
+    write_pfm(&wide, 6, 2, |_, _| [1.0; 3]);
+    let square = dir.join("square.pfm");
+    write_pfm(&square, 4, 4, |_, _| [1.0; 3]);
+    let negative = dir.join("negative.pfm");
+    write_pfm(&negative, 4, 2, |_, _| [-1.0, 0.0, 0.0]);
+    let e = parse_error("\ntexture /nonexistent/t.png\n");
+    assert!(e.starts_with("t:2: 'texture'") && e.contains("cannot read"), "{e}");
+    let e = parse_error(&format!("envmap {} 1\n", wide.display()));
+    assert!(e.contains("twice as wide as high") && e.contains("6x2"), "{e}");
+    let e = parse_error(&format!("envmap {} 1\n", square.display()));
+    assert!(e.contains("envmapsquare"), "{e}");
+    let e = parse_error(&format!("envmapsquare {} 1\n", wide.display()));
+    assert!(e.contains("square"), "{e}");
+    let e = parse_error(&format!("envmapsquare {} -1\n", square.display()));
+    assert!(e.contains("must not be negative"), "{e}");
+    let e = parse_error(&format!("scale 1 2 1\nenvmapsquare {} 1\n", square.display()));
+    assert!(e.starts_with("t:2:") && e.contains("more than a rotation"), "{e}");
+    let e = parse_error(&format!("envmap {} 1\n", negative.display()));
+    assert!(e.contains("not negative"), "{e}");
+    let e = parse_error("texture a.pfm gamma\n");
+    assert!(e.contains("'srgb' or 'linear'"), "{e}");
+    let e = parse_error("texture a.bmp\n");
+    assert!(e.contains("unsupported image format"), "{e}");
+    let e = parse_error("reflectance 0.5 1 0.5\n");
+    assert!(e.contains("below 1"), "{e}");
+    // An environment map has no closed form for analyticdirect: refused at render time.
+    let s = parse(&format!("integrator analyticdirect\nenvmapsquare {} 1\n", square.display()));
+    let err = renderer(Bvh)
+        .render(&s, 1, &mut lightpath::trace::Trace::new())
+        .err()
+        .expect("analyticdirect refuses an environment map");
+    assert!(format!("{err:#}").contains("constant environment"), "{err:#}");
+}
+
+/// `reflectance` makes a conductor whose normal-incidence reflectance is the colour
+/// given (pbrt-v4's rule: eta 1, k = 2 sqrt(r) / sqrt(1 - r)).
+#[test]
+fn a_reflectance_conductor_reflects_its_colour_at_normal_incidence() {
+    let s = parse("brdf conductor\nreflectance 0.9 0.5 0.1\nsphere 0 0 0 1\n");
+    let m = s.materials[s.spheres[0].material as usize];
+    for c in 0..3 {
+        let (eta, k) = (m.eta[c], m.k[c]);
+        let f0 = ((eta - 1.0).powi(2) + k * k) / ((eta + 1.0).powi(2) + k * k);
+        assert!((f0 - [0.9, 0.5, 0.1][c]).abs() < 1e-5, "channel {c}: {f0}");
+    }
+}
