@@ -837,7 +837,7 @@ impl Parser {
         }
         let options = tobj::LoadOptions {
             triangulate: true,
-            single_index: true,
+            single_index: false,
             ignore_points: true,
             ignore_lines: true,
         };
@@ -857,9 +857,12 @@ impl Parser {
         };
         for model in &models {
             let mesh = &model.mesh;
-            let has_uv = !mesh.texcoords.is_empty();
-            let has_n = !mesh.normals.is_empty();
-            for face in mesh.indices.chunks_exact(3) {
+            // Texture coordinates and normals are used when every corner of the model has
+            // them (tobj's per-corner index lists are then as long as its positions').
+            let corners = mesh.indices.len();
+            let has_uv = mesh.texcoord_indices.len() == corners && !mesh.texcoords.is_empty();
+            let has_n = mesh.normal_indices.len() == corners && !mesh.normals.is_empty();
+            for (f, face) in mesh.indices.chunks_exact(3).enumerate() {
                 let mut v = [Vec3::ZERO; 3];
                 let mut uv = [Vec2::ZERO; 3];
                 let mut n = [Vec3::ZERO; 3];
@@ -869,12 +872,15 @@ impl Parser {
                     v[corner] = self
                         .transform
                         .transform_point3(Vec3::new(xyz[0], xyz[1], xyz[2]));
+                    let k = 3 * f + corner;
                     if has_uv {
-                        let t = mesh.texcoords.get(2 * i..2 * i + 2).ok_or_else(missing)?;
+                        let j = mesh.texcoord_indices[k] as usize;
+                        let t = mesh.texcoords.get(2 * j..2 * j + 2).ok_or_else(missing)?;
                         uv[corner] = Vec2::new(t[0], t[1]);
                     }
                     if has_n {
-                        let m = mesh.normals.get(3 * i..3 * i + 3).ok_or_else(missing)?;
+                        let j = mesh.normal_indices[k] as usize;
+                        let m = mesh.normals.get(3 * j..3 * j + 3).ok_or_else(missing)?;
                         n[corner] = (normal_matrix * Vec3::new(m[0], m[1], m[2]))
                             .try_normalize()
                             .unwrap_or(Vec3::ZERO);
