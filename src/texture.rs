@@ -35,11 +35,13 @@ pub fn load_image(path: &Path, encoding: Encoding) -> Result<Image, String> {
     let image = match ext.as_str() {
         "exr" => crate::io::read_exr(path).map_err(|e| format!("{e:#}"))?,
         "pfm" => {
-            let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let bytes =
+                std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
             read_pfm(&bytes).map_err(|e| format!("{}: {e}", path.display()))?
         }
         "png" | "tga" | "hdr" => {
-            let img = image::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let img =
+                image::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
             let integer = !matches!(
                 img.color(),
                 image::ColorType::Rgb32F | image::ColorType::Rgba32F
@@ -71,7 +73,12 @@ pub fn load_image(path: &Path, encoding: Encoding) -> Result<Image, String> {
     if image.width == 0 || image.height == 0 {
         return Err(format!("{}: the image is empty", path.display()));
     }
-    if let Some(bad) = image.pixels.iter().flatten().find(|c| !c.is_finite() || **c < 0.0) {
+    if let Some(bad) = image
+        .pixels
+        .iter()
+        .flatten()
+        .find(|c| !c.is_finite() || **c < 0.0)
+    {
         return Err(format!(
             "{}: pixel values must be finite and not negative, found {bad}",
             path.display()
@@ -116,11 +123,16 @@ pub fn read_pfm(bytes: &[u8]) -> Result<Image, String> {
         .checked_mul(height)
         .and_then(|n| n.checked_mul(channels * 4))
         .ok_or("PFM too large")?;
-    let data = bytes.get(pos..pos + count).ok_or_else(|| {
-        format!("truncated PFM data: {width}x{height} needs {count} bytes")
-    })?;
+    let data = bytes
+        .get(pos..pos + count)
+        .ok_or_else(|| format!("truncated PFM data: {width}x{height} needs {count} bytes"))?;
     let value = |i: usize| {
-        let b = [data[4 * i], data[4 * i + 1], data[4 * i + 2], data[4 * i + 3]];
+        let b = [
+            data[4 * i],
+            data[4 * i + 1],
+            data[4 * i + 2],
+            data[4 * i + 3],
+        ];
         if little {
             f32::from_le_bytes(b)
         } else {
@@ -151,7 +163,11 @@ pub fn read_pfm(bytes: &[u8]) -> Result<Image, String> {
 pub fn bilinear(image: &Image, p: Vec2, repeat_x: bool, repeat_y: bool) -> Vec3 {
     let (w, h) = (image.width as i64, image.height as i64);
     let wrap = |i: f32, n: i64, repeat: bool| -> usize {
-        let i = if repeat { i - n as f32 * (i / n as f32).floor() } else { i };
+        let i = if repeat {
+            i - n as f32 * (i / n as f32).floor()
+        } else {
+            i
+        };
         (i as i64).clamp(0, n - 1) as usize
     };
     let x = p.x * w as f32 - 0.5;
@@ -380,8 +396,16 @@ impl Distribution2D {
         let row = self.row(y);
         let x = find_interval(row, u.x);
         let (c0, c1) = (row[x], row[x + 1]);
-        let fy = if m1 > m0 { ((u.y - m0) / (m1 - m0)).clamp(0.0, 1.0) } else { 0.5 };
-        let fx = if c1 > c0 { ((u.x - c0) / (c1 - c0)).clamp(0.0, 1.0) } else { 0.5 };
+        let fy = if m1 > m0 {
+            ((u.y - m0) / (m1 - m0)).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        let fx = if c1 > c0 {
+            ((u.x - c0) / (c1 - c0)).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
         let p = Vec2::new(
             ((x as f32 + fx) / self.width as f32).min(1.0 - f32::EPSILON / 2.0),
             ((y as f32 + fy) / self.height as f32).min(1.0 - f32::EPSILON / 2.0),
@@ -520,7 +544,10 @@ mod tests {
                     sum += mapping.jacobian(uv) as f64 / (n * n) as f64;
                 }
             }
-            assert!((sum - 4.0 * std::f64::consts::PI).abs() < 1e-3, "{mapping:?}: {sum}");
+            assert!(
+                (sum - 4.0 * std::f64::consts::PI).abs() < 1e-3,
+                "{mapping:?}: {sum}"
+            );
         }
         // Equal area: a cell's solid angle by the triangle-fan area of its corners.
         let m = EnvMapping::EqualArea;
@@ -560,7 +587,13 @@ mod tests {
     fn distribution_samples_follow_their_pdf() {
         let (w, h) = (7, 5);
         let weights: Vec<f32> = (0..w * h)
-            .map(|i| if i % 6 == 0 { 0.0 } else { (i % 5) as f32 + 0.5 })
+            .map(|i| {
+                if i % 6 == 0 {
+                    0.0
+                } else {
+                    (i % 5) as f32 + 0.5
+                }
+            })
             .collect();
         let d = Distribution2D::new(&weights, w, h);
         let total: f32 = weights.iter().sum();
@@ -569,7 +602,11 @@ mod tests {
         let n = 200_000;
         for _ in 0..n {
             let (p, pdf) = d.sample(Vec2::new(rng(&mut s), rng(&mut s)));
-            assert!((d.pdf(p) - pdf).abs() <= 1e-5 * pdf.max(1.0), "{p}: {pdf} vs {}", d.pdf(p));
+            assert!(
+                (d.pdf(p) - pdf).abs() <= 1e-5 * pdf.max(1.0),
+                "{p}: {pdf} vs {}",
+                d.pdf(p)
+            );
             assert!(pdf > 0.0);
             let x = (p.x * w as f32) as usize;
             let y = (p.y * h as f32) as usize;
@@ -578,9 +615,15 @@ mod tests {
         for i in 0..w * h {
             let expected = weights[i] / total;
             let got = counts[i] as f32 / n as f32;
-            assert!((got - expected).abs() < 0.005, "cell {i}: {got} vs {expected}");
+            assert!(
+                (got - expected).abs() < 0.005,
+                "cell {i}: {got} vs {expected}"
+            );
             // The pdf of a cell is its share times the cell count.
-            let p = Vec2::new(((i % w) as f32 + 0.5) / w as f32, ((i / w) as f32 + 0.5) / h as f32);
+            let p = Vec2::new(
+                ((i % w) as f32 + 0.5) / w as f32,
+                ((i / w) as f32 + 0.5) / h as f32,
+            );
             assert!((d.pdf(p) - expected * (w * h) as f32).abs() < 1e-4);
         }
     }
@@ -628,7 +671,9 @@ mod tests {
         let img = read_pfm(&be).unwrap();
         // The first row in the file is the bottom one.
         assert_eq!(img.pixels, vec![[8.0; 3], [7.0; 3]]);
-        assert!(read_pfm(b"PF\n2 2\n-1.0\n1234").unwrap_err().contains("truncated"));
+        assert!(read_pfm(b"PF\n2 2\n-1.0\n1234")
+            .unwrap_err()
+            .contains("truncated"));
         assert!(read_pfm(b"P6\n2 2\n").is_err());
     }
 }

@@ -20,7 +20,11 @@ fn low_poly_sphere(lon: u32, lat: u32) -> (String, Vec<[Vec3; 3]>) {
         let theta = pi * j as f32 / lat as f32;
         for i in 0..lon {
             let phi = 2.0 * pi * i as f32 / lon as f32;
-            v.push(Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+            v.push(Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            ));
         }
     }
     let at = |i: u32, j: u32| (j * lon + i % lon) as usize;
@@ -119,11 +123,12 @@ fn direct_light_on_a_smooth_shaded_mesh_follows_the_interpolated_normal() {
             }
             let wo = -d;
             let same_side = |w: Vec3| ng.dot(w) * ns.dot(w) > 0.0;
-            let value = if ng.dot(wo) > 0.0 && same_side(wo) && same_side(light) && ng.dot(light) > 0.0 {
-                0.7 / std::f32::consts::PI * 2.0 * ns.dot(light)
-            } else {
-                0.0
-            };
+            let value =
+                if ng.dot(wo) > 0.0 && same_side(wo) && same_side(light) && ng.dot(light) > 0.0 {
+                    0.7 / std::f32::consts::PI * 2.0 * ns.dot(light)
+                } else {
+                    0.0
+                };
             best = (dist, value);
         }
         best.1
@@ -156,7 +161,10 @@ fn direct_light_on_a_smooth_shaded_mesh_follows_the_interpolated_normal() {
         .collect();
     let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
     let max = diffs.iter().fold(0.0f32, |m, x| m.max(*x));
-    assert!(mean < 0.004 && max < 0.08, "mean difference {mean}, largest {max}");
+    assert!(
+        mean < 0.004 && max < 0.08,
+        "mean difference {mean}, largest {max}"
+    );
 }
 
 /// The t = 1 images (unweighted, summed over s) of a BDPT render with strategies recorded.
@@ -292,7 +300,11 @@ fn light_tracing_through_smooth_shaded_glass_matches_the_path_tracer() {
         m.emission = Vec3::ZERO;
     }
     mask_scene.settings.max_depth = 0;
-    let mask = render(&with_integrator(mask_scene, IntegratorKind::PathTracer, 16), 1, Bvh);
+    let mask = render(
+        &with_integrator(mask_scene, IntegratorKind::PathTracer, 16),
+        1,
+        Bvh,
+    );
     let keep: Vec<bool> = mask.pixels.iter().map(|p| p[0] == 0.0).collect();
     let hidden = keep.iter().filter(|k| !**k).count();
     assert!(hidden > 10 && hidden < 200, "{hidden} pixels see the glass");
@@ -318,7 +330,13 @@ fn light_tracing_through_smooth_shaded_glass_matches_the_path_tracer() {
     );
     let pt_regions: Vec<_> = pt_images.iter().map(|i| region_means(i, 3)).collect();
     let reference = estimate_from_runs(&pt_regions);
-    assert_agree("bdpt", &estimate_from_runs(&bdpt_runs), &reference, 5.0, 0.02);
+    assert_agree(
+        "bdpt",
+        &estimate_from_runs(&bdpt_runs),
+        &reference,
+        5.0,
+        0.02,
+    );
     let mmlt = with_mmlt(scene, 32);
     assert_agree("mmlt", &estimate(&mmlt, 4, 3, Bvh), &reference, 5.0, 0.03);
 }

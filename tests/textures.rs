@@ -76,12 +76,16 @@ fn differences(a: &Image, b: &Image) -> (f32, f32) {
         .zip(&b.pixels)
         .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
         .collect();
-    (d.iter().sum::<f32>() / d.len() as f32, d.iter().fold(0.0, |m, x| m.max(*x)))
+    (
+        d.iter().sum::<f32>() / d.len() as f32,
+        d.iter().fold(0.0, |m, x| m.max(*x)),
+    )
 }
 
 /// A surface alone under a white environment, depth 1, cosine-sampled: every path
 /// escapes and carries f cos / pdf = kd, so each sample is the reflectance at its uv.
-const WHITE_WORLD: &str = "envlight 1 1 1\nmaxdepth 1\nimportancesampling cosine\nnexteventestimation off\n";
+const WHITE_WORLD: &str =
+    "envlight 1 1 1\nmaxdepth 1\nimportancesampling cosine\nnexteventestimation off\n";
 
 #[test]
 fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
@@ -91,7 +95,14 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
         .map(|i| [20 * i + 10, 250 - 19 * i, if i % 2 == 0 { 230 } else { 40 }])
         .collect();
     let png = dir.join("colours.png");
-    image::save_buffer(&png, &colours.concat(), 4, 3, image::ExtendedColorType::Rgb8).unwrap();
+    image::save_buffer(
+        &png,
+        &colours.concat(),
+        4,
+        3,
+        image::ExtendedColorType::Rgb8,
+    )
+    .unwrap();
     // A square facing the camera whose texture coordinates are turned a quarter and
     // stretched (u runs down the square, v to the right, 1.5 repeats of u).
     let obj = dir.join("square.obj");
@@ -120,7 +131,10 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
     });
     let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 1, Bvh);
     let (mean, max) = differences(&img, &expected);
-    assert!(mean < 0.01 && max < 0.1, "mean difference {mean}, largest {max}");
+    assert!(
+        mean < 0.01 && max < 0.1,
+        "mean difference {mean}, largest {max}"
+    );
 }
 
 #[test]
@@ -152,7 +166,10 @@ fn a_checkerboard_on_a_sphere_follows_pbrts_sphere_coordinates() {
     let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 2, Bvh);
     let (mean, max) = differences(&img, &expected);
     // Pixels on a check's edge see a fraction of each colour: noisier than the image.
-    assert!(mean < 0.02 && max < 0.25, "mean difference {mean}, largest {max}");
+    assert!(
+        mean < 0.02 && max < 0.25,
+        "mean difference {mean}, largest {max}"
+    );
 }
 
 /// A smooth 16 × 8 map with values from 0.2 to 2.
@@ -212,7 +229,9 @@ fn a_textured_scene_under_an_environment_map_agrees_across_integrators() {
         }
     });
     let roughness = dir.join("roughness.pfm");
-    write_pfm(&roughness, 4, 4, |x, y| [0.05 + 0.1 * ((x + y) % 4) as f32; 3]);
+    write_pfm(&roughness, 4, 4, |x, y| {
+        [0.05 + 0.1 * ((x + y) % 4) as f32; 3]
+    });
     let s = parse(&format!(
         "size 24 24\ncamera 0 2.5 3.5  0 0.3 0  0 1 0  45\nmaxdepth 3\n\
          envmap {} 1\n\
@@ -227,7 +246,13 @@ fn a_textured_scene_under_an_environment_map_agrees_across_integrators() {
     let reference = estimate(&mis, 4, 3, Bvh);
     let mut bsdf = with_integrator(s.clone(), IntegratorKind::PathTracer, 256);
     bsdf.settings.nee = NextEventEstimation::Off;
-    assert_agree("bsdf sampling alone", &estimate(&bsdf, 4, 3, Bvh), &reference, 5.0, 0.01);
+    assert_agree(
+        "bsdf sampling alone",
+        &estimate(&bsdf, 4, 3, Bvh),
+        &reference,
+        5.0,
+        0.01,
+    );
     let mut direct = s.clone();
     direct.settings.max_depth = 1;
     let mut nee = with_integrator(direct.clone(), IntegratorKind::PathTracer, 64);
@@ -248,7 +273,9 @@ fn a_textured_scene_under_an_environment_map_agrees_across_integrators() {
 }
 
 fn parse_error(text: &str) -> String {
-    lightpath::scene::parse_str(text, "t").unwrap_err().to_string()
+    lightpath::scene::parse_str(text, "t")
+        .unwrap_err()
+        .to_string()
 }
 
 #[test]
@@ -261,17 +288,29 @@ fn bad_textures_and_maps_are_errors_naming_the_line() {
     let negative = dir.join("negative.pfm");
     write_pfm(&negative, 4, 2, |_, _| [-1.0, 0.0, 0.0]);
     let e = parse_error("\ntexture /nonexistent/t.png\n");
-    assert!(e.starts_with("t:2: 'texture'") && e.contains("cannot read"), "{e}");
+    assert!(
+        e.starts_with("t:2: 'texture'") && e.contains("cannot read"),
+        "{e}"
+    );
     let e = parse_error(&format!("envmap {} 1\n", wide.display()));
-    assert!(e.contains("twice as wide as high") && e.contains("6x2"), "{e}");
+    assert!(
+        e.contains("twice as wide as high") && e.contains("6x2"),
+        "{e}"
+    );
     let e = parse_error(&format!("envmap {} 1\n", square.display()));
     assert!(e.contains("envmapsquare"), "{e}");
     let e = parse_error(&format!("envmapsquare {} 1\n", wide.display()));
     assert!(e.contains("square"), "{e}");
     let e = parse_error(&format!("envmapsquare {} -1\n", square.display()));
     assert!(e.contains("must not be negative"), "{e}");
-    let e = parse_error(&format!("scale 1 2 1\nenvmapsquare {} 1\n", square.display()));
-    assert!(e.starts_with("t:2:") && e.contains("more than a rotation"), "{e}");
+    let e = parse_error(&format!(
+        "scale 1 2 1\nenvmapsquare {} 1\n",
+        square.display()
+    ));
+    assert!(
+        e.starts_with("t:2:") && e.contains("more than a rotation"),
+        "{e}"
+    );
     let e = parse_error(&format!("envmap {} 1\n", negative.display()));
     assert!(e.contains("not negative"), "{e}");
     let e = parse_error("texture a.pfm gamma\n");
@@ -281,12 +320,18 @@ fn bad_textures_and_maps_are_errors_naming_the_line() {
     let e = parse_error("reflectance 0.5 1 0.5\n");
     assert!(e.contains("below 1"), "{e}");
     // An environment map has no closed form for analyticdirect: refused at render time.
-    let s = parse(&format!("integrator analyticdirect\nenvmapsquare {} 1\n", square.display()));
+    let s = parse(&format!(
+        "integrator analyticdirect\nenvmapsquare {} 1\n",
+        square.display()
+    ));
     let err = renderer(Bvh)
         .render(&s, 1, &mut lightpath::trace::Trace::new())
         .err()
         .expect("analyticdirect refuses an environment map");
-    assert!(format!("{err:#}").contains("constant environment"), "{err:#}");
+    assert!(
+        format!("{err:#}").contains("constant environment"),
+        "{err:#}"
+    );
 }
 
 /// `reflectance` makes a conductor whose normal-incidence reflectance is the colour

@@ -9,7 +9,7 @@ use super::{
     BsdfKind, Camera, DeltaLight, Environment, EnvironmentMap, IntegratorKind, Material,
     NextEventEstimation, QuadLight, SampleMode, Scene, Sphere, Texture, Triangle, UV_MAPPING,
 };
-use crate::texture::{load_image, EnvMapping, Encoding};
+use crate::texture::{load_image, Encoding, EnvMapping};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::collections::HashMap;
 use std::fmt;
@@ -948,7 +948,11 @@ impl Parser {
                 return Err(cmd.error(format!(
                     "{}: a latitude-longitude map is twice as wide as high, this one is {w}x{h}{}",
                     path.display(),
-                    if w == h { " (an equal-area square map is read by 'envmapsquare')" } else { "" }
+                    if w == h {
+                        " (an equal-area square map is read by 'envmapsquare')"
+                    } else {
+                        ""
+                    }
                 )))
             }
             EnvMapping::EqualArea if w != h => {
@@ -1036,8 +1040,12 @@ impl Parser {
         // Both triangles' geometric normals cross(v1 - v0, v2 - v0) point along
         // cross(ac, ab), the emitting side.
         let (b, c, d) = (a + ab, a + ac, a + ab + ac);
-        self.scene.triangles.push(Triangle::new([a, c, b], material));
-        self.scene.triangles.push(Triangle::new([c, d, b], material));
+        self.scene
+            .triangles
+            .push(Triangle::new([a, c, b], material));
+        self.scene
+            .triangles
+            .push(Triangle::new([c, d, b], material));
         Ok(())
     }
 }
