@@ -57,7 +57,7 @@ fn every_integrator_and_backend_runs_clean_under_the_validation_layer() {
         s.settings.max_depth = 4;
         s.settings.integrator = IntegratorKind::Bdpt;
         r.options.bdpt.record_strategies = true;
-        r.options.bdpt.vertex_buffer_limit = Some(24 * 2 * 3 * 64);
+        r.options.bdpt.vertex_buffer_limit = Some(24 * 2 * 3 * 80);
         r.render(&s, 2, &mut Trace::new())
             .unwrap_or_else(|e| panic!("tiled BDPT with strategies {accel:?}: {e:#}"));
         r.options.bdpt.record_strategies = false;
