@@ -27,14 +27,13 @@ fn main() {
         .collect();
     kernels.sort();
 
-    let compiler = shaderc::Compiler::new().expect("shaderc compiler");
-    let mut table = String::from("/// (kernel name, backend, SPIR-V words) for every compiled kernel.\npub const KERNELS: &[(&str, &str, &[u8])] = &[\n");
-    let mut failed = false;
+    // Every (kernel, variant, backend) is one job; jobs run on all cores (optimizing the
+    // largest kernels takes minutes each), and the table lists them in a fixed order.
+    let mut jobs = Vec::new();
     for kernel in &kernels {
         println!("cargo:rerun-if-changed={}", kernel.display());
-        let name = kernel.file_stem().unwrap().to_string_lossy().to_string();
+        let base = kernel.file_stem().unwrap().to_string_lossy().to_string();
         let source = fs::read_to_string(kernel).expect("read kernel");
-        let base = name.clone();
         for (variant, variant_define) in variants(&base) {
             let name = if variant.is_empty() {
                 base.clone()
@@ -42,83 +41,67 @@ fn main() {
                 format!("{base}+{variant}")
             };
             for (suffix, define) in BACKENDS {
-                let mut options = shaderc::CompileOptions::new().expect("shaderc options");
-                options.set_target_env(
-                    shaderc::TargetEnv::Vulkan,
-                    shaderc::EnvVersion::Vulkan1_2 as u32,
-                );
-                options.set_target_spirv(shaderc::SpirvVersion::V1_5);
-                options.set_optimization_level(shaderc::OptimizationLevel::Performance);
-                options.set_generate_debug_info();
-                options.add_macro_definition(define, Some("1"));
-                if let Some(d) = variant_define {
-                    options.add_macro_definition(d, Some("1"));
-                }
-                let lib = glsl.join("lib");
-                let root_for_names = root.clone();
-                options.set_include_callback(move |requested, _kind, requester, _depth| {
-                    let requester_dir = root_for_names.join(
-                        Path::new(requester)
-                            .parent()
-                            .map(Path::to_path_buf)
-                            .unwrap_or_default(),
+                jobs.push((
+                    kernel.clone(),
+                    source.clone(),
+                    name.clone(),
+                    variant_define,
+                    suffix,
+                    define,
+                ));
+            }
+        }
+    }
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(jobs.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: Vec<std::sync::Mutex<Option<Result<Vec<u8>, String>>>> =
+        jobs.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..threads {
+            scope.spawn(|| {
+                let compiler = shaderc::Compiler::new().expect("shaderc compiler");
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some((kernel, source, _, variant_define, _, define)) = jobs.get(i) else {
+                        break;
+                    };
+                    let r = compile(
+                        &compiler,
+                        &root,
+                        &glsl,
+                        kernel,
+                        source,
+                        define,
+                        *variant_define,
                     );
-                    let candidates = [lib.join(requested), requester_dir.join(requested)];
-                    for path in candidates {
-                        if let Ok(content) = fs::read_to_string(&path) {
-                            println!("cargo:rerun-if-changed={}", path.display());
-                            // Names relative to the repository keep the SPIR-V (its debug
-                            // info) the same in every clone, so drivers' shader caches hold.
-                            let resolved_name = path
-                                .strip_prefix(&root_for_names)
-                                .unwrap_or(&path)
-                                .display()
-                                .to_string();
-                            return Ok(shaderc::ResolvedInclude {
-                                resolved_name,
-                                content,
-                            });
-                        }
-                    }
-                    Err(format!(
-                    "cannot find include '{requested}' (looked in glsl/lib and beside {requester})"
-                ))
-                });
-                match compiler.compile_into_spirv(
-                    &source,
-                    shaderc::ShaderKind::Compute,
-                    &kernel
-                        .strip_prefix(&root)
-                        .unwrap_or(kernel)
-                        .display()
-                        .to_string(),
-                    "main",
-                    Some(&options),
-                ) {
-                    Ok(artifact) => {
-                        if artifact.get_num_warnings() > 0 {
-                            for line in artifact.get_warning_messages().lines() {
-                                println!("cargo:warning={line}");
-                            }
-                        }
-                        let spv = out.join(format!("{name}.{suffix}.spv"));
-                        fs::write(&spv, artifact.as_binary_u8()).expect("write spv");
-                        table.push_str(&format!(
-                        "    ({name:?}, {suffix:?}, include_bytes!(concat!(env!(\"OUT_DIR\"), \"/{name}.{suffix}.spv\"))),\n"
-                    ));
-                    }
-                    Err(e) => {
-                        // shaderc's messages already read "file:line: error: ...".
-                        eprintln!(
-                            "GLSL error in {} ({suffix} backend):\n{e}",
-                            kernel.display()
-                        );
-                        for line in e.to_string().lines() {
-                            println!("cargo:warning={line}");
-                        }
-                        failed = true;
-                    }
+                    *results[i].lock().unwrap() = Some(r);
                 }
+            });
+        }
+    });
+    let mut table = String::from("/// (kernel name, backend, SPIR-V words) for every compiled kernel.\npub const KERNELS: &[(&str, &str, &[u8])] = &[\n");
+    let mut failed = false;
+    for ((kernel, _, name, _, suffix, _), result) in jobs.iter().zip(results) {
+        match result.into_inner().unwrap().expect("every job ran") {
+            Ok(spirv) => {
+                let spv = out.join(format!("{name}.{suffix}.spv"));
+                fs::write(&spv, spirv).expect("write spv");
+                table.push_str(&format!(
+                    "    ({name:?}, {suffix:?}, include_bytes!(concat!(env!(\"OUT_DIR\"), \"/{name}.{suffix}.spv\"))),\n"
+                ));
+            }
+            Err(e) => {
+                // shaderc's messages already read "file:line: error: ...".
+                eprintln!(
+                    "GLSL error in {} ({suffix} backend):\n{e}",
+                    kernel.display()
+                );
+                for line in e.lines() {
+                    println!("cargo:warning={line}");
+                }
+                failed = true;
             }
         }
     }
@@ -127,6 +110,80 @@ fn main() {
         panic!("GLSL compilation failed; see the errors above (file:line)");
     }
     fs::write(out.join("kernels.rs"), table).expect("write kernels.rs");
+}
+
+/// Compiles one kernel for one backend and variant: its SPIR-V, or shaderc's message.
+/// Warnings are passed on to cargo.
+fn compile(
+    compiler: &shaderc::Compiler,
+    root: &Path,
+    glsl: &Path,
+    kernel: &Path,
+    source: &str,
+    define: &str,
+    variant_define: Option<&str>,
+) -> Result<Vec<u8>, String> {
+    let mut options = shaderc::CompileOptions::new().expect("shaderc options");
+    options.set_target_env(
+        shaderc::TargetEnv::Vulkan,
+        shaderc::EnvVersion::Vulkan1_2 as u32,
+    );
+    options.set_target_spirv(shaderc::SpirvVersion::V1_5);
+    options.set_optimization_level(shaderc::OptimizationLevel::Performance);
+    options.set_generate_debug_info();
+    options.add_macro_definition(define, Some("1"));
+    if let Some(d) = variant_define {
+        options.add_macro_definition(d, Some("1"));
+    }
+    let lib = glsl.join("lib");
+    let root_for_names = root.to_path_buf();
+    options.set_include_callback(move |requested, _kind, requester, _depth| {
+        let requester_dir = root_for_names.join(
+            Path::new(requester)
+                .parent()
+                .map(Path::to_path_buf)
+                .unwrap_or_default(),
+        );
+        let candidates = [lib.join(requested), requester_dir.join(requested)];
+        for path in candidates {
+            if let Ok(content) = fs::read_to_string(&path) {
+                println!("cargo:rerun-if-changed={}", path.display());
+                // Names relative to the repository keep the SPIR-V (its debug info) the
+                // same in every clone, so drivers' shader caches hold.
+                let resolved_name = path
+                    .strip_prefix(&root_for_names)
+                    .unwrap_or(&path)
+                    .display()
+                    .to_string();
+                return Ok(shaderc::ResolvedInclude {
+                    resolved_name,
+                    content,
+                });
+            }
+        }
+        Err(format!(
+            "cannot find include '{requested}' (looked in glsl/lib and beside {requester})"
+        ))
+    });
+    let artifact = compiler
+        .compile_into_spirv(
+            source,
+            shaderc::ShaderKind::Compute,
+            &kernel
+                .strip_prefix(root)
+                .unwrap_or(kernel)
+                .display()
+                .to_string(),
+            "main",
+            Some(&options),
+        )
+        .map_err(|e| e.to_string())?;
+    if artifact.get_num_warnings() > 0 {
+        for line in artifact.get_warning_messages().lines() {
+            println!("cargo:warning={line}");
+        }
+    }
+    Ok(artifact.as_binary_u8().to_vec())
 }
 
 /// The variants each kernel is compiled in: the kernel itself, and for the path tracer

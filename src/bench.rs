@@ -58,7 +58,7 @@ fn scene_path(args: &BenchArgs) -> PathBuf {
 
 pub fn run(args: &BenchArgs) -> Result<()> {
     let mut scene = match &args.scene {
-        Some(path) => scene::parse_file(path)?,
+        Some(path) => scene::load(path)?,
         None => scene::parse_str(CORNELL_BOX, "scenes/cornell-box.test (built in)")?,
     };
     scene.width = args.size;

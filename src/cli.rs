@@ -242,7 +242,7 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
             args.accel
         )
     })?;
-    let mut scene = trace.cpu("parse", || scene::parse_file(&args.scene))?;
+    let mut scene = trace.cpu("parse", || scene::load(&args.scene))?;
     // Its contents' hash goes into the image's metadata.
     let scene_bytes = std::fs::read(&args.scene)
         .with_context(|| format!("cannot read {}", args.scene.display()))?;

@@ -57,7 +57,7 @@ const CORNELL_BOX: &str = include_str!("../scenes/cornell-box.test");
 
 pub fn run(args: &ProfileArgs) -> Result<()> {
     let mut scene = match &args.scene {
-        Some(path) => scene::parse_file(path)?,
+        Some(path) => scene::load(path)?,
         None => scene::parse_str(CORNELL_BOX, "scenes/cornell-box.test (built in)")?,
     };
     scene.width = args.size;

@@ -4,8 +4,25 @@
 //! structures, GPU buffers, integrators) reads only this model.
 
 mod parse;
+mod pbrt;
 
 pub use parse::{parse_file, parse_str, ParseError};
+pub use pbrt::{parse_pbrt_file, parse_pbrt_str};
+
+/// Reads a scene file: pbrt-v4's format for `.pbrt`, else the `.test` format.
+///
+/// # Errors
+/// As [`parse_file`] and [`parse_pbrt_file`].
+pub fn load(path: &std::path::Path) -> Result<Scene, ParseError> {
+    let pbrt = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("pbrt"));
+    if pbrt {
+        parse_pbrt_file(path)
+    } else {
+        parse_file(path)
+    }
+}
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::path::PathBuf;
@@ -243,6 +260,9 @@ pub struct Camera {
     pub look_at: Vec3,
     pub up: Vec3,
     pub fovy_degrees: f32,
+    /// The image is mirrored left to right: its right is up × forward rather than
+    /// forward × up (pbrt's left-handed camera space).
+    pub mirror: bool,
 }
 
 impl Default for Camera {
@@ -252,6 +272,7 @@ impl Default for Camera {
             look_at: Vec3::ZERO,
             up: Vec3::Y,
             fovy_degrees: 45.0,
+            mirror: false,
         }
     }
 }

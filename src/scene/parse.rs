@@ -449,10 +449,10 @@ impl Command<'_> {
 /// A material's identity for deduplication: the bytes of its whole device record
 /// (`Material::record`), with -0.0 read as 0.0, so no field can be forgotten.
 #[derive(Clone, PartialEq, Eq, Hash)]
-struct MaterialKey(Vec<u32>);
+pub(super) struct MaterialKey(Vec<u32>);
 
 impl MaterialKey {
-    fn of(m: &Material) -> Self {
+    pub(super) fn of(m: &Material) -> Self {
         let record = m.record();
         let words: &[u32] = bytemuck::cast_slice(bytemuck::bytes_of(&record));
         MaterialKey(
@@ -1073,6 +1073,7 @@ fn camera(cmd: &Command) -> Result<Camera, ParseError> {
         look_at,
         up,
         fovy_degrees,
+        mirror: false,
     })
 }
 
@@ -1169,6 +1170,7 @@ mod tests {
                 look_at: Vec3::new(0.0, 1.0, 0.0),
                 up: Vec3::Y,
                 fovy_degrees: 45.0,
+                mirror: false,
             }
         );
         assert_eq!(s.settings.spp, 16);

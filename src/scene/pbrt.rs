@@ -1,0 +1,2646 @@
+//! pbrt-v4 scene files (docs/scene-format.md, "pbrt-v4 scenes").
+//!
+//! The file is tokenized whole (`Include`d and `Import`ed files in turn) and its
+//! directives executed in order on a graphics state as pbrt-v4's parser does: the current
+//! transform, the material, the area light and reverse orientation, pushed and popped by
+//! `AttributeBegin`/`AttributeEnd`. Shapes become world-space triangles and spheres of
+//! the one scene model; object instances are flattened (each instance a copy).
+//!
+//! What lightpath cannot render and would change what is seen (media, other shapes,
+//! materials or lights, unused parameters such as alpha cut-outs) is collected and
+//! reported at once, every use with its file and line; what only changes reconstruction
+//! or sampling (`PixelFilter`, the sampler's type) is one warning each.
+
+use super::parse::MaterialKey;
+use super::{
+    BsdfKind, Camera, DeltaLight, Environment, EnvironmentMap, IntegratorKind, Material,
+    NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture, Triangle,
+};
+use crate::texture::{load_image, Encoding, EnvMapping};
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The most files `Include` and `Import` may read (a file including itself stops here).
+const MAX_FILES: usize = 4096;
+/// The deepest `AttributeBegin` nesting.
+const MAX_ATTRIBUTE_NESTING: usize = 1 << 16;
+/// The types a parameter of this name may have, whatever the directive (pbrt-v4's
+/// names are typed consistently), so that a value of the wrong type is an error rather
+/// than a default.
+const PARAM_TYPES: &[(&str, &[&str])] = &[
+    ("P", &["point3"]),
+    ("N", &["normal"]),
+    ("uv", &["point2", "float"]),
+    ("indices", &["integer"]),
+    ("from", &["point3"]),
+    ("to", &["point3"]),
+    ("filename", &["string"]),
+    ("type", &["string"]),
+    ("encoding", &["string"]),
+    ("wrap", &["string"]),
+    ("mapping", &["string"]),
+    ("sensor", &["string"]),
+    ("twosided", &["bool"]),
+    ("remaproughness", &["bool"]),
+    ("invert", &["bool"]),
+    ("fov", &["float", "integer"]),
+    ("xresolution", &["integer"]),
+    ("yresolution", &["integer"]),
+    ("pixelsamples", &["integer"]),
+    ("maxdepth", &["integer"]),
+    ("nsamples", &["integer"]),
+    ("mutationsperpixel", &["integer"]),
+    ("chains", &["integer"]),
+    ("bootstrapsamples", &["integer"]),
+    ("radius", &["float", "integer"]),
+    ("innerradius", &["float", "integer"]),
+    ("height", &["float", "integer"]),
+    ("zmin", &["float", "integer"]),
+    ("zmax", &["float", "integer"]),
+    ("phimax", &["float", "integer"]),
+    ("coneangle", &["float", "integer"]),
+    ("conedelta", &["float", "integer"]),
+    ("power", &["float", "integer"]),
+    ("illuminance", &["float", "integer"]),
+    ("iso", &["float", "integer"]),
+    ("exposuretime", &["float", "integer"]),
+    ("thickness", &["float", "integer"]),
+    ("uscale", &["float", "integer"]),
+    ("vscale", &["float", "integer"]),
+    ("udelta", &["float", "integer"]),
+    ("vdelta", &["float", "integer"]),
+    ("dimension", &["integer"]),
+    ("lensradius", &["float", "integer"]),
+    ("focaldistance", &["float", "integer"]),
+    ("sigma", &["float", "integer"]),
+    ("largestepprobability", &["float", "integer"]),
+    ("scale", &["float", "integer", "texture", "rgb", "spectrum"]),
+    ("roughness", &["float", "integer", "texture"]),
+    ("uroughness", &["float", "integer", "texture"]),
+    ("vroughness", &["float", "integer", "texture"]),
+    ("L", &["rgb", "spectrum", "blackbody"]),
+    ("I", &["rgb", "spectrum", "blackbody"]),
+];
+
+/// Segments of a triangulated disk.
+const DISK_SEGMENTS: usize = 128;
+
+#[derive(Clone, Debug, PartialEq)]
+enum Tok {
+    Str(String),
+    Num(f64),
+    Word(String),
+    Open,
+    Close,
+}
+
+#[derive(Clone, Debug)]
+struct Token {
+    tok: Tok,
+    file: u32,
+    line: u32,
+}
+
+/// Splits a file's text into tokens: quoted strings (with pbrt's escapes), numbers,
+/// words (directives, `true`/`false`) and brackets; `#` comments run to the line's end.
+fn tokenize(text: &str, file: u32, name: &str) -> Result<Vec<Token>, ParseError> {
+    let bytes = text.as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    let mut line = 1u32;
+    let err = |line: u32, message: String| ParseError {
+        file: name.to_owned(),
+        line: line as usize,
+        command: String::new(),
+        message,
+    };
+    while i < bytes.len() {
+        let c = bytes[i];
+        match c {
+            b'\n' => {
+                line += 1;
+                i += 1;
+            }
+            c if c.is_ascii_whitespace() => i += 1,
+            b'#' => {
+                while i < bytes.len() && bytes[i] != b'\n' {
+                    i += 1;
+                }
+            }
+            b'[' | b']' => {
+                out.push(Token {
+                    tok: if c == b'[' { Tok::Open } else { Tok::Close },
+                    file,
+                    line,
+                });
+                i += 1;
+            }
+            b'"' => {
+                let start_line = line;
+                i += 1;
+                let mut s = Vec::new();
+                loop {
+                    if i >= bytes.len() {
+                        return Err(err(start_line, "unterminated string".into()));
+                    }
+                    match bytes[i] {
+                        b'"' => break,
+                        b'\n' => return Err(err(line, "a newline inside a quoted string".into())),
+                        b'\\' if i + 1 < bytes.len() => {
+                            i += 1;
+                            s.push(match bytes[i] {
+                                b'n' => b'\n',
+                                b't' => b'\t',
+                                b'b' => 8,
+                                b'f' => 12,
+                                b'r' => b'\r',
+                                other => other,
+                            });
+                        }
+                        b => s.push(b),
+                    }
+                    i += 1;
+                }
+                i += 1;
+                let s = String::from_utf8(s)
+                    .map_err(|_| err(start_line, "a string that is not UTF-8".into()))?;
+                out.push(Token {
+                    tok: Tok::Str(s),
+                    file,
+                    line: start_line,
+                });
+            }
+            _ => {
+                let start = i;
+                while i < bytes.len()
+                    && !bytes[i].is_ascii_whitespace()
+                    && !matches!(bytes[i], b'"' | b'[' | b']' | b'#')
+                {
+                    i += 1;
+                }
+                let word = std::str::from_utf8(&bytes[start..i])
+                    .map_err(|_| err(line, "a token that is not UTF-8".into()))?;
+                let first = word.as_bytes()[0];
+                let tok = if first.is_ascii_digit() || matches!(first, b'-' | b'+' | b'.') {
+                    match word.parse::<f64>() {
+                        Ok(x) if x.is_finite() => Tok::Num(x),
+                        _ => return Err(err(line, format!("expected a number, got '{word}'"))),
+                    }
+                } else {
+                    Tok::Word(word.to_owned())
+                };
+                out.push(Token { tok, file, line });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// One parameter of a directive: `"type name" value(s)`.
+#[derive(Clone, Debug)]
+struct Param {
+    ty: String,
+    name: String,
+    nums: Vec<f64>,
+    strs: Vec<String>,
+    bools: Vec<bool>,
+    line: u32,
+    file: u32,
+    used: std::cell::Cell<bool>,
+}
+
+/// A directive's parameter list, with the parameters it has read marked.
+#[derive(Clone, Debug, Default)]
+struct Params(Vec<Param>);
+
+/// A value a material reads: a constant or a texture of the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Value {
+    Const(Vec3),
+    Texture(u32),
+}
+
+/// A named texture: its value (constant or a scene texture).
+#[derive(Clone, Copy, Debug)]
+struct NamedTexture(Value);
+
+/// An area light as declared (applies to the shapes that follow it).
+#[derive(Clone, Debug)]
+struct AreaLight {
+    radiance: Vec3,
+    two_sided: bool,
+    /// pbrt-v4's `power` (W), which rescales the radiance by the shape's area.
+    power: Option<f32>,
+}
+
+/// The material a shape uses.
+#[derive(Clone, Debug)]
+enum MaterialRef {
+    Material(Material),
+    /// `interface`: no surface (a boundary between media); its shapes are not rendered.
+    Interface,
+}
+
+#[derive(Clone, Debug)]
+struct GraphicsState {
+    ctm: Mat4,
+    reverse: bool,
+    material: MaterialRef,
+    area: Option<AreaLight>,
+}
+
+/// A shape as declared, in its object space, with what applies to it.
+#[derive(Clone, Debug)]
+struct ShapeDecl {
+    kind: ShapeKind,
+    ctm: Mat4,
+    reverse: bool,
+    material: MaterialRef,
+    area: Option<AreaLight>,
+}
+
+#[derive(Clone, Debug)]
+enum ShapeKind {
+    Mesh {
+        p: Vec<Vec3>,
+        indices: Vec<u32>,
+        n: Option<Vec<Vec3>>,
+        uv: Option<Vec<Vec2>>,
+    },
+    Sphere {
+        radius: f32,
+    },
+}
+
+struct Parser {
+    scene: Scene,
+    files: Vec<String>,
+    tokens: Vec<Token>,
+    pos: usize,
+    /// The directory of the top file (Include/Import paths are relative to the
+    /// including file's directory, as pbrt's).
+    dirs: Vec<PathBuf>,
+    gs: GraphicsState,
+    stack: Vec<(GraphicsState, bool)>,
+    named_coords: HashMap<String, Mat4>,
+    named_materials: HashMap<String, MaterialRef>,
+    textures: HashMap<String, NamedTexture>,
+    float_textures: HashMap<String, NamedTexture>,
+    material_lookup: HashMap<MaterialKey, u32>,
+    image_textures: HashMap<(PathBuf, Encoding), Arc<crate::io::Image>>,
+    objects: HashMap<String, Vec<ShapeDecl>>,
+    /// The object being defined (ObjectBegin .. ObjectEnd).
+    defining: Option<(String, Vec<ShapeDecl>)>,
+    /// Everything unsupported, as "file:line: what", reported together at the end.
+    unsupported: Vec<String>,
+    warned: std::collections::HashSet<String>,
+    warnings: Vec<String>,
+    camera_seen: bool,
+    film_size: (u32, u32),
+    /// The sensor's imaging ratio (ISO / 100 × exposure time), folded into every emitter.
+    imaging_ratio: f32,
+    in_world: bool,
+}
+
+/// Reads and parses a pbrt-v4 scene file.
+///
+/// # Errors
+/// When a file cannot be read, does not parse, or uses what lightpath cannot render
+/// (every such use listed in the message).
+pub fn parse_pbrt_file(path: &Path) -> Result<Scene, ParseError> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|err| ParseError {
+        file: name.clone(),
+        line: 0,
+        command: String::new(),
+        message: format!("cannot read: {err}"),
+    })?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut scene = parse_pbrt_text(&text, &name, dir)?;
+    scene.source = Some(path.to_path_buf());
+    Ok(scene)
+}
+
+/// Parses pbrt-v4 text; `name` stands for its file name, and files it names are read
+/// relative to the working directory.
+pub fn parse_pbrt_str(text: &str, name: &str) -> Result<Scene, ParseError> {
+    parse_pbrt_text(text, name, PathBuf::new())
+}
+
+fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseError> {
+    let tokens = tokenize(text, 0, name)?;
+    let mut p = Parser {
+        scene: Scene::default(),
+        files: vec![name.to_owned()],
+        tokens,
+        pos: 0,
+        dirs: vec![dir],
+        gs: GraphicsState {
+            ctm: Mat4::IDENTITY,
+            reverse: false,
+            material: MaterialRef::Material(diffuse(Vec3::splat(0.5))),
+            area: None,
+        },
+        stack: Vec::new(),
+        named_coords: HashMap::new(),
+        named_materials: HashMap::new(),
+        textures: HashMap::new(),
+        float_textures: HashMap::new(),
+        material_lookup: HashMap::new(),
+        image_textures: HashMap::new(),
+        objects: HashMap::new(),
+        defining: None,
+        unsupported: Vec::new(),
+        warned: Default::default(),
+        warnings: Vec::new(),
+        camera_seen: false,
+        film_size: (1280, 720),
+        imaging_ratio: 1.0,
+        in_world: false,
+    };
+    // pbrt-v4's defaults: a volumetric path tracer of depth 5, 16 samples per pixel.
+    let s = &mut p.scene.settings;
+    s.integrator = IntegratorKind::PathTracer;
+    s.spp = 16;
+    s.max_depth = 5;
+    s.nee = NextEventEstimation::Mis;
+    s.russian_roulette = true;
+    s.importance_sampling = SampleMode::Brdf;
+    p.run()?;
+    p.finish()
+}
+
+fn diffuse(kd: Vec3) -> Material {
+    Material {
+        bsdf: BsdfKind::Phong,
+        diffuse: kd,
+        specular: Vec3::ZERO,
+        ..Material::default()
+    }
+}
+
+impl Params {
+    fn find(&self, name: &str) -> Option<&Param> {
+        let p = self.0.iter().find(|p| p.name == name)?;
+        p.used.set(true);
+        Some(p)
+    }
+}
+
+impl Parser {
+    fn err_at(
+        &self,
+        file: u32,
+        line: u32,
+        command: &str,
+        message: impl Into<String>,
+    ) -> ParseError {
+        ParseError {
+            file: self.files[file as usize].clone(),
+            line: line as usize,
+            command: command.to_owned(),
+            message: message.into(),
+        }
+    }
+
+    fn peek(&self) -> Option<&Token> {
+        self.tokens.get(self.pos)
+    }
+
+    fn next_token(&mut self) -> Option<Token> {
+        let t = self.tokens.get(self.pos).cloned();
+        self.pos += 1;
+        t
+    }
+
+    /// The line of the last token read (for messages at the end of input).
+    fn here(&self) -> (u32, u32) {
+        self.tokens
+            .get(self.pos.saturating_sub(1))
+            .map_or((0, 0), |t| (t.file, t.line))
+    }
+
+    fn expect_string(&mut self, directive: &str, what: &str) -> Result<String, ParseError> {
+        match self.next_token() {
+            Some(Token {
+                tok: Tok::Str(s), ..
+            }) => Ok(s),
+            Some(t) => Err(self.err_at(
+                t.file,
+                t.line,
+                directive,
+                format!(
+                    "expected {what} (a quoted string), got {}",
+                    describe(&t.tok)
+                ),
+            )),
+            None => {
+                let (f, l) = self.here();
+                Err(self.err_at(
+                    f,
+                    l,
+                    directive,
+                    format!("expected {what}, got the end of the file"),
+                ))
+            }
+        }
+    }
+
+    /// `n` numbers, bracketed or not.
+    fn numbers(&mut self, directive: &str, n: usize) -> Result<Vec<f32>, ParseError> {
+        let bracketed = matches!(self.peek(), Some(Token { tok: Tok::Open, .. }));
+        if bracketed {
+            self.pos += 1;
+        }
+        let mut out = Vec::with_capacity(n);
+        for _ in 0..n {
+            match self.next_token() {
+                Some(Token {
+                    tok: Tok::Num(x), ..
+                }) => out.push(x as f32),
+                Some(t) => {
+                    return Err(self.err_at(
+                        t.file,
+                        t.line,
+                        directive,
+                        format!("expected {n} numbers, got {}", describe(&t.tok)),
+                    ))
+                }
+                None => {
+                    let (f, l) = self.here();
+                    return Err(self.err_at(
+                        f,
+                        l,
+                        directive,
+                        format!("expected {n} numbers, got the end of the file"),
+                    ));
+                }
+            }
+        }
+        if bracketed {
+            match self.next_token() {
+                Some(Token {
+                    tok: Tok::Close, ..
+                }) => {}
+                Some(t) => {
+                    return Err(self.err_at(
+                        t.file,
+                        t.line,
+                        directive,
+                        format!("expected ']' after {n} numbers, got {}", describe(&t.tok)),
+                    ))
+                }
+                None => {
+                    let (f, l) = self.here();
+                    return Err(self.err_at(
+                        f,
+                        l,
+                        directive,
+                        "expected ']', got the end of the file",
+                    ));
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// A parameter list: `"type name" value` or `"type name" [ values ]`, until the next
+    /// directive.
+    fn params(&mut self, directive: &str) -> Result<Params, ParseError> {
+        let mut out = Vec::new();
+        while let Some(Token {
+            tok: Tok::Str(decl),
+            file,
+            line,
+        }) = self.peek().cloned()
+        {
+            self.pos += 1;
+            let words: Vec<&str> = decl.split_whitespace().collect();
+            let [ty, name] = words[..] else {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    directive,
+                    format!("expected a parameter declaration \"type name\", got \"{decl}\""),
+                ));
+            };
+            let ty = match ty {
+                "point" => "point3",
+                "vector" => "vector3",
+                "normal3" => "normal",
+                "color" => "rgb",
+                t => t,
+            };
+            const TYPES: [&str; 13] = [
+                "integer",
+                "float",
+                "point2",
+                "vector2",
+                "point3",
+                "vector3",
+                "normal",
+                "rgb",
+                "spectrum",
+                "blackbody",
+                "bool",
+                "string",
+                "texture",
+            ];
+            if !TYPES.contains(&ty) {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    directive,
+                    format!("unknown parameter type '{ty}' in \"{decl}\""),
+                ));
+            }
+            let mut values = Vec::new();
+            match self.next_token() {
+                Some(Token { tok: Tok::Open, .. }) => loop {
+                    match self.next_token() {
+                        Some(Token {
+                            tok: Tok::Close, ..
+                        }) => break,
+                        Some(Token {
+                            tok: Tok::Open,
+                            file,
+                            line,
+                        }) => {
+                            return Err(self.err_at(
+                                file,
+                                line,
+                                directive,
+                                "a '[' inside a parameter's values",
+                            ))
+                        }
+                        Some(t) => values.push(t),
+                        None => {
+                            return Err(self.err_at(
+                                file,
+                                line,
+                                directive,
+                                format!("parameter \"{decl}\": no ']' before the end of the file"),
+                            ))
+                        }
+                    }
+                },
+                Some(
+                    t @ Token {
+                        tok: Tok::Num(_) | Tok::Str(_) | Tok::Word(_),
+                        ..
+                    },
+                ) => values.push(t),
+                Some(t) => {
+                    return Err(self.err_at(
+                        t.file,
+                        t.line,
+                        directive,
+                        format!(
+                            "parameter \"{decl}\": expected a value, got {}",
+                            describe(&t.tok)
+                        ),
+                    ))
+                }
+                None => {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        directive,
+                        format!("parameter \"{decl}\": expected a value, got the end of the file"),
+                    ))
+                }
+            }
+            let mut p = Param {
+                ty: ty.to_owned(),
+                name: name.to_owned(),
+                nums: Vec::new(),
+                strs: Vec::new(),
+                bools: Vec::new(),
+                line,
+                file,
+                used: std::cell::Cell::new(false),
+            };
+            for v in values {
+                match (&v.tok, ty) {
+                    (
+                        Tok::Num(x),
+                        "integer" | "float" | "point2" | "vector2" | "point3" | "vector3"
+                        | "normal" | "rgb" | "blackbody" | "spectrum",
+                    ) => {
+                        if ty == "integer" && x.fract() != 0.0 {
+                            return Err(self.err_at(
+                                v.file,
+                                v.line,
+                                directive,
+                                format!("parameter \"{decl}\": expected an integer, got {x}"),
+                            ));
+                        }
+                        p.nums.push(*x);
+                    }
+                    (Tok::Str(s), "string" | "texture" | "spectrum") => p.strs.push(s.clone()),
+                    (Tok::Word(w) | Tok::Str(w), "bool") if w == "true" || w == "false" => {
+                        p.bools.push(w == "true")
+                    }
+                    (t, _) => {
+                        return Err(self.err_at(
+                            v.file,
+                            v.line,
+                            directive,
+                            format!("parameter \"{decl}\": {} is not a {ty} value", describe(t)),
+                        ))
+                    }
+                }
+            }
+            let count = p.nums.len() + p.strs.len() + p.bools.len();
+            let per = match ty {
+                "point2" | "vector2" => 2,
+                "point3" | "vector3" | "normal" | "rgb" => 3,
+                _ => 1,
+            };
+            if count == 0 || p.nums.len() % per != 0 {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    directive,
+                    format!(
+                        "parameter \"{decl}\": expected a multiple of {per} values, got {count}"
+                    ),
+                ));
+            }
+            if ty == "spectrum" && !p.strs.is_empty() && !p.nums.is_empty() {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    directive,
+                    format!("parameter \"{decl}\": a spectrum is numbers or a name, not both"),
+                ));
+            }
+            if let Some((_, allowed)) = PARAM_TYPES.iter().find(|(n, _)| *n == p.name) {
+                if !allowed.contains(&p.ty.as_str()) {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        directive,
+                        format!("parameter \"{decl}\": expected {}", allowed.join(" or ")),
+                    ));
+                }
+            }
+            if p.name == "uv" && p.nums.len() % 2 != 0 {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    directive,
+                    format!("parameter \"{decl}\": an odd number of values"),
+                ));
+            }
+            out.push(p);
+        }
+        Ok(Params(out))
+    }
+
+    fn unsupported(&mut self, file: u32, line: u32, what: impl Into<String>) {
+        let what = what.into();
+        self.unsupported
+            .push(format!("{}:{line}: {what}", self.files[file as usize]));
+    }
+
+    fn warn(&mut self, key: &str, message: String) {
+        if self.warned.insert(key.to_owned()) {
+            self.warnings.push(message);
+        }
+    }
+
+    /// Reports every parameter the directive did not read as unsupported.
+    fn check_used(&mut self, directive: &str, what: &str, params: &Params) {
+        for p in &params.0 {
+            if !p.used.get() {
+                let msg = format!(
+                    "{directive} {what}: parameter \"{} {}\" is not supported",
+                    p.ty, p.name
+                );
+                self.unsupported(p.file, p.line, msg);
+            }
+        }
+    }
+
+    fn run(&mut self) -> Result<(), ParseError> {
+        while let Some(t) = self.next_token() {
+            let (file, line) = (t.file, t.line);
+            let Tok::Word(d) = t.tok else {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    "",
+                    format!("expected a directive, got {}", describe(&t.tok)),
+                ));
+            };
+            self.directive(&d, file, line)?;
+        }
+        if !self.stack.is_empty() {
+            let (f, l) = self.here();
+            return Err(self.err_at(
+                f,
+                l,
+                "AttributeBegin",
+                format!(
+                    "{} AttributeBegin without AttributeEnd at the end of the file",
+                    self.stack.len()
+                ),
+            ));
+        }
+        if self.defining.is_some() {
+            let (f, l) = self.here();
+            return Err(self.err_at(
+                f,
+                l,
+                "ObjectBegin",
+                "ObjectBegin without ObjectEnd at the end of the file",
+            ));
+        }
+        Ok(())
+    }
+
+    fn directive(&mut self, d: &str, file: u32, line: u32) -> Result<(), ParseError> {
+        let ctm = self.gs.ctm;
+        match d {
+            "Identity" => self.gs.ctm = Mat4::IDENTITY,
+            "Translate" => {
+                let v = self.numbers(d, 3)?;
+                self.gs.ctm = ctm * Mat4::from_translation(Vec3::new(v[0], v[1], v[2]));
+            }
+            "Scale" => {
+                let v = self.numbers(d, 3)?;
+                self.gs.ctm = ctm * Mat4::from_scale(Vec3::new(v[0], v[1], v[2]));
+            }
+            "Rotate" => {
+                let v = self.numbers(d, 4)?;
+                let axis = Vec3::new(v[1], v[2], v[3]);
+                if axis.length_squared() == 0.0 {
+                    return Err(self.err_at(file, line, d, "the rotation axis is zero"));
+                }
+                self.gs.ctm = ctm * Mat4::from_axis_angle(axis.normalize(), v[0].to_radians());
+            }
+            "LookAt" => {
+                let v = self.numbers(d, 9)?;
+                let eye = Vec3::new(v[0], v[1], v[2]);
+                let look = Vec3::new(v[3], v[4], v[5]);
+                let up = Vec3::new(v[6], v[7], v[8]);
+                let dir = look - eye;
+                if dir.length_squared() == 0.0
+                    || up
+                        .normalize_or_zero()
+                        .cross(dir.normalize())
+                        .length_squared()
+                        == 0.0
+                {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        "the eye and the target coincide, or up is parallel to the view direction",
+                    ));
+                }
+                // pbrt's LookAt: camera space x = up × dir, y = dir × x, z = dir.
+                let dir = dir.normalize();
+                let right = up.normalize().cross(dir).normalize();
+                let new_up = dir.cross(right);
+                let world_from_camera = Mat4::from_cols(
+                    right.extend(0.0),
+                    new_up.extend(0.0),
+                    dir.extend(0.0),
+                    eye.extend(1.0),
+                );
+                self.gs.ctm = ctm * world_from_camera.inverse();
+            }
+            "Transform" | "ConcatTransform" => {
+                let v = self.numbers(d, 16)?;
+                let m = Mat4::from_cols_array(&v.try_into().expect("16 numbers"));
+                self.gs.ctm = if d == "Transform" { m } else { ctm * m };
+            }
+            "CoordinateSystem" => {
+                let name = self.expect_string(d, "a name")?;
+                self.named_coords.insert(name, ctm);
+            }
+            "CoordSysTransform" => {
+                let name = self.expect_string(d, "a name")?;
+                match self.named_coords.get(&name) {
+                    Some(m) => self.gs.ctm = *m,
+                    None => {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!("no coordinate system named \"{name}\""),
+                        ))
+                    }
+                }
+            }
+            "ReverseOrientation" => self.gs.reverse = !self.gs.reverse,
+            "AttributeBegin" | "TransformBegin" => {
+                if self.stack.len() >= MAX_ATTRIBUTE_NESTING {
+                    return Err(self.err_at(file, line, d, "attributes nested too deeply"));
+                }
+                self.stack.push((self.gs.clone(), d == "TransformBegin"));
+            }
+            "AttributeEnd" | "TransformEnd" => match self.stack.pop() {
+                Some((gs, transform_only)) => {
+                    if transform_only != (d == "TransformEnd") {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            "does not match the Begin it closes",
+                        ));
+                    }
+                    if transform_only {
+                        self.gs.ctm = gs.ctm;
+                    } else {
+                        self.gs = gs;
+                    }
+                }
+                None => return Err(self.err_at(file, line, d, "without a matching Begin")),
+            },
+            "Attribute" => {
+                let target = self.expect_string(d, "a target")?;
+                let params = self.params(d)?;
+                if !params.0.is_empty() {
+                    self.unsupported(
+                        file,
+                        line,
+                        format!("Attribute \"{target}\" (default parameters)"),
+                    );
+                }
+            }
+            "Include" | "Import" => {
+                let name = self.expect_string(d, "a file name")?;
+                self.include(&name, file, line, d)?;
+            }
+            "Option" => {
+                let params = self.params(d)?;
+                for p in &params.0 {
+                    let msg = format!("Option \"{}\" ignored", p.name);
+                    self.warn(&format!("option {}", p.name), msg);
+                }
+            }
+            "ColorSpace" => {
+                let name = self.expect_string(d, "a colour space")?;
+                if name != "srgb" {
+                    self.unsupported(
+                        file,
+                        line,
+                        format!("ColorSpace \"{name}\" (RGB values are read as linear sRGB)"),
+                    );
+                }
+            }
+            "Camera" => {
+                let ty = self.expect_string(d, "a camera type")?;
+                let params = self.params(d)?;
+                if ty != "perspective" {
+                    self.unsupported(file, line, format!("Camera \"{ty}\""));
+                }
+                self.named_coords.insert("camera".into(), ctm.inverse());
+                self.camera_seen = true;
+                self.camera(ctm, &params, file, line)?;
+            }
+            "Film" => {
+                let ty = self.expect_string(d, "a film type")?;
+                let params = self.params(d)?;
+                self.film(&ty, &params, file, line)?;
+            }
+            "Sampler" => {
+                let ty = self.expect_string(d, "a sampler type")?;
+                let params = self.params(d)?;
+                if let Some(p) = params.find("pixelsamples") {
+                    let n = p.nums.first().copied().unwrap_or(0.0);
+                    if n < 1.0 {
+                        return Err(self.err_at(
+                            p.file,
+                            p.line,
+                            d,
+                            format!("pixelsamples must be at least 1, got {n}"),
+                        ));
+                    }
+                    self.scene.settings.spp = n as u32;
+                }
+                if ty != "independent" {
+                    self.warn("sampler", format!("Sampler \"{ty}\": lightpath samples independently (only the sampling pattern differs)"));
+                }
+                for p in &params.0 {
+                    p.used.set(true);
+                }
+            }
+            "PixelFilter" => {
+                let ty = self.expect_string(d, "a filter type")?;
+                self.params(d)?;
+                self.warn("filter", format!("PixelFilter \"{ty}\" ignored: lightpath averages over each pixel's square (a box filter)"));
+            }
+            "Integrator" => {
+                let ty = self.expect_string(d, "an integrator type")?;
+                let params = self.params(d)?;
+                self.integrator(&ty, &params, file, line)?;
+            }
+            "Accelerator" => {
+                self.expect_string(d, "an accelerator type")?;
+                self.params(d)?;
+            }
+            "WorldBegin" => {
+                self.in_world = true;
+                self.gs.ctm = Mat4::IDENTITY;
+                self.named_coords.insert("world".into(), Mat4::IDENTITY);
+            }
+            "WorldEnd" => {}
+            "MakeNamedMedium" => {
+                self.expect_string(d, "a name")?;
+                self.params(d)?;
+                self.unsupported(file, line, "MakeNamedMedium (participating media)");
+            }
+            "MediumInterface" => {
+                let inside = self.expect_string(d, "a medium name")?;
+                let mut outside = inside.clone();
+                if let Some(Token {
+                    tok: Tok::Str(s), ..
+                }) = self.peek().cloned()
+                {
+                    self.pos += 1;
+                    outside = s;
+                }
+                if !inside.is_empty() || !outside.is_empty() {
+                    self.unsupported(file, line, "MediumInterface (participating media)");
+                }
+            }
+            "Material" => {
+                let ty = self.expect_string(d, "a material type")?;
+                let params = self.params(d)?;
+                self.gs.material = self.material(&ty, &params, file, line)?;
+            }
+            "MakeNamedMaterial" => {
+                let name = self.expect_string(d, "a name")?;
+                let params = self.params(d)?;
+                let ty = match params.find("type") {
+                    Some(p) if p.ty == "string" && p.strs.len() == 1 => p.strs[0].clone(),
+                    _ => {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!("material \"{name}\": no \"string type\""),
+                        ))
+                    }
+                };
+                let m = self.material(&ty, &params, file, line)?;
+                self.named_materials.insert(name, m);
+            }
+            "NamedMaterial" => {
+                let name = self.expect_string(d, "a name")?;
+                match self.named_materials.get(&name) {
+                    Some(m) => self.gs.material = m.clone(),
+                    None => {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!("no material named \"{name}\""),
+                        ))
+                    }
+                }
+            }
+            "Texture" => {
+                let name = self.expect_string(d, "a name")?;
+                let ty = self.expect_string(d, "a texture type (\"spectrum\" or \"float\")")?;
+                let class = self.expect_string(d, "a texture class")?;
+                let params = self.params(d)?;
+                self.texture(&name, &ty, &class, &params, file, line)?;
+            }
+            "LightSource" => {
+                let ty = self.expect_string(d, "a light type")?;
+                let params = self.params(d)?;
+                self.light(&ty, &params, file, line)?;
+            }
+            "AreaLightSource" => {
+                let ty = self.expect_string(d, "an area light type")?;
+                let params = self.params(d)?;
+                self.area_light(&ty, &params, file, line)?;
+            }
+            "Shape" => {
+                let ty = self.expect_string(d, "a shape type")?;
+                let params = self.params(d)?;
+                self.shape(&ty, &params, file, line)?;
+            }
+            "ObjectBegin" => {
+                let name = self.expect_string(d, "a name")?;
+                if self.defining.is_some() {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        "ObjectBegin inside another object's definition",
+                    ));
+                }
+                self.stack.push((self.gs.clone(), false));
+                self.defining = Some((name, Vec::new()));
+            }
+            "ObjectEnd" => {
+                let Some((name, shapes)) = self.defining.take() else {
+                    return Err(self.err_at(file, line, d, "ObjectEnd without ObjectBegin"));
+                };
+                self.objects.insert(name, shapes);
+                match self.stack.pop() {
+                    Some((gs, _)) => self.gs = gs,
+                    None => {
+                        return Err(self.err_at(file, line, d, "without a matching ObjectBegin"))
+                    }
+                }
+            }
+            "ObjectInstance" => {
+                let name = self.expect_string(d, "a name")?;
+                let Some(shapes) = self.objects.get(&name).cloned() else {
+                    return Err(self.err_at(file, line, d, format!("no object named \"{name}\"")));
+                };
+                for mut s in shapes {
+                    s.ctm = ctm * s.ctm;
+                    self.emit(s, file, line)?;
+                }
+            }
+            "TransformTimes" | "ActiveTransform" => {
+                if d == "TransformTimes" {
+                    self.numbers(d, 2)?;
+                } else {
+                    match self.next_token() {
+                        Some(Token {
+                            tok: Tok::Word(w), ..
+                        }) if w == "All" => {}
+                        Some(Token {
+                            tok: Tok::Word(w), ..
+                        }) if w == "StartTime" || w == "EndTime" => {
+                            self.unsupported(file, line, "ActiveTransform (an animated transform)");
+                        }
+                        _ => {
+                            return Err(self.err_at(
+                                file,
+                                line,
+                                d,
+                                "expected All, StartTime or EndTime",
+                            ))
+                        }
+                    }
+                }
+            }
+            other => {
+                return Err(self.err_at(file, line, other, format!("unknown directive '{other}'")));
+            }
+        }
+        Ok(())
+    }
+
+    fn include(&mut self, name: &str, file: u32, line: u32, d: &str) -> Result<(), ParseError> {
+        if self.dirs.len() >= MAX_FILES {
+            return Err(self.err_at(
+                file,
+                line,
+                d,
+                format!("more than {MAX_FILES} files included (does a file include itself?)"),
+            ));
+        }
+        let base = self.dirs[file as usize].clone();
+        let path = base.join(name);
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            self.err_at(
+                file,
+                line,
+                d,
+                format!("cannot read {}: {e}", path.display()),
+            )
+        })?;
+        let index = self.files.len() as u32;
+        let shown = path.display().to_string();
+        self.files.push(shown.clone());
+        self.dirs
+            .push(path.parent().map(Path::to_path_buf).unwrap_or_default());
+        let tokens = tokenize(&text, index, &shown)?;
+        // Splice the file's tokens in where the directive stood.
+        let rest = self.tokens.split_off(self.pos);
+        self.tokens.extend(tokens);
+        self.tokens.extend(rest);
+        Ok(())
+    }
+
+    fn camera(
+        &mut self,
+        camera_from_world: Mat4,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<(), ParseError> {
+        let fov = params
+            .find("fov")
+            .and_then(|p| p.nums.first().copied())
+            .unwrap_or(90.0) as f32;
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(self.err_at(
+                file,
+                line,
+                "Camera",
+                format!("fov must be between 0 and 180 degrees, got {fov}"),
+            ));
+        }
+        if let Some(p) = params.find("lensradius") {
+            if p.nums.first().copied().unwrap_or(0.0) > 0.0 {
+                self.unsupported(p.file, p.line, "Camera: a thin lens (lensradius > 0)");
+            }
+        }
+        params.find("focaldistance");
+        if let Some(p) = params.find("screenwindow") {
+            self.unsupported(p.file, p.line, "Camera: screenwindow");
+        }
+        if let Some(p) = params.find("frameaspectratio") {
+            self.unsupported(p.file, p.line, "Camera: frameaspectratio");
+        }
+        self.check_used("Camera", "\"perspective\"", params);
+        let world_from_camera = camera_from_world.inverse();
+        let eye = world_from_camera.transform_point3(Vec3::ZERO);
+        let forward = world_from_camera.transform_vector3(Vec3::Z);
+        let up = world_from_camera.transform_vector3(Vec3::Y);
+        let right = world_from_camera.transform_vector3(Vec3::X);
+        let finite = eye.is_finite() && forward.is_finite() && up.is_finite() && right.is_finite();
+        if !finite || forward.length_squared() == 0.0 || up.length_squared() == 0.0 {
+            return Err(self.err_at(file, line, "Camera", "the camera transform is singular"));
+        }
+        // pbrt's camera space: x to the image's right, y up, z ahead. Ours builds right
+        // as forward × up, so a camera whose x is up × forward (pbrt's LookAt) is mirrored.
+        let mirror = forward.cross(up).dot(right) < 0.0;
+        self.scene.camera = Camera {
+            eye,
+            look_at: eye + forward.normalize(),
+            up: up.normalize(),
+            fovy_degrees: fov,
+            mirror,
+        };
+        Ok(())
+    }
+
+    fn film(&mut self, ty: &str, params: &Params, file: u32, line: u32) -> Result<(), ParseError> {
+        if ty != "rgb" {
+            self.warn("film", format!("Film \"{ty}\" rendered as \"rgb\""));
+        }
+        let int = |name: &str, default: u32| -> Result<u32, ParseError> {
+            match params.find(name) {
+                Some(p) => {
+                    let x = p.nums.first().copied().unwrap_or(0.0);
+                    if !(1.0..=65536.0).contains(&x) {
+                        return Err(self.err_at(
+                            p.file,
+                            p.line,
+                            "Film",
+                            format!("{name} must be between 1 and 65536, got {x}"),
+                        ));
+                    }
+                    Ok(x as u32)
+                }
+                None => Ok(default),
+            }
+        };
+        self.film_size = (int("xresolution", 1280)?, int("yresolution", 720)?);
+        if let Some(p) = params.find("filename") {
+            self.scene.output = p.strs.first().cloned();
+        }
+        let iso = params
+            .find("iso")
+            .and_then(|p| p.nums.first().copied())
+            .unwrap_or(100.0);
+        let exposure = params
+            .find("exposuretime")
+            .and_then(|p| p.nums.first().copied())
+            .unwrap_or(1.0);
+        if !(iso > 0.0 && exposure > 0.0) {
+            return Err(self.err_at(file, line, "Film", "iso and exposuretime must be positive"));
+        }
+        self.imaging_ratio = (iso / 100.0 * exposure) as f32;
+        if let Some(p) = params.find("sensor") {
+            if p.strs.first().map(String::as_str) != Some("cie1931") {
+                self.unsupported(p.file, p.line, "Film: a sensor other than cie1931");
+            }
+        }
+        if let Some(p) = params.find("cropwindow") {
+            self.unsupported(p.file, p.line, "Film: cropwindow");
+        }
+        if let Some(p) = params.find("pixelbounds") {
+            self.unsupported(p.file, p.line, "Film: pixelbounds");
+        }
+        for name in [
+            "diagonal",
+            "savefp16",
+            "maxcomponentvalue",
+            "whitebalance",
+            "writefp16",
+        ] {
+            params.find(name);
+        }
+        self.check_used("Film", &format!("\"{ty}\""), params);
+        Ok(())
+    }
+
+    fn integrator(
+        &mut self,
+        ty: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<(), ParseError> {
+        let s = &mut self.scene.settings;
+        s.integrator = match ty {
+            "path" | "volpath" => IntegratorKind::PathTracer,
+            "bdpt" => IntegratorKind::Bdpt,
+            "mlt" => IntegratorKind::Mmlt,
+            other => {
+                self.unsupported(file, line, format!("Integrator \"{other}\""));
+                return Ok(());
+            }
+        };
+        if let Some(p) = params.find("maxdepth") {
+            let n = p.nums.first().copied().unwrap_or(-2.0);
+            if n < 0.0 {
+                return Err(self.err_at(
+                    p.file,
+                    p.line,
+                    "Integrator",
+                    format!("maxdepth must not be negative, got {n}"),
+                ));
+            }
+            self.scene.settings.max_depth = n as i32;
+        }
+        for name in [
+            "regularize",
+            "lightsampler",
+            "visualizestrategies",
+            "visualizeweights",
+        ] {
+            if let Some(p) = params.find(name) {
+                let on = p.bools.first().copied().unwrap_or(true);
+                if name == "lightsampler" || on {
+                    let msg = format!("Integrator \"{name}\" ignored (it changes sampling only)");
+                    self.warn(name, msg);
+                }
+            }
+        }
+        let m = &mut self.scene.settings.mmlt;
+        if ty == "mlt" {
+            if let Some(p) = params.find("bootstrapsamples") {
+                m.bootstrap = p.nums.first().map(|&x| x.max(1.0) as u32);
+            }
+            if let Some(p) = params.find("chains") {
+                m.chains = p.nums.first().map(|&x| x.max(1.0) as u32);
+            }
+            if let Some(p) = params.find("sigma") {
+                m.sigma = p.nums.first().copied().unwrap_or(0.01) as f32;
+            }
+            if let Some(p) = params.find("largestepprobability") {
+                m.large_step = p.nums.first().copied().unwrap_or(0.3) as f32;
+            }
+            if let Some(p) = params.find("mutationsperpixel") {
+                self.scene.settings.spp = p.nums.first().map_or(100, |&x| x.max(1.0) as u32);
+            }
+        }
+        self.check_used("Integrator", &format!("\"{ty}\""), params);
+        Ok(())
+    }
+
+    /// A spectrum parameter as RGB: `rgb` values, a `blackbody` temperature, or a named
+    /// spectrum lightpath knows (see docs/scene-format.md).
+    fn rgb(&mut self, p: &Param, directive: &str) -> Result<Option<Vec3>, ParseError> {
+        match p.ty.as_str() {
+            "rgb" => Ok(Some(Vec3::new(
+                p.nums[0] as f32,
+                p.nums[1] as f32,
+                p.nums[2] as f32,
+            ))),
+            "float" => Ok(Some(Vec3::splat(p.nums[0] as f32))),
+            "spectrum" if !p.strs.is_empty() => match named_spectrum(&p.strs[0]) {
+                Some(c) => Ok(Some(c)),
+                None => {
+                    self.unsupported(
+                        p.file,
+                        p.line,
+                        format!("{directive}: spectrum \"{}\"", p.strs[0]),
+                    );
+                    Ok(None)
+                }
+            },
+            "spectrum" | "blackbody" => {
+                self.unsupported(
+                    p.file,
+                    p.line,
+                    format!(
+                        "{directive}: \"{} {}\" (only rgb values and named metal spectra)",
+                        p.ty, p.name
+                    ),
+                );
+                Ok(None)
+            }
+            _ => Err(self.err_at(
+                p.file,
+                p.line,
+                directive,
+                format!(
+                    "parameter \"{}\": expected rgb, spectrum or float, got {}",
+                    p.name, p.ty
+                ),
+            )),
+        }
+    }
+
+    /// A colour or float a material reads: a constant or a texture by name.
+    fn value(
+        &mut self,
+        params: &Params,
+        name: &str,
+        float: bool,
+        directive: &str,
+    ) -> Result<Option<Value>, ParseError> {
+        let Some(p) = params.find(name).cloned() else {
+            return Ok(None);
+        };
+        if p.ty == "texture" {
+            let table = if float {
+                &self.float_textures
+            } else {
+                &self.textures
+            };
+            return match table.get(&p.strs[0]) {
+                Some(t) => Ok(Some(t.0)),
+                None => Err(self.err_at(
+                    p.file,
+                    p.line,
+                    directive,
+                    format!(
+                        "no {} texture named \"{}\"",
+                        if float { "float" } else { "spectrum" },
+                        p.strs[0]
+                    ),
+                )),
+            };
+        }
+        Ok(self.rgb(&p, directive)?.map(Value::Const))
+    }
+
+    fn material(
+        &mut self,
+        ty: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<MaterialRef, ParseError> {
+        let d = "Material";
+        params.find("type");
+        let mut m = Material::default();
+        let roughness = |this: &mut Self, m: &mut Material| -> Result<(), ParseError> {
+            let remap = params
+                .find("remaproughness")
+                .and_then(|p| p.bools.first().copied())
+                .unwrap_or(true);
+            let r = this.value(params, "roughness", true, d)?;
+            let u = this.value(params, "uroughness", true, d)?.or(r);
+            let v = this.value(params, "vroughness", true, d)?.or(r);
+            let remap_f = |x: f32| if remap { x.max(0.0).sqrt() } else { x };
+            match (u, v) {
+                (Some(Value::Texture(t)), _) | (_, Some(Value::Texture(t))) => {
+                    if remap {
+                        this.unsupported(file, line, "a roughness texture with remaproughness (lightpath reads textures as alpha: set remaproughness false)");
+                    }
+                    m.roughness_texture = Some(t);
+                }
+                (u, v) => {
+                    let get = |x: Option<Value>| match x {
+                        Some(Value::Const(c)) => c.x,
+                        _ => 0.0,
+                    };
+                    m.roughness = remap_f(get(u));
+                    m.roughness_v = remap_f(get(v));
+                    if m.roughness < 0.0 || m.roughness_v < 0.0 {
+                        return Err(this.err_at(file, line, d, "roughness must not be negative"));
+                    }
+                }
+            }
+            Ok(())
+        };
+        let eta = |this: &mut Self| -> Result<f32, ParseError> {
+            let eta = match this.value(params, "eta", true, d)? {
+                Some(Value::Const(c)) => c.x,
+                Some(Value::Texture(_)) => {
+                    this.unsupported(file, line, "a textured index of refraction");
+                    1.5
+                }
+                None => 1.5,
+            };
+            if !(eta > 0.0 && eta.is_finite()) {
+                return Err(this.err_at(
+                    file,
+                    line,
+                    d,
+                    format!("eta must be positive and finite, got {eta}"),
+                ));
+            }
+            Ok(eta)
+        };
+        match ty {
+            "interface" => {
+                self.check_used(d, "\"interface\"", params);
+                return Ok(MaterialRef::Interface);
+            }
+            "diffuse" => {
+                m = diffuse(Vec3::splat(0.5));
+                match self.value(params, "reflectance", false, d)? {
+                    Some(Value::Const(c)) => m.diffuse = c,
+                    Some(Value::Texture(t)) => m.diffuse_texture = Some(t),
+                    None => {}
+                }
+            }
+            "dielectric" | "thindielectric" => {
+                m.bsdf = if ty == "dielectric" {
+                    BsdfKind::Dielectric
+                } else {
+                    BsdfKind::ThinDielectric
+                };
+                m.ior = eta(self)?;
+                if ty == "dielectric" {
+                    roughness(self, &mut m)?;
+                }
+            }
+            "conductor" => {
+                m.bsdf = BsdfKind::Conductor;
+                roughness(self, &mut m)?;
+                if let Some(r) = self.value(params, "reflectance", false, d)? {
+                    match r {
+                        Value::Const(r) => {
+                            if r.max_element() >= 1.0 || r.min_element() < 0.0 {
+                                return Err(self.err_at(
+                                    file,
+                                    line,
+                                    d,
+                                    "a conductor's reflectance must lie in [0, 1)",
+                                ));
+                            }
+                            m.eta = Vec3::ONE;
+                            m.k = 2.0 * r.map(f32::sqrt) / (Vec3::ONE - r).map(f32::sqrt);
+                        }
+                        Value::Texture(_) => {
+                            self.unsupported(file, line, "conductor: a textured reflectance")
+                        }
+                    }
+                } else {
+                    for (name, slot) in [("eta", 0), ("k", 1)] {
+                        match self.value(params, name, false, d)? {
+                            Some(Value::Const(c)) => {
+                                if c.min_element() < 0.0 {
+                                    return Err(self.err_at(
+                                        file,
+                                        line,
+                                        d,
+                                        format!("{name} must not be negative"),
+                                    ));
+                                }
+                                if slot == 0 {
+                                    m.eta = c
+                                } else {
+                                    m.k = c
+                                }
+                            }
+                            Some(Value::Texture(_)) => self.unsupported(
+                                file,
+                                line,
+                                format!("conductor: a textured {name}"),
+                            ),
+                            None => {}
+                        }
+                    }
+                }
+            }
+            other => {
+                self.unsupported(file, line, format!("Material \"{other}\""));
+                for p in &params.0 {
+                    p.used.set(true);
+                }
+                return Ok(MaterialRef::Material(diffuse(Vec3::splat(0.5))));
+            }
+        }
+        for name in ["displacement", "normalmap"] {
+            if let Some(p) = params.find(name) {
+                self.unsupported(
+                    p.file,
+                    p.line,
+                    format!("Material \"{ty}\": {name} (bump and normal maps)"),
+                );
+            }
+        }
+        self.check_used(d, &format!("\"{ty}\""), params);
+        Ok(MaterialRef::Material(m))
+    }
+
+    fn texture(
+        &mut self,
+        name: &str,
+        ty: &str,
+        class: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<(), ParseError> {
+        let d = "Texture";
+        let float = match ty {
+            "float" => true,
+            "spectrum" | "color" => false,
+            other => {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    d,
+                    format!("expected \"spectrum\" or \"float\", got \"{other}\""),
+                ))
+            }
+        };
+        let num = |n: &str, default: f64| {
+            params
+                .find(n)
+                .and_then(|p| p.nums.first().copied())
+                .unwrap_or(default) as f32
+        };
+        let mapping = [
+            num("uscale", 1.0),
+            num("vscale", 1.0),
+            num("udelta", 0.0),
+            num("vdelta", 0.0),
+        ];
+        if let Some(p) = params.find("mapping") {
+            if p.strs.first().map(String::as_str) != Some("uv") {
+                self.unsupported(p.file, p.line, "Texture: a mapping other than uv");
+            }
+        }
+        let value = match class {
+            "constant" => match self.value(params, "value", float, d)? {
+                Some(v) => v,
+                None => Value::Const(Vec3::ONE),
+            },
+            "scale" => {
+                let t = self
+                    .value(params, "tex", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ONE));
+                let s = self
+                    .value(params, "scale", true, d)?
+                    .unwrap_or(Value::Const(Vec3::ONE));
+                match (t, s) {
+                    (Value::Const(a), Value::Const(b)) => Value::Const(a * b.x),
+                    (Value::Texture(i), Value::Const(b)) | (Value::Const(b), Value::Texture(i)) => {
+                        // A scaled copy of the texture.
+                        let mut tex = self.scene.textures[i as usize].clone();
+                        match &mut tex {
+                            Texture::Image { scale, .. } => *scale *= b.x,
+                            Texture::Checkerboard { even, odd, .. } => {
+                                *even *= b.x;
+                                *odd *= b.x;
+                            }
+                        }
+                        if let (Value::Const(c), Value::Texture(_)) = (t, s) {
+                            // A constant colour scaled by a float texture: only grey works.
+                            if c.x != c.y || c.y != c.z {
+                                self.unsupported(
+                                    file,
+                                    line,
+                                    "Texture \"scale\": a colour scaled by a texture",
+                                );
+                            }
+                        }
+                        self.scene.textures.push(tex);
+                        Value::Texture(self.scene.textures.len() as u32 - 1)
+                    }
+                    _ => {
+                        self.unsupported(file, line, "Texture \"scale\" of two textures");
+                        Value::Const(Vec3::ONE)
+                    }
+                }
+            }
+            "imagemap" => {
+                let Some(p) = params.find("filename").cloned() else {
+                    return Err(self.err_at(file, line, d, "imagemap: no \"string filename\""));
+                };
+                let path = self.dirs[file as usize].join(&p.strs[0]);
+                let encoding = match params
+                    .find("encoding")
+                    .and_then(|p| p.strs.first().cloned())
+                    .as_deref()
+                {
+                    None => {
+                        let ext = path
+                            .extension()
+                            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+                        if matches!(ext.as_deref(), Some("png" | "tga")) {
+                            Encoding::Srgb
+                        } else {
+                            Encoding::Linear
+                        }
+                    }
+                    Some("sRGB") => Encoding::Srgb,
+                    Some("linear") => Encoding::Linear,
+                    Some(other) => {
+                        self.unsupported(file, line, format!("imagemap: encoding \"{other}\""));
+                        Encoding::Linear
+                    }
+                };
+                if let Some(p) = params.find("invert") {
+                    if p.bools.first() == Some(&true) {
+                        self.unsupported(p.file, p.line, "imagemap: invert");
+                    }
+                }
+                if let Some(p) = params.find("wrap") {
+                    if p.strs.first().map(String::as_str) != Some("repeat") {
+                        self.unsupported(p.file, p.line, "imagemap: a wrap mode other than repeat");
+                    }
+                }
+                params.find("filter");
+                params.find("maxanisotropy");
+                let scale = num("scale", 1.0);
+                let key = (path.clone(), encoding);
+                let image = match self.image_textures.get(&key) {
+                    Some(i) => i.clone(),
+                    None => {
+                        let image = Arc::new(
+                            load_image(&path, encoding)
+                                .map_err(|e| self.err_at(p.file, p.line, d, e))?,
+                        );
+                        self.image_textures.insert(key, image.clone());
+                        image
+                    }
+                };
+                self.scene.textures.push(Texture::Image {
+                    image,
+                    scale: Vec3::splat(scale),
+                    mapping,
+                });
+                Value::Texture(self.scene.textures.len() as u32 - 1)
+            }
+            "checkerboard" => {
+                let dim = params
+                    .find("dimension")
+                    .and_then(|p| p.nums.first().copied())
+                    .unwrap_or(2.0);
+                if dim != 2.0 {
+                    self.unsupported(file, line, "checkerboard: 3D");
+                }
+                let even = self
+                    .value(params, "tex1", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ONE));
+                let odd = self
+                    .value(params, "tex2", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ZERO));
+                match (even, odd) {
+                    (Value::Const(even), Value::Const(odd)) => {
+                        self.scene
+                            .textures
+                            .push(Texture::Checkerboard { even, odd, mapping });
+                        Value::Texture(self.scene.textures.len() as u32 - 1)
+                    }
+                    _ => {
+                        self.unsupported(file, line, "checkerboard of textures");
+                        Value::Const(Vec3::splat(0.5))
+                    }
+                }
+            }
+            other => {
+                self.unsupported(file, line, format!("Texture \"{other}\""));
+                for p in &params.0 {
+                    p.used.set(true);
+                }
+                Value::Const(Vec3::splat(0.5))
+            }
+        };
+        self.check_used(d, &format!("\"{class}\""), params);
+        let table = if float {
+            &mut self.float_textures
+        } else {
+            &mut self.textures
+        };
+        table.insert(name.to_owned(), NamedTexture(value));
+        Ok(())
+    }
+
+    /// A light's colour: `name`'s RGB times `scale`, times the film's imaging ratio.
+    fn light_colour(
+        &mut self,
+        params: &Params,
+        name: &str,
+        default: Vec3,
+        d: &str,
+    ) -> Result<Vec3, ParseError> {
+        let base = match params.find(name).cloned() {
+            Some(p) => self.rgb(&p, d)?.unwrap_or(Vec3::ONE),
+            None => default,
+        };
+        let scale = params
+            .find("scale")
+            .and_then(|p| p.nums.first().copied())
+            .unwrap_or(1.0) as f32;
+        Ok(base * scale)
+    }
+
+    fn light(&mut self, ty: &str, params: &Params, file: u32, line: u32) -> Result<(), ParseError> {
+        let d = "LightSource";
+        let ctm = self.gs.ctm;
+        let point = |params: &Params, name: &str, default: Vec3| {
+            params.find(name).map_or(default, |p| {
+                Vec3::new(p.nums[0] as f32, p.nums[1] as f32, p.nums[2] as f32)
+            })
+        };
+        let power = params
+            .find("power")
+            .and_then(|p| p.nums.first().copied())
+            .map(|x| x as f32);
+        match ty {
+            "point" => {
+                let mut i = self.light_colour(params, "I", Vec3::ONE, d)?;
+                // (pbrt-v4 divides by the photometric value of the colour space's
+                // illuminant only, so an RGB intensity keeps its values.)
+                if let Some(phi) = power {
+                    i *= phi / (4.0 * std::f32::consts::PI);
+                }
+                let position = ctm.transform_point3(point(params, "from", Vec3::ZERO));
+                self.scene.delta_lights.push(DeltaLight::Point {
+                    position,
+                    intensity: i,
+                });
+            }
+            "spot" => {
+                let mut i = self.light_colour(params, "I", Vec3::ONE, d)?;
+                let from = point(params, "from", Vec3::ZERO);
+                let to = point(params, "to", Vec3::Z);
+                let cone = params
+                    .find("coneangle")
+                    .and_then(|p| p.nums.first().copied())
+                    .unwrap_or(30.0) as f32;
+                let delta = params
+                    .find("conedelta")
+                    .and_then(|p| p.nums.first().copied())
+                    .unwrap_or(5.0) as f32;
+                if !(cone > 0.0 && cone <= 180.0 && delta >= 0.0) {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        "spot: coneangle must be in (0, 180] and conedelta not negative",
+                    ));
+                }
+                let cos_end = cone.to_radians().cos();
+                let cos_start = (cone - delta).max(0.0).to_radians().cos();
+                if let Some(phi) = power {
+                    let k_e = 2.0
+                        * std::f32::consts::PI
+                        * ((1.0 - cos_start) + (cos_start - cos_end) / 2.0);
+                    i *= phi / k_e;
+                }
+                let dir = ctm.transform_vector3(to - from);
+                if dir.length_squared() == 0.0 {
+                    return Err(self.err_at(file, line, d, "spot: from and to coincide"));
+                }
+                self.scene.delta_lights.push(DeltaLight::Spot {
+                    position: ctm.transform_point3(from),
+                    direction: dir.normalize(),
+                    intensity: i,
+                    cos_falloff_start: cos_start,
+                    cos_falloff_end: cos_end,
+                });
+            }
+            "distant" => {
+                let mut l = self.light_colour(params, "L", Vec3::ONE, d)?;
+                if let Some(e) = params
+                    .find("illuminance")
+                    .and_then(|p| p.nums.first().copied())
+                {
+                    l *= e as f32;
+                }
+                let from = point(params, "from", Vec3::ZERO);
+                let to = point(params, "to", Vec3::Z);
+                let dir = ctm.transform_vector3(from - to);
+                if dir.length_squared() == 0.0 {
+                    return Err(self.err_at(file, line, d, "distant: from and to coincide"));
+                }
+                self.scene.delta_lights.push(DeltaLight::Directional {
+                    direction: dir.normalize(),
+                    radiance: l,
+                });
+            }
+            "infinite" => {
+                let file_param = params.find("filename").cloned();
+                let mut l = self.light_colour(params, "L", Vec3::ONE, d)?;
+                if let Some(e) = params
+                    .find("illuminance")
+                    .and_then(|p| p.nums.first().copied())
+                {
+                    if file_param.is_some() {
+                        self.unsupported(file, line, "infinite: illuminance with an image");
+                    } else {
+                        // The upper hemisphere's illuminance from constant L is π L.
+                        l *= e as f32 / std::f32::consts::PI;
+                    }
+                }
+                if let Some(p) = params.find("portal") {
+                    self.unsupported(p.file, p.line, "infinite: portal");
+                }
+                let map = match file_param {
+                    None => None,
+                    Some(p) => {
+                        let path = self.dirs[p.file as usize].join(&p.strs[0]);
+                        let image = load_image(&path, Encoding::Linear)
+                            .map_err(|e| self.err_at(p.file, p.line, d, e))?;
+                        if image.width != image.height {
+                            return Err(self.err_at(p.file, p.line, d, format!("{}: an equal-area environment map is square, this one is {}x{}", path.display(), image.width, image.height)));
+                        }
+                        let linear = Mat3::from_mat4(ctm);
+                        let s = linear.col(0).length();
+                        let rotation = linear * (1.0 / s);
+                        let orthonormal = (rotation.transpose() * rotation - Mat3::IDENTITY)
+                            .to_cols_array()
+                            .iter()
+                            .all(|x| x.abs() < 1e-4);
+                        if !orthonormal || rotation.determinant() < 0.0 {
+                            return Err(self.err_at(
+                                file,
+                                line,
+                                d,
+                                "the transform turns the environment map by more than a rotation",
+                            ));
+                        }
+                        Some(EnvironmentMap {
+                            image: Arc::new(image),
+                            mapping: EnvMapping::EqualArea,
+                            to_world: rotation,
+                        })
+                    }
+                };
+                if self.scene.environment.is_some() {
+                    self.unsupported(file, line, "a second infinite light");
+                }
+                self.scene.environment = Some(Environment { radiance: l, map });
+            }
+            other => {
+                self.unsupported(file, line, format!("LightSource \"{other}\""));
+                for p in &params.0 {
+                    p.used.set(true);
+                }
+            }
+        }
+        self.check_used(d, &format!("\"{ty}\""), params);
+        Ok(())
+    }
+
+    fn area_light(
+        &mut self,
+        ty: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<(), ParseError> {
+        let d = "AreaLightSource";
+        if ty != "diffuse" {
+            self.unsupported(file, line, format!("AreaLightSource \"{ty}\""));
+            for p in &params.0 {
+                p.used.set(true);
+            }
+            return Ok(());
+        }
+        let radiance = self.light_colour(params, "L", Vec3::ONE, d)?;
+        let two_sided = params
+            .find("twosided")
+            .and_then(|p| p.bools.first().copied())
+            .unwrap_or(false);
+        let power = params
+            .find("power")
+            .and_then(|p| p.nums.first().copied())
+            .map(|x| x as f32);
+        if let Some(p) = params.find("filename") {
+            self.unsupported(p.file, p.line, "AreaLightSource: an image");
+        }
+        self.check_used(d, "\"diffuse\"", params);
+        self.gs.area = Some(AreaLight {
+            radiance,
+            two_sided,
+            power,
+        });
+        Ok(())
+    }
+
+    fn shape(&mut self, ty: &str, params: &Params, file: u32, line: u32) -> Result<(), ParseError> {
+        let d = "Shape";
+        let vec3s = |p: &Param| {
+            p.nums
+                .chunks(3)
+                .map(|c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))
+                .collect::<Vec<_>>()
+        };
+        let kind = match ty {
+            "trianglemesh" | "bilinearmesh" => {
+                let Some(pp) = params.find("P") else {
+                    return Err(self.err_at(file, line, d, format!("{ty}: no \"point3 P\"")));
+                };
+                let p = vec3s(pp);
+                let corners = if ty == "trianglemesh" { 3 } else { 4 };
+                let mut indices: Vec<u32> = match params.find("indices") {
+                    Some(ip) => {
+                        if let Some(bad) = ip.nums.iter().find(|&&x| x < 0.0) {
+                            return Err(self.err_at(ip.file, ip.line, d, format!("{ty}: a negative index {bad}")));
+                        }
+                        ip.nums.iter().map(|&x| x as u32).collect()
+                    }
+                    None if p.len() == corners => (0..corners as u32).collect(),
+                    None => return Err(self.err_at(file, line, d, format!("{ty}: no \"integer indices\" (needed unless there are exactly {corners} points)"))),
+                };
+                if indices.len() % corners != 0 {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!(
+                            "{ty}: {} indices, not a multiple of {corners}",
+                            indices.len()
+                        ),
+                    ));
+                }
+                if let Some(bad) = indices.iter().find(|&&i| i as usize >= p.len()) {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!("{ty}: index {bad} out of range ({} points)", p.len()),
+                    ));
+                }
+                let n = match params.find("N") {
+                    Some(np) => {
+                        let n = vec3s(np);
+                        if n.len() != p.len() {
+                            return Err(self.err_at(
+                                np.file,
+                                np.line,
+                                d,
+                                format!("{ty}: {} normals for {} points", n.len(), p.len()),
+                            ));
+                        }
+                        Some(n)
+                    }
+                    None => None,
+                };
+                let uv = match params.find("uv") {
+                    Some(up) => {
+                        let uv: Vec<Vec2> = up
+                            .nums
+                            .chunks(2)
+                            .map(|c| Vec2::new(c[0] as f32, c[1] as f32))
+                            .collect();
+                        if uv.len() != p.len() {
+                            return Err(self.err_at(
+                                up.file,
+                                up.line,
+                                d,
+                                format!("{ty}: {} uv for {} points", uv.len(), p.len()),
+                            ));
+                        }
+                        Some(uv)
+                    }
+                    None => None,
+                };
+                if corners == 4 {
+                    // A bilinear patch p00 p10 p01 p11 as two triangles (exact when planar).
+                    indices = indices
+                        .chunks(4)
+                        .flat_map(|q| [q[0], q[1], q[3], q[0], q[3], q[2]])
+                        .collect();
+                }
+                for name in ["S", "faceIndices"] {
+                    params.find(name);
+                }
+                ShapeKind::Mesh { p, indices, n, uv }
+            }
+            "sphere" => {
+                let radius = params
+                    .find("radius")
+                    .and_then(|p| p.nums.first().copied())
+                    .unwrap_or(1.0) as f32;
+                if !(radius > 0.0) {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!("sphere: radius must be positive, got {radius}"),
+                    ));
+                }
+                for (name, full) in [("zmin", -radius), ("zmax", radius), ("phimax", 360.0)] {
+                    if let Some(p) = params.find(name) {
+                        let x = p.nums.first().copied().unwrap_or(full as f64) as f32;
+                        let whole = if name == "zmin" {
+                            x <= -radius
+                        } else {
+                            x >= full
+                        };
+                        if !whole {
+                            self.unsupported(
+                                p.file,
+                                p.line,
+                                format!("sphere: {name} (a partial sphere)"),
+                            );
+                        }
+                    }
+                }
+                ShapeKind::Sphere { radius }
+            }
+            "disk" => {
+                let num = |n: &str, default: f64| {
+                    params
+                        .find(n)
+                        .and_then(|p| p.nums.first().copied())
+                        .unwrap_or(default) as f32
+                };
+                let (radius, inner, height) = (
+                    num("radius", 1.0),
+                    num("innerradius", 0.0),
+                    num("height", 0.0),
+                );
+                if let Some(p) = params.find("phimax") {
+                    if p.nums.first().copied().unwrap_or(360.0) < 360.0 {
+                        self.unsupported(p.file, p.line, "disk: phimax (a partial disk)");
+                    }
+                }
+                if !(radius > 0.0 && inner >= 0.0 && inner < radius) {
+                    return Err(self.err_at(file, line, d, "disk: need 0 <= innerradius < radius"));
+                }
+                // An annulus of DISK_SEGMENTS quads (or a fan), normal +z as pbrt's.
+                let mut p = Vec::new();
+                let mut uv = Vec::new();
+                let mut indices = Vec::new();
+                for k in 0..DISK_SEGMENTS {
+                    let phi = k as f32 / DISK_SEGMENTS as f32 * std::f32::consts::TAU;
+                    let (s, c) = phi.sin_cos();
+                    p.push(Vec3::new(radius * c, radius * s, height));
+                    p.push(Vec3::new(inner * c, inner * s, height));
+                    let u = k as f32 / DISK_SEGMENTS as f32;
+                    uv.push(Vec2::new(u, 0.0));
+                    uv.push(Vec2::new(u, 1.0 - inner / radius));
+                }
+                for k in 0..DISK_SEGMENTS as u32 {
+                    let next = (k + 1) % DISK_SEGMENTS as u32;
+                    let (o0, i0, o1, i1) = (2 * k, 2 * k + 1, 2 * next, 2 * next + 1);
+                    indices.extend([o0, o1, i1]);
+                    if inner > 0.0 {
+                        indices.extend([o0, i1, i0]);
+                    }
+                }
+                ShapeKind::Mesh {
+                    p,
+                    indices,
+                    n: None,
+                    uv: Some(uv),
+                }
+            }
+            other => {
+                self.unsupported(file, line, format!("Shape \"{other}\""));
+                for p in &params.0 {
+                    p.used.set(true);
+                }
+                return Ok(());
+            }
+        };
+        for name in ["alpha", "emissionfilename", "displacement"] {
+            if let Some(p) = params.find(name) {
+                self.unsupported(p.file, p.line, format!("Shape \"{ty}\": {name}"));
+            }
+        }
+        self.check_used(d, &format!("\"{ty}\""), params);
+        let decl = ShapeDecl {
+            kind,
+            ctm: self.gs.ctm,
+            reverse: self.gs.reverse,
+            material: self.gs.material.clone(),
+            area: self.gs.area.clone(),
+        };
+        if self.defining.is_some() {
+            if decl.area.is_some() {
+                self.unsupported(file, line, "an area light inside an object instance");
+            }
+            if let Some((_, shapes)) = &mut self.defining {
+                shapes.push(decl);
+            }
+            return Ok(());
+        }
+        self.emit(decl, file, line)
+    }
+
+    fn intern(&mut self, m: Material) -> u32 {
+        let materials = &mut self.scene.materials;
+        *self
+            .material_lookup
+            .entry(MaterialKey::of(&m))
+            .or_insert_with(|| {
+                materials.push(m);
+                (materials.len() - 1) as u32
+            })
+    }
+
+    /// Adds a declared shape to the scene, in world space.
+    fn emit(&mut self, s: ShapeDecl, file: u32, line: u32) -> Result<(), ParseError> {
+        let MaterialRef::Material(mut m) = s.material else {
+            return Ok(());
+        };
+        let ctm = s.ctm;
+        let swaps = Mat3::from_mat4(ctm).determinant() < 0.0;
+        let area = |tris: &[Triangle]| {
+            tris.iter()
+                .map(|t| 0.5 * (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length())
+                .sum::<f32>()
+        };
+        match s.kind {
+            ShapeKind::Mesh { p, indices, n, uv } => {
+                let wp: Vec<Vec3> = p.iter().map(|&x| ctm.transform_point3(x)).collect();
+                let normal_matrix = Mat3::from_mat4(ctm).inverse().transpose();
+                let wn: Option<Vec<Vec3>> = n.map(|n| {
+                    n.iter()
+                        .map(|&x| {
+                            let v = (normal_matrix * x).normalize_or_zero();
+                            if s.reverse {
+                                -v
+                            } else {
+                                v
+                            }
+                        })
+                        .collect()
+                });
+                let mut tris = Vec::with_capacity(indices.len() / 3);
+                for c in indices.chunks(3) {
+                    let (a, b, cc) = (c[0] as usize, c[1] as usize, c[2] as usize);
+                    let mut t = Triangle::new([wp[a], wp[b], wp[cc]], 0);
+                    // pbrt's default uv for a triangle without them: (0,0), (1,0), (1,1).
+                    t.uv = Some(match &uv {
+                        Some(uv) => [uv[a], uv[b], uv[cc]],
+                        None => [Vec2::ZERO, Vec2::X, Vec2::ONE],
+                    });
+                    if (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length_squared() == 0.0 {
+                        continue;
+                    }
+                    t = match &wn {
+                        Some(wn) => {
+                            t.normals = Some([wn[a], wn[b], wn[cc]]);
+                            t.facing_its_normals()
+                        }
+                        // pbrt flips the geometric normal for reverse orientation or a
+                        // transform that swaps handedness.
+                        None if s.reverse ^ swaps => flip(t),
+                        None => t,
+                    };
+                    tris.push(t);
+                }
+                if let Some(a) = &s.area {
+                    m.emission = a.radiance * self.imaging_ratio;
+                    m.two_sided_emission = a.two_sided;
+                }
+                let power = s.area.as_ref().and_then(|a| {
+                    a.power
+                        .map(|phi| (phi, if a.two_sided { 2.0 } else { 1.0 }))
+                });
+                let index = self.intern(m);
+                for mut t in tris {
+                    t.material = match power {
+                        // pbrt-v4 makes one light per triangle of a mesh, each emitting
+                        // `power`: radiance power / (sides π area) per triangle.
+                        Some((phi, sides)) => {
+                            let mut mt = m;
+                            mt.emission *= phi
+                                / (sides * area(std::slice::from_ref(&t)) * std::f32::consts::PI);
+                            self.intern(mt)
+                        }
+                        None => index,
+                    };
+                    self.scene.triangles.push(t);
+                }
+            }
+            ShapeKind::Sphere { radius } => {
+                if let Some(a) = &s.area {
+                    if s.reverse ^ swaps && !a.two_sided {
+                        self.unsupported(
+                            file,
+                            line,
+                            "an emissive sphere facing inward (ReverseOrientation)",
+                        );
+                    }
+                    m.emission = a.radiance * self.imaging_ratio;
+                    m.two_sided_emission = a.two_sided;
+                    if let Some(phi) = a.power {
+                        let scale = Mat3::from_mat4(ctm);
+                        let r = radius * scale.determinant().abs().cbrt();
+                        let sides = if a.two_sided { 2.0 } else { 1.0 };
+                        m.emission *= phi
+                            / (sides * 4.0 * std::f32::consts::PI * r * r * std::f32::consts::PI);
+                    }
+                }
+                let material = self.intern(m);
+                self.scene.spheres.push(Sphere {
+                    object_to_world: ctm * Mat4::from_scale(Vec3::splat(radius)),
+                    material,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(mut self) -> Result<Scene, ParseError> {
+        if !self.unsupported.is_empty() {
+            let first = &self.unsupported[0];
+            let (file, line) = first
+                .split_once(": ")
+                .and_then(|(loc, _)| loc.rsplit_once(':'))
+                .map(|(f, l)| (f.to_owned(), l.parse().unwrap_or(0)))
+                .unwrap_or_default();
+            return Err(ParseError {
+                file,
+                line,
+                command: "unsupported".into(),
+                message: format!(
+                    "lightpath cannot render {} feature use(s) of this scene:\n  {}",
+                    self.unsupported.len(),
+                    self.unsupported.join("\n  ")
+                ),
+            });
+        }
+        for w in &self.warnings {
+            eprintln!("warning: {w}");
+        }
+        let (w, h) = self.film_size;
+        self.scene.width = w;
+        self.scene.height = h;
+        // pbrt's fov spans the shorter image side; ours is vertical.
+        if w < h {
+            let half =
+                (self.scene.camera.fovy_degrees.to_radians() * 0.5).tan() * h as f32 / w as f32;
+            self.scene.camera.fovy_degrees = (2.0 * half.atan()).to_degrees();
+        }
+        if !self.camera_seen {
+            // pbrt's default camera: at the origin looking down +z, fov 90.
+            self.scene.camera = Camera {
+                eye: Vec3::ZERO,
+                look_at: Vec3::Z,
+                up: Vec3::Y,
+                fovy_degrees: 90.0,
+                mirror: false,
+            };
+            if w < h {
+                let half = (45f32.to_radians()).tan() * h as f32 / w as f32;
+                self.scene.camera.fovy_degrees = (2.0 * half.atan()).to_degrees();
+            }
+        }
+        for l in &mut self.scene.delta_lights {
+            match l {
+                DeltaLight::Point { intensity, .. } | DeltaLight::Spot { intensity, .. } => {
+                    *intensity *= self.imaging_ratio
+                }
+                DeltaLight::Directional { radiance, .. } => *radiance *= self.imaging_ratio,
+            }
+        }
+        if let Some(e) = &mut self.scene.environment {
+            e.radiance *= self.imaging_ratio;
+        }
+        Ok(self.scene)
+    }
+}
+
+/// The triangle with its orientation reversed (its geometric normal flipped).
+fn flip(mut t: Triangle) -> Triangle {
+    t.v.swap(1, 2);
+    if let Some(uv) = &mut t.uv {
+        uv.swap(1, 2);
+    }
+    if let Some(n) = &mut t.normals {
+        n.swap(1, 2);
+    }
+    t
+}
+
+/// Named spectra lightpath knows, as RGB (docs/scene-format.md): the metals' η and k at
+/// the sRGB primaries' dominant wavelengths (about 610, 550 and 465 nm).
+fn named_spectrum(name: &str) -> Option<Vec3> {
+    Some(match name {
+        "metal-Cu-eta" => super::COPPER_ETA,
+        "metal-Cu-k" => super::COPPER_K,
+        "metal-Au-eta" => Vec3::new(0.143_119, 0.374_957, 1.442_48),
+        "metal-Au-k" => Vec3::new(3.983_16, 2.385_72, 1.603_22),
+        "metal-Ag-eta" => Vec3::new(0.155_265, 0.116_723, 0.138_342),
+        "metal-Ag-k" => Vec3::new(4.828_35, 3.122_25, 2.146_96),
+        "metal-Al-eta" => Vec3::new(1.657_46, 0.880_369, 0.521_229),
+        "metal-Al-k" => Vec3::new(9.223_87, 6.269_52, 4.837),
+        "glass-BK7" => Vec3::splat(1.5168),
+        "glass-BAF10" => Vec3::splat(1.67),
+        "glass-F11" => Vec3::splat(1.62),
+        _ => return None,
+    })
+}
+
+fn describe(t: &Tok) -> String {
+    match t {
+        Tok::Str(s) => format!("\"{s}\""),
+        Tok::Num(x) => format!("{x}"),
+        Tok::Word(w) => format!("'{w}'"),
+        Tok::Open => "'['".into(),
+        Tok::Close => "']'".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Scene {
+        parse_pbrt_str(text, "t.pbrt").unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn parse_err(text: &str) -> ParseError {
+        parse_pbrt_str(text, "t.pbrt").expect_err("should not parse")
+    }
+
+    const QUAD: &str = r#"Shape "trianglemesh" "point3 P" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]
+        "integer indices" [ 0 1 2  0 2 3 ]"#;
+
+    #[test]
+    fn tokens_parameters_and_defaults() {
+        let s = parse(&format!(
+            r#"# a comment
+            LookAt 0 0 5  0 0 0  0 1 0
+            Camera "perspective" "float fov" 40
+            Film "rgb" "integer xresolution" [ 64 ] "integer yresolution" 32 "string filename" "out.exr"
+            Sampler "zsobol" "integer pixelsamples" 8
+            Integrator "bdpt" "integer maxdepth" [ 7 ]
+            WorldBegin
+            Material "diffuse" "rgb reflectance" [ 0.2 0.3 0.4 ]
+            {QUAD}
+            "#
+        ));
+        assert_eq!((s.width, s.height), (64, 32));
+        assert_eq!(s.output.as_deref(), Some("out.exr"));
+        assert_eq!(s.settings.spp, 8);
+        assert_eq!(s.settings.max_depth, 7);
+        assert_eq!(s.settings.integrator, IntegratorKind::Bdpt);
+        assert_eq!(s.triangles.len(), 2);
+        assert_eq!(s.materials[0].diffuse, Vec3::new(0.2, 0.3, 0.4));
+        assert_eq!(s.materials[0].bsdf, BsdfKind::Phong);
+        assert_eq!(s.materials[0].specular, Vec3::ZERO);
+        // fov spans the shorter side (here the height): the vertical fov is 40°.
+        assert!((s.camera.fovy_degrees - 40.0).abs() < 1e-4);
+        // pbrt's LookAt camera: world +x is on the image's left.
+        assert!(s.camera.mirror);
+        assert!((s.camera.eye - Vec3::new(0.0, 0.0, 5.0)).length() < 1e-5);
+        assert!(((s.camera.look_at - s.camera.eye).normalize() - Vec3::NEG_Z).length() < 1e-5);
+        // A portrait image: fov spans the width.
+        let s = parse(
+            r#"Camera "perspective" "float fov" 90 Film "rgb" "integer xresolution" 50 "integer yresolution" 100 WorldBegin"#,
+        );
+        let expected = (2.0 * (2.0f32).atan()).to_degrees();
+        assert!(
+            (s.camera.fovy_degrees - expected).abs() < 1e-3,
+            "{}",
+            s.camera.fovy_degrees
+        );
+        // `Scale -1 1 1` before LookAt (as exporters write) makes it unmirrored.
+        let s = parse("Scale -1 1 1 LookAt 0 0 5 0 0 0 0 1 0 Camera \"perspective\" WorldBegin");
+        assert!(!s.camera.mirror);
+    }
+
+    #[test]
+    fn transforms_attributes_and_instances() {
+        let s = parse(&format!(
+            r#"WorldBegin
+            AttributeBegin
+              Translate 10 0 0
+              Scale 2 2 2
+              {QUAD}
+            AttributeEnd
+            ObjectBegin "q"
+              Rotate 90 0 0 1
+              {QUAD}
+            ObjectEnd
+            Translate 0 0 -3
+            ObjectInstance "q"
+            {QUAD}
+            "#
+        ));
+        assert_eq!(s.triangles.len(), 6);
+        // Translated and scaled: corner (-1, -1, 0) at (8, -2, 0).
+        assert!((s.triangles[0].v[0] - Vec3::new(8.0, -2.0, 0.0)).length() < 1e-5);
+        // The instance: rotated 90° about z, then translated by the instance's transform.
+        assert!((s.triangles[2].v[0] - Vec3::new(1.0, -1.0, -3.0)).length() < 1e-5);
+        // After the instance, the plain quad is only translated.
+        assert!((s.triangles[4].v[0] - Vec3::new(-1.0, -1.0, -3.0)).length() < 1e-5);
+        // Transform takes the matrix column by column (translation last).
+        let s = parse(&format!(
+            "WorldBegin Transform [1 0 0 0  0 1 0 0  0 0 1 0  5 6 7 1] {QUAD}"
+        ));
+        assert!((s.triangles[0].v[0] - Vec3::new(4.0, 5.0, 7.0)).length() < 1e-5);
+    }
+
+    #[test]
+    fn materials_textures_and_lights() {
+        let s = parse(&format!(
+            r#"WorldBegin
+            Texture "checks" "spectrum" "checkerboard" "rgb tex1" [1 0 0] "rgb tex2" [0 0 1] "float uscale" 4 "float vscale" 4
+            MakeNamedMaterial "glass" "string type" "dielectric" "float eta" 1.33 "float roughness" 0.04
+            MakeNamedMaterial "gold" "string type" "conductor" "spectrum eta" "metal-Au-eta" "spectrum k" "metal-Au-k" "float roughness" 0.01 "bool remaproughness" false
+            NamedMaterial "glass"
+            {QUAD}
+            NamedMaterial "gold"
+            {QUAD}
+            Material "diffuse" "texture reflectance" "checks"
+            {QUAD}
+            AttributeBegin
+              AreaLightSource "diffuse" "rgb L" [ 4 4 4 ] "float scale" 2
+              Material "diffuse" "rgb reflectance" [0 0 0]
+              {QUAD}
+            AttributeEnd
+            LightSource "point" "rgb I" [ 1 2 3 ] "point3 from" [ 0 5 0 ]
+            LightSource "spot" "point3 from" [0 0 0] "point3 to" [0 -1 0] "float coneangle" 30 "float conedelta" 10
+            LightSource "distant" "point3 from" [0 1 0] "point3 to" [0 0 0] "rgb L" [2 2 2]
+            LightSource "infinite" "rgb L" [0.1 0.2 0.3]
+            "#
+        ));
+        let m = |t: usize| s.materials[s.triangles[t].material as usize];
+        assert_eq!(m(0).bsdf, BsdfKind::Dielectric);
+        assert!((m(0).ior - 1.33).abs() < 1e-6);
+        // remaproughness (the default): alpha = sqrt(roughness).
+        assert!((m(0).roughness - 0.2).abs() < 1e-6);
+        assert_eq!(m(2).bsdf, BsdfKind::Conductor);
+        assert!((m(2).roughness - 0.01).abs() < 1e-6);
+        assert!((m(2).eta.x - 0.143_119).abs() < 1e-6);
+        assert_eq!(m(4).bsdf, BsdfKind::Phong);
+        let t = m(4).diffuse_texture.expect("textured") as usize;
+        assert!(
+            matches!(s.textures[t], Texture::Checkerboard { mapping, .. } if mapping == [4.0, 4.0, 0.0, 0.0])
+        );
+        assert_eq!(m(6).emission, Vec3::splat(8.0));
+        assert!(!m(6).two_sided_emission);
+        // The area light ended with its attributes.
+        assert_eq!(s.delta_lights.len(), 3);
+        assert!(
+            matches!(s.delta_lights[0], DeltaLight::Point { position, intensity } if position == Vec3::new(0.0, 5.0, 0.0) && intensity == Vec3::new(1.0, 2.0, 3.0))
+        );
+        match s.delta_lights[1] {
+            DeltaLight::Spot {
+                direction,
+                cos_falloff_start,
+                cos_falloff_end,
+                ..
+            } => {
+                assert!((direction - Vec3::NEG_Y).length() < 1e-6);
+                assert!((cos_falloff_start - 20f32.to_radians().cos()).abs() < 1e-6);
+                assert!((cos_falloff_end - 30f32.to_radians().cos()).abs() < 1e-6);
+            }
+            _ => panic!("a spot light"),
+        }
+        assert!(
+            matches!(s.delta_lights[2], DeltaLight::Directional { direction, radiance } if direction == Vec3::Y && radiance == Vec3::splat(2.0))
+        );
+        assert_eq!(
+            s.environment.as_ref().unwrap().radiance,
+            Vec3::new(0.1, 0.2, 0.3)
+        );
+    }
+
+    /// pbrt's emitting side: the triangle's normal (p0 - p2) × (p1 - p2), flipped by
+    /// ReverseOrientation or a mirroring transform, or turned toward the mesh's normals.
+    #[test]
+    fn emission_faces_pbrts_side() {
+        let facing = |text: &str| {
+            let s = parse(&format!("WorldBegin AreaLightSource \"diffuse\" {text}"));
+            let t = &s.triangles[0];
+            (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).normalize()
+        };
+        assert!((facing(QUAD) - Vec3::Z).length() < 1e-6);
+        assert!((facing(&format!("ReverseOrientation {QUAD}")) + Vec3::Z).length() < 1e-6);
+        // A mirroring transform turns the normal as a normal transforms.
+        assert!((facing(&format!("Scale 1 1 -1 {QUAD}")) + Vec3::Z).length() < 1e-6);
+        assert!((facing(&format!("Scale -1 1 1 {QUAD}")) - Vec3::Z).length() < 1e-6);
+        let with_normals = format!("{QUAD} \"normal N\" [0 0 -1 0 0 -1 0 0 -1 0 0 -1]");
+        assert!((facing(&with_normals) + Vec3::Z).length() < 1e-6);
+        // A mesh light with `power`: each triangle emits it (pbrt-v4 makes one light per
+        // triangle): L = power / (π area), area 2 per triangle.
+        let s = parse(&format!(
+            "WorldBegin AreaLightSource \"diffuse\" \"float power\" 10 {QUAD}"
+        ));
+        let l = s.materials[s.triangles[0].material as usize].emission;
+        assert!(
+            (l.x - 10.0 / (std::f32::consts::PI * 2.0)).abs() < 1e-5,
+            "{l}"
+        );
+    }
+
+    #[test]
+    fn unsupported_features_are_listed_together() {
+        let e = parse_err(&format!(
+            r#"WorldBegin
+            MakeNamedMedium "fog" "string type" "homogeneous"
+            Shape "curve" "point3 P" [0 0 0 1 1 1 2 2 2 3 3 3]
+            Material "hair"
+            {QUAD} "float alpha" 0.5
+            LightSource "goniometric"
+            "#
+        ));
+        let text = e.to_string();
+        for what in [
+            "t.pbrt:2: MakeNamedMedium",
+            "t.pbrt:3: Shape \"curve\"",
+            "t.pbrt:4: Material \"hair\"",
+            "alpha",
+            "t.pbrt:7: LightSource \"goniometric\"",
+        ] {
+            assert!(text.contains(what), "{what} missing from:\n{text}");
+        }
+        assert_eq!(e.line, 2);
+        // An unknown parameter is unsupported too (it would be silently ignored).
+        let e = parse_err(&format!(
+            "WorldBegin Material \"diffuse\" \"rgb reflectanse\" [1 1 1] {QUAD}"
+        ));
+        assert!(
+            e.to_string()
+                .contains("\"rgb reflectanse\" is not supported"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn syntax_errors_name_the_line() {
+        let e = parse_err("WorldBegin\n\nShape \"sphere\" \"float radius\" [ 1 \n");
+        assert!(e.message.contains("']'"), "{e}");
+        let e = parse_err("WorldBegin\nFrobnicate 1 2\n");
+        assert_eq!((e.line, e.command.as_str()), (2, "Frobnicate"));
+        let e = parse_err("WorldBegin\nShape \"sphere\" \"float radius\" \"big\"\n");
+        assert_eq!(e.line, 2);
+        let e = parse_err("Film \"rgb\" \"integer xresolution\" 1.5");
+        assert!(e.message.contains("integer"), "{e}");
+        let e = parse_err("WorldBegin\nAttributeEnd");
+        assert!(e.message.contains("without a matching"), "{e}");
+        let e = parse_err("WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"integer indices\" [0 1 5]");
+        assert!(e.message.contains("out of range"), "{e}");
+        let e = parse_err("Shape \"sphere\" \"string radius\" \"unterminated");
+        assert!(e.message.contains("unterminated"), "{e}");
+        let e = parse_err("WorldBegin NamedMaterial \"nothing\"");
+        assert!(e.message.contains("no material named"), "{e}");
+    }
+
+    #[test]
+    fn includes_are_relative_to_the_including_file() {
+        let d = std::env::temp_dir().join(format!("lightpath-pbrt-{}", std::process::id()));
+        std::fs::create_dir_all(d.join("sub/deeper")).unwrap();
+        std::fs::write(d.join("main.pbrt"), "WorldBegin\nInclude \"sub/a.pbrt\"\n").unwrap();
+        std::fs::write(
+            d.join("sub/a.pbrt"),
+            format!("Include \"deeper/b.pbrt\"\n{QUAD}\n"),
+        )
+        .unwrap();
+        std::fs::write(
+            d.join("sub/deeper/b.pbrt"),
+            "Material \"diffuse\" \"rgb reflectance\" [0.1 0.2 0.3]\n\nShape \"bogus\"\n",
+        )
+        .unwrap();
+        let e = parse_pbrt_file(&d.join("main.pbrt")).expect_err("bogus shape");
+        assert!(e.to_string().contains("b.pbrt:3: Shape \"bogus\""), "{e}");
+        std::fs::write(
+            d.join("sub/deeper/b.pbrt"),
+            "Material \"diffuse\" \"rgb reflectance\" [0.1 0.2 0.3]\n",
+        )
+        .unwrap();
+        let s = parse_pbrt_file(&d.join("main.pbrt")).unwrap();
+        assert_eq!(s.triangles.len(), 2);
+        assert_eq!(s.materials[0].diffuse, Vec3::new(0.1, 0.2, 0.3));
+        std::fs::write(d.join("loop.pbrt"), "Include \"loop.pbrt\"\n").unwrap();
+        let e = parse_pbrt_file(&d.join("loop.pbrt")).expect_err("a loop");
+        assert!(e.message.contains("include itself"), "{e}");
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    #[test]
+    fn spheres_disks_and_bilinear_patches() {
+        let s = parse(
+            r#"WorldBegin
+            Translate 1 2 3
+            Shape "sphere" "float radius" 2
+            Shape "disk" "float radius" 1
+            Shape "bilinearmesh" "point3 P" [0 0 0 1 0 0 0 1 0 1 1 0]
+            "#,
+        );
+        assert_eq!(s.spheres.len(), 1);
+        let c = s.spheres[0].object_to_world.transform_point3(Vec3::X);
+        assert!((c - Vec3::new(3.0, 2.0, 3.0)).length() < 1e-5);
+        let disk: f32 = s.triangles[..DISK_SEGMENTS]
+            .iter()
+            .map(|t| 0.5 * (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length())
+            .sum();
+        assert!((disk - std::f32::consts::PI).abs() < 2e-3, "{disk}");
+        assert_eq!(s.triangles.len(), DISK_SEGMENTS + 2);
+        let patch: f32 = s.triangles[DISK_SEGMENTS..]
+            .iter()
+            .map(|t| 0.5 * (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length())
+            .sum();
+        assert!((patch - 1.0).abs() < 1e-6);
+        let e = parse_err("WorldBegin Shape \"sphere\" \"float zmax\" 0.5");
+        assert!(e.message.contains("partial sphere"), "{e}");
+    }
+}

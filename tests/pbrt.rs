@@ -1,0 +1,126 @@
+//! pbrt-v4 scenes (docs/pbrt.md): a pbrt file renders like its `.test` twin, in pbrt's
+//! orientation, from the command line too, and unsupported features are refused at once.
+mod common;
+
+use common::*;
+use lightpath::render::AccelChoice::Bvh;
+use lightpath::scene::{self, Scene};
+use std::process::Command;
+
+fn small(mut s: Scene) -> Scene {
+    s.width = 24;
+    s.height = 24;
+    s.settings.spp = 16;
+    s
+}
+
+fn pbrt_box() -> Scene {
+    scene::load(&repo().join("scenes/pbrt/cornell-box.pbrt")).expect("pbrt scene parses")
+}
+
+/// The same room, light and objects written in both formats: equal region means (the
+/// path tracer, four seeds each, 4×4 regions and the whole image).
+#[test]
+fn a_pbrt_scene_renders_like_its_test_twin() {
+    let pbrt = small(pbrt_box());
+    let test = small(load("cornell-box.test"));
+    assert_eq!(pbrt.triangles.len(), test.triangles.len());
+    assert_eq!(pbrt.settings.max_depth, test.settings.max_depth);
+    assert!(!pbrt.camera.mirror);
+    assert_agree(
+        "pbrt vs .test Cornell box",
+        &estimate(&pbrt, 4, 4, Bvh),
+        &estimate(&test, 4, 4, Bvh),
+        5.0,
+        0.01,
+    );
+}
+
+/// Without `Scale -1 1 1` the LookAt camera is pbrt's left-handed one: the image is the
+/// twin's mirrored left to right (the red wall on the right).
+#[test]
+fn pbrts_camera_space_is_left_handed() {
+    let text = std::fs::read_to_string(repo().join("scenes/pbrt/cornell-box.pbrt")).unwrap();
+    let text = text.replacen("Scale -1 1 1\n", "", 1);
+    let mirrored = small(scene::parse_pbrt_str(&text, "mirrored.pbrt").expect("parses"));
+    assert!(mirrored.camera.mirror);
+    let g = 4;
+    let a = estimate(&mirrored, 4, g, Bvh);
+    let b = estimate(&small(pbrt_box()), 4, g, Bvh);
+    // Region (i, j) of one is region (g - 1 - i, j) of the other.
+    let flip = |e: &Estimate| Estimate {
+        mean: (0..e.mean.len())
+            .map(|r| {
+                if r == (g * g) as usize {
+                    return e.mean[r];
+                }
+                let (i, j) = (r as u32 % g, r as u32 / g);
+                e.mean[(j * g + g - 1 - i) as usize]
+            })
+            .collect(),
+        stderr: e.stderr.clone(),
+    };
+    assert_agree("mirrored pbrt camera", &flip(&a), &b, 5.0, 0.01);
+    // ... and it is not the unmirrored image: the red wall is on the other side.
+    let red_left =
+        |e: &Estimate| e.mean[(g * g / 2) as usize][0] / e.mean[(g * g / 2 + g - 1) as usize][0];
+    assert!(
+        red_left(&b) > 1.2 && red_left(&a) < 1.0 / 1.2,
+        "{} {}",
+        red_left(&b),
+        red_left(&a)
+    );
+}
+
+/// `lightpath render FILE.pbrt` with command-line overrides; an unsupported scene exits
+/// non-zero listing every unsupported use and writes nothing.
+#[test]
+fn the_command_line_reads_pbrt_files() {
+    let dir = std::env::temp_dir().join(format!("lightpath-pbrt-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("box.exr");
+    let run = Command::new(env!("CARGO_BIN_EXE_lightpath"))
+        .args([
+            "render",
+            repo()
+                .join("scenes/pbrt/cornell-box.pbrt")
+                .to_str()
+                .unwrap(),
+        ])
+        .args(["--size", "16x16", "--spp", "2", "-o", out.to_str().unwrap()])
+        .output()
+        .expect("run lightpath");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let image = lightpath::io::read_exr(&out).expect("an EXR");
+    assert_eq!((image.width, image.height), (16, 16));
+    assert!(image.mean()[0] > 0.01);
+
+    let bad = dir.join("bad.pbrt");
+    std::fs::write(
+        &bad,
+        "WorldBegin\nShape \"curve\" \"point3 P\" [0 0 0 1 1 1 2 2 2 3 3 3]\nMakeNamedMedium \"m\" \"string type\" \"homogeneous\"\n",
+    )
+    .unwrap();
+    let out2 = dir.join("bad.exr");
+    let run = Command::new(env!("CARGO_BIN_EXE_lightpath"))
+        .args([
+            "render",
+            bad.to_str().unwrap(),
+            "-o",
+            out2.to_str().unwrap(),
+        ])
+        .output()
+        .expect("run lightpath");
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        err.contains("bad.pbrt:2: Shape \"curve\"") && err.contains("bad.pbrt:3: MakeNamedMedium"),
+        "{err}"
+    );
+    assert!(!out2.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
