@@ -5,6 +5,7 @@
 
 mod parse;
 mod pbrt;
+pub mod ply;
 
 pub use parse::{parse_file, parse_str, ParseError};
 pub use pbrt::{parse_pbrt_file, parse_pbrt_str};

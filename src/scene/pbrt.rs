@@ -298,6 +298,8 @@ struct Parser {
     warned: std::collections::HashSet<String>,
     warnings: Vec<String>,
     camera_seen: bool,
+    /// `Integrator "mlt"`'s mutations per pixel (they become the samples per pixel).
+    mlt_mutations: Option<u32>,
     film_size: (u32, u32),
     /// The sensor's imaging ratio (ISO / 100 × exposure time), folded into every emitter.
     imaging_ratio: f32,
@@ -356,6 +358,7 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
         warned: Default::default(),
         warnings: Vec::new(),
         camera_seen: false,
+        mlt_mutations: None,
         film_size: (1280, 720),
         imaging_ratio: 1.0,
         in_world: false,
@@ -1248,6 +1251,7 @@ impl Parser {
         file: u32,
         line: u32,
     ) -> Result<(), ParseError> {
+        self.mlt_mutations = None;
         let s = &mut self.scene.settings;
         s.integrator = match ty {
             "path" | "volpath" => IntegratorKind::PathTracer,
@@ -1298,9 +1302,14 @@ impl Parser {
             if let Some(p) = params.find("largestepprobability") {
                 m.large_step = p.nums.first().copied().unwrap_or(0.3) as f32;
             }
-            if let Some(p) = params.find("mutationsperpixel") {
-                self.scene.settings.spp = p.nums.first().map_or(100, |&x| x.max(1.0) as u32);
-            }
+            // pbrt's MLT renders mutationsperpixel (100) and ignores the sampler's
+            // pixelsamples, whichever comes first in the file.
+            self.mlt_mutations = Some(
+                params
+                    .find("mutationsperpixel")
+                    .and_then(|p| p.nums.first())
+                    .map_or(100, |&x| x.max(1.0) as u32),
+            );
         }
         self.check_used("Integrator", &format!("\"{ty}\""), params);
         Ok(())
@@ -2017,6 +2026,27 @@ impl Parser {
                 }
                 ShapeKind::Mesh { p, indices, n, uv }
             }
+            "plymesh" => {
+                let Some(fp) = params.find("filename").cloned() else {
+                    return Err(self.err_at(file, line, d, "plymesh: no \"string filename\""));
+                };
+                let path = self.dirs[fp.file as usize].join(&fp.strs[0]);
+                let mesh =
+                    super::ply::read_ply(&path).map_err(|e| self.err_at(fp.file, fp.line, d, e))?;
+                for name in ["displacement", "edgelength"] {
+                    if let Some(p) = params.find(name) {
+                        if name == "displacement" {
+                            self.unsupported(p.file, p.line, "plymesh: displacement");
+                        }
+                    }
+                }
+                ShapeKind::Mesh {
+                    p: mesh.p,
+                    indices: mesh.indices,
+                    n: mesh.n,
+                    uv: mesh.uv,
+                }
+            }
             "sphere" => {
                 let radius = params
                     .find("radius")
@@ -2268,6 +2298,9 @@ impl Parser {
         for w in &self.warnings {
             eprintln!("warning: {w}");
         }
+        if let Some(n) = self.mlt_mutations {
+            self.scene.settings.spp = n;
+        }
         let (w, h) = self.film_size;
         self.scene.width = w;
         self.scene.height = h;
@@ -2404,6 +2437,23 @@ mod tests {
         // `Scale -1 1 1` before LookAt (as exporters write) makes it unmirrored.
         let s = parse("Scale -1 1 1 LookAt 0 0 5 0 0 0 0 1 0 Camera \"perspective\" WorldBegin");
         assert!(!s.camera.mirror);
+    }
+
+    #[test]
+    fn mlt_renders_its_mutations_per_pixel() {
+        let s = parse("Integrator \"mlt\" \"float sigma\" 0.02 Sampler \"halton\" \"integer pixelsamples\" 4 WorldBegin");
+        assert_eq!(
+            (s.settings.integrator, s.settings.spp),
+            (IntegratorKind::Mmlt, 100)
+        );
+        assert!((s.settings.mmlt.sigma - 0.02).abs() < 1e-7);
+        let s = parse("Sampler \"halton\" \"integer pixelsamples\" 4 Integrator \"mlt\" \"integer mutationsperpixel\" 7 WorldBegin");
+        assert_eq!(s.settings.spp, 7);
+        let s = parse("Integrator \"mlt\" Integrator \"bdpt\" Sampler \"halton\" \"integer pixelsamples\" 4 WorldBegin");
+        assert_eq!(
+            (s.settings.integrator, s.settings.spp),
+            (IntegratorKind::Bdpt, 4)
+        );
     }
 
     #[test]
@@ -2613,6 +2663,37 @@ mod tests {
         std::fs::write(d.join("loop.pbrt"), "Include \"loop.pbrt\"\n").unwrap();
         let e = parse_pbrt_file(&d.join("loop.pbrt")).expect_err("a loop");
         assert!(e.message.contains("include itself"), "{e}");
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    /// A PLY quad (one 4-gon face) gives the triangles of the same trianglemesh.
+    #[test]
+    fn plymesh_reads_like_a_trianglemesh() {
+        let d = std::env::temp_dir().join(format!("lightpath-pbrt-ply-{}", std::process::id()));
+        std::fs::create_dir_all(d.join("geometry")).unwrap();
+        std::fs::write(
+            d.join("geometry/quad.ply"),
+            "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+             property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+             -1 -1 0\n1 -1 0\n1 1 0\n-1 1 0\n4 0 1 2 3\n",
+        )
+        .unwrap();
+        std::fs::write(
+            d.join("s.pbrt"),
+            "WorldBegin\nTranslate 0 0 2\nShape \"plymesh\" \"string filename\" \"geometry/quad.ply\"\n",
+        )
+        .unwrap();
+        let ply = parse_pbrt_file(&d.join("s.pbrt")).unwrap();
+        let mesh = parse(&format!("WorldBegin Translate 0 0 2 {QUAD}"));
+        assert_eq!(ply.triangles, mesh.triangles);
+        std::fs::write(
+            d.join("s.pbrt"),
+            "WorldBegin\nShape \"plymesh\" \"string filename\" \"missing.ply\"\n",
+        )
+        .unwrap();
+        let e = parse_pbrt_file(&d.join("s.pbrt")).unwrap_err();
+        assert_eq!(e.line, 2);
+        assert!(e.message.contains("missing.ply"), "{e}");
         std::fs::remove_dir_all(&d).ok();
     }
 
