@@ -41,14 +41,14 @@ fn main() {
                 format!("{base}+{variant}")
             };
             for (suffix, define) in BACKENDS {
-                jobs.push((
-                    kernel.clone(),
-                    source.clone(),
-                    name.clone(),
+                jobs.push(Job {
+                    kernel: kernel.clone(),
+                    source: source.clone(),
+                    name: name.clone(),
                     variant_define,
                     suffix,
                     define,
-                ));
+                });
             }
         }
     }
@@ -56,35 +56,40 @@ fn main() {
         .map_or(1, |n| n.get())
         .min(jobs.len().max(1));
     let next = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<std::sync::Mutex<Option<Result<Vec<u8>, String>>>> =
-        jobs.iter().map(|_| std::sync::Mutex::new(None)).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|| {
-                let compiler = shaderc::Compiler::new().expect("shaderc compiler");
-                loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some((kernel, source, _, variant_define, _, define)) = jobs.get(i) else {
-                        break;
-                    };
-                    let r = compile(
-                        &compiler,
-                        &root,
-                        &glsl,
-                        kernel,
-                        source,
-                        define,
-                        *variant_define,
-                    );
-                    *results[i].lock().unwrap() = Some(r);
-                }
-            });
-        }
+    // Each thread takes the next job and keeps (job index, result); they are put back in
+    // the jobs' order below.
+    let mut results: Vec<(usize, Result<Vec<u8>, String>)> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                scope.spawn(|| {
+                    let compiler = shaderc::Compiler::new().expect("shaderc compiler");
+                    let mut done = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(job) = jobs.get(i) else {
+                            return done;
+                        };
+                        done.push((i, compile(&compiler, &root, &glsl, job)));
+                    }
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .flat_map(|w| w.join().expect("a compile thread panicked"))
+            .collect()
     });
+    results.sort_by_key(|(i, _)| *i);
     let mut table = String::from("/// (kernel name, backend, SPIR-V words) for every compiled kernel.\npub const KERNELS: &[(&str, &str, &[u8])] = &[\n");
     let mut failed = false;
-    for ((kernel, _, name, _, suffix, _), result) in jobs.iter().zip(results) {
-        match result.into_inner().unwrap().expect("every job ran") {
+    for (job, (_, result)) in jobs.iter().zip(results) {
+        let Job {
+            kernel,
+            name,
+            suffix,
+            ..
+        } = job;
+        match result {
             Ok(spirv) => {
                 let spv = out.join(format!("{name}.{suffix}.spv"));
                 fs::write(&spv, spirv).expect("write spv");
@@ -112,17 +117,32 @@ fn main() {
     fs::write(out.join("kernels.rs"), table).expect("write kernels.rs");
 }
 
+/// One kernel in one variant for one backend.
+struct Job {
+    kernel: PathBuf,
+    source: String,
+    /// The table's name: the kernel's, with `+variant` for a profiling variant.
+    name: String,
+    variant_define: Option<&'static str>,
+    suffix: &'static str,
+    define: &'static str,
+}
+
 /// Compiles one kernel for one backend and variant: its SPIR-V, or shaderc's message.
 /// Warnings are passed on to cargo.
 fn compile(
     compiler: &shaderc::Compiler,
     root: &Path,
     glsl: &Path,
-    kernel: &Path,
-    source: &str,
-    define: &str,
-    variant_define: Option<&str>,
+    job: &Job,
 ) -> Result<Vec<u8>, String> {
+    let Job {
+        kernel,
+        source,
+        variant_define,
+        define,
+        ..
+    } = job;
     let mut options = shaderc::CompileOptions::new().expect("shaderc options");
     options.set_target_env(
         shaderc::TargetEnv::Vulkan,

@@ -378,8 +378,14 @@ pub fn pick_emitter(cdf: &[u32], x: u32) -> usize {
 pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
     let c = &scene.camera;
     let forward = (c.look_at - c.eye).normalize();
-    let right = forward.cross(c.up).normalize() * if c.mirror { -1.0 } else { 1.0 };
-    let up = (forward.cross(c.up).normalize()).cross(forward);
+    let unmirrored_right = forward.cross(c.up).normalize();
+    let up = unmirrored_right.cross(forward);
+    // A mirrored camera (pbrt's left-handed one) turns the image's right around.
+    let right = if c.mirror {
+        -unmirrored_right
+    } else {
+        unmirrored_right
+    };
     let s = &scene.settings;
     let (center, radius) = scene_bounds(scene);
     let env_map = scene.environment.as_ref().and_then(|e| e.map.as_ref());

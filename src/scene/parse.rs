@@ -53,6 +53,15 @@ impl fmt::Display for ParseError {
 /// # Errors
 /// When the file cannot be read (`line` 0) or does not parse (see [`parse_str`]).
 pub fn parse_file(path: &Path) -> Result<Scene, ParseError> {
+    let (name, text, base) = read_scene_file(path)?;
+    let mut scene = parse_text(&text, &name, base)?;
+    scene.source = Some(path.to_path_buf());
+    Ok(scene)
+}
+
+/// A scene file's name (for messages), its text and its directory (which the files it
+/// names are relative to), or the error that it cannot be read (line 0).
+pub(super) fn read_scene_file(path: &Path) -> Result<(String, String, PathBuf), ParseError> {
     let name = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|err| ParseError {
         file: name.clone(),
@@ -60,10 +69,8 @@ pub fn parse_file(path: &Path) -> Result<Scene, ParseError> {
         command: String::new(),
         message: format!("cannot read: {err}"),
     })?;
-    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut scene = parse_text(&text, &name, base)?;
-    scene.source = Some(path.to_path_buf());
-    Ok(scene)
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    Ok((name, text, dir))
 }
 
 /// Parses a scene from its text; `name` stands for the file name in error messages.

@@ -215,16 +215,12 @@ struct Param {
 #[derive(Clone, Debug, Default)]
 struct Params(Vec<Param>);
 
-/// A value a material reads: a constant or a texture of the scene.
+/// A value a material reads (a named texture's too): a constant or a texture of the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Value {
     Const(Vec3),
     Texture(u32),
 }
-
-/// A named texture: its value (constant or a scene texture).
-#[derive(Clone, Copy, Debug)]
-struct NamedTexture(Value);
 
 /// An area light as declared (applies to the shapes that follow it).
 #[derive(Clone, Debug)]
@@ -286,8 +282,8 @@ struct Parser {
     stack: Vec<(GraphicsState, bool)>,
     named_coords: HashMap<String, Mat4>,
     named_materials: HashMap<String, MaterialRef>,
-    textures: HashMap<String, NamedTexture>,
-    float_textures: HashMap<String, NamedTexture>,
+    textures: HashMap<String, Value>,
+    float_textures: HashMap<String, Value>,
     material_lookup: HashMap<MaterialKey, u32>,
     image_textures: HashMap<(PathBuf, Encoding), Arc<crate::io::Image>>,
     objects: HashMap<String, Vec<ShapeDecl>>,
@@ -312,14 +308,7 @@ struct Parser {
 /// When a file cannot be read, does not parse, or uses what lightpath cannot render
 /// (every such use listed in the message).
 pub fn parse_pbrt_file(path: &Path) -> Result<Scene, ParseError> {
-    let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|err| ParseError {
-        file: name.clone(),
-        line: 0,
-        command: String::new(),
-        message: format!("cannot read: {err}"),
-    })?;
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let (name, text, dir) = super::parse::read_scene_file(path)?;
     let mut scene = parse_pbrt_text(&text, &name, dir)?;
     scene.source = Some(path.to_path_buf());
     Ok(scene)
@@ -425,29 +414,34 @@ impl Parser {
             .map_or((0, 0), |t| (t.file, t.line))
     }
 
+    /// "EXPECTED, got TOKEN" at the token, or "..., got the end of the file" at the last
+    /// token read.
+    fn unexpected(&self, got: Option<Token>, directive: &str, expected: &str) -> ParseError {
+        match got {
+            Some(t) => self.err_at(
+                t.file,
+                t.line,
+                directive,
+                format!("{expected}, got {}", describe(&t.tok)),
+            ),
+            None => {
+                let (f, l) = self.here();
+                self.err_at(
+                    f,
+                    l,
+                    directive,
+                    format!("{expected}, got the end of the file"),
+                )
+            }
+        }
+    }
+
     fn expect_string(&mut self, directive: &str, what: &str) -> Result<String, ParseError> {
         match self.next_token() {
             Some(Token {
                 tok: Tok::Str(s), ..
             }) => Ok(s),
-            Some(t) => Err(self.err_at(
-                t.file,
-                t.line,
-                directive,
-                format!(
-                    "expected {what} (a quoted string), got {}",
-                    describe(&t.tok)
-                ),
-            )),
-            None => {
-                let (f, l) = self.here();
-                Err(self.err_at(
-                    f,
-                    l,
-                    directive,
-                    format!("expected {what}, got the end of the file"),
-                ))
-            }
+            t => Err(self.unexpected(t, directive, &format!("expected {what} (a quoted string)"))),
         }
     }
 
@@ -463,23 +457,7 @@ impl Parser {
                 Some(Token {
                     tok: Tok::Num(x), ..
                 }) => out.push(x as f32),
-                Some(t) => {
-                    return Err(self.err_at(
-                        t.file,
-                        t.line,
-                        directive,
-                        format!("expected {n} numbers, got {}", describe(&t.tok)),
-                    ))
-                }
-                None => {
-                    let (f, l) = self.here();
-                    return Err(self.err_at(
-                        f,
-                        l,
-                        directive,
-                        format!("expected {n} numbers, got the end of the file"),
-                    ));
-                }
+                t => return Err(self.unexpected(t, directive, &format!("expected {n} numbers"))),
             }
         }
         if bracketed {
@@ -487,22 +465,9 @@ impl Parser {
                 Some(Token {
                     tok: Tok::Close, ..
                 }) => {}
-                Some(t) => {
-                    return Err(self.err_at(
-                        t.file,
-                        t.line,
-                        directive,
-                        format!("expected ']' after {n} numbers, got {}", describe(&t.tok)),
-                    ))
-                }
-                None => {
-                    let (f, l) = self.here();
-                    return Err(self.err_at(
-                        f,
-                        l,
-                        directive,
-                        "expected ']', got the end of the file",
-                    ));
+                t => {
+                    let expected = format!("expected ']' after {n} numbers");
+                    return Err(self.unexpected(t, directive, &expected));
                 }
             }
         }
@@ -595,24 +560,9 @@ impl Parser {
                         ..
                     },
                 ) => values.push(t),
-                Some(t) => {
-                    return Err(self.err_at(
-                        t.file,
-                        t.line,
-                        directive,
-                        format!(
-                            "parameter \"{decl}\": expected a value, got {}",
-                            describe(&t.tok)
-                        ),
-                    ))
-                }
-                None => {
-                    return Err(self.err_at(
-                        file,
-                        line,
-                        directive,
-                        format!("parameter \"{decl}\": expected a value, got the end of the file"),
-                    ))
+                t => {
+                    let expected = format!("parameter \"{decl}\": expected a value");
+                    return Err(self.unexpected(t, directive, &expected));
                 }
             }
             let mut p = Param {
@@ -1377,7 +1327,7 @@ impl Parser {
                 &self.textures
             };
             return match table.get(&p.strs[0]) {
-                Some(t) => Ok(Some(t.0)),
+                Some(&t) => Ok(Some(t)),
                 None => Err(self.err_at(
                     p.file,
                     p.line,
@@ -1728,7 +1678,7 @@ impl Parser {
         } else {
             &mut self.textures
         };
-        table.insert(name.to_owned(), NamedTexture(value));
+        table.insert(name.to_owned(), value);
         Ok(())
     }
 
@@ -2033,13 +1983,9 @@ impl Parser {
                 let path = self.dirs[fp.file as usize].join(&fp.strs[0]);
                 let mesh =
                     super::ply::read_ply(&path).map_err(|e| self.err_at(fp.file, fp.line, d, e))?;
-                for name in ["displacement", "edgelength"] {
-                    if let Some(p) = params.find(name) {
-                        if name == "displacement" {
-                            self.unsupported(p.file, p.line, "plymesh: displacement");
-                        }
-                    }
-                }
+                // (displacement is refused below, with every shape's; its edge length
+                // then does not matter.)
+                params.find("edgelength");
                 ShapeKind::Mesh {
                     p: mesh.p,
                     indices: mesh.indices,
