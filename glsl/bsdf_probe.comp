@@ -29,6 +29,12 @@ void main() {
     bool ok = bsdf_sample(b, mode, n, wo, p.u.xyz, transport, s);
     o.sample_dir = vec4(s.wi, s.pdf);
     o.sample_f = vec4(s.f, ok ? 1.0 : 0.0);
-    o.info = uvec4(s.flags, 0u, 0u, 0u);
+    // The combined queries the integrators' connections use (bsdf_eval_pdfs,
+    // bsdf_sample_rev), for their densities.
+    float pdf_fwd, pdf_rev, sample_rev;
+    bsdf_eval_pdfs(b, mode, n, wo, wi, transport, true, true, pdf_fwd, pdf_rev);
+    BsdfSample s2;
+    bsdf_sample_rev(b, mode, n, wo, p.u.xyz, transport, true, s2, sample_rev);
+    o.info = uvec4(s.flags, floatBitsToUint(sample_rev), floatBitsToUint(pdf_fwd), floatBitsToUint(pdf_rev));
     probe_outputs[i] = o;
 }

@@ -29,10 +29,11 @@ vec3 estimate_direct(BsdfParams b, vec3 p, vec3 n, vec3 ns, vec3 wo, uint e, vec
     LightSample ls;
     vec3 f;
     float cos_s;
-    if (!sample_direct_light(b, e, p, n, ns, wo, u, ls, f, cos_s)) return vec3(0.0);
+    float pdf_fwd, pdf_rev;
+    if (!sample_direct_light(b, e, p, n, ns, wo, u, mode, mis, false, ls, f, cos_s, pdf_fwd, pdf_rev)) return vec3(0.0);
     if (!light_visible(p, n, ls)) return vec3(0.0);
     float w = 1.0;
-    if (mis) w = light_sample_mis_weight(ls, bsdf_pdf(b, mode, ns, wo, ls.wi));
+    if (mis) w = light_sample_mis_weight(ls, pdf_fwd);
     return f * ls.L * (cos_s * w / ls.pdf);
 }
 

@@ -190,15 +190,17 @@ pub enum BsdfKind {
     Dielectric = BSDF_DIELECTRIC,
     ThinDielectric = BSDF_THIN_DIELECTRIC,
     Conductor = BSDF_CONDUCTOR,
+    CoatedDiffuse = BSDF_COATED_DIFFUSE,
 }
 
 impl BsdfKind {
-    pub const ALL: [BsdfKind; 5] = [
+    pub const ALL: [BsdfKind; 6] = [
         BsdfKind::Phong,
         BsdfKind::Ggx,
         BsdfKind::Dielectric,
         BsdfKind::ThinDielectric,
         BsdfKind::Conductor,
+        BsdfKind::CoatedDiffuse,
     ];
 
     /// The kind of a record's `info.x`, if it is one.

@@ -271,6 +271,8 @@ pub struct BsdfParams {
     pub eta: Vec3,
     /// Conductor absorption.
     pub k: Vec3,
+    /// Coated diffuse: the layer's thickness, the walk's maximum depth and its samples.
+    pub coat: Vec3,
 }
 
 impl Default for BsdfParams {
@@ -284,6 +286,7 @@ impl Default for BsdfParams {
             alpha: Vec2::ZERO,
             eta: Vec3::ONE,
             k: Vec3::ZERO,
+            coat: Vec3::ZERO,
         }
     }
 }
@@ -424,6 +427,7 @@ impl BsdfParams {
             alpha: Vec2::new(m.roughness[1], m.roughness[2]),
             eta,
             k: Vec3::from_slice(&m.k[..3]),
+            coat: Vec3::from_slice(&m.k[..3]),
         })
     }
 
@@ -437,7 +441,7 @@ impl BsdfParams {
             BsdfKind::ThinDielectric => true,
             BsdfKind::Dielectric => self.is_smooth() || self.eta.x == 1.0,
             BsdfKind::Conductor => self.is_smooth(),
-            BsdfKind::Phong | BsdfKind::Ggx => false,
+            BsdfKind::Phong | BsdfKind::Ggx | BsdfKind::CoatedDiffuse => false,
         }
     }
 
@@ -704,6 +708,9 @@ fn interface_eval(b: &BsdfParams, n: Vec3, wo: Vec3, wi: Vec3, transport: Transp
     }
     let fr = LocalFrame::new(n, wo);
     let (lo, li) = (fr.to_local(wo), fr.to_local(wi));
+    if b.kind == BsdfKind::CoatedDiffuse {
+        return coated::coated_f(b, lo, li, transport);
+    }
     if b.kind == BsdfKind::Dielectric {
         return dielectric_f(b.alpha, local_eta(b, &fr), lo, li, transport);
     }
@@ -716,6 +723,9 @@ fn interface_pdf(b: &BsdfParams, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
     }
     let fr = LocalFrame::new(n, wo);
     let (lo, li) = (fr.to_local(wo), fr.to_local(wi));
+    if b.kind == BsdfKind::CoatedDiffuse {
+        return coated::coated_pdf(b, lo, li);
+    }
     if b.kind == BsdfKind::Dielectric {
         return dielectric_pdf(b.alpha, local_eta(b, &fr), lo, li);
     }
@@ -733,6 +743,13 @@ fn interface_sample(
     let lo = fr.to_local(wo);
     if !(lo.z > 0.0) {
         return None;
+    }
+    if b.kind == BsdfKind::CoatedDiffuse {
+        let s = coated::coated_sample(b, lo, u, transport)?;
+        return Some(BsdfSample {
+            wi: fr.world(s.wi),
+            ..s
+        });
     }
     let uv = Vec2::new(u.y, u.z);
     let mirror = Vec3::new(-lo.x, -lo.y, lo.z);
@@ -848,6 +865,8 @@ fn interface_sample(
         flags,
     })
 }
+
+pub mod coated;
 
 #[cfg(test)]
 mod tests {

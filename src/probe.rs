@@ -5,7 +5,7 @@
 //! `mmlt_sampler` runs MMLT's primary-sample-space chains on a synthetic path
 //! (glsl/mmlt.comp's probe modes). Each runs through the engine like any render.
 use crate::abi::*;
-use crate::engine::{Dispatch, Engine};
+use crate::engine::{Dispatch, Engine, Specialization};
 use crate::integrators::mmlt_sampler::stream_sizes;
 use crate::scene::Scene;
 use crate::trace::Trace;
@@ -37,7 +37,7 @@ pub fn trace_rays(
     let rays_buffer = engine.buffer_with("probe rays", bytemuck::cast_slice(&input))?;
     let out_bytes = (16 * rays.len() as u64).max(16);
     let out = engine.storage_buffer("probe hits", out_bytes)?;
-    let kernel = engine.kernel("trace_probe", None)?;
+    let kernel = engine.kernel("trace_probe", None, Specialization::default())?;
     let set = engine.bind(
         &kernel,
         Some(&prepared),
@@ -99,7 +99,13 @@ pub fn bsdf(
     let texels = engine.buffer_with("probe texels", &[0u8; 16])?;
     let out_bytes = (inputs.len() * std::mem::size_of::<BsdfProbeOutput>()).max(16) as u64;
     let out = engine.storage_buffer("probe outputs", out_bytes)?;
-    let kernel = engine.kernel("bsdf_probe", None)?;
+    let kernel = engine.kernel(
+        "bsdf_probe",
+        None,
+        Specialization {
+            coated_diffuse: true,
+        },
+    )?;
     let set = engine.bind(
         &kernel,
         None,
@@ -170,7 +176,7 @@ pub fn mmlt_sampler(
     let stats = engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?;
     // The probe modes touch no film, splat or bootstrap targets; mmlt.comp binds them.
     let unused = engine.storage_buffer("unused", 16)?;
-    let kernel = engine.kernel("mmlt", None)?;
+    let kernel = engine.kernel("mmlt", None, prepared.specialization())?;
     let set = engine.bind(
         &kernel,
         Some(&prepared),

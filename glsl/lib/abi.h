@@ -67,6 +67,12 @@
 #define BSDF_DIELECTRIC 2
 #define BSDF_THIN_DIELECTRIC 3
 #define BSDF_CONDUCTOR 4
+#define BSDF_COATED_DIFFUSE 5
+
+// Specialization constants (set per scene when a pipeline is created): code for what
+// the scene lacks is removed before the driver compiles the kernel. Bool: the scene has
+// coated diffuse materials.
+#define SPEC_COATED_DIFFUSE 0
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
@@ -323,7 +329,9 @@ struct BsdfProbeInput {
 
 // The BSDF probe's output: eval.xyz f(wo, wi), eval.w pdf(wo, wi); sample.xyz the
 // sampled direction, sample.w its pdf; sample_f.xyz its f, sample_f.w 1 when the sample
-// succeeded; info.x its lobe flags.
+// succeeded; info.x its lobe flags. The combined queries' densities, as float bits:
+// info.y bsdf_sample_rev's pdf(wi -> wo) of its sample, info.z and info.w
+// bsdf_eval_pdfs's pdf(wo -> wi) and pdf(wi -> wo).
 struct BsdfProbeOutput {
     vec4 eval;
     vec4 sample_dir;

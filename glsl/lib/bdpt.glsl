@@ -181,8 +181,9 @@ bool light_walk_next(inout Walk w, out PathVertex v) {
 bool walk_scatter(inout Walk w, PathVertex v, vec3 u, uint transport, bool update_mis) {
     BsdfParams b = vertex_bsdf(v);
     BsdfSample bs;
+    float pdf_rev;
     if (!(dot(v.ns, v.w) > 0.0)) return false;
-    if (!bsdf_sample(b, scene.sample_mode, v.ns, v.w, u, transport, bs)) return false;
+    if (!bsdf_sample_rev(b, scene.sample_mode, v.ns, v.w, u, transport, update_mis, bs, pdf_rev)) return false;
     if (!shading_side_agrees(v.n, v.ns, bs.wi)) return false;
     bool delta = (bs.flags & BSDF_LOBE_DELTA) != 0u;
     float cos_signed = dot(v.n, bs.wi);
@@ -194,7 +195,6 @@ bool walk_scatter(inout Walk w, PathVertex v, vec3 u, uint transport, bool updat
             w.dvcm = 0.0;
             w.dvc *= mis(cos_out);
         } else {
-            float pdf_rev = material_pdf(b, v.ns, bs.wi, v.w);
             w.dvc = mis(cos_out / bs.pdf) * (v.dvc * mis(pdf_rev) + v.dvcm);
             w.dvcm = mis(1.0 / bs.pdf);
         }
@@ -322,11 +322,13 @@ bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weigh
     LightSample ls;
     vec3 f;
     float cos_s;
-    if (!sample_direct_light(b, e, z.p, z.n, z.ns, z.w, u, ls, f, cos_s)) return false;
+    float pdf_dir, pdf_rev;
+    bool weigh_all = w.vertices <= max_scatter();
+    if (!sample_direct_light(b, e, z.p, z.n, z.ns, z.w, u, scene.sample_mode, true, weigh_all, ls, f, cos_s, pdf_dir,
+                             pdf_rev))
+        return false;
     float cos_z = abs(dot(z.n, ls.wi));
-    float pdf_dir = material_pdf(b, z.ns, z.w, ls.wi);
-    if (w.vertices <= max_scatter()) {
-        float pdf_rev = material_pdf(b, z.ns, ls.wi, z.w);
+    if (weigh_all) {
         float pdf_pos;
         float pdf_emit;
         emitter_emission_pdfs(e, ls.p, ls.n, -ls.wi, pdf_pos, pdf_emit);
@@ -355,13 +357,13 @@ bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out 
     if (!(cos_y > 0.0)) return false;
     if (!(dot(y.ns, y.w) > 0.0) || !shading_side_agrees(y.n, y.ns, to_eye)) return false;
     BsdfParams b = vertex_bsdf(y);
-    vec3 f = bsdf_eval(b, y.ns, y.w, to_eye, TRANSPORT_IMPORTANCE);
+    float pdf_fwd, pdf_rev;
+    vec3 f = bsdf_eval_pdfs(b, scene.sample_mode, y.ns, y.w, to_eye, TRANSPORT_IMPORTANCE, false, true, pdf_fwd, pdf_rev);
     if (f == vec3(0.0)) return false;
     // The measurement's cosine at y is the geometric cos_y (in pdf_cam_a) times the
     // adjoint BSDF's shading correction (shading_cosine's importance form).
     f *= abs(dot(y.ns, y.w)) / abs(dot(y.n, y.w));
     float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
-    float pdf_rev = material_pdf(b, y.ns, to_eye, y.w);
     float w_light = mis(pdf_cam_a / light_paths()) * (y.dvcm + y.dvc * mis(pdf_rev));
     weight = 1.0 / (1.0 + w_light);
     rays_traced++;
@@ -412,17 +414,15 @@ bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float w
     if (!shading_side_agrees(z.n, z.ns, dir) || !shading_side_agrees(y.n, y.ns, -dir)) return false;
     BsdfParams bz = vertex_bsdf(z);
     BsdfParams by = vertex_bsdf(y);
-    vec3 f_z = bsdf_eval(bz, z.ns, z.w, dir, TRANSPORT_RADIANCE);
-    vec3 f_y = bsdf_eval(by, y.ns, y.w, -dir, TRANSPORT_IMPORTANCE);
+    float cam_dir, cam_rev, light_dir, light_rev;
+    vec3 f_z = bsdf_eval_pdfs(bz, scene.sample_mode, z.ns, z.w, dir, TRANSPORT_RADIANCE, true, true, cam_dir, cam_rev);
+    vec3 f_y = bsdf_eval_pdfs(by, scene.sample_mode, y.ns, y.w, -dir, TRANSPORT_IMPORTANCE, true, true, light_dir,
+                              light_rev);
     float g = shading_cosine(z.n, z.ns, z.w, dir, TRANSPORT_RADIANCE)
             * shading_cosine(y.n, y.ns, y.w, -dir, TRANSPORT_IMPORTANCE) / d2;
     vec3 c = z.beta * f_z * f_y * y.beta * g;
     if (c == vec3(0.0)) return false;
     // The densities convert with the geometric cosines.
-    float cam_dir = material_pdf(bz, z.ns, z.w, dir);
-    float cam_rev = material_pdf(bz, z.ns, dir, z.w);
-    float light_dir = material_pdf(by, y.ns, y.w, -dir);
-    float light_rev = material_pdf(by, y.ns, -dir, y.w);
     float w_light = mis(cam_dir * cos_y / d2) * (y.dvcm + y.dvc * mis(light_rev));
     float w_cam = mis(light_dir * cos_z / d2) * (z.dvcm + z.dvc * mis(cam_rev));
     weight = 1.0 / (w_light + 1.0 + w_cam);

@@ -57,6 +57,7 @@ struct BsdfParams {
     vec2 alpha;        // dielectric, conductor: microfacet alphas along the tangent and bitangent
     vec3 eta;          // dielectric: x, relative to n's orientation; thin: x; conductor: per channel
     vec3 k;            // conductor absorption
+    vec3 coat;         // coated diffuse: layer thickness, walk's maximum depth, samples
 };
 
 // The BSDF of material m at a surface point with texture coordinates uv whose normal, as
@@ -72,6 +73,7 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv) {
     b.eta = m.eta.xyz;
     if (b.kind == BSDF_DIELECTRIC && !front) b.eta.x = 1.0 / b.eta.x;
     b.k = m.k.xyz;
+    b.coat = m.k.xyz;
     // Textures replace the diffuse reflectance and the roughness (first channel).
     if (m.info.z != NO_TEXTURE) b.kd = texture_value(m.info.z, uv);
     if (m.info.w != NO_TEXTURE) {
@@ -400,6 +402,8 @@ bool conductor_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, out BsdfSamp
     return s.pdf > 0.0 && !isinf(s.pdf) && s.f != vec3(0.0);
 }
 
+#include "layered.glsl"
+
 vec3 interface_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
     if (bsdf_is_delta(b)) return vec3(0.0);
     LocalFrame fr = local_frame(n, wo);
@@ -436,12 +440,12 @@ bool bsdf_is_course_brdf(BsdfParams b) { return b.kind == BSDF_PHONG || b.kind =
 // lightpath profile: PROFILE_X2_BSDF evaluates, samples and weighs every BSDF twice
 // (the extra time is the BSDF's share of a pass; see src/profile.rs).
 #ifdef PROFILE_X2_BSDF
-#define bsdf_eval bsdf_eval_once
-#define bsdf_pdf bsdf_pdf_once
-#define bsdf_sample bsdf_sample_once
+#define analytic_eval analytic_eval_once
+#define analytic_pdf analytic_pdf_once
+#define analytic_sample analytic_sample_once
 #endif
 
-vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
+vec3 analytic_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
     if (!bsdf_is_course_brdf(b)) return interface_eval(b, n, wo, wi, transport);
     float ci = dot(n, wi);
     if (!(ci > 0.0)) return vec3(0.0);
@@ -457,7 +461,7 @@ vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
     return f;
 }
 
-float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
+float analytic_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
     if (!bsdf_is_course_brdf(b)) return interface_pdf(b, n, wo, wi);
     float ci = dot(n, wi);
     if (!(ci > 0.0)) return 0.0;
@@ -475,7 +479,7 @@ float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
 
 // u.x picks the lobe (SAMPLE_BRDF only), u.yz place the direction. False when the
 // direction falls below the surface or its pdf is not a positive finite number.
-bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
+bool analytic_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
     if (!bsdf_is_course_brdf(b)) return interface_sample(b, n, wo, u, transport, s);
     s.pdf = 0.0;
     s.f = vec3(0.0);
@@ -497,35 +501,107 @@ bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transpor
         s.wi = to_world(sample_cosine_hemisphere(u.yz), n);
     }
     if (!(dot(n, s.wi) > 0.0)) return false;
-    s.pdf = bsdf_pdf(b, mode, n, wo, s.wi);
+    s.pdf = analytic_pdf(b, mode, n, wo, s.wi);
     if (!(s.pdf > 0.0 && !isinf(s.pdf))) return false;
-    s.f = bsdf_eval(b, n, wo, s.wi, transport);
+    s.f = analytic_eval(b, n, wo, s.wi, transport);
     return true;
 }
 
 #ifdef PROFILE_X2_BSDF
-#undef bsdf_eval
-#undef bsdf_pdf
-#undef bsdf_sample
+#undef analytic_eval
+#undef analytic_pdf
+#undef analytic_sample
 // The second call's inputs differ by an ulp and its result is kept only in a case that
 // never happens (a negative value), so the compiler must compute both.
-vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
-    vec3 x = bsdf_eval_once(b, n, wo, wi * 1.0000001, transport);
-    vec3 y = bsdf_eval_once(b, n, wo, wi, transport);
+vec3 analytic_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
+    vec3 x = analytic_eval_once(b, n, wo, wi * 1.0000001, transport);
+    vec3 y = analytic_eval_once(b, n, wo, wi, transport);
     return x.x == -1.0 ? x : y;
 }
-float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
-    float x = bsdf_pdf_once(b, mode, n, wo, wi * 1.0000001);
-    float y = bsdf_pdf_once(b, mode, n, wo, wi);
+float analytic_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
+    float x = analytic_pdf_once(b, mode, n, wo, wi * 1.0000001);
+    float y = analytic_pdf_once(b, mode, n, wo, wi);
     return x == -1.0 ? x : y;
 }
-bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
+bool analytic_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
     BsdfSample other;
-    bool x = bsdf_sample_once(b, mode, n, wo * 1.0000001, u, transport, other);
-    bool y = bsdf_sample_once(b, mode, n, wo, u, transport, s);
+    bool x = analytic_sample_once(b, mode, n, wo * 1.0000001, u, transport, other);
+    bool y = analytic_sample_once(b, mode, n, wo, u, transport, s);
     if (x && other.pdf == -1.0) s = other;
     return y;
 }
 #endif
 
+// The BSDFs as the integrators see them: f, the pdf of sampling mode `mode`, and a sample.
+// Every BSDF but coated diffuse has closed forms (the analytic_* functions above); coated
+// diffuse answers through its walk engine (layered.glsl). Neither calls the other, so
+// that a kernel inlines the engine only where it asks the coated BSDF a question.
+// (Its walk engine is large: kernels carry it only for scenes that have coated materials.)
+layout(constant_id = SPEC_COATED_DIFFUSE) const bool spec_coated_diffuse = false;
+
+bool bsdf_is_coated(BsdfParams b) { return spec_coated_diffuse && b.kind == BSDF_COATED_DIFFUSE; }
+
+vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
+    if (!bsdf_is_coated(b)) return analytic_eval(b, n, wo, wi, transport);
+    vec3 f;
+    float pdf, pdf_rev;
+    BsdfSample s;
+    coated_engine(b, n, wo, wi, vec3(0.0), transport, COAT_Q_F, f, pdf, pdf_rev, s);
+    return f;
+}
+
+float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
+    if (!bsdf_is_coated(b)) return analytic_pdf(b, mode, n, wo, wi);
+    vec3 f;
+    float pdf, pdf_rev;
+    BsdfSample s;
+    coated_engine(b, n, wo, wi, vec3(0.0), TRANSPORT_RADIANCE, COAT_Q_PDF, f, pdf, pdf_rev, s);
+    return pdf;
+}
+
+// u.x picks the lobe, u.yz place the direction. False when there is no sample (below
+// the surface, or a pdf that is not a positive finite number).
+bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
+    if (!bsdf_is_coated(b)) return analytic_sample(b, mode, n, wo, u, transport, s);
+    vec3 f;
+    float pdf, pdf_rev;
+    return coated_engine(b, n, wo, wo, u, transport, COAT_Q_SAMPLE, f, pdf, pdf_rev, s);
+}
+
+// Several questions about one BSDF at once, for the integrators' connections: f(wo, wi)
+// with pdf(wo -> wi) (want_fwd) and pdf(wi -> wo) (want_rev), as bsdf_eval and bsdf_pdf
+// give them. A stochastic BSDF (coated diffuse) answers them in one walk engine, so that
+// a kernel inlines it once per connection rather than once per question.
+vec3 bsdf_eval_pdfs(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi, uint transport, bool want_fwd, bool want_rev,
+                    out float pdf_fwd, out float pdf_rev) {
+    pdf_fwd = 0.0;
+    pdf_rev = 0.0;
+    if (bsdf_is_coated(b)) {
+        vec3 f;
+        BsdfSample s;
+        uint q = COAT_Q_F | (want_fwd ? COAT_Q_PDF : 0u) | (want_rev ? COAT_Q_PDF_REV : 0u);
+        coated_engine(b, n, wo, wi, vec3(0.0), transport, q, f, pdf_fwd, pdf_rev, s);
+        return f;
+    }
+    vec3 f = analytic_eval(b, n, wo, wi, transport);
+    if (want_fwd) pdf_fwd = analytic_pdf(b, mode, n, wo, wi);
+    if (want_rev) pdf_rev = analytic_pdf(b, mode, n, wi, wo);
+    return f;
+}
+
+// bsdf_sample, and with want_rev the pdf of the way back, pdf(s.wi -> wo) (0 after a
+// delta lobe).
+bool bsdf_sample_rev(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, bool want_rev,
+                     out BsdfSample s, out float pdf_rev) {
+    pdf_rev = 0.0;
+    if (bsdf_is_coated(b)) {
+        vec3 f;
+        float pdf;
+        uint q = COAT_Q_SAMPLE | (want_rev ? COAT_Q_PDF_REV : 0u);
+        return coated_engine(b, n, wo, wo, u, transport, q, f, pdf, pdf_rev, s);
+    }
+    if (!analytic_sample(b, mode, n, wo, u, transport, s)) return false;
+    if (want_rev && (s.flags & BSDF_LOBE_DELTA) == 0u) pdf_rev = analytic_pdf(b, mode, n, s.wi, wo);
+    return true;
+}
 #endif

@@ -344,18 +344,23 @@ float emitter_pdf_solid_angle(uint e, vec3 ref, vec3 p, vec3 ng) {
 // normal ns on n's side) for the BSDF b: the sample, the BSDF value toward it and the
 // shading cosine |ns.wi| (the light may lie behind a transmitting surface). False when it
 // cannot contribute (no sample, below the surface, f = 0). The shadow ray is the caller's
-// (light_sample_visible), and so is the weighting: the estimate is f L cos / ls.pdf.
-bool sample_direct_light(BsdfParams b, uint e, vec3 p, vec3 n, vec3 ns, vec3 wo, vec2 u,
-                         out LightSample ls, out vec3 f, out float cos_theta) {
+// (light_sample_visible), and so is the weighting: the estimate is f L cos / ls.pdf, and
+// the BSDF's pdfs toward the light (want_fwd) and back (want_rev) in sampling mode `mode`
+// come with f (bsdf_eval_pdfs).
+bool sample_direct_light(BsdfParams b, uint e, vec3 p, vec3 n, vec3 ns, vec3 wo, vec2 u, uint mode, bool want_fwd,
+                         bool want_rev, out LightSample ls, out vec3 f, out float cos_theta, out float pdf_fwd,
+                         out float pdf_rev) {
     f = vec3(0.0);
     cos_theta = 0.0;
+    pdf_fwd = 0.0;
+    pdf_rev = 0.0;
     if (!sample_emitter(e, p, u, ls) || !(ls.pdf > 0.0)) return false;
     if (!(dot(ns, wo) > 0.0) || !shading_side_agrees(n, ns, ls.wi)) return false;
     // The course's BRDFs reflect only; the interface BSDFs may transmit toward the light.
     float c = dot(ns, ls.wi);
     if (bsdf_is_course_brdf(b) && !(c > 0.0)) return false;
     cos_theta = abs(c);
-    f = bsdf_eval(b, ns, wo, ls.wi, TRANSPORT_RADIANCE);
+    f = bsdf_eval_pdfs(b, mode, ns, wo, ls.wi, TRANSPORT_RADIANCE, want_fwd, want_rev, pdf_fwd, pdf_rev);
     return f != vec3(0.0);
 }
 

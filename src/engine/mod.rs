@@ -13,9 +13,10 @@ pub use dispatch::{Dispatch, SubmitTimes};
 pub use passes::{band_rows, Passes};
 pub use run::{RunOptions, RunResult, SnapshotWriter, Snapshots, Work};
 
-use crate::abi::{SceneParams, STAT_COUNT, STAT_OUT_OF_RANGE};
+use crate::abi::{BsdfKind, SceneParams, STAT_COUNT, STAT_OUT_OF_RANGE};
 use crate::accel::BvhKind;
 use crate::gpu::buffer::{memory_barrier, Buffer};
+pub use crate::gpu::kernels::Specialization;
 use crate::gpu::kernels::{Backend, Kernel, Kernels, Resource};
 use crate::gpu::rayquery::{self, RayQueryScene};
 pub use crate::gpu::Validation;
@@ -99,11 +100,17 @@ pub struct PreparedScene {
     /// The scene's index of each triangle as the device holds them (see
     /// [`crate::accel::prepare`]).
     pub triangle_order: Vec<u32>,
+    specialization: Specialization,
 }
 
 impl PreparedScene {
     pub fn params(&self) -> &SceneParams {
         &self.gpu_scene.params
+    }
+
+    /// The kernels' specialization for this scene.
+    pub fn specialization(&self) -> Specialization {
+        self.specialization
     }
 }
 
@@ -193,15 +200,28 @@ impl Engine {
         } else {
             None
         };
+        let specialization = Specialization {
+            coated_diffuse: scene
+                .materials
+                .iter()
+                .any(|m| m.bsdf == BsdfKind::CoatedDiffuse),
+        };
         Ok(PreparedScene {
             gpu_scene,
             rq,
             triangle_order: bvh.triangle_order,
+            specialization,
         })
     }
 
-    /// The kernel `name`, or with `variant` its profiling variant (`name+variant`).
-    pub fn kernel(&mut self, name: &'static str, variant: Option<&'static str>) -> Result<Kernel> {
+    /// The kernel `name`, or with `variant` its profiling variant (`name+variant`),
+    /// specialized by `spec` (for a scene: [`PreparedScene::specialization`]).
+    pub fn kernel(
+        &mut self,
+        name: &'static str,
+        variant: Option<&'static str>,
+        spec: Specialization,
+    ) -> Result<Kernel> {
         let name = match variant {
             Some(v) => {
                 let wanted = format!("{name}+{v}");
@@ -213,7 +233,7 @@ impl Engine {
             }
             None => name,
         };
-        Ok(self.kernels.get(name)?)
+        Ok(self.kernels.get(name, spec)?)
     }
 
     /// A descriptor set for `kernel`: the scene's resources and `buffers` (binding number,

@@ -60,11 +60,19 @@ pub enum Resource {
     AccelerationStructure(vk::AccelerationStructureKHR),
 }
 
+/// The values of a kernel's specialization constants (abi.h's `SPEC_*`), chosen per
+/// scene: code for what the scene lacks is removed before the driver compiles the
+/// pipeline (coated diffuse's walk engine multiplies a kernel's compile time).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Specialization {
+    pub coated_diffuse: bool,
+}
+
 /// The kernels of one backend, created on first use, and the pool their sets come from.
 pub struct Kernels {
     device: Arc<Device>,
     pub backend: Backend,
-    kernels: HashMap<&'static str, Kernel>,
+    kernels: HashMap<(&'static str, Specialization), Kernel>,
     pool: vk::DescriptorPool,
 }
 
@@ -111,10 +119,10 @@ impl Kernels {
         spirv(kernel, self.backend).is_some()
     }
 
-    /// The kernel `name`, its pipeline created (through the on-disk pipeline cache) on
-    /// first use.
-    pub fn get(&mut self, name: &'static str) -> GpuResult<Kernel> {
-        if let Some(k) = self.kernels.get(name) {
+    /// The kernel `name` specialized by `spec`, its pipeline created (through the on-disk
+    /// pipeline cache) on first use.
+    pub fn get(&mut self, name: &'static str, spec: Specialization) -> GpuResult<Kernel> {
+        if let Some(k) = self.kernels.get(&(name, spec)) {
             return Ok(k.clone());
         }
         let stage = format!("creating the '{name}' pipeline ({})", self.backend.name());
@@ -168,12 +176,22 @@ impl Kernels {
                     None,
                 )
             }?;
+            let values = [vk::Bool32::from(spec.coated_diffuse)];
+            let entries = [vk::SpecializationMapEntry {
+                constant_id: crate::abi::SPEC_COATED_DIFFUSE,
+                offset: 0,
+                size: std::mem::size_of::<vk::Bool32>(),
+            }];
+            let spec_info = vk::SpecializationInfo::default()
+                .map_entries(&entries)
+                .data(bytemuck::cast_slice(&values));
             let info = [vk::ComputePipelineCreateInfo::default()
                 .stage(
                     vk::PipelineShaderStageCreateInfo::default()
                         .stage(vk::ShaderStageFlags::COMPUTE)
                         .module(module)
-                        .name(c"main"),
+                        .name(c"main")
+                        .specialization_info(&spec_info),
                 )
                 .layout(layout)];
             let result =
@@ -198,7 +216,7 @@ impl Kernels {
             set_layout,
             bindings: bindings.into(),
         };
-        self.kernels.insert(name, kernel.clone());
+        self.kernels.insert((name, spec), kernel.clone());
         Ok(kernel)
     }
 

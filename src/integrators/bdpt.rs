@@ -169,7 +169,7 @@ impl Integrator for Bdpt {
             trace,
         )?;
         let kernel = trace.cpu("pipeline creation", || {
-            engine.kernel(kernel_name, self.profile_variant)
+            engine.kernel(kernel_name, self.profile_variant, prepared.specialization())
         })?;
         let (film, stats, splat, vertices, strategy_film) =
             trace.cpu("BDPT buffers", || -> Result<_> {

@@ -472,7 +472,9 @@ impl Integrator for Mmlt {
                     engine.storage_buffer("unused", 16)?,
                 ))
             })?;
-        let kernel = trace.cpu("pipeline creation", || engine.kernel("mmlt", None))?;
+        let kernel = trace.cpu("pipeline creation", || {
+            engine.kernel("mmlt", None, prepared.specialization())
+        })?;
         let set = engine.bind(
             &kernel,
             Some(&prepared),
@@ -495,7 +497,9 @@ impl Integrator for Mmlt {
         // one) so that a time limit ends both together. The chains' cap is bdpt's, so
         // the tail has no light subpaths and never writes the splat film the chains use.
         let tail = if plan.tail_passes > 0 {
-            let bdpt = trace.cpu("pipeline creation", || engine.kernel("bdpt", None))?;
+            let bdpt = trace.cpu("pipeline creation", || {
+                engine.kernel("bdpt", None, prepared.specialization())
+            })?;
             let tail_set = engine.bind(
                 &bdpt,
                 Some(&prepared),

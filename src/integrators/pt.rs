@@ -63,7 +63,7 @@ impl Integrator for FilmIntegrator {
         let code = self.code;
         let prepared = engine.prepare(scene, seed, |p| p.integrator = code, trace)?;
         let kernel = trace.cpu("pipeline creation", || {
-            engine.kernel(self.kernel, self.profile_variant)
+            engine.kernel(self.kernel, self.profile_variant, prepared.specialization())
         })?;
         let (film, stats) = trace.cpu("film allocation", || -> Result<_> {
             Ok((

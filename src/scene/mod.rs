@@ -50,6 +50,12 @@ pub struct Material {
     /// Conductor: the complex index of refraction eta + i k per channel.
     pub eta: Vec3,
     pub k: Vec3,
+    /// Coated diffuse: the thickness of the absorbing layer under the coating (unit
+    /// extinction), and the random walk's maximum depth and samples per evaluation
+    /// (pbrt-v4's `thickness`, `maxdepth`, `nsamples`).
+    pub thickness: f32,
+    pub layer_max_depth: u32,
+    pub layer_samples: u32,
     pub emission: Vec3,
     /// `emission` emits from both sides; a `quadLight` only from its front
     /// (the side its geometric normal points to).
@@ -80,6 +86,9 @@ impl Default for Material {
             ior: DEFAULT_IOR,
             eta: COPPER_ETA,
             k: COPPER_K,
+            thickness: 0.01,
+            layer_max_depth: 10,
+            layer_samples: 1,
             emission: Vec3::ZERO,
             two_sided_emission: true,
             diffuse_texture: None,
@@ -104,7 +113,7 @@ impl Material {
             // Only the fields of the material's own kind, so that materials differing
             // only in another kind's parameters are one material.
             eta: match self.bsdf {
-                BsdfKind::Dielectric | BsdfKind::ThinDielectric => {
+                BsdfKind::Dielectric | BsdfKind::ThinDielectric | BsdfKind::CoatedDiffuse => {
                     [self.ior, self.ior, self.ior, 0.0]
                 }
                 BsdfKind::Conductor => self.eta.extend(0.0).to_array(),
@@ -112,6 +121,12 @@ impl Material {
             },
             k: match self.bsdf {
                 BsdfKind::Conductor => self.k.extend(0.0).to_array(),
+                BsdfKind::CoatedDiffuse => [
+                    self.thickness,
+                    self.layer_max_depth as f32,
+                    self.layer_samples as f32,
+                    0.0,
+                ],
                 _ => [0.0; 4],
             },
             roughness: [self.shininess, self.roughness, self.roughness_v, 0.0],

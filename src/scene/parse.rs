@@ -227,7 +227,13 @@ const COMMANDS: &[(&str, &str)] = &[
     ("specular", "r g b"),
     ("shininess", "s"),
     ("roughness", "a [av]"),
-    ("brdf", "phong|ggx|dielectric|thindielectric|conductor"),
+    (
+        "brdf",
+        "phong|ggx|dielectric|thindielectric|conductor|coateddiffuse",
+    ),
+    ("thickness", "T"),
+    ("layerdepth", "N"),
+    ("layersamples", "N"),
     ("ior", "ETA"),
     ("eta", "r g b"),
     ("k", "r g b"),
@@ -625,8 +631,27 @@ impl Parser {
                     ("dielectric", BsdfKind::Dielectric),
                     ("thindielectric", BsdfKind::ThinDielectric),
                     ("conductor", BsdfKind::Conductor),
+                    ("coateddiffuse", BsdfKind::CoatedDiffuse),
                 ])?;
                 self.set_material(|m| m.bsdf = brdf);
+            }
+            "thickness" => {
+                let t = cmd.non_negative(0, "the thickness")?;
+                self.set_material(|m| m.thickness = t);
+            }
+            "layerdepth" => {
+                let n = cmd.uint(0, 1)?;
+                if n > 1000 {
+                    return Err(cmd.error(format!("expected at most 1000, got {n}")));
+                }
+                self.set_material(|m| m.layer_max_depth = n);
+            }
+            "layersamples" => {
+                let n = cmd.uint(0, 1)?;
+                if n > 64 {
+                    return Err(cmd.error(format!("expected at most 64, got {n}")));
+                }
+                self.set_material(|m| m.layer_samples = n);
             }
             "ior" => {
                 let eta = cmd.float(0)?;
@@ -1690,6 +1715,9 @@ mod tests {
         "roughnesstexture tests/data/checker.png linear",
         "checkerboard 1 1 1  0 0 0  4 4",
         "reflectance 0.9 0.6 0.3",
+        "thickness 0.02",
+        "layerdepth 12",
+        "layersamples 2",
         "envmap tests/data/sky.pfm 2",
         "envmapsquare tests/data/sky-square.pfm 2",
     ];
@@ -2127,7 +2155,7 @@ mod tests {
             "brdf blinn",
             1,
             "brdf",
-            "expected 'phong' or 'ggx' or 'dielectric' or 'thindielectric' or 'conductor', got 'blinn'",
+            "expected 'phong' or 'ggx' or 'dielectric' or 'thindielectric' or 'conductor' or 'coateddiffuse', got 'blinn'",
         );
         check_err("brdf GGX", 1, "brdf", "got 'GGX'");
         let e = check_err(

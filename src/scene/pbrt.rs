@@ -1415,6 +1415,39 @@ impl Parser {
                     None => {}
                 }
             }
+            "coateddiffuse" => {
+                m.bsdf = BsdfKind::CoatedDiffuse;
+                m.diffuse = Vec3::splat(0.5);
+                match self.value(params, "reflectance", false, d)? {
+                    Some(Value::Const(c)) => m.diffuse = c,
+                    Some(Value::Texture(t)) => m.diffuse_texture = Some(t),
+                    None => {}
+                }
+                roughness(self, &mut m)?;
+                m.ior = eta(self)?;
+                let num = |name: &str, default: f64| {
+                    params
+                        .find(name)
+                        .and_then(|p| p.nums.first().copied())
+                        .unwrap_or(default)
+                };
+                m.thickness = num("thickness", 0.01) as f32;
+                m.layer_max_depth = num("maxdepth", 10.0).clamp(1.0, 1000.0) as u32;
+                m.layer_samples = num("nsamples", 1.0).clamp(1.0, 64.0) as u32;
+                if let Some(p) = params.find("albedo") {
+                    if p.nums.iter().any(|&x| x != 0.0) || p.ty == "texture" {
+                        self.unsupported(
+                            p.file,
+                            p.line,
+                            "coateddiffuse: a scattering layer (albedo > 0)",
+                        );
+                    }
+                }
+                params.find("g");
+                if m.thickness < 0.0 {
+                    return Err(self.err_at(file, line, d, "thickness must not be negative"));
+                }
+            }
             "dielectric" | "thindielectric" => {
                 m.bsdf = if ty == "dielectric" {
                     BsdfKind::Dielectric
