@@ -301,22 +301,7 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
     renderer.options.bdpt.record_strategies = args.bdpt_strategies.is_some();
     renderer.options.mmlt.record_depths = args.mmlt_depths.is_some();
     let started = std::time::Instant::now();
-    let mut info = io::RenderInfo {
-        integrator: scene.settings.integrator.name().to_string(),
-        samples_per_pixel: 0,
-        seeds: vec![args.seed],
-        max_depth: scene.settings.max_depth,
-        backend: renderer.backend().name().to_string(),
-        device: renderer.device_info().name.clone(),
-        render_seconds: 0.0,
-        version: env!("CARGO_PKG_VERSION").to_string(),
-        scene_file: args
-            .scene
-            .file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .unwrap_or_default(),
-        scene_hash: io::sha256_hex(&scene_bytes),
-    };
+    let mut info = renderer.render_info(&scene, &args.scene, &scene_bytes, args.seed);
     // SIGINT and SIGTERM stop the render after the dispatch in flight, and the image of
     // what was done is written; a second signal ends the process at once (with no
     // half-written image: images are written to a temporary name and renamed).

@@ -53,6 +53,33 @@ impl Renderer {
         self.engine.validation()
     }
 
+    /// The metadata of a render of `scene` (read from `scene_file`, whose contents are
+    /// `scene_bytes`) with `seed` on this renderer, before it runs: the samples and
+    /// seconds are filled in after.
+    pub fn render_info(
+        &self,
+        scene: &Scene,
+        scene_file: &std::path::Path,
+        scene_bytes: &[u8],
+        seed: u32,
+    ) -> crate::io::RenderInfo {
+        crate::io::RenderInfo {
+            integrator: scene.settings.integrator.name().to_string(),
+            samples_per_pixel: 0,
+            seeds: vec![seed],
+            max_depth: scene.settings.max_depth,
+            backend: self.backend().name().to_string(),
+            device: self.device_info().name.clone(),
+            render_seconds: 0.0,
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            scene_file: scene_file
+                .file_name()
+                .map(|n| n.to_string_lossy().to_string())
+                .unwrap_or_default(),
+            scene_hash: crate::io::sha256_hex(scene_bytes),
+        }
+    }
+
     /// Render `scene` (its settings already overridden by the command line) with `seed`,
     /// by the integrator its settings name.
     pub fn render(&mut self, scene: &Scene, seed: u32, trace: &mut Trace) -> Result<RenderOutput> {

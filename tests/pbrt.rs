@@ -4,7 +4,7 @@ mod common;
 
 use common::*;
 use lightpath::render::AccelChoice::Bvh;
-use lightpath::scene::{self, Scene};
+use lightpath::scene::{self, IntegratorKind, Scene};
 use std::process::Command;
 
 fn small(mut s: Scene) -> Scene {
@@ -123,4 +123,40 @@ fn the_command_line_reads_pbrt_files() {
     );
     assert!(!out2.exists());
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A scene of the importer's later features (loopsubdiv with its smooth normals,
+/// blackbody panels, sampled reflectances, Attribute defaults): the path tracer and
+/// BDPT agree on it, and the panels keep their colours (the warm one lights the
+/// blob's left, which the camera sees on the image's left).
+#[test]
+fn subdivision_surfaces_and_blackbody_lights_render_alike_in_pt_and_bdpt() {
+    let mut s = scene::load(&repo().join("scenes/pbrt/subdivision-blackbody.pbrt"))
+        .expect("the scene parses");
+    s.width = 32;
+    s.height = 24;
+    assert_eq!(s.triangles.len(), 4 + 4 + 8 * 256);
+    let pt = estimate(
+        &with_integrator(s.clone(), IntegratorKind::PathTracer, 64),
+        4,
+        2,
+        Bvh,
+    );
+    let bdpt = estimate(&with_integrator(s, IntegratorKind::Bdpt, 16), 4, 2, Bvh);
+    assert_agree(
+        "bdpt vs pt, subdivision and blackbody",
+        &bdpt,
+        &pt,
+        5.0,
+        0.02,
+    );
+    // Regions are row-major 2 x 2 plus the whole image; the lower left (warm side) is
+    // redder than the lower right (cold side).
+    let ratio = |m: [f64; 3]| m[0] / m[2];
+    assert!(
+        ratio(pt.mean[2]) > 1.2 * ratio(pt.mean[3]),
+        "warm left {:?} vs cold right {:?}",
+        pt.mean[2],
+        pt.mean[3]
+    );
 }

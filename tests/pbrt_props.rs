@@ -3,7 +3,12 @@
 use lightpath::scene::parse_pbrt_str;
 use proptest::prelude::*;
 
-const SCENE: &str = include_str!("../scenes/pbrt/cornell-box.pbrt");
+/// The files mutated: the Cornell box and the scene of the later features (loopsubdiv,
+/// blackbody, sampled spectra, Attribute).
+const SCENES: [&str; 2] = [
+    include_str!("../scenes/pbrt/cornell-box.pbrt"),
+    include_str!("../scenes/pbrt/subdivision-blackbody.pbrt"),
+];
 
 /// Tokens to splice in: directives, parameter declarations of every type (right and
 /// wrong), values, brackets and broken strings.
@@ -78,6 +83,15 @@ fn token() -> impl Strategy<Value = String> {
             "\"float\"",
             "\"string filename\"",
             "\"nothing.png\"",
+            "\"loopsubdiv\"",
+            "\"integer levels\"",
+            "Attribute \"shape\"",
+            "Attribute \"light\"",
+            "Attribute \"bogus\"",
+            "\"blackbody I\"",
+            "\"spectrum reflectance\"",
+            "\"nothing.spd\"",
+            "\"float illuminance\"",
         ])
         .prop_map(str::to_string),
     ]
@@ -101,11 +115,12 @@ proptest! {
 
     #[test]
     fn mutated_pbrt_scenes_parse_or_fail_with_a_line(
+        scene in 0usize..2,
         edits in prop::collection::vec((0usize..10_000, 0u8..4, token()), 1..10)
     ) {
         // Edit whitespace-separated words (strings with spaces split, which is a
         // mutation too), keeping the line structure so that lines stay meaningful.
-        let mut lines: Vec<Vec<String>> = SCENE
+        let mut lines: Vec<Vec<String>> = SCENES[scene]
             .lines()
             .map(|l| l.split_whitespace().map(str::to_string).collect())
             .collect();

@@ -6,6 +6,8 @@
 mod parse;
 mod pbrt;
 pub mod ply;
+pub mod spectrum;
+mod subdiv;
 
 pub use parse::{parse_file, parse_str, ParseError};
 pub use pbrt::{parse_pbrt_file, parse_pbrt_str};

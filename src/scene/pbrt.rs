@@ -12,6 +12,7 @@
 //! or sampling (`PixelFilter`, the sampler's type) is one warning each.
 
 use super::parse::MaterialKey;
+use super::spectrum;
 use super::{
     BsdfKind, Camera, DeltaLight, Environment, EnvironmentMap, IntegratorKind, Material,
     NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture, Triangle,
@@ -72,6 +73,7 @@ const PARAM_TYPES: &[(&str, &[&str])] = &[
     ("udelta", &["float", "integer"]),
     ("vdelta", &["float", "integer"]),
     ("dimension", &["integer"]),
+    ("levels", &["integer"]),
     ("lensradius", &["float", "integer"]),
     ("focaldistance", &["float", "integer"]),
     ("sigma", &["float", "integer"]),
@@ -83,6 +85,9 @@ const PARAM_TYPES: &[(&str, &[&str])] = &[
     ("L", &["rgb", "spectrum", "blackbody"]),
     ("I", &["rgb", "spectrum", "blackbody"]),
 ];
+
+/// The most triangles a `loopsubdiv` may make.
+const MAX_SUBDIVIDED_TRIANGLES: f64 = 8_000_000.0;
 
 /// Segments of a triangulated disk.
 const DISK_SEGMENTS: usize = 128;
@@ -245,6 +250,8 @@ struct GraphicsState {
     reverse: bool,
     material: MaterialRef,
     area: Option<AreaLight>,
+    /// `Attribute` defaults: (target, parameter), the latest of a name first.
+    attributes: Vec<(String, Param)>,
 }
 
 /// A shape as declared, in its object space, with what applies to it.
@@ -333,6 +340,7 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
             reverse: false,
             material: MaterialRef::Material(diffuse(Vec3::splat(0.5))),
             area: None,
+            attributes: Vec::new(),
         },
         stack: Vec::new(),
         named_coords: HashMap::new(),
@@ -653,6 +661,19 @@ impl Parser {
         Ok(Params(out))
     }
 
+    /// `params` with the `Attribute` defaults of `target` that it does not set itself.
+    /// (Defaults a directive does not read are not reported: they apply to many kinds.)
+    fn with_attributes(&self, target: &str, mut params: Params) -> Params {
+        for (t, p) in &self.gs.attributes {
+            if t == target && !params.0.iter().any(|q| q.name == p.name) {
+                let p = p.clone();
+                p.used.set(true);
+                params.0.push(p);
+            }
+        }
+        params
+    }
+
     fn unsupported(&mut self, file: u32, line: u32, what: impl Into<String>) {
         let what = what.into();
         self.unsupported
@@ -818,12 +839,27 @@ impl Parser {
             "Attribute" => {
                 let target = self.expect_string(d, "a target")?;
                 let params = self.params(d)?;
-                if !params.0.is_empty() {
-                    self.unsupported(
-                        file,
-                        line,
-                        format!("Attribute \"{target}\" (default parameters)"),
-                    );
+                match target.as_str() {
+                    "shape" | "light" | "material" | "texture" => {
+                        for p in params.0.into_iter().rev() {
+                            self.gs.attributes.insert(0, (target.clone(), p));
+                        }
+                    }
+                    "medium" => {
+                        if !params.0.is_empty() {
+                            self.unsupported(file, line, "Attribute \"medium\" (participating media)");
+                        }
+                    }
+                    other => {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!(
+                                "unknown target \"{other}\" (expected shape, light, material, medium or texture)"
+                            ),
+                        ))
+                    }
                 }
             }
             "Include" | "Import" => {
@@ -926,11 +962,13 @@ impl Parser {
             "Material" => {
                 let ty = self.expect_string(d, "a material type")?;
                 let params = self.params(d)?;
+                let params = self.with_attributes("material", params);
                 self.gs.material = self.material(&ty, &params, file, line)?;
             }
             "MakeNamedMaterial" => {
                 let name = self.expect_string(d, "a name")?;
                 let params = self.params(d)?;
+                let params = self.with_attributes("material", params);
                 let ty = match params.find("type") {
                     Some(p) if p.ty == "string" && p.strs.len() == 1 => p.strs[0].clone(),
                     _ => {
@@ -964,21 +1002,25 @@ impl Parser {
                 let ty = self.expect_string(d, "a texture type (\"spectrum\" or \"float\")")?;
                 let class = self.expect_string(d, "a texture class")?;
                 let params = self.params(d)?;
+                let params = self.with_attributes("texture", params);
                 self.texture(&name, &ty, &class, &params, file, line)?;
             }
             "LightSource" => {
                 let ty = self.expect_string(d, "a light type")?;
                 let params = self.params(d)?;
+                let params = self.with_attributes("light", params);
                 self.light(&ty, &params, file, line)?;
             }
             "AreaLightSource" => {
                 let ty = self.expect_string(d, "an area light type")?;
                 let params = self.params(d)?;
+                let params = self.with_attributes("light", params);
                 self.area_light(&ty, &params, file, line)?;
             }
             "Shape" => {
                 let ty = self.expect_string(d, "a shape type")?;
                 let params = self.params(d)?;
+                let params = self.with_attributes("shape", params);
                 self.shape(&ty, &params, file, line)?;
             }
             "ObjectBegin" => {
@@ -1265,9 +1307,31 @@ impl Parser {
         Ok(())
     }
 
-    /// A spectrum parameter as RGB: `rgb` values, a `blackbody` temperature, or a named
-    /// spectrum lightpath knows (see docs/scene-format.md).
-    fn rgb(&mut self, p: &Param, directive: &str) -> Result<Option<Vec3>, ParseError> {
+    /// A spectrum parameter as RGB (see spectrum.rs): `rgb` values, a `blackbody`
+    /// temperature, sampled (λ, value) pairs, a named spectrum lightpath knows or an
+    /// `.spd` file (relative to the file that names it). `emitted`: a light's spectrum
+    /// (normalized to luminance 1, as pbrt-v4's lights); otherwise a bounded one.
+    fn rgb(
+        &mut self,
+        p: &Param,
+        directive: &str,
+        emitted: bool,
+    ) -> Result<Option<Vec3>, ParseError> {
+        let bad = |this: &Self, msg: String| {
+            this.err_at(
+                p.file,
+                p.line,
+                directive,
+                format!("parameter \"{} {}\": {msg}", p.ty, p.name),
+            )
+        };
+        let sampled = |this: &Self, s: spectrum::Sampled| -> Result<Vec3, ParseError> {
+            if emitted {
+                s.emitted_rgb().map_err(|m| bad(this, m))
+            } else {
+                Ok(s.bounded_rgb())
+            }
+        };
         match p.ty.as_str() {
             "rgb" => Ok(Some(Vec3::new(
                 p.nums[0] as f32,
@@ -1275,27 +1339,39 @@ impl Parser {
                 p.nums[2] as f32,
             ))),
             "float" => Ok(Some(Vec3::splat(p.nums[0] as f32))),
-            "spectrum" if !p.strs.is_empty() => match named_spectrum(&p.strs[0]) {
-                Some(c) => Ok(Some(c)),
-                None => {
+            "blackbody" => {
+                if p.nums.len() != 1 {
+                    return Err(bad(
+                        self,
+                        format!("expected one temperature, got {} values", p.nums.len()),
+                    ));
+                }
+                spectrum::blackbody_rgb(p.nums[0])
+                    .map(Some)
+                    .map_err(|m| bad(self, m))
+            }
+            "spectrum" if !p.strs.is_empty() => {
+                if let Some(c) = named_spectrum(&p.strs[0]) {
+                    return Ok(Some(c));
+                }
+                if !p.strs[0].to_ascii_lowercase().ends_with(".spd") {
                     self.unsupported(
                         p.file,
                         p.line,
                         format!("{directive}: spectrum \"{}\"", p.strs[0]),
                     );
-                    Ok(None)
+                    return Ok(None);
                 }
-            },
-            "spectrum" | "blackbody" => {
-                self.unsupported(
-                    p.file,
-                    p.line,
-                    format!(
-                        "{directive}: \"{} {}\" (only rgb values and named metal spectra)",
-                        p.ty, p.name
-                    ),
-                );
-                Ok(None)
+                let path = self.dirs[p.file as usize].join(&p.strs[0]);
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|e| bad(self, format!("cannot read {}: {e}", path.display())))?;
+                let s = spectrum::Sampled::from_spd(&text)
+                    .map_err(|m| bad(self, format!("{}: {m}", path.display())))?;
+                sampled(self, s).map(Some)
+            }
+            "spectrum" => {
+                let s = spectrum::Sampled::from_interleaved(&p.nums).map_err(|m| bad(self, m))?;
+                sampled(self, s).map(Some)
             }
             _ => Err(self.err_at(
                 p.file,
@@ -1340,7 +1416,7 @@ impl Parser {
                 )),
             };
         }
-        Ok(self.rgb(&p, directive)?.map(Value::Const))
+        Ok(self.rgb(&p, directive, false)?.map(Value::Const))
     }
 
     fn material(
@@ -1724,7 +1800,7 @@ impl Parser {
         d: &str,
     ) -> Result<Vec3, ParseError> {
         let base = match params.find(name).cloned() {
-            Some(p) => self.rgb(&p, d)?.unwrap_or(Vec3::ONE),
+            Some(p) => self.rgb(&p, d, true)?.unwrap_or(Vec3::ONE),
             None => default,
         };
         let scale = params
@@ -1822,15 +1898,14 @@ impl Parser {
             "infinite" => {
                 let file_param = params.find("filename").cloned();
                 let mut l = self.light_colour(params, "L", Vec3::ONE, d)?;
-                if let Some(e) = params
+                let illuminance = params
                     .find("illuminance")
                     .and_then(|p| p.nums.first().copied())
-                {
-                    if file_param.is_some() {
-                        self.unsupported(file, line, "infinite: illuminance with an image");
-                    } else {
+                    .map(|e| e as f32);
+                if file_param.is_none() {
+                    if let Some(e) = illuminance {
                         // The upper hemisphere's illuminance from constant L is π L.
-                        l *= e as f32 / std::f32::consts::PI;
+                        l *= e / std::f32::consts::PI;
                     }
                 }
                 if let Some(p) = params.find("portal") {
@@ -1859,6 +1934,15 @@ impl Parser {
                                 d,
                                 "the transform turns the environment map by more than a rotation",
                             ));
+                        }
+                        if let Some(e) = illuminance {
+                            // As pbrt-v4: scaled so that a surface facing the map's +z
+                            // (in the light's space) receives illuminance e.
+                            let k = upper_hemisphere_illuminance(&image);
+                            if !(k > 0.0) {
+                                return Err(self.err_at(p.file, p.line, d, format!("{}: \"illuminance\" asks to scale a map that lights nothing above its horizon", path.display())));
+                            }
+                            l *= e / k;
                         }
                         Some(EnvironmentMap {
                             image: Arc::new(image),
@@ -2008,6 +2092,41 @@ impl Parser {
                     params.find(name);
                 }
                 ShapeKind::Mesh { p, indices, n, uv }
+            }
+            "loopsubdiv" => {
+                let Some(pp) = params.find("P") else {
+                    return Err(self.err_at(file, line, d, "loopsubdiv: no \"point3 P\""));
+                };
+                let p = vec3s(pp);
+                let Some(ip) = params.find("indices") else {
+                    return Err(self.err_at(file, line, d, "loopsubdiv: no \"integer indices\""));
+                };
+                if let Some(bad) = ip.nums.iter().find(|&&x| x < 0.0) {
+                    return Err(self.err_at(
+                        ip.file,
+                        ip.line,
+                        d,
+                        format!("loopsubdiv: a negative index {bad}"),
+                    ));
+                }
+                let indices: Vec<u32> = ip.nums.iter().map(|&x| x as u32).collect();
+                let levels = params
+                    .find("levels")
+                    .and_then(|lp| lp.nums.first().copied())
+                    .unwrap_or(3.0);
+                // Each level multiplies the triangles by 4.
+                let triangles = (indices.len() / 3) as f64 * 4f64.powf(levels.max(0.0));
+                if !(0.0..=12.0).contains(&levels) || triangles > MAX_SUBDIVIDED_TRIANGLES {
+                    return Err(self.err_at(file, line, d, format!("loopsubdiv: {levels} levels would make {triangles} triangles (at most {MAX_SUBDIVIDED_TRIANGLES})")));
+                }
+                let (p, indices, n) = super::subdiv::loop_subdivide(&p, &indices, levels as u32)
+                    .map_err(|e| self.err_at(file, line, d, format!("loopsubdiv: {e}")))?;
+                ShapeKind::Mesh {
+                    p,
+                    indices,
+                    n: Some(n),
+                    uv: None,
+                }
             }
             "plymesh" => {
                 let Some(fp) = params.find("filename").cloned() else {
@@ -2332,6 +2451,26 @@ fn flip(mut t: Triangle) -> Triangle {
 
 /// Named spectra lightpath knows, as RGB (docs/scene-format.md): the metals' η and k at
 /// the sRGB primaries' dominant wavelengths (about 610, 550 and 465 nm).
+/// The illuminance an equal-area environment map (radiance in linear sRGB) gives a
+/// surface facing its +z: the sum over the pixels above the horizon of their luminance
+/// times cos θ times their solid angle (4π over the pixel count).
+fn upper_hemisphere_illuminance(image: &crate::io::Image) -> f32 {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let mut sum = 0.0f64;
+    for y in 0..h {
+        for x in 0..w {
+            let uv = Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
+            let z = crate::texture::equal_area_square_to_sphere(uv).z;
+            if z > 0.0 {
+                let p = image.pixels[y * w + x];
+                let luminance = 0.212_672_9 * p[0] + 0.715_152_2 * p[1] + 0.072_175 * p[2];
+                sum += (luminance * z) as f64;
+            }
+        }
+    }
+    (sum * 4.0 * std::f64::consts::PI / (w * h) as f64) as f32
+}
+
 fn named_spectrum(name: &str) -> Option<Vec3> {
     Some(match name {
         "metal-Cu-eta" => super::COPPER_ETA,
@@ -2642,6 +2781,124 @@ mod tests {
         std::fs::write(d.join("loop.pbrt"), "Include \"loop.pbrt\"\n").unwrap();
         let e = parse_pbrt_file(&d.join("loop.pbrt")).expect_err("a loop");
         assert!(e.message.contains("include itself"), "{e}");
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    /// Blackbody, sampled and file spectra: emitted ones at luminance 1 (times scale),
+    /// bounded ones grey when constant; bad ones are errors naming the line.
+    #[test]
+    fn blackbody_sampled_and_file_spectra() {
+        let lum = |c: Vec3| 0.212_672_9 * c.x + 0.715_152_2 * c.y + 0.072_175 * c.z;
+        let s = parse(&format!(
+            "WorldBegin\nAttributeBegin\nAreaLightSource \"diffuse\" \"blackbody L\" [2700] \"float scale\" 2\n{QUAD}\nAttributeEnd\n\
+             Material \"diffuse\" \"spectrum reflectance\" [300 0.25 900 0.25]\n{QUAD}\n"
+        ));
+        let light = s.materials[s.triangles[0].material as usize].emission;
+        assert!((lum(light) - 2.0).abs() < 1e-3, "{light}");
+        assert!(
+            light.x > light.y && light.y > light.z,
+            "2700 K is orange: {light}"
+        );
+        let grey = s.materials[s.triangles[2].material as usize].diffuse;
+        assert!(
+            (grey - Vec3::splat(0.25)).abs().max_element() < 1e-5,
+            "{grey}"
+        );
+        let e = parse_err("WorldBegin\nLightSource \"point\"\n  \"blackbody I\" [-5]\n");
+        assert!(e.line == 2 || e.line == 3, "{e}");
+        assert!(e.message.contains("temperature"), "{e}");
+        let e =
+            parse_err("WorldBegin\nMaterial \"diffuse\" \"spectrum reflectance\" [500 1 400 1]\n");
+        assert!(e.message.contains("increase"), "{e}");
+
+        let d = std::env::temp_dir().join(format!("lightpath-spd-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("lamp.spd"), "# a lamp\n400 0.2\n550 1.0\n700 3.0\n").unwrap();
+        std::fs::write(
+            d.join("main.pbrt"),
+            "WorldBegin\nLightSource \"point\" \"spectrum I\" \"lamp.spd\" \"float scale\" 3\n",
+        )
+        .unwrap();
+        let s = parse_pbrt_file(&d.join("main.pbrt")).unwrap();
+        let DeltaLight::Point { intensity: i, .. } = s.delta_lights[0] else {
+            panic!("a point light")
+        };
+        assert!((lum(i) - 3.0).abs() < 1e-3 && i.x > i.z, "{i}");
+        std::fs::write(d.join("lamp.spd"), "400 0.2\n550 x\n").unwrap();
+        let e = parse_pbrt_file(&d.join("main.pbrt")).expect_err("a bad spd");
+        assert!(
+            e.message.contains("lamp.spd") && e.message.contains("line 2"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    /// `Attribute` sets defaults for later directives of its kind, within its block;
+    /// a directive's own parameter wins.
+    #[test]
+    fn attributes_give_default_parameters() {
+        let s = parse(
+            r#"WorldBegin
+            AttributeBegin
+              Attribute "shape" "float radius" 2
+              Attribute "material" "rgb reflectance" [0.1 0.2 0.3]
+              Material "diffuse"
+              Shape "sphere"
+              Shape "sphere" "float radius" 3
+            AttributeEnd
+            Shape "sphere"
+            "#,
+        );
+        let radius = |i: usize| s.spheres[i].object_to_world.x_axis.length();
+        assert_eq!([radius(0), radius(1), radius(2)], [2.0, 3.0, 1.0]);
+        assert_eq!(
+            s.materials[s.spheres[0].material as usize].diffuse,
+            Vec3::new(0.1, 0.2, 0.3)
+        );
+        let e = parse_err("WorldBegin\nAttribute \"camera\" \"float fov\" 30\n");
+        assert!(e.message.contains("unknown target"), "{e}");
+        let e = parse_err("WorldBegin\nAttribute \"medium\" \"rgb sigma_a\" [1 1 1]\n");
+        assert!(e.message.contains("medium"), "{e}");
+    }
+
+    /// loopsubdiv: `levels` of Loop subdivision, with normals; too many is an error.
+    #[test]
+    fn loop_subdivision_surfaces() {
+        let oct = r#""point3 P" [1 0 0 -1 0 0 0 1 0 0 -1 0 0 0 1 0 0 -1]
+            "integer indices" [0 2 4 2 1 4 1 3 4 3 0 4 2 0 5 1 2 5 3 1 5 0 3 5]"#;
+        let s = parse(&format!(
+            "WorldBegin\nShape \"loopsubdiv\" \"integer levels\" 2 {oct}\n"
+        ));
+        assert_eq!(s.triangles.len(), 8 * 16);
+        assert!(s.triangles.iter().all(|t| t.normals.is_some()));
+        let s = parse(&format!("WorldBegin\nShape \"loopsubdiv\" {oct}\n"));
+        assert_eq!(s.triangles.len(), 8 * 64, "3 levels by default");
+        let e = parse_err(&format!(
+            "WorldBegin\nShape \"loopsubdiv\" \"integer levels\" 12 {oct}\n"
+        ));
+        assert!(e.message.contains("triangles"), "{e}");
+    }
+
+    /// An infinite light's `illuminance` with an image: a constant map of radiance 1
+    /// gives π, so asking for 2π doubles it.
+    #[test]
+    fn illuminance_scales_an_environment_map() {
+        let d = std::env::temp_dir().join(format!("lightpath-illum-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let n = 64usize;
+        let mut pfm = format!("PF\n{n} {n}\n-1.0\n").into_bytes();
+        for _ in 0..n * n * 3 {
+            pfm.extend(1.0f32.to_le_bytes());
+        }
+        std::fs::write(d.join("sky.pfm"), pfm).unwrap();
+        std::fs::write(
+            d.join("main.pbrt"),
+            "WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.pfm\" \"float illuminance\" 6.2831853\n",
+        )
+        .unwrap();
+        let s = parse_pbrt_file(&d.join("main.pbrt")).unwrap();
+        let l = s.environment.expect("an environment").radiance;
+        assert!((l - Vec3::splat(2.0)).abs().max_element() < 0.02, "{l}");
         std::fs::remove_dir_all(&d).ok();
     }
 
