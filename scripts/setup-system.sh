@@ -3,7 +3,8 @@
 #   - the Vulkan loader and Mesa's lavapipe with ray query (bookworm-backports when the
 #     system Mesa is older than 24),
 #   - the Khronos validation layer (--validate and tests/validation.rs),
-#   - cmake, python3 and a C++ compiler for building shaderc from source.
+#   - cmake, python3 and a C++ compiler for building shaderc from source,
+#   - python3's venv, for the Python package's tests.
 # The package mirror is taken from the machine's own apt sources.
 set -euo pipefail
 
@@ -14,6 +15,8 @@ need=()
 command -v cmake >/dev/null || need+=(cmake)
 command -v g++ >/dev/null || need+=(g++)
 command -v python3 >/dev/null || need+=(python3)
+# The Python package's tests build it in a virtual environment.
+python3 -c 'import venv, ensurepip' 2>/dev/null || need+=(python3-venv)
 command -v ninja >/dev/null || need+=(ninja-build)
 dpkg -s libvulkan1 >/dev/null 2>&1 || need+=(libvulkan1)
 dpkg -s vulkan-tools >/dev/null 2>&1 || need+=(vulkan-tools)

@@ -217,7 +217,10 @@ mod tests {
         // white: about (1.20, 0.95, 0.91).
         let e = grey.emitted_rgb().unwrap();
         assert!((luminance(e) - 1.0).abs() < 1e-4);
-        assert!((e - Vec3::new(1.20, 0.95, 0.91)).abs().max_element() < 0.02, "{e}");
+        assert!(
+            (e - Vec3::new(1.20, 0.95, 0.91)).abs().max_element() < 0.02,
+            "{e}"
+        );
     }
 
     #[test]

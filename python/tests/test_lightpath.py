@@ -1,0 +1,158 @@
+"""The Python package against lavapipe: the same images as the command line, metadata
+that round-trips, strategy and depth images that sum to the image, interruption,
+exceptions for bad input, flat memory over many renders, and the example script."""
+import os
+import re
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import lightpath as lp
+
+REPO = Path(__file__).resolve().parents[2]
+SCENES = REPO / "scenes"
+
+
+def binary():
+    """The command-line binary the test command built (LIGHTPATH_BIN), else the cache's."""
+    b = os.environ.get("LIGHTPATH_BIN")
+    if b:
+        return b
+    target = os.environ.get("CARGO_TARGET_DIR", str(Path.home() / ".cache/lightpath/target"))
+    return str(Path(target) / "release" / "lightpath")
+
+
+def small(name="cornell-box.test", size=(24, 18)):
+    s = lp.load(SCENES / name)
+    s.size = size
+    return s
+
+
+def test_a_device_is_found():
+    devs = lp.devices()
+    assert devs, "no Vulkan device: install Mesa's lavapipe (scripts/setup-system.sh)"
+    assert sum(d["default"] for d in devs) == 1
+    for d in devs:
+        assert {"name", "driver", "ray_query", "float_atomics", "max_storage_buffer_range"} <= d.keys()
+
+
+def test_images_are_the_command_lines_bit_for_bit(tmp_path):
+    scene = small()
+    r = lp.render(scene, integrator="pathtracer", spp=4, seed=7, accel="bvh")
+    assert r.image.shape == (18, 24, 3) and r.image.dtype == np.float32
+    out = tmp_path / "cli.exr"
+    subprocess.run(
+        [binary(), "render", str(SCENES / "cornell-box.test"), "--size", "24x18", "--spp", "4",
+         "--seed", "7", "--integrator", "pathtracer", "--accel", "bvh", "-q", "-o", str(out)],
+        check=True,
+    )
+    cli = lp.read(out)
+    assert np.array_equal(cli.image, r.image)
+    m = cli.metadata
+    for key in ["integrator", "samples_per_pixel", "seeds", "max_depth", "backend", "scene_file", "scene_sha256"]:
+        assert m[key] == r.metadata[key], key
+
+
+def test_metadata_round_trips_and_pngs_are_written(tmp_path):
+    r = lp.render(small(), spp=2, seed=3)
+    r.save(tmp_path / "a.exr")
+    back = lp.read(tmp_path / "a.exr")
+    assert np.array_equal(back.image, r.image)
+    want = dict(r.metadata)
+    got = dict(back.metadata)
+    assert got == want
+    assert want["seeds"] == [3] and want["samples_per_pixel"] == 2 and not want["interrupted"]
+    r.save(tmp_path / "a.png")
+    assert (tmp_path / "a.png").stat().st_size > 0
+    with pytest.raises(ValueError):
+        r.save(tmp_path / "a.bmp")
+
+
+def test_strategy_and_depth_images_sum_to_the_image():
+    scene = small()
+    r = lp.render(scene, integrator="bdpt", spp=2, max_depth=3, strategies=True)
+    total = sum(w for (w, _) in r.strategies.values())
+    assert set(r.strategies) >= {(0, 2), (1, 2), (2, 2)}
+    assert np.allclose(total, r.image, rtol=1e-4, atol=1e-5)
+    m = lp.render(scene, integrator="mmlt", spp=2, max_depth=3, depths=True,
+                  mmlt_bootstrap=2000, mmlt_chains=64)
+    assert len(m.depths) >= 3
+    assert np.allclose(sum(m.depths.values()), m.image, rtol=1e-4, atol=1e-5)
+    assert m.mmlt["b"] > 0 and len(m.mmlt["depths"]) == len(m.depths)
+    assert r.mmlt is None and m.strategies is None
+
+
+def test_a_render_stops_when_interrupted_from_another_thread():
+    scene = small(size=(64, 48))
+    timer = threading.Timer(1.0, lp.interrupt)
+    timer.start()
+    r = lp.render(scene, integrator="pathtracer", spp=1_000_000)
+    timer.cancel()
+    assert r.interrupted and r.metadata["interrupted"]
+    assert 0 < r.metadata["samples_per_pixel"] < 1_000_000
+    assert np.isfinite(r.image).all() and r.image.mean() > 0
+
+
+def test_bad_scenes_and_arguments_raise_before_rendering(tmp_path):
+    bad = tmp_path / "bad.test"
+    bad.write_text("size 8 8\ncamera 0 0 1 0 0 0 0 1 0 45\nsphere 0 0 0\n")
+    with pytest.raises(lp.SceneError, match=r"bad\.test:3"):
+        lp.load(bad)
+    with pytest.raises(lp.SceneError):
+        lp.load(tmp_path / "missing.test")
+    scene = small()
+    for kwargs in [dict(integrator="nope"), dict(spp=-1), dict(spp=0), dict(accel="fast"),
+                   dict(max_depth=-2), dict(seed=-1), dict(time_limit=0.0),
+                   dict(size=(0, 4)), dict(size=(65536, 65536)),
+                   dict(strategies=True, integrator="pathtracer"), dict(mmlt_sigma=2.0)]:
+        with pytest.raises(ValueError):
+            lp.render(scene, **kwargs)
+    with pytest.raises(ValueError):
+        scene.size = (-1, 5)
+    with pytest.raises(ValueError, match="merge"):
+        lp.merge([lp.render(scene, spp=1)])
+    with pytest.raises(TypeError):
+        lp.compare(1, 2)
+
+
+def test_compare_and_merge_agree_with_the_command_line():
+    scene = small()
+    a = lp.render(scene, spp=2, seed=1)
+    b = lp.render(scene, spp=6, seed=2)
+    c = lp.compare(a, a.image)
+    assert c["rmse"] == 0 and c["relmse"] == 0
+    merged = lp.merge([a, b])
+    assert merged.metadata["samples_per_pixel"] == 8 and merged.metadata["seeds"] == [1, 2]
+    assert np.allclose(merged.image, (2 * a.image + 6 * b.image) / 8, rtol=1e-5, atol=1e-6)
+    with pytest.raises(ValueError):
+        lp.merge([a, lp.render(scene, spp=2, seed=1, max_depth=2)])
+
+
+def rss_mib():
+    text = Path("/proc/self/status").read_text()
+    return int(re.search(r"VmRSS:\s+(\d+) kB", text).group(1)) / 1024
+
+
+def test_two_hundred_renders_keep_memory_flat():
+    scene = small(size=(16, 12))
+    for _ in range(20):
+        lp.render(scene, spp=1).image
+    before = rss_mib()
+    for i in range(200):
+        r = lp.render(scene, spp=1, seed=i)
+        assert r.image.shape == (12, 16, 3)
+    grown = rss_mib() - before
+    assert grown < 20, f"memory grew by {grown:.1f} MiB over 200 renders"
+
+
+def test_the_example_script_runs(tmp_path):
+    env = dict(os.environ, MPLBACKEND="Agg", LIGHTPATH_EXAMPLE_QUICK="1")
+    subprocess.run(
+        [sys.executable, str(REPO / "python/examples/equal_time.py"), "--out", str(tmp_path / "plot.png")],
+        check=True, env=env, cwd=tmp_path,
+    )
+    assert (tmp_path / "plot.png").stat().st_size > 0
