@@ -40,8 +40,11 @@ void main() {
     uint rays = 0u;
     for (uint i = 0u; i < pass_params.samples; ++i) {
         Rng rng = rng_init(scene.seed, index, pass_params.first_sample + i);
-        vec3 o = scene.cam_eye.xyz;
-        vec3 d = camera_ray_direction(pixel, rng_next2(rng));
+        vec2 u_pixel = rng_next2(rng);
+        vec2 u_lens = vec2(0.0);
+        if (camera_has_lens()) u_lens = rng_next2(rng);
+        vec3 o, d;
+        camera_ray(camera_pixel_film(pixel, u_pixel), u_lens, o, d);
         Hit hit;
         rays++;
         if (!trace_closest(o, d, INF, hit)) {

@@ -37,9 +37,17 @@ vec3 estimate_direct(BsdfParams b, vec3 p, vec3 n, vec3 ns, vec3 wo, uint e, vec
     return f * ls.L * (cos_s * w / ls.pdf);
 }
 
+// A camera ray through the pixel: two numbers over the pixel, two over a thin lens.
+void camera_sample(uvec2 pixel, inout Rng rng, out vec3 o, out vec3 d) {
+    vec2 u_pixel = rng_next2(rng);
+    vec2 u_lens = vec2(0.0);
+    if (camera_has_lens()) u_lens = rng_next2(rng);
+    camera_ray(camera_pixel_film(pixel, u_pixel), u_lens, o, d);
+}
+
 vec3 path_sample(uvec2 pixel, inout Rng rng) {
-    vec3 o = scene.cam_eye.xyz;
-    vec3 d = camera_ray_direction(pixel, rng_next2(rng));
+    vec3 o, d;
+    camera_sample(pixel, rng, o, d);
     uint nee = scene.nee;
     bool rr = scene.russian_roulette != 0u;
     uint mode = scene.sample_mode;
@@ -115,8 +123,8 @@ vec3 path_sample(uvec2 pixel, inout Rng rng) {
 // The `direct` integrator: emission seen by the camera plus lightsamples light samples
 // at the first hit, stratified on a sqrt(N) x sqrt(N) grid when asked.
 vec3 direct_sample(uvec2 pixel, inout Rng rng) {
-    vec3 o = scene.cam_eye.xyz;
-    vec3 d = camera_ray_direction(pixel, rng_next2(rng));
+    vec3 o, d;
+    camera_sample(pixel, rng, o, d);
     Hit hit;
     if (!closest(o, d, hit)) return scene.environment != NO_EMITTER ? environment_radiance(d) : vec3(0.0);
     Surface s = surface_at(hit, o, d);

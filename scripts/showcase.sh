@@ -20,7 +20,8 @@ mkdir -p "$WORK"
 lp() { if [ -n "${LIGHTPATH_BIN:-}" ]; then "$LIGHTPATH_BIN" "$@"; else "$root/lp" "$@"; fi; }
 python3 -c "import PIL" 2>/dev/null || pip install --user --quiet pillow
 
-scenes=("$root/scenes/course/hw4/cornellBRDF.test" "$root/scenes/cornell-occlusion.test" "$root/scenes/cornell-slab.test")
+scenes=("$root/scenes/course/hw4/cornellBRDF.test" "$root/scenes/cornell-occlusion.test" "$root/scenes/cornell-slab.test"
+        "$root/scenes/caustic.test" "$root/scenes/glass-window.test")
 integrators=(pathtracer bdpt mmlt)
 args=()
 for scene in "${scenes[@]}"; do

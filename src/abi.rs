@@ -107,6 +107,11 @@ pub struct SceneParams {
     pub env_x: [f32; 4],
     pub env_y: [f32; 4],
     pub env_z: [f32; 4],
+    pub cam_window: [f32; 4],
+    pub lens_radius: f32,
+    pub focal_distance: f32,
+    pub reserved2: u32,
+    pub reserved3: u32,
 }
 
 #[repr(C)]
@@ -294,7 +299,12 @@ pub fn layouts() -> Vec<StructLayout> {
             reserved1,
             env_x,
             env_y,
-            env_z
+            env_z,
+            cam_window,
+            lens_radius,
+            focal_distance,
+            reserved2,
+            reserved3
         ),
         layout!(GpuPathVertex, p, n, wi, beta, ns),
         layout!(GpuTriangleAttributes, uv01, uv2, n0, n1, n2),
@@ -329,6 +339,6 @@ const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuEmitter>() == 80);
-const _: () = assert!(std::mem::size_of::<SceneParams>() == 224);
+const _: () = assert!(std::mem::size_of::<SceneParams>() == 256);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 80);

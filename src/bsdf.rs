@@ -66,6 +66,21 @@ pub mod sampling {
         Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u.x).max(0.0).sqrt())
     }
 
+    /// Uniform unit disk by Shirley and Chiu's concentric map (square rings to disk rings,
+    /// so nearby numbers stay nearby): the thin lens's points.
+    pub fn sample_uniform_disk_concentric(u: Vec2) -> Vec2 {
+        let o = 2.0 * u - Vec2::ONE;
+        if o.x == 0.0 && o.y == 0.0 {
+            return Vec2::ZERO;
+        }
+        let (r, theta) = if o.x.abs() > o.y.abs() {
+            (o.x, 0.25 * PI * (o.y / o.x))
+        } else {
+            (o.y, 0.5 * PI - 0.25 * PI * (o.x / o.y))
+        };
+        r * Vec2::new(theta.cos(), theta.sin())
+    }
+
     /// Uniform hemisphere (z up), pdf 1/(2π). z = 1 − u.x lies in (0, 1] for u.x in [0, 1).
     pub fn sample_uniform_hemisphere(u: Vec2) -> Vec3 {
         let z = 1.0 - u.x;

@@ -13,7 +13,7 @@ use crate::scene::{DeltaLight, NextEventEstimation, Scene, Texture, UV_MAPPING};
 use crate::texture::{environment_mean, environment_weights, Distribution2D, EnvMapping};
 use anyhow::Result;
 use ash::vk;
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 use std::sync::Arc;
 
 /// The scene's GPU buffers.
@@ -372,6 +372,25 @@ pub fn pick_emitter(cdf: &[u32], x: u32) -> usize {
     lo
 }
 
+/// The camera ray through the film position `film` in [0,1)² ((0,0) the top-left
+/// corner) from the lens point for `u_lens`: origin and unit direction (camera.glsl's
+/// `camera_ray`, mirrored for the tests).
+pub fn camera_ray(p: &SceneParams, film: Vec2, u_lens: Vec2) -> (Vec3, Vec3) {
+    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+    let w = p.cam_window;
+    let sx = w[0] + (w[1] - w[0]) * film.x;
+    let sy = w[3] + (w[2] - w[3]) * film.y;
+    let (eye, right, up) = (v(p.cam_eye), v(p.cam_right), v(p.cam_up));
+    let dir = v(p.cam_forward) + sx * right + sy * up;
+    if p.lens_radius <= 0.0 {
+        return (eye, dir.normalize());
+    }
+    let focus = eye + p.focal_distance * dir;
+    let d = p.lens_radius * crate::bsdf::sampling::sample_uniform_disk_concentric(u_lens);
+    let o = eye + d.x * right + d.y * up;
+    (o, (focus - o).normalize())
+}
+
 /// The scene's parameters for a render with `seed`: the camera, bounds, counts and the
 /// settings every integrator reads (`emitter_count` is filled in by `GpuScene::new`). `max_depth` is the scene's (0 for -1, with
 /// `unbounded` set); integrators adjust their own fields before upload.
@@ -391,13 +410,8 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
     let env_map = scene.environment.as_ref().and_then(|e| e.map.as_ref());
     let env_to_world = env_map.map_or(Mat3::IDENTITY, |m| m.to_world);
     SceneParams {
-        cam_eye: c
-            .eye
-            .extend((c.fovy_degrees.to_radians() * 0.5).tan())
-            .to_array(),
-        cam_right: right
-            .extend(scene.width as f32 / scene.height as f32)
-            .to_array(),
+        cam_eye: c.eye.extend(0.0).to_array(),
+        cam_right: right.extend(0.0).to_array(),
         cam_up: up.extend(0.0).to_array(),
         cam_forward: forward.extend(0.0).to_array(),
         bounds: center.extend(radius).to_array(),
@@ -429,6 +443,11 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
         env_marginal: 0,
         env_conditional: 0,
         reserved1: 0,
+        cam_window: c.film_window(scene.width, scene.height),
+        lens_radius: c.lens_radius,
+        focal_distance: c.focal_distance,
+        reserved2: 0,
+        reserved3: 0,
         env_x: env_to_world.col(0).extend(0.0).to_array(),
         env_y: env_to_world.col(1).extend(0.0).to_array(),
         env_z: env_to_world.col(2).extend(0.0).to_array(),
@@ -764,7 +783,26 @@ mod tests {
         assert!((f - (Vec3::new(-1.0, -1.0, -3.0)).normalize()).length() < 1e-6);
         assert!(f.dot(r).abs() < 1e-6 && f.dot(u).abs() < 1e-6 && r.dot(u).abs() < 1e-6);
         assert!(u.y > 0.0);
-        assert!((p.cam_right[3] - 2.0).abs() < 1e-6);
-        assert!((p.cam_eye[3] - (22.5f32).to_radians().tan()).abs() < 1e-6);
+        let t = (22.5f32).to_radians().tan();
+        assert_eq!(p.cam_window, [-2.0 * t, 2.0 * t, -t, t]);
+        // The centre of the film looks ahead, its top-left corner up and left.
+        let (o, d) = camera_ray(&p, Vec2::splat(0.5), Vec2::ZERO);
+        assert_eq!(o, Vec3::new(1.0, 2.0, 3.0));
+        assert!((d - f).length() < 1e-6);
+        let (_, d) = camera_ray(&p, Vec2::ZERO, Vec2::ZERO);
+        assert!(d.dot(r) < 0.0 && d.dot(u) > 0.0);
+        // A point seen through any point of a thin lens lands where it is in focus.
+        let film = Vec2::new(0.3, 0.8);
+        let (_, pinhole) = camera_ray(&p, film, Vec2::ZERO);
+        let mut p = p;
+        p.lens_radius = 0.25;
+        p.focal_distance = 5.0;
+        let focus = Vec3::new(1.0, 2.0, 3.0) + pinhole * (5.0 / pinhole.dot(f));
+        for u in [Vec2::new(0.1, 0.9), Vec2::new(0.7, 0.2)] {
+            let (o, d) = camera_ray(&p, film, u);
+            assert!((o - Vec3::new(1.0, 2.0, 3.0)).length() > 1e-3);
+            let t = (focus - o).length();
+            assert!((o + d * t - focus).length() < 1e-4);
+        }
     }
 }

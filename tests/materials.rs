@@ -207,25 +207,7 @@ fn light_tracing_alone_matches_the_path_tracer_through_glass() {
     let bdpt = with_integrator(scene.clone(), IntegratorKind::Bdpt, 64);
     let mut lt_runs = Vec::new();
     for seed in 0..4 {
-        let out = {
-            let mut r = renderer(Bvh);
-            r.options.bdpt.record_strategies = true;
-            let out = r.render(&bdpt, 200 + seed, &mut lightpath::trace::Trace::new());
-            r.options.bdpt.record_strategies = false;
-            out.expect("bdpt render")
-        };
-        let mut t1 = lightpath::io::Image {
-            width: w,
-            height: h,
-            pixels: vec![[0.0; 3]; out.image.pixels.len()],
-        };
-        for st in strategies(&out).iter().filter(|st| st.t == 1) {
-            for (p, q) in t1.pixels.iter_mut().zip(&st.unweighted.pixels) {
-                for c in 0..3 {
-                    p[c] += q[c];
-                }
-            }
-        }
+        let (t1, _) = light_tracing_image(&bdpt, 200 + seed);
         lt_runs.push(masked_means(&t1));
     }
     let mut pt = with_integrator(scene, IntegratorKind::PathTracer, 512);

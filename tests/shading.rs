@@ -5,7 +5,8 @@
 mod common;
 
 use common::*;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
+use lightpath::gpu_scene::camera_ray;
 use lightpath::io::Image;
 use lightpath::render::AccelChoice::Bvh;
 use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene};
@@ -90,13 +91,7 @@ fn direct_light_on_a_smooth_shaded_mesh_follows_the_interpolated_normal() {
     ));
     let params = lightpath::gpu_scene::scene_params(&s, 0);
     let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
-    let (eye, fwd, right, up) = (
-        v(params.cam_eye),
-        v(params.cam_forward),
-        v(params.cam_right),
-        v(params.cam_up),
-    );
-    let (tan, aspect) = (params.cam_eye[3], params.cam_right[3]);
+    let eye = v(params.cam_eye);
     let shade = |d: Vec3| -> f32 {
         let mut best = (f32::INFINITY, 0.0f32);
         for t in &tris {
@@ -142,10 +137,7 @@ fn direct_light_on_a_smooth_shaded_mesh_follows_the_interpolated_normal() {
                 for i in 0..n {
                     let fx = (x as f32 + (i as f32 + 0.5) / n as f32) / s.width as f32;
                     let fy = (y as f32 + (j as f32 + 0.5) / n as f32) / s.height as f32;
-                    let d = (fwd
-                        + (2.0 * fx - 1.0) * tan * aspect * right
-                        + (1.0 - 2.0 * fy) * tan * up)
-                        .normalize();
+                    let (_, d) = camera_ray(&params, Vec2::new(fx, fy), Vec2::ZERO);
                     sum += shade(d);
                 }
             }
@@ -165,30 +157,6 @@ fn direct_light_on_a_smooth_shaded_mesh_follows_the_interpolated_normal() {
         mean < 0.004 && max < 0.08,
         "mean difference {mean}, largest {max}"
     );
-}
-
-/// The t = 1 images (unweighted, summed over s) of a BDPT render with strategies recorded.
-fn light_tracing_image(scene: &Scene, seed: u32) -> (Image, Image) {
-    let out = {
-        let mut r = renderer(Bvh);
-        r.options.bdpt.record_strategies = true;
-        let out = r.render(scene, seed, &mut lightpath::trace::Trace::new());
-        r.options.bdpt.record_strategies = false;
-        out.expect("bdpt render")
-    };
-    let mut t1 = Image {
-        width: scene.width,
-        height: scene.height,
-        pixels: vec![[0.0; 3]; out.image.pixels.len()],
-    };
-    for st in strategies(&out).iter().filter(|st| st.t == 1) {
-        for (p, q) in t1.pixels.iter_mut().zip(&st.unweighted.pixels) {
-            for c in 0..3 {
-                p[c] += q[c];
-            }
-        }
-    }
-    (t1, out.image)
 }
 
 /// Light tracing alone against the path tracer on a very coarse smooth-shaded diffuse

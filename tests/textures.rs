@@ -34,13 +34,7 @@ fn write_pfm(path: &std::path::Path, w: u32, h: u32, f: impl Fn(u32, u32) -> [f3
 
 /// The camera ray direction through film point (fx, fy) ∈ [0,1)² (camera.glsl's).
 fn camera_ray(s: &Scene, fx: f32, fy: f32) -> (Vec3, Vec3) {
-    let p = scene_params(s, 0);
-    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
-    let (tan_half, aspect) = (p.cam_eye[3], p.cam_right[3]);
-    let sx = (2.0 * fx - 1.0) * tan_half * aspect;
-    let sy = (1.0 - 2.0 * fy) * tan_half;
-    let d = (v(p.cam_forward) + sx * v(p.cam_right) + sy * v(p.cam_up)).normalize();
-    (v(p.cam_eye), d)
+    lightpath::gpu_scene::camera_ray(&scene_params(s, 0), Vec2::new(fx, fy), Vec2::ZERO)
 }
 
 /// Each pixel's mean of `f` over an 8 × 8 grid of camera rays through it.

@@ -231,8 +231,8 @@ struct GpuEmitter {
 // Everything a kernel needs to know about the scene and the render settings.
 // Scalars come in fours, so every row is 16 bytes in std140 and in Rust alike.
 struct SceneParams {
-    vec4 cam_eye;        // w: tan(fovy / 2)
-    vec4 cam_right;      // w: aspect (width / height)
+    vec4 cam_eye;        // the eye (the lens centre); w unused
+    vec4 cam_right;      // unit vectors: the image's right, up and the view direction; w unused
     vec4 cam_up;
     vec4 cam_forward;
     vec4 bounds;         // xyz: centre of the scene's bounding sphere, w: its radius
@@ -263,6 +263,11 @@ struct SceneParams {
     vec4 env_x;          // the world directions of the map frame's axes
     vec4 env_y;
     vec4 env_z;
+    vec4 cam_window;     // the film on the plane at distance 1 ahead: x0, x1 along cam_right, y0, y1 along cam_up
+    float lens_radius;   // a thin lens's radius (0: a pinhole) ..
+    float focal_distance;// .. and the distance of its plane of focus
+    uint reserved2;
+    uint reserved3;
 };
 
 // A vertex of a BDPT light subpath (stored per pixel, read back by the camera subpath).

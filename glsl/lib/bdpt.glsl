@@ -34,8 +34,8 @@ uint max_scatter() { return scene.max_depth; }
 float light_paths() { return float(scene.width) * float(scene.height); }
 // A pixel's area on the image plane at distance 1.
 float pixel_area() {
-    float pixel_side = 2.0 * scene.cam_eye.w / float(scene.height);
-    return pixel_side * pixel_side;
+    vec4 w = scene.cam_window;
+    return (w.y - w.x) * (w.w - w.z) / light_paths();
 }
 
 float mis(float x) { return x * x; }
@@ -214,10 +214,14 @@ bool light_walk_extend(inout Walk w, PathVertex v) {
 
 // ---- camera subpaths --------------------------------------------------------------
 
-// Start a camera subpath through the film position `film` in [0,1)^2 (whole image).
+// Start a camera subpath through the film position `film` in [0,1)^2 (whole image);
+// a thin lens draws its point from the camera stream. (The lens point's area pdf is the
+// same for every strategy, and no light subpath can hit the lens, so it cancels from
+// the MIS weights as a pinhole's delta does.)
 void camera_walk_start(vec2 film, out Walk w) {
-    w.o = scene.cam_eye.xyz;
-    w.d = camera_ray_direction_film(film);
+    vec2 u_lens = vec2(0.0);
+    if (camera_has_lens()) u_lens = sample_2d(STREAM_CAMERA);
+    camera_ray(film, u_lens, w.o, w.d);
     w.beta = vec3(1.0);
     w.dvcm = mis(light_paths() / camera_pdf_w(w.d));
     w.dvc = 0.0;
@@ -345,13 +349,22 @@ bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weigh
     return true;
 }
 
-// t = 1 from the light vertex y: the camera sees it. `px` is the pixel it lands on.
+// The lens numbers of a t = 1 strategy, from the connection stream (which no t = 1
+// strategy uses otherwise); none for a pinhole.
+vec2 camera_lens_numbers() {
+    vec2 u = vec2(0.0);
+    if (camera_has_lens()) u = sample_2d(STREAM_CONNECT);
+    return u;
+}
+
+// t = 1 from the light vertex y: the camera (a point of its lens) sees it. `px` is the pixel it lands on.
 bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out float weight) {
     value = vec3(0.0);
     weight = 0.0;
     vec3 to_eye;
     float dist;
-    if (!camera_project(y.p, px, to_eye, dist)) return false;
+    vec3 eye = camera_lens_point(camera_lens_numbers());
+    if (!camera_project(y.p, eye, px, to_eye, dist)) return false;
     float cos_signed = dot(y.n, to_eye);
     float cos_y = abs(cos_signed);
     if (!(cos_y > 0.0)) return false;
@@ -368,7 +381,7 @@ bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out 
     weight = 1.0 / (1.0 + w_light);
     rays_traced++;
     vec3 o = offset_ray_origin(y.p, cos_signed > 0.0 ? y.n : -y.n);
-    if (trace_occluded(o, to_eye, length(scene.cam_eye.xyz - o))) return false;
+    if (trace_occluded(o, to_eye, length(eye - o))) return false;
     value = y.beta * f * (pdf_cam_a / light_paths());
     return true;
 }
@@ -382,7 +395,8 @@ bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 
     if (le.kind >= EMITTER_POINT) return false;
     vec3 to_eye;
     float dist;
-    if (!camera_project(le.p, px, to_eye, dist)) return false;
+    vec3 eye = camera_lens_point(camera_lens_numbers());
+    if (!camera_project(le.p, eye, px, to_eye, dist)) return false;
     vec3 Le = emitted_radiance(emitter_material(emitters[e]), le.n, to_eye);
     float cos_y = abs(dot(le.n, to_eye));
     if (Le == vec3(0.0) || !(cos_y > 0.0)) return false;
@@ -391,7 +405,7 @@ bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 
     weight = 1.0 / (1.0 + mis(ratio));
     rays_traced++;
     vec3 o = offset_ray_origin(le.p, dot(le.n, to_eye) > 0.0 ? le.n : -le.n);
-    if (trace_occluded(o, to_eye, length(scene.cam_eye.xyz - o))) return false;
+    if (trace_occluded(o, to_eye, length(eye - o))) return false;
     value = Le * ratio;
     return true;
 }

@@ -35,6 +35,22 @@ vec3 sample_cosine_hemisphere(vec2 u) {
     return vec3(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u.x, 0.0)));
 }
 
+// Uniform unit disk by Shirley and Chiu's concentric map (square rings to disk rings, so
+// nearby numbers stay nearby: the thin lens's points for MMLT's small steps).
+vec2 sample_uniform_disk_concentric(vec2 u) {
+    vec2 o = 2.0 * u - 1.0;
+    if (o.x == 0.0 && o.y == 0.0) return vec2(0.0);
+    float r, theta;
+    if (abs(o.x) > abs(o.y)) {
+        r = o.x;
+        theta = 0.25 * PI * (o.y / o.x);
+    } else {
+        r = o.y;
+        theta = 0.5 * PI - 0.25 * PI * (o.x / o.y);
+    }
+    return r * vec2(cos(theta), sin(theta));
+}
+
 // Uniform hemisphere (z up), pdf 1 / (2 pi). z = 1 - u.x lies in (0, 1] for u.x in [0, 1).
 vec3 sample_uniform_hemisphere(vec2 u) {
     float z = 1.0 - u.x;

@@ -101,7 +101,7 @@ pub fn plan(
     let s = &scene.settings.mmlt;
     let depth_cap = bdpt_max_scatter(scene);
     let depths = depth_cap + 1;
-    let streams = stream_sizes(depth_cap);
+    let streams = stream_sizes(depth_cap, scene.camera.lens_radius > 0.0);
     let numbers: u32 = streams.iter().sum();
     if numbers > 0xffff {
         bail!("mmlt: maxdepth {depth_cap} needs {numbers} primary numbers per path, more than 65535; use a smaller maxdepth");

@@ -281,6 +281,14 @@ pub struct Camera {
     /// The image is mirrored left to right: its right is up × forward rather than
     /// forward × up (pbrt's left-handed camera space).
     pub mirror: bool,
+    /// The film on the plane at distance 1 ahead of the eye, in units along the image's
+    /// right and up: `[x0, x1, y0, y1]` (pbrt's screen window times tan(fov / 2), or a
+    /// crop of it). `None`: centred, spanning `fovy_degrees` vertically and the image's
+    /// aspect horizontally (the course's camera).
+    pub window: Option<[f32; 4]>,
+    /// A thin lens: its radius (0: a pinhole) and the distance of the plane in focus.
+    pub lens_radius: f32,
+    pub focal_distance: f32,
 }
 
 impl Default for Camera {
@@ -291,7 +299,22 @@ impl Default for Camera {
             up: Vec3::Y,
             fovy_degrees: 45.0,
             mirror: false,
+            window: None,
+            lens_radius: 0.0,
+            focal_distance: 1e6,
         }
+    }
+}
+
+impl Camera {
+    /// The film rectangle `[x0, x1, y0, y1]` on the plane at distance 1 for an image of
+    /// `width` × `height` pixels.
+    pub fn film_window(&self, width: u32, height: u32) -> [f32; 4] {
+        self.window.unwrap_or_else(|| {
+            let t = (self.fovy_degrees.to_radians() * 0.5).tan();
+            let a = width as f32 / height as f32;
+            [-t * a, t * a, -t, t]
+        })
     }
 }
 

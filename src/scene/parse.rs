@@ -1105,7 +1105,7 @@ fn camera(cmd: &Command) -> Result<Camera, ParseError> {
         look_at,
         up,
         fovy_degrees,
-        mirror: false,
+        ..Camera::default()
     })
 }
 
@@ -1202,7 +1202,7 @@ mod tests {
                 look_at: Vec3::new(0.0, 1.0, 0.0),
                 up: Vec3::Y,
                 fovy_degrees: 45.0,
-                mirror: false,
+                ..Camera::default()
             }
         );
         assert_eq!(s.settings.spp, 16);

@@ -75,6 +75,10 @@ const PARAM_TYPES: &[(&str, &[&str])] = &[
     ("dimension", &["integer"]),
     ("levels", &["integer"]),
     ("lensradius", &["float", "integer"]),
+    ("screenwindow", &["float", "integer"]),
+    ("frameaspectratio", &["float", "integer"]),
+    ("cropwindow", &["float", "integer"]),
+    ("pixelbounds", &["integer"]),
     ("focaldistance", &["float", "integer"]),
     ("sigma", &["float", "integer"]),
     ("largestepprobability", &["float", "integer"]),
@@ -227,6 +231,15 @@ enum Value {
     Texture(u32),
 }
 
+/// The part of the film that is rendered.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Crop {
+    /// `cropwindow`: x0 x1 y0 y1 as fractions of the image ((0, 0) the top-left corner).
+    Window([f32; 4]),
+    /// `pixelbounds`: x0 x1 y0 y1 in pixels (the ends excluded).
+    Pixels([i64; 4]),
+}
+
 /// An area light as declared (applies to the shapes that follow it).
 #[derive(Clone, Debug)]
 struct AreaLight {
@@ -304,6 +317,11 @@ struct Parser {
     /// `Integrator "mlt"`'s mutations per pixel (they become the samples per pixel).
     mlt_mutations: Option<u32>,
     film_size: (u32, u32),
+    /// The camera's `screenwindow` and `frameaspectratio`, applied with the film's size.
+    screen_window: Option<[f32; 4]>,
+    frame_aspect: Option<f32>,
+    /// The film's `cropwindow` or `pixelbounds`, with the file and line that gave it.
+    crop: Option<(Crop, u32, u32)>,
     /// The sensor's imaging ratio (ISO / 100 × exposure time), folded into every emitter.
     imaging_ratio: f32,
     in_world: bool,
@@ -357,6 +375,9 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
         camera_seen: false,
         mlt_mutations: None,
         film_size: (1280, 720),
+        screen_window: None,
+        frame_aspect: None,
+        crop: None,
         imaging_ratio: 1.0,
         in_world: false,
     };
@@ -1140,18 +1161,48 @@ impl Parser {
                 format!("fov must be between 0 and 180 degrees, got {fov}"),
             ));
         }
-        if let Some(p) = params.find("lensradius") {
-            if p.nums.first().copied().unwrap_or(0.0) > 0.0 {
-                self.unsupported(p.file, p.line, "Camera: a thin lens (lensradius > 0)");
+        let positive = |name: &str, default: f64, zero_ok: bool| -> Result<f32, ParseError> {
+            let Some(p) = params.find(name) else {
+                return Ok(default as f32);
+            };
+            let x = p.nums.first().copied().unwrap_or(f64::NAN);
+            if !(x.is_finite() && (x > 0.0 || (zero_ok && x == 0.0))) {
+                let want = if zero_ok {
+                    "zero or positive"
+                } else {
+                    "positive"
+                };
+                return Err(self.err_at(
+                    p.file,
+                    p.line,
+                    "Camera",
+                    format!("{name} must be {want} and finite, got {x}"),
+                ));
             }
-        }
-        params.find("focaldistance");
-        if let Some(p) = params.find("screenwindow") {
-            self.unsupported(p.file, p.line, "Camera: screenwindow");
-        }
-        if let Some(p) = params.find("frameaspectratio") {
-            self.unsupported(p.file, p.line, "Camera: frameaspectratio");
-        }
+            Ok(x as f32)
+        };
+        let lens_radius = positive("lensradius", 0.0, true)?;
+        let focal_distance = positive("focaldistance", 1e6, false)?;
+        self.frame_aspect = params
+            .find("frameaspectratio")
+            .map(|_| positive("frameaspectratio", 1.0, false))
+            .transpose()?;
+        self.screen_window = match params.find("screenwindow") {
+            Some(p) => {
+                let w: Vec<f32> = p.nums.iter().map(|&x| x as f32).collect();
+                if w.len() != 4 || w.iter().any(|x| !x.is_finite()) || w[0] == w[1] || w[2] == w[3]
+                {
+                    return Err(self.err_at(
+                        p.file,
+                        p.line,
+                        "Camera",
+                        format!("screenwindow must be 4 finite numbers x0 x1 y0 y1 with x0 != x1 and y0 != y1, got {w:?}"),
+                    ));
+                }
+                Some([w[0], w[1], w[2], w[3]])
+            }
+            None => None,
+        };
         self.check_used("Camera", "\"perspective\"", params);
         let world_from_camera = camera_from_world.inverse();
         let eye = world_from_camera.transform_point3(Vec3::ZERO);
@@ -1171,6 +1222,9 @@ impl Parser {
             up: up.normalize(),
             fovy_degrees: fov,
             mirror,
+            window: None,
+            lens_radius,
+            focal_distance,
         };
         Ok(())
     }
@@ -1217,12 +1271,46 @@ impl Parser {
                 self.unsupported(p.file, p.line, "Film: a sensor other than cie1931");
             }
         }
-        if let Some(p) = params.find("cropwindow") {
-            self.unsupported(p.file, p.line, "Film: cropwindow");
-        }
-        if let Some(p) = params.find("pixelbounds") {
-            self.unsupported(p.file, p.line, "Film: pixelbounds");
-        }
+        // pixelbounds wins over cropwindow, as in pbrt-v4.
+        let crop = params.find("cropwindow");
+        self.crop = match (params.find("pixelbounds"), crop) {
+            (Some(p), crop) => {
+                if crop.is_some() {
+                    self.warn(
+                        "crop",
+                        "Film: both pixelbounds and cropwindow; using pixelbounds".into(),
+                    );
+                }
+                let b: Vec<i64> = p.nums.iter().map(|&x| x as i64).collect();
+                if b.len() != 4 || b[0] < 0 || b[2] < 0 || b[1] <= b[0] || b[3] <= b[2] {
+                    return Err(self.err_at(p.file, p.line, "Film", format!(
+                        "pixelbounds must be 4 integers x0 x1 y0 y1 with 0 <= x0 < x1 and 0 <= y0 < y1, got {:?}", p.nums)));
+                }
+                Some((Crop::Pixels([b[0], b[1], b[2], b[3]]), p.file, p.line))
+            }
+            (None, Some(p)) => {
+                let c: Vec<f32> = p.nums.iter().map(|&x| x as f32).collect();
+                if c.len() != 4 || !c.iter().all(|x| (0.0..=1.0).contains(x)) {
+                    return Err(self.err_at(
+                        p.file,
+                        p.line,
+                        "Film",
+                        format!(
+                            "cropwindow must be 4 numbers x0 x1 y0 y1 between 0 and 1, got {:?}",
+                            p.nums
+                        ),
+                    ));
+                }
+                let w = [
+                    c[0].min(c[1]),
+                    c[0].max(c[1]),
+                    c[2].min(c[3]),
+                    c[2].max(c[3]),
+                ];
+                Some((Crop::Window(w), p.file, p.line))
+            }
+            (None, None) => None,
+        };
         for name in [
             "diagonal",
             "savefp16",
@@ -1233,6 +1321,66 @@ impl Parser {
             params.find(name);
         }
         self.check_used("Film", &format!("\"{ty}\""), params);
+        Ok(())
+    }
+
+    /// The camera's film for pbrt's fov, screen window, frame aspect ratio and crop: the
+    /// fov spans the shorter side of the frame (ours is vertical), the screen window
+    /// defaults to [-frame, frame] × [-1, 1] (or [-1, 1] × [-1/frame, 1/frame] for a
+    /// portrait frame) and is scaled by tan(fov / 2), and a crop renders the pixels
+    /// pbrt-v4 would (ceil(resolution × crop), or pixelbounds) as an image of their size
+    /// whose film is that part of the whole. Without a screen window, frame or crop the
+    /// film is left to the image's aspect, so that `--size` keeps pbrt's rule.
+    fn film_window(&mut self) -> Result<(), ParseError> {
+        let (w, h) = self.film_size;
+        let camera = &mut self.scene.camera;
+        let aspect = w as f32 / h as f32;
+        let t = (camera.fovy_degrees.to_radians() * 0.5).tan();
+        if self.screen_window.is_none() && self.frame_aspect.is_none() && self.crop.is_none() {
+            if w < h {
+                camera.fovy_degrees = (2.0 * (t / aspect).atan()).to_degrees();
+            }
+            return Ok(());
+        }
+        let frame = self.frame_aspect.unwrap_or(aspect);
+        let sw = self.screen_window.unwrap_or(if frame > 1.0 {
+            [-frame, frame, -1.0, 1.0]
+        } else {
+            [-1.0, 1.0, -1.0 / frame, 1.0 / frame]
+        });
+        let window = sw.map(|x| x * t);
+        let Some((crop, file, line)) = self.crop else {
+            camera.window = Some(window);
+            return Ok(());
+        };
+        let (x0, x1, y0, y1) = match crop {
+            Crop::Window(c) => {
+                let at = |f: f32, n: u32| (n as f32 * f).ceil() as i64;
+                (at(c[0], w), at(c[1], w), at(c[2], h), at(c[3], h))
+            }
+            Crop::Pixels(b) => (
+                b[0].min(w as i64),
+                b[1].min(w as i64),
+                b[2].min(h as i64),
+                b[3].min(h as i64),
+            ),
+        };
+        if x1 <= x0 || y1 <= y0 {
+            return Err(self.err_at(
+                file,
+                line,
+                "Film",
+                format!(
+                    "the crop of the {w} x {h} film holds no pixel (x {x0}..{x1}, y {y0}..{y1})"
+                ),
+            ));
+        }
+        // Pixel rows run down from the window's top (y1).
+        let fx = |x: i64| window[0] + (window[1] - window[0]) * x as f32 / w as f32;
+        let fy = |y: i64| window[3] - (window[3] - window[2]) * y as f32 / h as f32;
+        self.scene.camera.window = Some([fx(x0), fx(x1), fy(y1), fy(y0)]);
+        self.scene.width = (x1 - x0) as u32;
+        self.scene.height = (y1 - y0) as u32;
         Ok(())
     }
 
@@ -2402,12 +2550,6 @@ impl Parser {
         let (w, h) = self.film_size;
         self.scene.width = w;
         self.scene.height = h;
-        // pbrt's fov spans the shorter image side; ours is vertical.
-        if w < h {
-            let half =
-                (self.scene.camera.fovy_degrees.to_radians() * 0.5).tan() * h as f32 / w as f32;
-            self.scene.camera.fovy_degrees = (2.0 * half.atan()).to_degrees();
-        }
         if !self.camera_seen {
             // pbrt's default camera: at the origin looking down +z, fov 90.
             self.scene.camera = Camera {
@@ -2415,13 +2557,10 @@ impl Parser {
                 look_at: Vec3::Z,
                 up: Vec3::Y,
                 fovy_degrees: 90.0,
-                mirror: false,
+                ..Camera::default()
             };
-            if w < h {
-                let half = (45f32.to_radians()).tan() * h as f32 / w as f32;
-                self.scene.camera.fovy_degrees = (2.0 * half.atan()).to_degrees();
-            }
         }
+        self.film_window()?;
         for l in &mut self.scene.delta_lights {
             match l {
                 DeltaLight::Point { intensity, .. } | DeltaLight::Spot { intensity, .. } => {
@@ -2555,6 +2694,89 @@ mod tests {
         // `Scale -1 1 1` before LookAt (as exporters write) makes it unmirrored.
         let s = parse("Scale -1 1 1 LookAt 0 0 5 0 0 0 0 1 0 Camera \"perspective\" WorldBegin");
         assert!(!s.camera.mirror);
+    }
+
+    #[test]
+    fn lens_screen_window_frame_and_crop() {
+        let camera = |params: &str, film: &str| {
+            parse(&format!(
+                "Camera \"perspective\" \"float fov\" 90 {params} Film \"rgb\" \"integer xresolution\" 20 \"integer yresolution\" 10 {film} WorldBegin"
+            ))
+        };
+        let s = camera("\"float lensradius\" 0.5 \"float focaldistance\" 3", "");
+        assert_eq!((s.camera.lens_radius, s.camera.focal_distance), (0.5, 3.0));
+        // No window, frame or crop: the film follows the image (so --size keeps pbrt's rule).
+        assert_eq!(s.camera.window, None);
+        assert_eq!(camera("", "").camera.focal_distance, 1e6);
+        // A screen window is scaled by tan(fov / 2) = 1.
+        let s = camera("\"float screenwindow\" [ -0.5 1 -0.25 0.75 ]", "");
+        assert_eq!(s.camera.window, Some([-0.5, 1.0, -0.25, 0.75]));
+        // frameaspectratio 1 on a 2:1 image: [-1, 1]², stretched.
+        let s = camera("\"float frameaspectratio\" 1", "");
+        assert_eq!(s.camera.window, Some([-1.0, 1.0, -1.0, 1.0]));
+        // A crop renders ceil(resolution × crop): x 2..11, y 0..3 of the [-2, 2] × [-1, 1]
+        // film, whose rows run down from y = 1.
+        let s = camera("", "\"float cropwindow\" [ 0.55 0.1 0 0.3 ]");
+        assert_eq!((s.width, s.height), (9, 3));
+        let w = s.camera.window.unwrap();
+        let expected = [
+            -2.0 + 4.0 * 2.0 / 20.0,
+            -2.0 + 4.0 * 11.0 / 20.0,
+            1.0 - 2.0 * 3.0 / 10.0,
+            1.0,
+        ];
+        for (a, b) in w.iter().zip(expected) {
+            assert!((a - b).abs() < 1e-6, "{w:?} vs {expected:?}");
+        }
+        // pixelbounds, clamped to the film, wins over cropwindow.
+        let s = camera(
+            "",
+            "\"integer pixelbounds\" [ 5 30 2 4 ] \"float cropwindow\" [ 0 0.1 0 0.1 ]",
+        );
+        assert_eq!((s.width, s.height), (15, 2));
+        for (params, film, what) in [
+            (
+                "\"float lensradius\" -1",
+                "",
+                "lensradius must be zero or positive",
+            ),
+            (
+                "\"float focaldistance\" 0",
+                "",
+                "focaldistance must be positive",
+            ),
+            (
+                "\"float screenwindow\" [ 0 1 2 ]",
+                "",
+                "screenwindow must be 4 finite numbers",
+            ),
+            (
+                "\"float screenwindow\" [ 0 0 0 1 ]",
+                "",
+                "screenwindow must be 4 finite numbers",
+            ),
+            (
+                "",
+                "\"float cropwindow\" [ 0 1.5 0 1 ]",
+                "cropwindow must be 4 numbers",
+            ),
+            (
+                "",
+                "\"float cropwindow\" [ 0.51 0.52 0 1 ]",
+                "holds no pixel",
+            ),
+            (
+                "",
+                "\"integer pixelbounds\" [ 3 3 0 1 ]",
+                "pixelbounds must be 4 integers",
+            ),
+        ] {
+            let e = parse_err(&format!(
+                "Camera \"perspective\" {params}\nFilm \"rgb\" \"integer xresolution\" 20 \"integer yresolution\" 10 {film}\nWorldBegin"
+            ));
+            assert!(e.message.contains(what), "{e}");
+            assert_eq!(e.line, if film.is_empty() { 1 } else { 2 }, "{e}");
+        }
     }
 
     #[test]

@@ -189,3 +189,27 @@ pub fn strategies(out: &RenderOutput) -> &[StrategyImages] {
 pub fn mmlt_report(out: &RenderOutput) -> &MmltReport {
     out.details::<MmltReport>().expect("an mmlt report")
 }
+
+/// The t = 1 images (unweighted, summed over s) of a BDPT render with strategies recorded.
+pub fn light_tracing_image(scene: &Scene, seed: u32) -> (Image, Image) {
+    let out = {
+        let mut r = renderer(AccelChoice::Bvh);
+        r.options.bdpt.record_strategies = true;
+        let out = r.render(scene, seed, &mut Trace::new());
+        r.options.bdpt.record_strategies = false;
+        out.expect("bdpt render")
+    };
+    let mut t1 = Image {
+        width: scene.width,
+        height: scene.height,
+        pixels: vec![[0.0; 3]; out.image.pixels.len()],
+    };
+    for st in strategies(&out).iter().filter(|st| st.t == 1) {
+        for (p, q) in t1.pixels.iter_mut().zip(&st.unweighted.pixels) {
+            for c in 0..3 {
+                p[c] += q[c];
+            }
+        }
+    }
+    (t1, out.image)
+}

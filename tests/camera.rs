@@ -1,0 +1,235 @@
+//! The camera of pbrt-v4 scenes (docs/pbrt.md): a thin lens (`lensradius`,
+//! `focaldistance`), a screen window and a crop window, in every integrator. A lens
+//! keeps a small emitter's flux and spreads it over its circle of confusion; light
+//! tracing through the lens (BDPT's t = 1 strategies, which sample a lens point and
+//! project through the plane of focus) agrees with the path tracer; a screen window and a
+//! crop window render exactly the part of the image they name.
+mod common;
+
+use common::*;
+use lightpath::io::Image;
+use lightpath::render::AccelChoice::Bvh;
+use lightpath::scene::{self, IntegratorKind, Scene};
+
+fn pbrt(text: &str) -> Scene {
+    scene::parse_pbrt_str(text, "camera test.pbrt").expect("the test scene parses")
+}
+
+/// A 0.4 × 0.4 two-sided emitter of radiance 10 facing the camera at distance 4, on a
+/// black background, through a 40° camera with the given lens.
+fn emitter_scene(lens: &str) -> Scene {
+    pbrt(&format!(
+        r#"LookAt 0 0 0  0 0 1  0 1 0
+Camera "perspective" "float fov" 40 {lens}
+Film "rgb" "integer xresolution" 48 "integer yresolution" 48
+Integrator "path" "integer maxdepth" 1
+WorldBegin
+AreaLightSource "diffuse" "rgb L" [10 10 10] "bool twosided" true
+Shape "trianglemesh" "point3 P" [-0.2 -0.2 4  0.2 -0.2 4  0.2 0.2 4  -0.2 0.2 4]
+    "integer indices" [0 1 2  0 2 3]
+"#
+    ))
+}
+
+/// The share of the image's light outside the centred square of half-width `half` (on
+/// the film plane at distance 1).
+fn share_outside(img: &Image, tan_half: f32, half: f32) -> f64 {
+    let pixel = 2.0 * tan_half / img.width as f32;
+    let (mut all, mut outside) = (0.0f64, 0.0f64);
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let v = img.pixels[(y * img.width + x) as usize][1] as f64;
+            let sx = -tan_half + (x as f32 + 0.5) * pixel;
+            let sy = -tan_half + (y as f32 + 0.5) * pixel;
+            all += v;
+            if sx.abs() > half || sy.abs() > half {
+                outside += v;
+            }
+        }
+    }
+    outside / all
+}
+
+/// The emitter covers 0.1 × 0.1 of the film plane at distance 1 (of 2 tan 20° square):
+/// every integrator's image mean is 10 × 0.01 / (2 tan 20°)², with or without a lens, as
+/// a thin lens moves the emitter's image over the film without changing its size. Seen
+/// through a lens of radius 0.2 focused at 1.5, the emitter at 4 blurs over a circle of
+/// confusion of radius 0.2 × (1/1.5 − 1/4) = 0.083: much of its light lands outside the
+/// pinhole image, none beyond the blur.
+#[test]
+fn a_thin_lens_keeps_the_flux_and_spreads_it_over_the_circle_of_confusion() {
+    let t = 20f32.to_radians().tan();
+    let mean = 10.0 * 0.01 / (2.0 * t as f64).powi(2);
+    let pixel = 2.0 * t / 48.0;
+    let pinhole = emitter_scene("");
+    let lens = emitter_scene(r#""float lensradius" 0.2 "float focaldistance" 1.5"#);
+    assert_eq!(lens.camera.lens_radius, 0.2);
+    assert_eq!(lens.camera.focal_distance, 1.5);
+    let g = 8;
+    let pt = estimate(
+        &with_integrator(lens.clone(), IntegratorKind::PathTracer, 256),
+        4,
+        g,
+        Bvh,
+    );
+    let whole = |e: &Estimate| Estimate {
+        mean: vec![*e.mean.last().unwrap()],
+        stderr: vec![*e.stderr.last().unwrap()],
+    };
+    assert_agree(
+        "pt through a lens, image mean",
+        &whole(&pt),
+        &exact([mean; 3], 1),
+        5.0,
+        0.01,
+    );
+    let bdpt = estimate(
+        &with_integrator(lens.clone(), IntegratorKind::Bdpt, 64),
+        4,
+        g,
+        Bvh,
+    );
+    assert_agree("bdpt vs pt through a lens", &bdpt, &pt, 5.0, 0.02);
+    let mmlt = estimate(&with_mmlt(lens.clone(), 64), 4, g, Bvh);
+    assert_agree(
+        "mmlt vs pt through a lens",
+        &whole(&mmlt),
+        &whole(&pt),
+        5.0,
+        0.03,
+    );
+
+    let sharp = render(
+        &with_integrator(pinhole.clone(), IntegratorKind::PathTracer, 64),
+        1,
+        Bvh,
+    );
+    let blurred = render(
+        &with_integrator(lens, IntegratorKind::PathTracer, 256),
+        1,
+        Bvh,
+    );
+    let pinhole_mean = estimate(
+        &with_integrator(pinhole, IntegratorKind::PathTracer, 64),
+        2,
+        1,
+        Bvh,
+    );
+    assert_agree(
+        "pt, pinhole, image mean",
+        &whole(&pinhole_mean),
+        &exact([mean; 3], 1),
+        5.0,
+        0.01,
+    );
+    // The pinhole image lies within the emitter's square (half-width 0.05) and a pixel.
+    assert!(share_outside(&sharp, t, 0.05 + pixel) < 1e-6);
+    let spread = share_outside(&blurred, t, 0.05 + pixel);
+    assert!(
+        spread > 0.25,
+        "the lens spreads only {spread} of the light beyond the pinhole image"
+    );
+    // Nothing beyond the blur: 0.05 + 0.083, and a pixel.
+    assert!(share_outside(&blurred, t, 0.05 + 0.0834 + pixel) < 1e-6);
+}
+
+/// The Cornell box through an off-centre, non-square screen window (non-square pixels)
+/// and a thin lens focused on the sphere: light tracing alone (BDPT's unweighted t = 1
+/// images) and BDPT agree with the path tracer region by region, and MMLT on the whole
+/// image and its quarters.
+#[test]
+fn light_tracing_through_a_lens_and_a_screen_window_matches_the_path_tracer() {
+    let text = std::fs::read_to_string(repo().join("scenes/pbrt/cornell-box.pbrt")).unwrap();
+    let text = text.replacen(
+        "Camera \"perspective\" \"float fov\" [ 45 ]",
+        "Camera \"perspective\" \"float fov\" [ 45 ] \"float lensradius\" 0.08 \"float focaldistance\" 2.7\n    \"float screenwindow\" [ -0.7 1 -1 0.5 ]",
+        1,
+    );
+    let mut s = pbrt(&text);
+    assert!(s.camera.window.is_some() && s.camera.lens_radius == 0.08);
+    s.width = 24;
+    s.height = 24;
+    s.settings.max_depth = 3;
+    let mut pt = with_integrator(s.clone(), IntegratorKind::PathTracer, 256);
+    pt.settings.nee = lightpath::scene::NextEventEstimation::Mis;
+    let reference = estimate(&pt, 4, 3, Bvh);
+    let bdpt = with_integrator(s.clone(), IntegratorKind::Bdpt, 64);
+    let lt: Vec<_> = (0..4)
+        .map(|seed| region_means(&light_tracing_image(&bdpt, 40 + seed).0, 3))
+        .collect();
+    assert_agree(
+        "light tracing through a lens",
+        &estimate_from_runs(&lt),
+        &reference,
+        5.0,
+        0.02,
+    );
+    assert_agree(
+        "bdpt through a lens",
+        &estimate(&bdpt, 4, 3, Bvh),
+        &reference,
+        5.0,
+        0.01,
+    );
+    let coarse = estimate(&pt, 4, 2, Bvh);
+    assert_agree(
+        "mmlt through a lens",
+        &estimate(&with_mmlt(s, 64), 4, 2, Bvh),
+        &coarse,
+        5.0,
+        0.03,
+    );
+}
+
+/// The top-left quarter of the Cornell box three ways: the region means of a 32 × 32
+/// render, a 16 × 16 render through the screen window [-1, 0] × [0, 1], and a 16 × 16
+/// crop (`cropwindow` [0, 0.5] × [0, 0.5] of a 32 × 32 film).
+#[test]
+fn a_screen_window_and_a_crop_window_render_the_part_they_name() {
+    let text = std::fs::read_to_string(repo().join("scenes/pbrt/cornell-box.pbrt")).unwrap();
+    let with = |camera: &str, film: &str, size: u32| -> Scene {
+        let t = text
+            .replacen(
+                "Camera \"perspective\" \"float fov\" [ 45 ]",
+                &format!("Camera \"perspective\" \"float fov\" [ 45 ] {camera}"),
+                1,
+            )
+            .replacen(
+                "\"integer xresolution\" [ 256 ] \"integer yresolution\" [ 256 ]",
+                &format!("\"integer xresolution\" {size} \"integer yresolution\" {size} {film}"),
+                1,
+            );
+        let mut s = pbrt(&t);
+        s.settings.spp = 64;
+        s
+    };
+    let full = with("", "", 32);
+    let window = with("\"float screenwindow\" [ -1 0 0 1 ]", "", 16);
+    let crop = with("", "\"float cropwindow\" [ 0 0.5 0 0.5 ]", 32);
+    assert_eq!((full.width, window.width, crop.width), (32, 16, 16));
+    assert_eq!((full.height, window.height, crop.height), (32, 16, 16));
+    assert_eq!(window.camera.window, crop.camera.window);
+    let quarter = |e: Estimate| Estimate {
+        mean: [0, 1, 4, 5].iter().map(|&r| e.mean[r]).collect(),
+        stderr: [0, 1, 4, 5].iter().map(|&r| e.stderr[r]).collect(),
+    };
+    let first4 = |e: Estimate| Estimate {
+        mean: e.mean[..4].to_vec(),
+        stderr: e.stderr[..4].to_vec(),
+    };
+    let reference = quarter(estimate(&full, 4, 4, Bvh));
+    assert_agree(
+        "screen window",
+        &first4(estimate(&window, 4, 2, Bvh)),
+        &reference,
+        5.0,
+        0.01,
+    );
+    assert_agree(
+        "crop window",
+        &first4(estimate(&crop, 4, 2, Bvh)),
+        &reference,
+        5.0,
+        0.01,
+    );
+}
