@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The showcase: the Phong Cornell box (the course's hw4/cornellBRDF.test, the original
-# project's showcase), cornell-occlusion and cornell-slab, each rendered by the path
-# tracer, BDPT and MMLT for the same TIME seconds, composed into one labelled PNG grid
-# (rows: scenes; columns: integrators) so that one sees at a glance that the three
-# converge to one image and which is least noisy.
+# project's showcase), cornell-occlusion, cornell-slab, caustic (light focused through a
+# glass sphere) and glass-window (a room lit only through a pane of thin glass), each
+# rendered by the path tracer, BDPT and MMLT for the same TIME seconds, composed into one
+# labelled PNG grid (rows: scenes; columns: integrators) so that one sees at a glance
+# that the three converge to one image and which is least noisy.
 #
 #   scripts/showcase.sh                        # 160x160, 30 s per image -> showcase.png
 #   SIZE=96x96 TIME=5 OUTPUT=/tmp/grid.png scripts/showcase.sh

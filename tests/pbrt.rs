@@ -160,3 +160,49 @@ fn subdivision_surfaces_and_blackbody_lights_render_alike_in_pt_and_bdpt() {
         pt.mean[3]
     );
 }
+
+/// pbrt's `mix` chooses one of two materials at each point, so over a pixel's many points
+/// it renders like the blend of their reflectances (the choices at different points are
+/// independent, so even interreflections blend): the Cornell box whose white is a mix
+/// (a quarter bluish, three quarters white, the light's own surface included, which
+/// keeps its emission) against the box whose white is that blend, by the path tracer and
+/// BDPT. Swapping the two materials' probabilities moves the walls' colour well outside
+/// the bounds.
+#[test]
+fn a_mix_renders_like_the_blend_of_its_materials() {
+    let text = std::fs::read_to_string(repo().join("scenes/pbrt/cornell-box.pbrt")).unwrap();
+    let white = "MakeNamedMaterial \"white\" \"string type\" \"diffuse\" \"rgb reflectance\" [ 0.725 0.71 0.68 ]";
+    assert!(text.contains(white));
+    let text = text.replacen(
+        "    Material \"diffuse\" \"rgb reflectance\" [ 0 0 0 ]",
+        "    NamedMaterial \"white\"",
+        1,
+    );
+    let mixed = text.replacen(
+        white,
+        "MakeNamedMaterial \"a\" \"string type\" \"diffuse\" \"rgb reflectance\" [ 0.8 0.8 0.8 ]\n\
+         MakeNamedMaterial \"b\" \"string type\" \"diffuse\" \"rgb reflectance\" [ 0.1 0.3 0.8 ]\n\
+         MakeNamedMaterial \"white\" \"string type\" \"mix\" \"string materials\" [ \"a\" \"b\" ] \"float amount\" 0.25",
+        1,
+    );
+    // 0.75 a + 0.25 b.
+    let blended = text.replacen(
+        white,
+        "MakeNamedMaterial \"white\" \"string type\" \"diffuse\" \"rgb reflectance\" [ 0.625 0.675 0.8 ]",
+        1,
+    );
+    let mixed = small(scene::parse_pbrt_str(&mixed, "mixed.pbrt").expect("parses"));
+    let blended = small(scene::parse_pbrt_str(&blended, "blended.pbrt").expect("parses"));
+    assert!(mixed.materials.iter().any(|m| m.mix.is_some()));
+    for integrator in [IntegratorKind::PathTracer, IntegratorKind::Bdpt] {
+        let a = estimate(&with_integrator(mixed.clone(), integrator, 32), 4, 3, Bvh);
+        let b = estimate(&with_integrator(blended.clone(), integrator, 32), 4, 3, Bvh);
+        assert_agree(
+            &format!("mix vs blend, {}", integrator.name()),
+            &a,
+            &b,
+            5.0,
+            0.015,
+        );
+    }
+}

@@ -76,6 +76,11 @@
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
+// pbrt's mix, not a surface: specular.xy (uint bits) the two materials, specular.z the
+// second's probability, info.z its float texture; resolved by surface_at.
+#define MATERIAL_MIX 2
+// The deepest nesting of mixes.
+#define MAX_MATERIAL_MIX_DEPTH 8
 
 // No texture (GpuMaterial.info.zw, SceneParams.env_texture).
 #define NO_TEXTURE 4294967295

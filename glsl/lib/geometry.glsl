@@ -3,6 +3,8 @@
 #ifndef GEOMETRY_GLSL
 #define GEOMETRY_GLSL
 #include "bindings.glsl"
+#include "sampling.glsl"
+#include "texture.glsl"
 
 const float TRIANGLE_DET_REL_EPS_SQ = 1e-10;
 
@@ -95,6 +97,24 @@ vec2 sphere_uv(vec3 q) {
     return vec2(phi * (0.5 / 3.14159265358979), 1.0 - acos(clamp(q.z, -1.0, 1.0)) * (1.0 / 3.14159265358979));
 }
 
+// pbrt-v4's mix material is not a surface but a choice between two materials, made at
+// each point by a hash of its position (and the mix), so that every subpath reaching
+// the point meets the same material: the second with probability `amount`. Nested
+// mixes resolve in turn.
+uint material_resolve(uint m, vec3 p, vec2 uv) {
+    for (uint depth = 0u; depth < MAX_MATERIAL_MIX_DEPTH; ++depth) {
+        uvec4 info = materials[m].info;
+        if ((info.y & MATERIAL_MIX) == 0u) break;
+        vec4 mix_params = materials[m].specular;
+        float amount = info.z == NO_TEXTURE ? mix_params.z : texture_value(info.z, uv).x;
+        uvec3 b = floatBitsToUint(p);
+        uint h = hash_pcg(hash_pcg(hash_pcg(hash_pcg(m) ^ b.x) ^ b.y) ^ b.z);
+        float u = (float(h >> 8u) + 0.5) * (1.0 / 16777216.0);
+        m = floatBitsToUint(amount < u ? mix_params.x : mix_params.y);
+    }
+    return m;
+}
+
 Surface surface_at(Hit hit, vec3 o, vec3 d) {
     Surface s;
     s.prim = hit.prim;
@@ -132,6 +152,7 @@ Surface surface_at(Hit hit, vec3 o, vec3 d) {
         s.uv = sphere_uv(q);
         s.ns = s.ng;
     }
+    s.material = material_resolve(s.material, s.p, s.uv);
     return s;
 }
 

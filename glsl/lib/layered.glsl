@@ -14,22 +14,17 @@
 #define COAT_LOBE_R 1u
 #define COAT_LOBE_T 2u
 
-// PCG's RXS-M-XS, seeded by hashing two directions' float bits without their lowest 10
-// mantissa bits (so that the device's and the CPU's rounding almost always seed alike).
-uint coat_pcg_hash(uint x) {
-    uint state = x * 747796405u + 2891336453u;
-    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-
+// PCG's RXS-M-XS (hash_pcg), seeded by hashing two directions' float bits without their
+// lowest 10 mantissa bits (so that the device's and the CPU's rounding almost always
+// seed alike).
 uint coat_rng_seed(vec3 a, vec3 b) {
     uint h = 0x9e3779b9u;
-    h = coat_pcg_hash(h ^ (floatBitsToUint(a.x) >> 10u));
-    h = coat_pcg_hash(h ^ (floatBitsToUint(a.y) >> 10u));
-    h = coat_pcg_hash(h ^ (floatBitsToUint(a.z) >> 10u));
-    h = coat_pcg_hash(h ^ (floatBitsToUint(b.x) >> 10u));
-    h = coat_pcg_hash(h ^ (floatBitsToUint(b.y) >> 10u));
-    h = coat_pcg_hash(h ^ (floatBitsToUint(b.z) >> 10u));
+    h = hash_pcg(h ^ (floatBitsToUint(a.x) >> 10u));
+    h = hash_pcg(h ^ (floatBitsToUint(a.y) >> 10u));
+    h = hash_pcg(h ^ (floatBitsToUint(a.z) >> 10u));
+    h = hash_pcg(h ^ (floatBitsToUint(b.x) >> 10u));
+    h = hash_pcg(h ^ (floatBitsToUint(b.y) >> 10u));
+    h = hash_pcg(h ^ (floatBitsToUint(b.z) >> 10u));
     return h;
 }
 

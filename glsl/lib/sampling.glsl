@@ -27,6 +27,14 @@ vec3 to_world(vec3 v, vec3 n) {
     return v.x * t + v.y * b + v.z * n;
 }
 
+// PCG's RXS-M-XS output permutation of one step: a 32-bit hash (Jarzynski and Olano
+// 2020). The coated diffuse walk seeds its numbers with it, the mix material its choice.
+uint hash_pcg(uint x) {
+    uint state = x * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
 // Cosine-weighted hemisphere (z up), pdf cos(theta) / pi: Malley's method with the
 // polar disk map. z > 0 for u in [0, 1)^2.
 vec3 sample_cosine_hemisphere(vec2 u) {

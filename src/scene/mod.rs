@@ -32,7 +32,9 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 pub use crate::abi::{BsdfKind, SampleMode};
-use crate::abi::{GpuMaterial, MATERIAL_TWO_SIDED_EMISSION, NO_TEXTURE};
+use crate::abi::{
+    GpuMaterial, MATERIAL_MIX, MATERIAL_TWO_SIDED_EMISSION, MAX_MATERIAL_MIX_DEPTH, NO_TEXTURE,
+};
 
 /// One material: the sticky material state at the moment a shape was declared.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,7 +69,24 @@ pub struct Material {
     /// The float texture (its first channel) that replaces the microfacet alpha
     /// (`roughness` and `roughness_v` alike).
     pub roughness_texture: Option<u32>,
+    /// pbrt-v4's `mix`: not a surface but a choice between two materials at each point
+    /// (the BSDF fields are unused; `emission` is the emitter's, and both materials
+    /// carry it too).
+    pub mix: Option<MaterialMix>,
 }
+
+/// A choice between two materials (indices into `Scene::materials`), made at each
+/// surface point by a hash of its position: the second with probability `amount` (or
+/// the first channel of `amount_texture`), as pbrt-v4's `MixMaterial` chooses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaterialMix {
+    pub materials: [u32; 2],
+    pub amount: f32,
+    pub amount_texture: Option<u32>,
+}
+
+/// The deepest nesting of mixes the kernels resolve.
+pub const MAX_MIX_DEPTH: u32 = MAX_MATERIAL_MIX_DEPTH;
 
 /// A dielectric's index of refraction when the scene does not give one (glass).
 pub const DEFAULT_IOR: f32 = 1.5;
@@ -95,6 +114,7 @@ impl Default for Material {
             two_sided_emission: true,
             diffuse_texture: None,
             roughness_texture: None,
+            mix: None,
         }
     }
 }
@@ -108,6 +128,30 @@ impl Material {
     /// same material exactly when their records are equal, so the parser deduplicates by
     /// the whole record.
     pub fn record(&self) -> GpuMaterial {
+        if let Some(mix) = self.mix {
+            let flags = MATERIAL_MIX
+                | if self.two_sided_emission {
+                    MATERIAL_TWO_SIDED_EMISSION
+                } else {
+                    0
+                };
+            return GpuMaterial {
+                specular: [
+                    f32::from_bits(mix.materials[0]),
+                    f32::from_bits(mix.materials[1]),
+                    mix.amount,
+                    0.0,
+                ],
+                emission: self.emission.extend(0.0).to_array(),
+                info: [
+                    BsdfKind::Phong as u32,
+                    flags,
+                    mix.amount_texture.unwrap_or(NO_TEXTURE),
+                    NO_TEXTURE,
+                ],
+                ..GpuMaterial::default()
+            };
+        }
         GpuMaterial {
             diffuse: self.diffuse.extend(0.0).to_array(),
             specular: self.specular.extend(0.0).to_array(),

@@ -15,7 +15,8 @@ use super::parse::MaterialKey;
 use super::spectrum;
 use super::{
     BsdfKind, Camera, DeltaLight, Environment, EnvironmentMap, IntegratorKind, Material,
-    NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture, Triangle,
+    MaterialMix, NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture, Triangle,
+    MAX_MIX_DEPTH,
 };
 use crate::texture::{load_image, Encoding, EnvMapping};
 use glam::{Mat3, Mat4, Vec2, Vec3};
@@ -84,6 +85,8 @@ const PARAM_TYPES: &[(&str, &[&str])] = &[
     ("largestepprobability", &["float", "integer"]),
     ("scale", &["float", "integer", "texture", "rgb", "spectrum"]),
     ("roughness", &["float", "integer", "texture"]),
+    ("amount", &["float", "integer", "texture"]),
+    ("materials", &["string"]),
     ("uroughness", &["float", "integer", "texture"]),
     ("vroughness", &["float", "integer", "texture"]),
     ("L", &["rgb", "spectrum", "blackbody"]),
@@ -249,12 +252,22 @@ struct AreaLight {
     power: Option<f32>,
 }
 
+/// How deep mixes nest in a material (0: not a mix).
+fn mix_depth(m: &MaterialRef) -> u32 {
+    match m {
+        MaterialRef::Mix(refs, _) => 1 + mix_depth(&refs[0]).max(mix_depth(&refs[1])),
+        _ => 0,
+    }
+}
+
 /// The material a shape uses.
 #[derive(Clone, Debug)]
 enum MaterialRef {
     Material(Material),
     /// `interface`: no surface (a boundary between media); its shapes are not rendered.
     Interface,
+    /// `mix`: two materials and the second's probability (a constant or a float texture).
+    Mix(Box<[MaterialRef; 2]>, Value),
 }
 
 #[derive(Clone, Debug)]
@@ -1631,6 +1644,7 @@ impl Parser {
                 self.check_used(d, "\"interface\"", params);
                 return Ok(MaterialRef::Interface);
             }
+            "mix" => return self.mix_material(params, file, line),
             "diffuse" => {
                 m = diffuse(Vec3::splat(0.5));
                 match self.value(params, "reflectance", false, d)? {
@@ -1751,6 +1765,94 @@ impl Parser {
         }
         self.check_used(d, &format!("\"{ty}\""), params);
         Ok(MaterialRef::Material(m))
+    }
+
+    /// pbrt-v4's `mix`: `string materials` names two materials made before, `amount`
+    /// (0.5) the probability of the second.
+    fn mix_material(
+        &mut self,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<MaterialRef, ParseError> {
+        let d = "Material";
+        let names = match params.find("materials") {
+            Some(p) if p.ty == "string" && p.strs.len() == 2 => p.strs.clone(),
+            _ => {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    d,
+                    "mix needs \"string materials\" with two material names",
+                ))
+            }
+        };
+        let mut refs = Vec::with_capacity(2);
+        for name in &names {
+            match self.named_materials.get(name) {
+                Some(MaterialRef::Interface) => {
+                    self.unsupported(file, line, "mix: an interface material");
+                    refs.push(MaterialRef::Material(diffuse(Vec3::splat(0.5))));
+                }
+                Some(m) => {
+                    if mix_depth(m) >= MAX_MIX_DEPTH {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!("mixes nest more than {MAX_MIX_DEPTH} deep"),
+                        ));
+                    }
+                    refs.push(m.clone())
+                }
+                None => {
+                    return Err(self.err_at(file, line, d, format!("no material named \"{name}\"")))
+                }
+            }
+        }
+        let amount = self
+            .value(params, "amount", true, d)?
+            .unwrap_or(Value::Const(Vec3::splat(0.5)));
+        if let Value::Const(c) = amount {
+            if !c.x.is_finite() {
+                return Err(self.err_at(file, line, d, "mix: amount must be finite"));
+            }
+        }
+        self.check_used(d, "\"mix\"", params);
+        let [a, b]: [MaterialRef; 2] = refs.try_into().expect("two materials");
+        Ok(MaterialRef::Mix(Box::new([a, b]), amount))
+    }
+
+    /// The scene's index of a shape's material, with the emission of its area light (a
+    /// mix's materials carry it too, since the kernels resolve a mix to one of them).
+    fn intern_ref(&mut self, r: &MaterialRef, emission: Option<(Vec3, bool)>) -> u32 {
+        let mut m = match r {
+            MaterialRef::Material(m) => *m,
+            MaterialRef::Interface => diffuse(Vec3::splat(0.5)),
+            MaterialRef::Mix(refs, amount) => {
+                let materials = [
+                    self.intern_ref(&refs[0], emission),
+                    self.intern_ref(&refs[1], emission),
+                ];
+                let (amount, amount_texture) = match *amount {
+                    Value::Const(c) => (c.x, None),
+                    Value::Texture(t) => (0.5, Some(t)),
+                };
+                Material {
+                    mix: Some(MaterialMix {
+                        materials,
+                        amount,
+                        amount_texture,
+                    }),
+                    ..Material::default()
+                }
+            }
+        };
+        if let Some((e, two_sided)) = emission {
+            m.emission = e;
+            m.two_sided_emission = two_sided;
+        }
+        self.intern(m)
     }
 
     fn texture(
@@ -2419,9 +2521,9 @@ impl Parser {
 
     /// Adds a declared shape to the scene, in world space.
     fn emit(&mut self, s: ShapeDecl, file: u32, line: u32) -> Result<(), ParseError> {
-        let MaterialRef::Material(mut m) = s.material else {
+        if matches!(s.material, MaterialRef::Interface) {
             return Ok(());
-        };
+        }
         let ctm = s.ctm;
         let swaps = Mat3::from_mat4(ctm).determinant() < 0.0;
         let area = |tris: &[Triangle]| {
@@ -2469,26 +2571,25 @@ impl Parser {
                     };
                     tris.push(t);
                 }
-                if let Some(a) = &s.area {
-                    m.emission = a.radiance * self.imaging_ratio;
-                    m.two_sided_emission = a.two_sided;
-                }
+                let emission = s
+                    .area
+                    .as_ref()
+                    .map(|a| (a.radiance * self.imaging_ratio, a.two_sided));
                 let power = s.area.as_ref().and_then(|a| {
                     a.power
                         .map(|phi| (phi, if a.two_sided { 2.0 } else { 1.0 }))
                 });
-                let index = self.intern(m);
+                let index = self.intern_ref(&s.material, emission);
                 for mut t in tris {
-                    t.material = match power {
+                    t.material = match (power, emission) {
                         // pbrt-v4 makes one light per triangle of a mesh, each emitting
                         // `power`: radiance power / (sides π area) per triangle.
-                        Some((phi, sides)) => {
-                            let mut mt = m;
-                            mt.emission *= phi
+                        (Some((phi, sides)), Some((e, two_sided))) => {
+                            let scale = phi
                                 / (sides * area(std::slice::from_ref(&t)) * std::f32::consts::PI);
-                            self.intern(mt)
+                            self.intern_ref(&s.material, Some((e * scale, two_sided)))
                         }
-                        None => index,
+                        _ => index,
                     };
                     self.scene.triangles.push(t);
                 }
@@ -2502,17 +2603,19 @@ impl Parser {
                             "an emissive sphere facing inward (ReverseOrientation)",
                         );
                     }
-                    m.emission = a.radiance * self.imaging_ratio;
-                    m.two_sided_emission = a.two_sided;
+                }
+                let emission = s.area.as_ref().map(|a| {
+                    let mut e = a.radiance * self.imaging_ratio;
                     if let Some(phi) = a.power {
                         let scale = Mat3::from_mat4(ctm);
                         let r = radius * scale.determinant().abs().cbrt();
                         let sides = if a.two_sided { 2.0 } else { 1.0 };
-                        m.emission *= phi
+                        e *= phi
                             / (sides * 4.0 * std::f32::consts::PI * r * r * std::f32::consts::PI);
                     }
-                }
-                let material = self.intern(m);
+                    (e, a.two_sided)
+                });
+                let material = self.intern_ref(&s.material, emission);
                 self.scene.spheres.push(Sphere {
                     object_to_world: ctm * Mat4::from_scale(Vec3::splat(radius)),
                     material,
@@ -2694,6 +2797,64 @@ mod tests {
         // `Scale -1 1 1` before LookAt (as exporters write) makes it unmirrored.
         let s = parse("Scale -1 1 1 LookAt 0 0 5 0 0 0 0 1 0 Camera \"perspective\" WorldBegin");
         assert!(!s.camera.mirror);
+    }
+
+    #[test]
+    fn mixes_name_two_materials_and_carry_the_light() {
+        use crate::abi::MATERIAL_MIX;
+        let s = parse(&format!(
+            r#"WorldBegin
+            MakeNamedMaterial "a" "string type" "diffuse" "rgb reflectance" [ 0.8 0.8 0.8 ]
+            MakeNamedMaterial "b" "string type" "conductor"
+            MakeNamedMaterial "ab" "string type" "mix" "string materials" [ "a" "b" ] "float amount" 0.3
+            Texture "t" "float" "checkerboard"
+            MakeNamedMaterial "abt" "string type" "mix" "string materials" [ "ab" "a" ] "texture amount" "t"
+            NamedMaterial "ab"
+            {QUAD}
+            AttributeBegin
+            AreaLightSource "diffuse" "rgb L" [ 2 2 2 ]
+            NamedMaterial "abt"
+            {QUAD}
+            AttributeEnd
+            "#
+        ));
+        let m = &s.materials;
+        let mix = |i: u32| m[i as usize].mix.expect("a mix");
+        let ab = mix(s.triangles[0].material);
+        assert_eq!(ab.amount, 0.3);
+        assert_eq!(m[ab.materials[0] as usize].diffuse, Vec3::splat(0.8));
+        assert_eq!(m[ab.materials[1] as usize].bsdf, BsdfKind::Conductor);
+        // The emitter's mix, and every material it can resolve to, emit.
+        let abt = mix(s.triangles[2].material);
+        assert!(abt.amount_texture.is_some());
+        assert!(m[s.triangles[2].material as usize].emission == Vec3::splat(2.0));
+        let inner = mix(abt.materials[0]);
+        for i in [abt.materials[1], inner.materials[0], inner.materials[1]] {
+            assert_eq!(m[i as usize].emission, Vec3::splat(2.0));
+            assert!(m[i as usize].mix.is_none());
+        }
+        // The record the kernels read: flag, children, amount.
+        let r = m[s.triangles[0].material as usize].record();
+        assert_eq!(r.info[1] & MATERIAL_MIX, MATERIAL_MIX);
+        assert_eq!(r.specular[0].to_bits(), ab.materials[0]);
+        assert_eq!(r.specular[2], 0.3);
+        for (text, what) in [
+            ("MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" \"a\"", "two material names"),
+            ("MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [ \"a\" \"nope\" ]", "no material named \"nope\""),
+        ] {
+            let e = parse_err(&format!("WorldBegin\nMakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n{text}\n"));
+            assert!(e.message.contains(what) && e.line == 3, "{e}");
+        }
+        let mut deep =
+            String::from("WorldBegin\nMakeNamedMaterial \"m0\" \"string type\" \"diffuse\"\n");
+        for i in 1..=9 {
+            deep += &format!("MakeNamedMaterial \"m{i}\" \"string type\" \"mix\" \"string materials\" [ \"m{}\" \"m0\" ]\n", i - 1);
+        }
+        let e = parse_err(&deep);
+        assert!(
+            e.message.contains("nest more than 8") && e.line == 11,
+            "{e}"
+        );
     }
 
     #[test]
