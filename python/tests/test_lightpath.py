@@ -98,7 +98,7 @@ def test_a_render_stops_when_interrupted_from_another_thread():
 
 
 CTRL_C = """
-import os, signal, sys, threading, time
+import os, signal, sys, threading
 import lightpath as lp
 s = lp.load(sys.argv[1])
 s.size = (64, 48)
@@ -106,23 +106,13 @@ lp.render(s, integrator="pathtracer", spp=1, progress=False)   # the device, ope
 threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
 r = lp.render(s, integrator="pathtracer", spp=1_000_000, progress=False)
 print("first", r.interrupted, r.metadata["samples_per_pixel"], float(r.image.mean()), flush=True)
-def twice():
-    os.kill(os.getpid(), signal.SIGINT)
-    time.sleep(0.5)
-    os.kill(os.getpid(), signal.SIGINT)
-threading.Timer(1.0, twice).start()
-started = time.time()
-try:
-    lp.render(s, integrator="pathtracer", spp=1_000_000, progress=False)
-    print("second returned", flush=True)
-except KeyboardInterrupt:
-    print("second KeyboardInterrupt", round(time.time() - started), flush=True)
 """
 
 
-def test_ctrl_c_returns_the_samples_done_and_a_second_one_raises(tmp_path):
-    """A real SIGINT, as a terminal's Ctrl-C sends it: the first stops the render with
-    the image of the samples done; a second raises KeyboardInterrupt at once."""
+def test_ctrl_c_returns_the_samples_done(tmp_path):
+    """A real SIGINT, as a terminal's Ctrl-C sends it, stops the render with the image of
+    the samples done. (A second Ctrl-C raising at once is not tested here: whether it
+    lands before the stopped render returns is a race.)"""
     script = tmp_path / "ctrl_c.py"
     script.write_text(CTRL_C)
     run = subprocess.run(
@@ -134,9 +124,6 @@ def test_ctrl_c_returns_the_samples_done_and_a_second_one_raises(tmp_path):
     first = lines[0].split()
     assert first[:2] == ["first", "True"], run.stdout
     assert 0 < int(first[2]) < 1_000_000 and float(first[3]) > 0
-    second = lines[1].split()
-    assert second[:2] == ["second", "KeyboardInterrupt"], run.stdout
-    assert int(second[2]) < 30
 
 
 def test_bad_scenes_and_arguments_raise_before_rendering(tmp_path):
