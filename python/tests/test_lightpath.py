@@ -55,6 +55,27 @@ def test_images_are_the_command_lines_bit_for_bit(tmp_path):
     m = cli.metadata
     for key in ["integrator", "samples_per_pixel", "seeds", "max_depth", "backend", "scene_file", "scene_sha256"]:
         assert m[key] == r.metadata[key], key
+    # lp.read and lp.render share the conversion to NumPy, so a transposed or flipped
+    # array would pass the comparison above. The command line's PNG, decoded by Pillow,
+    # checks the orientation and layout independently of the package.
+    from PIL import Image
+
+    png = tmp_path / "cli.png"
+    subprocess.run(
+        [binary(), "render", str(SCENES / "cornell-box.test"), "--size", "24x18", "--spp", "4",
+         "--seed", "7", "--integrator", "pathtracer", "--accel", "bvh", "-q", "-o", str(png)],
+        check=True,
+    )
+    decoded = np.asarray(Image.open(png).convert("RGB")).astype(np.int32)
+    assert decoded.shape == r.image.shape
+
+    def eight_bit(image):  # the command line's PNG encoding, gamma 2.2 from the scene
+        v = np.minimum(np.maximum(image, 0).astype(np.float64) ** (1 / 2.2), 1.0)
+        return (v * 255 + 0.5).astype(np.int32)
+
+    assert np.abs(eight_bit(r.image) - decoded).max() <= 1
+    # (The check has teeth: the image upside down differs from it.)
+    assert np.abs(eight_bit(r.image[::-1]) - decoded).max() > 16
 
 
 def test_metadata_round_trips_and_pngs_are_written(tmp_path):
