@@ -14,7 +14,7 @@ fi
 export PATH="$venv/bin:$PATH"
 # (Already installed versions are kept: after the first run this needs no network.)
 "$venv/bin/python" -m pip install -q --disable-pip-version-check \
-  "maturin>=1.5,<2" "numpy>=1.21" "pytest>=7" "matplotlib>=3.5"
+  "maturin>=1.5,<2" "numpy>=1.21" "pytest>=7" "matplotlib>=3.5" "pillow>=8"
 echo "python: building the lightpath package" >&2
 "$venv/bin/python" -m pip install -q --disable-pip-version-check --no-build-isolation \
   --force-reinstall --no-deps "$root/python"
