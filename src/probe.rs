@@ -103,7 +103,7 @@ pub fn bsdf(
         "bsdf_probe",
         None,
         Specialization {
-            coated_diffuse: true,
+            features: crate::abi::FEATURE_ALL,
         },
     )?;
     let set = engine.bind(

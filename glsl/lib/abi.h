@@ -70,9 +70,21 @@
 #define BSDF_COATED_DIFFUSE 5
 
 // Specialization constants (set per scene when a pipeline is created): code for what
-// the scene lacks is removed before the driver compiles the kernel. Bool: the scene has
-// coated diffuse materials.
-#define SPEC_COATED_DIFFUSE 0
+// the scene lacks is removed before the driver compiles the kernel (lib/features.glsl).
+// SPEC_FEATURES: a uint, the FEATURE_* bits of what the scene has.
+#define SPEC_FEATURES 0
+// Coated diffuse materials (their walk engine, layered.glsl).
+#define FEATURE_COATED_DIFFUSE 1
+// Dielectric, thin dielectric and conductor materials.
+#define FEATURE_INTERFACES 2
+// Materials with a diffuse or roughness texture.
+#define FEATURE_MATERIAL_TEXTURES 4
+// An environment light with an image (a constant one needs no code of its own).
+#define FEATURE_ENVIRONMENT_MAP 8
+// Mix materials.
+#define FEATURE_MIX 16
+// Every feature (kernels that must serve any scene: the BSDF probe).
+#define FEATURE_ALL 31
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1

@@ -46,6 +46,7 @@
 #include "sampling.glsl"
 #include "microfacet.glsl"
 #include "texture.glsl"
+#include "features.glsl"
 
 // One surface's BSDF parameters (the BSDF_* kinds and SAMPLE_* modes are in abi.h).
 struct BsdfParams {
@@ -75,6 +76,7 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv) {
     b.k = m.k.xyz;
     b.coat = m.k.xyz;
     // Textures replace the diffuse reflectance and the roughness (first channel).
+    if (!has_feature(FEATURE_MATERIAL_TEXTURES)) return b;
     if (m.info.z != NO_TEXTURE) b.kd = texture_value(m.info.z, uv);
     if (m.info.w != NO_TEXTURE) {
         float a = texture_value(m.info.w, uv).x;
@@ -435,7 +437,10 @@ bool interface_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, uint transport, out
     return conductor_sample(b, fr, lo, u, s);
 }
 
-bool bsdf_is_course_brdf(BsdfParams b) { return b.kind == BSDF_PHONG || b.kind == BSDF_GGX; }
+// (Kernels for scenes without interface materials take every BSDF for a course one.)
+bool bsdf_is_course_brdf(BsdfParams b) {
+    return !has_feature(FEATURE_INTERFACES) || b.kind == BSDF_PHONG || b.kind == BSDF_GGX;
+}
 
 // lightpath profile: PROFILE_X2_BSDF evaluates, samples and weighs every BSDF twice
 // (the extra time is the BSDF's share of a pass; see src/profile.rs).
@@ -537,9 +542,7 @@ bool analytic_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint tran
 // diffuse answers through its walk engine (layered.glsl). Neither calls the other, so
 // that a kernel inlines the engine only where it asks the coated BSDF a question.
 // (Its walk engine is large: kernels carry it only for scenes that have coated materials.)
-layout(constant_id = SPEC_COATED_DIFFUSE) const bool spec_coated_diffuse = false;
-
-bool bsdf_is_coated(BsdfParams b) { return spec_coated_diffuse && b.kind == BSDF_COATED_DIFFUSE; }
+bool bsdf_is_coated(BsdfParams b) { return has_feature(FEATURE_COATED_DIFFUSE) && b.kind == BSDF_COATED_DIFFUSE; }
 
 vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
     if (!bsdf_is_coated(b)) return analytic_eval(b, n, wo, wi, transport);

@@ -2,7 +2,7 @@
 // and focaldistance). The film is the rectangle scene.cam_window (x0, x1 along cam_right,
 // y0, y1 along cam_up) on the plane at distance 1 ahead of the eye, so that a screen
 // window or a crop window is only another rectangle. Film position (0,0) is its top-left
-// corner, pixel (0,0) the top-left pixel. Mirrored on the CPU by `camera` in
+// corner, pixel (0,0) the top-left pixel. Mirrored on the CPU by `camera_ray` in
 // src/gpu_scene.rs.
 #ifndef CAMERA_GLSL
 #define CAMERA_GLSL

@@ -5,6 +5,7 @@
 #include "bindings.glsl"
 #include "sampling.glsl"
 #include "texture.glsl"
+#include "features.glsl"
 
 const float TRIANGLE_DET_REL_EPS_SQ = 1e-10;
 
@@ -102,6 +103,7 @@ vec2 sphere_uv(vec3 q) {
 // the point meets the same material: the second with probability `amount`. Nested
 // mixes resolve in turn.
 uint material_resolve(uint m, vec3 p, vec2 uv) {
+    if (!has_feature(FEATURE_MIX)) return m;
     for (uint depth = 0u; depth < MAX_MATERIAL_MIX_DEPTH; ++depth) {
         uvec4 info = materials[m].info;
         if ((info.y & MATERIAL_MIX) == 0u) break;

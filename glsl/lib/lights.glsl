@@ -8,6 +8,7 @@
 #include "bsdf.glsl"
 #include "trace.glsl"
 #include "texture.glsl"
+#include "features.glsl"
 
 // Pick an emitter by power with a uniform 32-bit integer x: the first i with
 // x < cdf[i] (the last emitter when none). cdf[i] is the end of emitter i's range of
@@ -124,13 +125,13 @@ float env_map_pdf(vec2 uv) {
 // Radiance arriving along -dir (dir the unit direction of an escaping ray).
 vec3 environment_radiance(vec3 dir) {
     vec3 L = emitters[scene.environment].radiance.xyz;
-    if (scene.env_texture == NO_TEXTURE) return L;
+    if (!has_feature(FEATURE_ENVIRONMENT_MAP) || scene.env_texture == NO_TEXTURE) return L;
     return L * texture_value(scene.env_texture, env_uv(env_to_local(dir)));
 }
 
 // The solid-angle density with which light sampling draws the direction dir (no pick).
 float environment_direction_pdf(vec3 dir) {
-    if (scene.env_texture == NO_TEXTURE) return 0.25 * INV_PI;
+    if (!has_feature(FEATURE_ENVIRONMENT_MAP) || scene.env_texture == NO_TEXTURE) return 0.25 * INV_PI;
     vec2 uv = env_uv(env_to_local(dir));
     float jac = env_jacobian(uv);
     return jac > 0.0 ? env_map_pdf(uv) / jac : 0.0;
@@ -138,7 +139,7 @@ float environment_direction_pdf(vec3 dir) {
 
 // A direction toward the environment for uniforms u, with its solid-angle density.
 vec3 sample_environment_direction(vec2 u, out float pdf) {
-    if (scene.env_texture == NO_TEXTURE) {
+    if (!has_feature(FEATURE_ENVIRONMENT_MAP) || scene.env_texture == NO_TEXTURE) {
         pdf = 0.25 * INV_PI;
         return sample_uniform_sphere(u);
     }

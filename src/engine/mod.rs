@@ -201,10 +201,7 @@ impl Engine {
             None
         };
         let specialization = Specialization {
-            coated_diffuse: scene
-                .materials
-                .iter()
-                .any(|m| m.bsdf == BsdfKind::CoatedDiffuse),
+            features: scene_features(&scene),
         };
         Ok(PreparedScene {
             gpu_scene,
@@ -392,5 +389,102 @@ impl Engine {
     /// Whether a signal asked the render to stop.
     pub fn interrupted(&self) -> bool {
         self.interrupt_signal().is_some()
+    }
+}
+
+/// abi.h's `FEATURE_*` bits of what `scene` has: its kernels are specialized to them
+/// (glsl/lib/features.glsl), so a bit left out here would render that feature wrongly.
+pub fn scene_features(scene: &Scene) -> u32 {
+    use crate::abi::{
+        FEATURE_COATED_DIFFUSE, FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES,
+        FEATURE_MATERIAL_TEXTURES, FEATURE_MIX,
+    };
+    let mut features = 0;
+    for m in &scene.materials {
+        features |= match m.bsdf {
+            BsdfKind::CoatedDiffuse => FEATURE_COATED_DIFFUSE,
+            BsdfKind::Dielectric | BsdfKind::ThinDielectric | BsdfKind::Conductor => {
+                FEATURE_INTERFACES
+            }
+            BsdfKind::Phong | BsdfKind::Ggx => 0,
+        };
+        if m.diffuse_texture.is_some() || m.roughness_texture.is_some() {
+            features |= FEATURE_MATERIAL_TEXTURES;
+        }
+        if m.mix.is_some() {
+            features |= FEATURE_MIX;
+        }
+    }
+    if scene.environment.as_ref().is_some_and(|e| e.map.is_some()) {
+        features |= FEATURE_ENVIRONMENT_MAP;
+    }
+    features
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::abi::*;
+    use crate::scene::parse_str;
+
+    fn scene(materials: &str) -> Scene {
+        let text = format!(
+            "size 8 8\ncamera 0 0 4 0 0 0 0 1 0 45\npoint 0 3 0 1 1 1\n{materials}\nsphere 0 0 0 1\n"
+        );
+        parse_str(&text, "features.test").unwrap()
+    }
+
+    #[test]
+    fn kernels_are_specialized_to_what_the_scene_has() {
+        assert_eq!(scene_features(&scene("brdf phong")), 0);
+        assert_eq!(scene_features(&scene("brdf ggx")), 0);
+        for interface in ["brdf dielectric", "brdf thindielectric", "brdf conductor"] {
+            assert_eq!(
+                scene_features(&scene(interface)),
+                FEATURE_INTERFACES,
+                "{interface}"
+            );
+        }
+        assert_eq!(
+            scene_features(&scene("brdf coateddiffuse")),
+            FEATURE_COATED_DIFFUSE
+        );
+        // A constant environment needs no code of its own; a map does.
+        assert_eq!(scene_features(&scene("envlight 1 1 1")), 0);
+        let mut s = scene("brdf ggx");
+        s.materials[0].roughness_texture = Some(0);
+        assert_eq!(scene_features(&s), FEATURE_MATERIAL_TEXTURES);
+        s.materials[0].roughness_texture = None;
+        s.materials[0].diffuse_texture = Some(0);
+        assert_eq!(scene_features(&s), FEATURE_MATERIAL_TEXTURES);
+        s.materials[0].diffuse_texture = None;
+        s.materials[0].mix = Some(crate::scene::MaterialMix {
+            materials: [0, 0],
+            amount: 0.5,
+            amount_texture: None,
+        });
+        assert_eq!(scene_features(&s), FEATURE_MIX);
+        let image = std::sync::Arc::new(crate::io::Image {
+            width: 2,
+            height: 1,
+            pixels: vec![[1.0; 3]; 2],
+        });
+        s.materials[0].mix = None;
+        s.environment = Some(crate::scene::Environment {
+            radiance: glam::Vec3::ONE,
+            map: Some(crate::scene::EnvironmentMap {
+                image,
+                mapping: crate::texture::EnvMapping::LatLong,
+                to_world: glam::Mat3::IDENTITY,
+            }),
+        });
+        assert_eq!(scene_features(&s), FEATURE_ENVIRONMENT_MAP);
+        // FEATURE_ALL (the BSDF probe's) holds every bit.
+        let every = FEATURE_COATED_DIFFUSE
+            | FEATURE_INTERFACES
+            | FEATURE_MATERIAL_TEXTURES
+            | FEATURE_ENVIRONMENT_MAP
+            | FEATURE_MIX;
+        assert_eq!(FEATURE_ALL, every);
     }
 }

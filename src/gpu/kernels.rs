@@ -62,10 +62,13 @@ pub enum Resource {
 
 /// The values of a kernel's specialization constants (abi.h's `SPEC_*`), chosen per
 /// scene: code for what the scene lacks is removed before the driver compiles the
-/// pipeline (coated diffuse's walk engine multiplies a kernel's compile time).
+/// pipeline (glsl/lib/features.glsl). lavapipe's compile time grows faster than a
+/// kernel's code, so a kernel without the features a scene lacks compiles several
+/// times faster (docs/performance.md, "Compile times").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Specialization {
-    pub coated_diffuse: bool,
+    /// abi.h's `FEATURE_*` bits: what the scene has.
+    pub features: u32,
 }
 
 /// The kernels of one backend, created on first use, and the pool their sets come from.
@@ -176,11 +179,11 @@ impl Kernels {
                     None,
                 )
             }?;
-            let values = [vk::Bool32::from(spec.coated_diffuse)];
+            let values = [spec.features];
             let entries = [vk::SpecializationMapEntry {
-                constant_id: crate::abi::SPEC_COATED_DIFFUSE,
+                constant_id: crate::abi::SPEC_FEATURES,
                 offset: 0,
-                size: std::mem::size_of::<vk::Bool32>(),
+                size: std::mem::size_of::<u32>(),
             }];
             let spec_info = vk::SpecializationInfo::default()
                 .map_entries(&entries)
