@@ -64,7 +64,7 @@ pub enum Resource {
 /// scene: code for what the scene lacks is removed before the driver compiles the
 /// pipeline (glsl/lib/features.glsl). lavapipe's compile time grows faster than a
 /// kernel's code, so a kernel without the features a scene lacks compiles several
-/// times faster (docs/performance.md, "Compile times").
+/// times faster (docs/performance.md, "Kernels specialized to the scene").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Specialization {
     /// abi.h's `FEATURE_*` bits: what the scene has.
