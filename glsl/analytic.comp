@@ -1,10 +1,13 @@
 // `analyticdirect`: the exact direct lighting of diffuse surfaces, with no visibility,
 // from polygonal emitters (Lambert's formula for the irradiance of a polygon:
 // E = L/2 * sum_i theta_i * dot(n, gamma_i), Arvo 1995), point, spot and directional
-// lights, and a constant environment (E = pi L).
-// A closed-form oracle for the Monte Carlo integrators on unoccluded scenes. Emissive
-// spheres are not polygons and are left out. No horizon clipping: lights must lie
-// entirely above the surfaces they light.
+// lights, a constant environment (E = pi L), and spheres (a sphere of radius r whose
+// centre is at distance D, at angle theta from the normal, gives E = pi L (r/D)^2
+// cos theta, whatever side of it emits toward p: its visible cap is the same disk of
+// directions; in front of a constant environment it replaces that disk of the
+// environment's radiance). A closed-form oracle for the Monte Carlo integrators on unoccluded
+// scenes. Ellipsoids (non-uniformly scaled spheres) are left out. No horizon clipping:
+// lights must lie entirely above the surfaces they light.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -78,6 +81,17 @@ void main() {
                 E += em.radiance.xyz * spot_falloff(em, -w) * max(0.0, dot(n, w)) / d2;
             } else if (em.info.x == EMITTER_DIRECTIONAL) {
                 E += em.radiance.xyz * max(0.0, dot(n, em.p0.xyz));
+            } else if (em.info.x == EMITTER_SPHERE) {
+                GpuSphere sp = spheres[em.info.y];
+                if (em.info.y + scene.triangle_count == s.prim) continue;
+                vec3 to = vec3(sp.o2w0.w, sp.o2w1.w, sp.o2w2.w) - s.p;
+                // (A uniform scale: every column of the object-to-world map has length r.)
+                float r2 = dot(vec3(sp.o2w0.x, sp.o2w1.x, sp.o2w2.x), vec3(sp.o2w0.x, sp.o2w1.x, sp.o2w2.x));
+                float d2 = dot(to, to);
+                // (It hides the constant environment behind it: that part of the
+                // hemisphere's E = pi L_env is replaced.)
+                vec3 behind = scene.environment != NO_EMITTER ? emitters[scene.environment].radiance.xyz : vec3(0.0);
+                E += (em.radiance.xyz - behind) * (PI * r2 / d2) * max(0.0, dot(n, to) / sqrt(d2));
             }
         }
         sum += L + material_bsdf(materials[s.material], true, s.uv).kd * INV_PI * E;

@@ -1,13 +1,14 @@
 // One pass of bidirectional path tracing (integrator `bdpt`). Each invocation owns one
 // pixel: it traces a light subpath, connecting every light vertex to the camera (t = 1,
-// splatted with float atomics to whichever pixel it lands on) and storing the vertices
+// splatted to whichever pixel it lands on) and storing the vertices
 // in its slice of the path-vertex buffer, then traces a camera subpath that, at each
 // vertex, takes the emission it finds (s = 0), a fresh light sample (s = 1) and a
 // connection to every stored light vertex (s >= 2). The walks, connections and MIS
 // weights are lib/bdpt.glsl's, shared with mmlt.comp.
 //
 // Films: film[pixel] (camera strategies, written only by the pixel's own invocation) and
-// splat[] (t = 1 strategies, float atomics). The image is (film + splat) / spp.
+// the splat film (t = 1 strategies, fixed-point integer atomics whose sum does not depend
+// on the order: lib/splat.glsl). The image is (film + splat) / spp.
 // A contribution that comes out NaN or infinite is left out and counted in
 // stats[STAT_NONFINITE] (per contribution, not per sample).
 //
@@ -27,8 +28,8 @@ layout(local_size_x = WORKGROUP_SIZE_X, local_size_y = WORKGROUP_SIZE_Y) in;
 #include "lights.glsl"
 #include "camera.glsl"
 #include "bdpt.glsl"
+#include "splat.glsl"
 
-layout(std430, set = 0, binding = BINDING_SPLAT) buffer SplatBuffer { float splat[]; };
 layout(std430, set = 0, binding = BINDING_PATH_VERTICES) buffer PathVertexBuffer { GpuPathVertex light_vertices[]; };
 // Debug output (--bdpt-strategies): per (s,t), a weighted and an unweighted film of
 // vec4s, laid out [strategy][weighted 0 / unweighted 1][pixel].
@@ -74,11 +75,8 @@ void add_splat(uvec2 px, uint s, vec3 unweighted, float weight) {
     vec3 v = unweighted * weight;
     if (!finite3(v) || !finite3(unweighted)) { nonfinite++; return; }
     uint pixel = px.y * scene.width + px.x;
+    if (!splat_add_fixed(pixel, v)) { nonfinite++; return; }
     record_strategy(s, 1u, pixel, v, unweighted);
-    if (v == vec3(0.0)) return;
-    atomicAdd(splat[pixel * 4u + 0u], v.x);
-    atomicAdd(splat[pixel * 4u + 1u], v.y);
-    atomicAdd(splat[pixel * 4u + 2u], v.z);
 }
 
 // Trace the light subpath, splatting t = 1 connections and storing vertices 1..stored

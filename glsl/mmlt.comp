@@ -15,7 +15,7 @@
 // film position is uniform over the whole image; t = 1 paths land where their light
 // vertex projects. Each proposal splats a * C'/f' at its pixel and (1 - a) * C/f at the
 // current one (the latter accumulated while the chain stays and splatted when it moves
-// or the dispatch ends), by float atomics; the host scales the splat film by
+// or the dispatch ends), in fixed point (lib/splat.glsl); the host scales the splat film by
 // b * width * height / mutations.
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -33,8 +33,8 @@ layout(push_constant) uniform MmltBlock { MmltParams params; };
 #include "camera.glsl"
 #include "sampler_pss.glsl"
 #include "bdpt.glsl"
+#include "splat.glsl"
 
-layout(std430, set = 0, binding = BINDING_SPLAT) buffer SplatBuffer { float splat[]; };
 // --mmlt-depths: one vec4 film per depth, [depth][pixel].
 layout(std430, set = 0, binding = BINDING_DEPTH_FILMS) buffer DepthFilmBuffer { float depth_film[]; };
 layout(std430, set = 0, binding = BINDING_CHAINS) buffer ChainBuffer { GpuChain chains[]; };
@@ -146,9 +146,7 @@ vec3 probe_sample(out uint pixel, out float f) {
 
 void splat_add(uint pixel, uint depth, vec3 v) {
     if (v == vec3(0.0)) return;
-    atomicAdd(splat[pixel * 4u + 0u], v.x);
-    atomicAdd(splat[pixel * 4u + 1u], v.y);
-    atomicAdd(splat[pixel * 4u + 2u], v.z);
+    if (!splat_add_fixed(pixel, v)) { nonfinite++; return; }
     if (params.record_depths != 0u) {
         uint i = (depth * scene.width * scene.height + pixel) * 4u;
         atomicAdd(depth_film[i + 0u], v.x);

@@ -132,7 +132,7 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
             p1: [det, 0.0, 0.0, 0.0],
             p2: [0.0; 4],
             radiance: m.emission.extend(0.0).to_array(),
-            info: [EMITTER_SPHERE, i as u32, 1, 0],
+            info: [EMITTER_SPHERE, i as u32, m.two_sided_emission as u32, 0],
         });
     }
     let (_, radius) = scene_bounds(scene);

@@ -147,7 +147,14 @@
 #define STAT_START_MISMATCH 2
 // Rays traced by MMLT's bootstrap (chains count theirs in GpuChain.start.y).
 #define STAT_MMLT_RAYS 3
-#define STAT_COUNT 4
+// Splat-film channels whose fixed-point sum passed 2^32 (glsl/lib/splat.glsl): the host
+// fails the render when it is not 0.
+#define STAT_SPLAT_OVERFLOW 4
+#define STAT_COUNT 5
+// The splat film's fixed point (glsl/lib/splat.glsl): fractional bits of each channel's
+// 64-bit sum, and 32-bit words per pixel (low and high word of r, g, b; two unused).
+#define SPLAT_FRACTION_BITS 32
+#define SPLAT_WORDS_PER_PIXEL 8
 
 // MMLT dispatch modes (MmltParams.run.x).
 #define MMLT_MODE_BOOTSTRAP 0

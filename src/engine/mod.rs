@@ -13,7 +13,9 @@ pub use dispatch::{Dispatch, SubmitTimes};
 pub use passes::{band_rows, Passes};
 pub use run::{RunOptions, RunResult, SnapshotWriter, Snapshots, Work};
 
-use crate::abi::{BsdfKind, SceneParams, STAT_COUNT, STAT_OUT_OF_RANGE};
+use crate::abi::{
+    BsdfKind, SceneParams, SPLAT_WORDS_PER_PIXEL, STAT_COUNT, STAT_OUT_OF_RANGE, STAT_SPLAT_OVERFLOW,
+};
 use crate::accel::BvhKind;
 use crate::gpu::buffer::{memory_barrier, Buffer};
 pub use crate::gpu::kernels::Specialization;
@@ -295,6 +297,12 @@ impl Engine {
                 stat[STAT_OUT_OF_RANGE as usize]
             );
         }
+        if stat[STAT_SPLAT_OVERFLOW as usize] > 0 {
+            bail!(
+                "{kernel}: {} splat-film channels passed the fixed-point range (a pixel's splat sum must stay below 2^32, glsl/lib/splat.glsl); render fewer samples or scale the emission down",
+                stat[STAT_SPLAT_OVERFLOW as usize]
+            );
+        }
         Ok(stat)
     }
 
@@ -310,6 +318,20 @@ impl Engine {
             );
         }
         Ok(film_bytes)
+    }
+
+    /// Bytes of a `width` × `height` splat film (fixed point, glsl/lib/splat.glsl),
+    /// checked against the device's storage-buffer range.
+    pub fn splat_bytes(&self, width: u32, height: u32) -> Result<u64> {
+        let bytes = width as u64 * height as u64 * SPLAT_WORDS_PER_PIXEL as u64 * 4;
+        if bytes > self.device.info.max_storage_buffer_range {
+            bail!(
+                "a {width}x{height} splat film needs {bytes} bytes, more than {}'s storage-buffer range ({} bytes); render a smaller --size",
+                self.device.info.name,
+                self.device.info.max_storage_buffer_range
+            );
+        }
+        Ok(bytes)
     }
 
     pub fn require_float_atomics(&self, what: &str) -> Result<()> {

@@ -2,7 +2,7 @@
 //! of its per-pixel light-vertex buffer and of its strategy images, its render (passes in
 //! bands, resolve), and the extra passes that record strategy images in groups. (The
 //! kernel is glsl/bdpt.comp; the CPU mirror of its MIS weights is `bdpt_mis`.)
-use super::{add_film, film_image, Integrator, IntegratorOptions, RenderOutput};
+use super::{add_splat_film, film_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
 use crate::engine::passes::PassWork;
 use crate::engine::{band_rows, Engine, Passes, PreparedScene, RunOptions};
@@ -134,7 +134,9 @@ impl Integrator for Bdpt {
         let kernel_name = "bdpt";
         let (width, height) = (scene.width, scene.height);
         let film_bytes = engine.film_bytes(width, height)?;
-        engine.require_float_atomics("bdpt splats light-tracing samples")?;
+        let splat_bytes = engine.splat_bytes(width, height)?;
+        // (The image's splats are fixed point; the strategy images' are float atomics.)
+        engine.require_float_atomics("bdpt records strategy images")?;
         let limit = engine.device.info.max_storage_buffer_range;
         let max_scatter = bdpt_max_scatter(scene);
         let vertex_bytes = bdpt_vertex_bytes_per_pixel(max_scatter);
@@ -176,7 +178,7 @@ impl Integrator for Bdpt {
                 Ok((
                     engine.storage_buffer("film", film_bytes)?,
                     engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
-                    engine.storage_buffer("splat film", film_bytes)?,
+                    engine.storage_buffer("splat film", splat_bytes)?,
                     engine.device_buffer(
                         "BDPT light vertices",
                         (rows as u64 * width as u64 * vertex_bytes).max(16),
@@ -206,10 +208,10 @@ impl Integrator for Bdpt {
         engine.warm_up(passes.idle(), trace)?;
         // image = (camera film + splat film) / spp
         let resolve = |done: u32| -> Result<Image> {
-            let (f, sp) = (film.download(film_bytes)?, splat.download(film_bytes)?);
+            let (f, sp) = (film.download(film_bytes)?, splat.download(splat_bytes)?);
             let inv = 1.0 / done as f32;
             let mut image = film_image(bytemuck::cast_slice(&f), width, height, inv);
-            add_film(&mut image, bytemuck::cast_slice(&sp), inv);
+            add_splat_film(&mut image, bytemuck::cast_slice(&sp), inv);
             Ok(image)
         };
         let mut work = PassWork {
@@ -229,7 +231,7 @@ impl Integrator for Bdpt {
                 Ok((
                     film.download(film_bytes)?,
                     engine.read_stats(&stats, kernel_name)?,
-                    splat.download(film_bytes)?,
+                    splat.download(splat_bytes)?,
                     if strategies.is_empty() {
                         None
                     } else {
@@ -260,7 +262,7 @@ impl Integrator for Bdpt {
         let to_image = |data: &[[f32; 4]]| film_image(data, width, height, inv);
         // The image is camera film / spp + splat film / spp.
         let mut image = to_image(film);
-        add_film(&mut image, bytemuck::cast_slice(&splat_data), inv);
+        add_splat_film(&mut image, bytemuck::cast_slice(&splat_data), inv);
         let npix = (width * height) as usize;
         let strategies = strategy_data
             .iter()

@@ -11,7 +11,7 @@
 //! them.
 use super::bdpt::bdpt_max_scatter;
 use super::mmlt_sampler::{pcg4d, stream_sizes};
-use super::{add_film, film_image, Integrator, IntegratorOptions, RenderOutput};
+use super::{add_film, film_image, splat_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
 use crate::engine::{band_rows, Dispatch, Engine, Passes, RunOptions, Work};
 use crate::gpu::kernels::Kernel;
@@ -416,7 +416,7 @@ impl Integrator for Mmlt {
         seed: u32,
         trace: &mut Trace,
     ) -> Result<RenderOutput> {
-        engine.require_float_atomics("mmlt splats every mutation")?;
+        engine.require_float_atomics("mmlt records depth images")?;
         let record_depths = self.options.record_depths;
         let (width, height) = (scene.width, scene.height);
         let film_bytes = engine.film_bytes(width, height)?;
@@ -445,11 +445,12 @@ impl Integrator for Mmlt {
             trace,
         )?;
         let boot_count = plan.bootstrap_samples();
+        let splat_bytes = engine.splat_bytes(width, height)?;
         let (film, splat, stats, chain_samples, chain_buffer, bootstrap, depth_film, unused) =
             trace.cpu("MMLT buffers", || -> Result<_> {
                 Ok((
                     engine.storage_buffer("film", film_bytes)?,
-                    engine.storage_buffer("splat film", film_bytes)?,
+                    engine.storage_buffer("splat film", splat_bytes)?,
                     engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
                     engine.device_buffer(
                         "MMLT chain primary samples",
@@ -582,8 +583,8 @@ impl Integrator for Mmlt {
             }
         };
         let resolve = |mutations: u64, tail: u32| -> Result<(Image, f64)> {
-            let sp = splat.download(film_bytes)?;
-            let mut image = film_image(
+            let sp = splat.download(splat_bytes)?;
+            let mut image = splat_image(
                 bytemuck::cast_slice(&sp),
                 width,
                 height,

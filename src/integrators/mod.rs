@@ -11,6 +11,7 @@ pub mod mmlt;
 pub mod mmlt_sampler;
 pub mod pt;
 
+use crate::abi::{SPLAT_FRACTION_BITS, SPLAT_WORDS_PER_PIXEL};
 use crate::engine::Engine;
 use crate::gpu::kernels::Backend;
 use crate::io::Image;
@@ -98,6 +99,34 @@ pub fn film_image(data: &[[f32; 4]], width: u32, height: u32, scale: f32) -> Ima
             .map(|p| [p[0] * scale, p[1] * scale, p[2] * scale])
             .collect(),
     }
+}
+
+/// Add a splat film (glsl/lib/splat.glsl: per pixel and channel an unsigned 64-bit
+/// fixed-point sum with SPLAT_FRACTION_BITS fractional bits, as low and high 32-bit
+/// words), each channel times `scale`, to `image`.
+pub fn add_splat_film(image: &mut Image, data: &[u32], scale: f32) {
+    let unit = (-(SPLAT_FRACTION_BITS as f64)).exp2();
+    for (p, q) in image
+        .pixels
+        .iter_mut()
+        .zip(data.chunks_exact(SPLAT_WORDS_PER_PIXEL as usize))
+    {
+        for c in 0..3 {
+            let fixed = (q[2 * c + 1] as u64) << 32 | q[2 * c] as u64;
+            p[c] += (fixed as f64 * unit) as f32 * scale;
+        }
+    }
+}
+
+/// A splat film alone as an image, each channel times `scale`.
+pub fn splat_image(data: &[u32], width: u32, height: u32, scale: f32) -> Image {
+    let mut image = Image {
+        width,
+        height,
+        pixels: vec![[0.0; 3]; width as usize * height as usize],
+    };
+    add_splat_film(&mut image, data, scale);
+    image
 }
 
 /// Add a film of vec4s, each channel times `scale`, to `image`.

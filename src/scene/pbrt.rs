@@ -63,11 +63,10 @@ const PARAM_TYPES: &[(&str, &[&str])] = &[
     ("zmax", &["float", "integer"]),
     ("phimax", &["float", "integer"]),
     ("coneangle", &["float", "integer"]),
-    ("conedelta", &["float", "integer"]),
+    ("conedeltaangle", &["float", "integer"]),
     ("power", &["float", "integer"]),
     ("illuminance", &["float", "integer"]),
     ("iso", &["float", "integer"]),
-    ("exposuretime", &["float", "integer"]),
     ("thickness", &["float", "integer"]),
     ("uscale", &["float", "integer"]),
     ("vscale", &["float", "integer"]),
@@ -415,8 +414,19 @@ fn diffuse(kd: Vec3) -> Material {
     }
 }
 
+// Tests only: the parameter names each directive type asks for, whether or not the file
+// gives them (`names_read`), to check them against pbrt-v4's own names.
+#[cfg(test)]
+thread_local! {
+    static ASKED: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+    static NAMES_READ: std::cell::RefCell<std::collections::BTreeSet<(String, String, String)>> =
+        const { std::cell::RefCell::new(std::collections::BTreeSet::new()) };
+}
+
 impl Params {
     fn find(&self, name: &str) -> Option<&Param> {
+        #[cfg(test)]
+        ASKED.with(|a| a.borrow_mut().push(name.to_owned()));
         let p = self.0.iter().find(|p| p.name == name)?;
         p.used.set(true);
         Some(p)
@@ -722,6 +732,18 @@ impl Parser {
 
     /// Reports every parameter the directive did not read as unsupported.
     fn check_used(&mut self, directive: &str, what: &str, params: &Params) {
+        #[cfg(test)]
+        ASKED.with(|a| {
+            NAMES_READ.with(|r| {
+                for name in a.borrow_mut().drain(..) {
+                    r.borrow_mut().insert((
+                        directive.to_owned(),
+                        what.trim_matches('"').to_owned(),
+                        name,
+                    ));
+                }
+            })
+        });
         for p in &params.0 {
             if !p.used.get() {
                 let msg = format!(
@@ -771,6 +793,8 @@ impl Parser {
     }
 
     fn directive(&mut self, d: &str, file: u32, line: u32) -> Result<(), ParseError> {
+        #[cfg(test)]
+        ASKED.with(|a| a.borrow_mut().clear());
         let ctm = self.gs.ctm;
         match d {
             "Identity" => self.gs.ctm = Mat4::IDENTITY,
@@ -1271,14 +1295,11 @@ impl Parser {
             .find("iso")
             .and_then(|p| p.nums.first().copied())
             .unwrap_or(100.0);
-        let exposure = params
-            .find("exposuretime")
-            .and_then(|p| p.nums.first().copied())
-            .unwrap_or(1.0);
-        if !(iso > 0.0 && exposure > 0.0) {
-            return Err(self.err_at(file, line, "Film", "iso and exposuretime must be positive"));
+        // (pbrt-v4's exposure time is the camera's shutter interval, 1 by default.)
+        if !(iso > 0.0) {
+            return Err(self.err_at(file, line, "Film", "iso must be positive"));
         }
-        self.imaging_ratio = (iso / 100.0 * exposure) as f32;
+        self.imaging_ratio = (iso / 100.0) as f32;
         if let Some(p) = params.find("sensor") {
             if p.strs.first().map(String::as_str) != Some("cie1931") {
                 self.unsupported(p.file, p.line, "Film: a sensor other than cie1931");
@@ -1329,7 +1350,6 @@ impl Parser {
             "savefp16",
             "maxcomponentvalue",
             "whitebalance",
-            "writefp16",
         ] {
             params.find(name);
         }
@@ -1427,12 +1447,14 @@ impl Parser {
             }
             self.scene.settings.max_depth = n as i32;
         }
-        for name in [
-            "regularize",
-            "lightsampler",
-            "visualizestrategies",
-            "visualizeweights",
-        ] {
+        // (Each of pbrt-v4's integrators reads its own switches.)
+        let switches: &[&str] = match ty {
+            "path" | "volpath" => &["regularize", "lightsampler"],
+            "bdpt" => &["regularize", "visualizestrategies", "visualizeweights"],
+            "mlt" => &["regularize"],
+            _ => &[],
+        };
+        for &name in switches {
             if let Some(p) = params.find(name) {
                 let on = p.bools.first().copied().unwrap_or(true);
                 if name == "lightsampler" || on {
@@ -1883,13 +1905,19 @@ impl Parser {
                 .and_then(|p| p.nums.first().copied())
                 .unwrap_or(default) as f32
         };
-        let mapping = [
-            num("uscale", 1.0),
-            num("vscale", 1.0),
-            num("udelta", 0.0),
-            num("vdelta", 0.0),
-        ];
-        if let Some(p) = params.find("mapping") {
+        // Only pbrt-v4's 2D-mapped textures read a mapping.
+        let mapped = matches!(class, "imagemap" | "checkerboard" | "dots" | "bilerp");
+        let mapping = if mapped {
+            [
+                num("uscale", 1.0),
+                num("vscale", 1.0),
+                num("udelta", 0.0),
+                num("vdelta", 0.0),
+            ]
+        } else {
+            [1.0, 1.0, 0.0, 0.0]
+        };
+        if let Some(p) = mapped.then(|| params.find("mapping")).flatten() {
             if p.strs.first().map(String::as_str) != Some("uv") {
                 self.unsupported(p.file, p.line, "Texture: a mapping other than uv");
             }
@@ -2068,10 +2096,15 @@ impl Parser {
                 Vec3::new(p.nums[0] as f32, p.nums[1] as f32, p.nums[2] as f32)
             })
         };
-        let power = params
-            .find("power")
-            .and_then(|p| p.nums.first().copied())
-            .map(|x| x as f32);
+        // (pbrt-v4's distant and infinite lights take "illuminance" instead.)
+        let power = if matches!(ty, "point" | "spot" | "goniometric" | "projection") {
+            params
+                .find("power")
+                .and_then(|p| p.nums.first().copied())
+                .map(|x| x as f32)
+        } else {
+            None
+        };
         match ty {
             "point" => {
                 let mut i = self.light_colour(params, "I", Vec3::ONE, d)?;
@@ -2095,7 +2128,7 @@ impl Parser {
                     .and_then(|p| p.nums.first().copied())
                     .unwrap_or(30.0) as f32;
                 let delta = params
-                    .find("conedelta")
+                    .find("conedeltaangle")
                     .and_then(|p| p.nums.first().copied())
                     .unwrap_or(5.0) as f32;
                 if !(cone > 0.0 && cone <= 180.0 && delta >= 0.0) {
@@ -2103,7 +2136,7 @@ impl Parser {
                         file,
                         line,
                         d,
-                        "spot: coneangle must be in (0, 180] and conedelta not negative",
+                        "spot: coneangle must be in (0, 180] and conedeltaangle not negative",
                     ));
                 }
                 let cos_end = cone.to_radians().cos();
@@ -2338,8 +2371,9 @@ impl Parser {
                         .flat_map(|q| [q[0], q[1], q[3], q[0], q[3], q[2]])
                         .collect();
                 }
-                for name in ["S", "faceIndices"] {
-                    params.find(name);
+                params.find("faceIndices");
+                if corners == 3 {
+                    params.find("S");
                 }
                 ShapeKind::Mesh { p, indices, n, uv }
             }
@@ -2483,7 +2517,12 @@ impl Parser {
                 return Ok(());
             }
         };
-        for name in ["alpha", "emissionfilename", "displacement"] {
+        let refused: &[&str] = match ty {
+            "plymesh" => &["alpha", "displacement"],
+            "bilinearmesh" => &["alpha", "emissionfilename"],
+            _ => &["alpha"],
+        };
+        for &name in refused {
             if let Some(p) = params.find(name) {
                 self.unsupported(p.file, p.line, format!("Shape \"{ty}\": {name}"));
             }
@@ -2755,6 +2794,106 @@ mod tests {
     const QUAD: &str = r#"Shape "trianglemesh" "point3 P" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]
         "integer indices" [ 0 1 2  0 2 3 ]"#;
 
+    /// Every parameter name the reader asks for, for every directive type it reads, is
+    /// one of pbrt-v4's own for that type (src/scene/data/pbrt-v4-parameters.txt, from
+    /// its Create functions): a name pbrt-v4 does not know would make the reader accept
+    /// what pbrt-v4 rejects and refuse what it accepts (a spot light's `conedelta` for
+    /// `conedeltaangle`). The names asked for are recorded whether or not the file gives
+    /// them, so each directive type is parsed once, with the parameters it needs.
+    #[test]
+    fn every_parameter_name_read_is_pbrt_v4s_own() {
+        let table = include_str!("data/pbrt-v4-parameters.txt");
+        let mut names: HashMap<(String, String), std::collections::HashSet<String>> = HashMap::new();
+        for line in table.lines().filter(|l| !l.starts_with('#') && !l.is_empty()) {
+            let (head, list) = line.split_once(':').expect("Directive type: names");
+            let words: Vec<&str> = head.split_whitespace().collect();
+            // "Texture float imagemap" and "Texture imagemap" are both "Texture imagemap".
+            let key = (words[0].to_owned(), words[words.len() - 1].to_owned());
+            let set = names.entry(key).or_default();
+            for item in list.split_whitespace() {
+                set.insert(item.split(':').next().expect("name:kind").to_owned());
+            }
+        }
+        // MakeNamedMaterial's "type" is read for every material.
+        for ((d, _), set) in names.iter_mut() {
+            if d == "Material" {
+                set.insert("type".to_owned());
+            }
+        }
+        let world = |body: &str| format!("WorldBegin\n{body}\n");
+        let mut files = vec![
+            "Camera \"perspective\"\nWorldBegin\n".to_owned(),
+            "Film \"rgb\"\nWorldBegin\n".to_owned(),
+            "Film \"gbuffer\"\nWorldBegin\n".to_owned(),
+            "Film \"spectral\"\nWorldBegin\n".to_owned(),
+            world("AreaLightSource \"diffuse\"\nShape \"sphere\""),
+            world(QUAD),
+            world(
+                "Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0  1 1 0 ] \"integer indices\" [ 0 1 2 3 ]",
+            ),
+            world(
+                "Shape \"loopsubdiv\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0 ] \"integer indices\" [ 0 1 2 ]",
+            ),
+        ];
+        for ty in ["path", "volpath", "bdpt", "mlt", "simplepath", "lightpath", "sppm"] {
+            files.push(format!("Integrator \"{ty}\"\nWorldBegin\n"));
+        }
+        for ty in ["point", "spot", "distant", "infinite", "goniometric", "projection"] {
+            files.push(world(&format!("LightSource \"{ty}\"")));
+        }
+        for ty in ["sphere", "disk", "cylinder", "curve", "plymesh"] {
+            files.push(world(&format!("Shape \"{ty}\"")));
+        }
+        for ty in [
+            "diffuse", "dielectric", "thindielectric", "conductor", "coateddiffuse", "coatedconductor",
+            "diffusetransmission", "measured", "interface", "hair", "subsurface",
+        ] {
+            files.push(world(&format!("Material \"{ty}\"")));
+            files.push(world(&format!("MakeNamedMaterial \"m\" \"string type\" \"{ty}\"")));
+        }
+        files.push(world(
+            "MakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n\
+             Material \"mix\" \"string materials\" [ \"a\" \"a\" ]",
+        ));
+        for ty in ["float", "spectrum"] {
+            for class in [
+                "constant", "scale", "mix", "directionmix", "checkerboard", "dots", "fbm", "wrinkled",
+                "windy", "marble", "bilerp", "ptex",
+            ] {
+                files.push(world(&format!("Texture \"t\" \"{ty}\" \"{class}\"")));
+            }
+            files.push(world(&format!(
+                "Texture \"t\" \"{ty}\" \"imagemap\" \"string filename\" \"missing.png\""
+            )));
+        }
+        NAMES_READ.with(|r| r.borrow_mut().clear());
+        for f in &files {
+            let _ = parse_pbrt_str(f, "names.pbrt");
+        }
+        let read = NAMES_READ.with(|r| r.borrow().clone());
+        let mut foreign = Vec::new();
+        for (d, ty, name) in &read {
+            let known = names
+                .get(&(d.clone(), ty.clone()))
+                .is_some_and(|set| set.contains(name));
+            if !known {
+                foreign.push(format!("{d} \"{ty}\": \"{name}\""));
+            }
+        }
+        assert!(
+            foreign.is_empty(),
+            "the reader asks for names pbrt-v4 does not read:\n{}",
+            foreign.join("\n")
+        );
+        // (The check has teeth: the directives it covers were read.)
+        for (d, ty) in [("LightSource", "spot"), ("Shape", "sphere"), ("Material", "coateddiffuse"), ("Film", "rgb")] {
+            assert!(
+                read.iter().any(|(a, b, _)| a == d && b == ty),
+                "no names recorded for {d} {ty}"
+            );
+        }
+    }
+
     #[test]
     fn tokens_parameters_and_defaults() {
         let s = parse(&format!(
@@ -3008,7 +3147,7 @@ mod tests {
               {QUAD}
             AttributeEnd
             LightSource "point" "rgb I" [ 1 2 3 ] "point3 from" [ 0 5 0 ]
-            LightSource "spot" "point3 from" [0 0 0] "point3 to" [0 -1 0] "float coneangle" 30 "float conedelta" 10
+            LightSource "spot" "point3 from" [0 0 0] "point3 to" [0 -1 0] "float coneangle" 30 "float conedeltaangle" 10
             LightSource "distant" "point3 from" [0 1 0] "point3 to" [0 0 0] "rgb L" [2 2 2]
             LightSource "infinite" "rgb L" [0.1 0.2 0.3]
             "#

@@ -1,0 +1,351 @@
+//! Exact lights (issue 26): every emitter shape and light type, alone over a diffuse
+//! floor and back wall, written in pbrt-v4's format, rendered by the path tracer, BDPT and
+//! MMLT at maxdepth 1, 2 and 5, and by the closed forms where they exist; and every BDPT
+//! strategy that can sample all paths of its depth, alone (its unweighted image), against
+//! the path tracer's image of that depth. The tolerances are statistical (region means
+//! over seeds) plus 0.2%, tight enough to see a 0.5% bias of one strategy.
+//!
+//! The path tracer's image of depth d is its maxdepth-d image less its maxdepth-(d-1)
+//! image for the same seed: the shorter render's paths are the longer one's prefixes
+//! (counter-based random numbers), so the difference holds exactly the depth-d paths and
+//! little noise.
+mod common;
+
+use common::*;
+use lightpath::io::Image;
+use lightpath::render::AccelChoice::Bvh;
+use lightpath::scene::{self, IntegratorKind, NextEventEstimation, Scene};
+use lightpath::trace::Trace;
+
+const SIZE: u32 = 16;
+const SEEDS: u32 = 4;
+/// Strategies alone are compared on the whole image over more seeds: some (a camera
+/// subpath that must hit the light by BSDF sampling after several bounces) are
+/// heavy-tailed, and their standard error needs more runs to be estimated well.
+const STRATEGY_SEEDS: u32 = 8;
+
+/// What can sample a light: area lights are hit by rays and seen by the camera;
+/// delta lights neither; the environment is hit by escaping rays but has no point the
+/// camera could see (t = 1, s = 1).
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Kind {
+    Area,
+    Delta,
+    Environment,
+}
+
+/// Can the strategy (s, t) sample every path of its depth?
+fn complete(kind: Kind, s: u32, t: u32) -> bool {
+    match kind {
+        Kind::Area => true,
+        Kind::Delta => s >= 1 && !(s == 1 && t == 1),
+        Kind::Environment => !(s == 1 && t == 1),
+    }
+}
+
+/// A diffuse floor (y = 0, ρ 0.5) and, unless `open`, a back wall (z = -3, ρ 0.7),
+/// seen from the front and above, lit by `light` (pbrt-v4 directives in world space).
+fn room(light: &str, open: bool, max_depth: i32) -> Scene {
+    let wall = if open {
+        ""
+    } else {
+        "Material \"diffuse\" \"rgb reflectance\" [ 0.7 0.7 0.7 ]\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -4 0 -3  4 0 -3  4 5 -3  -4 5 -3 ]\n"
+    };
+    let text = format!(
+        "Scale -1 1 1\nLookAt 0 2.5 5  0 1 -1  0 1 0\nCamera \"perspective\" \"float fov\" [ 50 ]\n\
+         Film \"rgb\" \"integer xresolution\" [ {SIZE} ] \"integer yresolution\" [ {SIZE} ]\n\
+         Integrator \"bdpt\" \"integer maxdepth\" [ {max_depth} ]\n\
+         WorldBegin\n\
+         AttributeBegin\n{light}\nAttributeEnd\n\
+         Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.5 0.5 ]\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -4 0 4  4 0 4  4 0 -3  -4 0 -3 ]\n{wall}"
+    );
+    if std::env::var("DUMP_SCENE").is_ok() { eprintln!("{text}"); }
+    scene::parse_pbrt_str(&text, "exact-lights.pbrt").expect("the test scene parses")
+}
+
+/// The lights of the matrix: name, kind, pbrt directives.
+fn lights() -> Vec<(&'static str, Kind, String)> {
+    let area = "Material \"diffuse\" \"rgb reflectance\" [ 0 0 0 ]\n\
+                AreaLightSource \"diffuse\" \"rgb L\" [ 4 4 4 ]";
+    let sky = repo().join("tests/data/sky-square.pfm");
+    vec![
+        (
+            "quad",
+            Kind::Area,
+            format!(
+                "{area}\nShape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+                 \"point3 P\" [ -0.6 2.5 -0.6  0.6 2.5 -0.6  0.6 2.5 0.6  -0.6 2.5 0.6 ]"
+            ),
+        ),
+        (
+            // Four triangles facing out and down, of different sizes.
+            "triangle mesh",
+            Kind::Area,
+            format!(
+                "{area}\nShape \"trianglemesh\" \"integer indices\" [ 0 1 2  0 2 3  0 3 4  0 4 1 ]\n\
+                 \"point3 P\" [ 0 1.8 0  -0.8 2.6 -0.5  0.5 2.6 -0.9  0.9 2.6 0.6  -0.5 2.6 0.8 ]"
+            ),
+        ),
+        (
+            "unit sphere",
+            Kind::Area,
+            format!("Translate 0 2.6 -0.5\n{area}\nShape \"sphere\""),
+        ),
+        (
+            "translated sphere",
+            Kind::Area,
+            format!("Translate 0.7 2 0.3\n{area}\nShape \"sphere\" \"float radius\" [ 0.4 ]"),
+        ),
+        (
+            "scaled sphere",
+            Kind::Area,
+            format!("Translate -0.5 2 0\nScale 0.5 0.5 0.5\n{area}\nShape \"sphere\""),
+        ),
+        (
+            "ellipsoid",
+            Kind::Area,
+            format!(
+                "Translate 0 2 0\nRotate 30 0 0 1\nScale 0.8 0.25 0.45\n{area}\nShape \"sphere\""
+            ),
+        ),
+        (
+            "two-sided sphere",
+            Kind::Area,
+            format!(
+                "Translate 0 2 0\nMaterial \"diffuse\" \"rgb reflectance\" [ 0 0 0 ]\n\
+                 AreaLightSource \"diffuse\" \"rgb L\" [ 4 4 4 ] \"bool twosided\" true\n\
+                 Shape \"sphere\" \"float radius\" [ 0.5 ]"
+            ),
+        ),
+        (
+            "disk",
+            Kind::Area,
+            format!("Translate 0 2.4 0\nRotate 90 1 0 0\n{area}\nShape \"disk\" \"float radius\" [ 0.6 ]"),
+        ),
+        (
+            "point",
+            Kind::Delta,
+            "LightSource \"point\" \"point3 from\" [ 0.3 2.2 0 ] \"rgb I\" [ 6 6 6 ]".into(),
+        ),
+        (
+            "spot",
+            Kind::Delta,
+            "LightSource \"spot\" \"point3 from\" [ 0 2.5 0 ] \"point3 to\" [ 0.3 0 -0.5 ] \
+             \"float coneangle\" [ 40 ] \"float conedeltaangle\" [ 15 ] \"rgb I\" [ 10 10 10 ]"
+                .into(),
+        ),
+        (
+            "distant",
+            Kind::Delta,
+            "LightSource \"distant\" \"point3 from\" [ 1 3 2 ] \"point3 to\" [ 0 0 0 ] \"rgb L\" [ 2 2 2 ]"
+                .into(),
+        ),
+        (
+            "constant environment",
+            Kind::Environment,
+            "LightSource \"infinite\" \"rgb L\" [ 0.8 0.8 0.8 ]".into(),
+        ),
+        (
+            "image environment",
+            Kind::Environment,
+            format!(
+                "LightSource \"infinite\" \"string filename\" \"{}\"",
+                sky.display()
+            ),
+        ),
+    ]
+}
+
+fn with(s: &Scene, integrator: IntegratorKind, spp: u32, max_depth: i32) -> Scene {
+    let mut s = with_integrator(s.clone(), integrator, spp);
+    s.settings.max_depth = max_depth;
+    s.settings.nee = NextEventEstimation::Mis;
+    s
+}
+
+fn subtract(a: &Image, b: &Image) -> Image {
+    let mut d = a.clone();
+    for (p, q) in d.pixels.iter_mut().zip(&b.pixels) {
+        for c in 0..3 {
+            p[c] -= q[c];
+        }
+    }
+    d
+}
+
+/// The path tracer's image of paths of exactly `depth` scattering vertices, per seed,
+/// as region means on a `grid` × `grid` grid (and the whole image).
+fn pt_depth_estimate(s: &Scene, depth: i32, spp: u32, grid: u32) -> Estimate {
+    let runs: Vec<_> = (0..SEEDS)
+        .map(|seed| {
+            let upto = render(&with(s, IntegratorKind::PathTracer, spp, depth), 1000 + seed, Bvh);
+            let img = if depth == 0 {
+                upto
+            } else {
+                let shorter = render(
+                    &with(s, IntegratorKind::PathTracer, spp, depth - 1),
+                    1000 + seed,
+                    Bvh,
+                );
+                subtract(&upto, &shorter)
+            };
+            region_means(&img, grid)
+        })
+        .collect();
+    estimate_from_runs(&runs)
+}
+
+/// Every strategy's unweighted image of a BDPT render at `max_depth`, per seed.
+fn strategy_runs(s: &Scene, spp: u32, max_depth: i32) -> Vec<Vec<(u32, u32, Image)>> {
+    (0..STRATEGY_SEEDS)
+        .map(|seed| {
+            let mut r = renderer(Bvh);
+            r.options.bdpt.record_strategies = true;
+            let out = r.render(
+                &with(s, IntegratorKind::Bdpt, spp, max_depth),
+                1000 + seed,
+                &mut Trace::new(),
+            );
+            r.options.bdpt.record_strategies = false;
+            let out = out.expect("bdpt render");
+            assert_eq!(out.nonfinite_samples, 0, "NaN/Inf samples");
+            strategies(&out)
+                .iter()
+                .map(|st| (st.s, st.t, st.unweighted.clone()))
+                .collect()
+        })
+        .collect()
+}
+
+/// Each complete strategy of depths 0..=max_depth alone equals the path tracer's image
+/// of its depth.
+fn assert_each_strategy_alone_matches_pt(name: &str, kind: Kind, s: &Scene, max_depth: u32) {
+    let runs = strategy_runs(s, 256, max_depth as i32);
+    for depth in 0..=max_depth {
+        let reference = pt_depth_estimate(s, depth as i32, 1024, 1);
+        for sl in 0..=depth + 1 {
+            let t = depth + 2 - sl;
+            if !complete(kind, sl, t) {
+                continue;
+            }
+            let per_seed: Vec<_> = runs
+                .iter()
+                .map(|r| {
+                    let img = &r.iter().find(|x| x.0 == sl && x.1 == t).expect("strategy image").2;
+                    region_means(img, 1)
+                })
+                .collect();
+            assert_agree(
+                &format!("{name}: strategy s={sl} t={t} alone vs the path tracer's depth-{depth} image"),
+                &estimate_from_runs(&per_seed),
+                &reference,
+                5.0,
+                0.002,
+            );
+        }
+    }
+}
+
+/// PT, BDPT and MMLT agree at maxdepth 1, 2 and 5.
+fn assert_integrators_agree(name: &str, s: &Scene) {
+    for depth in [1, 2, 5] {
+        let pt = estimate(&with(s, IntegratorKind::PathTracer, 1024, depth), SEEDS, 2, Bvh);
+        let bdpt = estimate(&with(s, IntegratorKind::Bdpt, 256, depth), SEEDS, 2, Bvh);
+        assert_agree(&format!("{name}, maxdepth {depth}: bdpt vs pt"), &bdpt, &pt, 5.0, 0.002);
+        let mut m = with_mmlt(s.clone(), 256);
+        m.settings.max_depth = depth;
+        let mmlt = estimate(&m, SEEDS, 2, Bvh);
+        assert_agree(&format!("{name}, maxdepth {depth}: mmlt vs pt"), &mmlt, &pt, 5.0, 0.005);
+    }
+}
+
+#[test]
+fn every_light_alone_renders_alike_in_pt_bdpt_and_mmlt() {
+    for (name, _, light) in lights() {
+        assert_integrators_agree(name, &room(&light, false, 5));
+    }
+}
+
+#[test]
+fn every_bdpt_strategy_alone_matches_the_path_tracer_for_every_light() {
+    for (name, kind, light) in lights() {
+        assert_each_strategy_alone_matches_pt(name, kind, &room(&light, false, 3), 3);
+    }
+}
+
+/// Direct light on the open floor against the closed forms (analyticdirect: Lambert's
+/// polygon formula, E = π L (r/D)² cos θ for a sphere, I cos θ / d² for points and spots,
+/// E = π L for a constant environment), with the path tracer and BDPT at maxdepth 1.
+#[test]
+fn direct_light_matches_the_closed_forms() {
+    for (name, _, light) in lights() {
+        if name == "ellipsoid" || name == "disk" || name == "image environment" {
+            continue; // (no closed form in analyticdirect)
+        }
+        let s = room(&light, true, 1);
+        let exact = estimate(&with(&s, IntegratorKind::AnalyticDirect, 64, 1), 2, 2, Bvh);
+        let pt = estimate(&with(&s, IntegratorKind::PathTracer, 1024, 1), SEEDS, 2, Bvh);
+        assert_agree(&format!("{name}: pt vs closed form"), &pt, &exact, 5.0, 0.002);
+        let bdpt = estimate(&with(&s, IntegratorKind::Bdpt, 256, 1), SEEDS, 2, Bvh);
+        assert_agree(&format!("{name}: bdpt vs closed form"), &bdpt, &exact, 5.0, 0.002);
+    }
+}
+
+/// The sphere light's closed form, independently of analyticdirect: a sphere of radius r
+/// and radiance L whose centre is at distance D from a floor point, at height h above
+/// it, gives E = π L (r/D)² (h/D), so the diffuse floor (ρ) has radiance ρ L r² h / D³.
+/// The camera looks straight down from below the sphere, at a patch of floor it sees
+/// whole; the image's mean is that radiance averaged over the patch (the film plane is
+/// parallel to the floor, so film positions are uniform over the patch).
+#[test]
+fn the_floor_under_a_sphere_light_has_its_closed_form_radiance() {
+    let (r, h, l, rho) = (0.1f64, 2.0f64, 5.0f64, 0.5f64);
+    let text = format!(
+        "LookAt 0 1 0  0 0 0  0 0 -1\nCamera \"perspective\" \"float fov\" [ 20 ]\n\
+         Film \"rgb\" \"integer xresolution\" [ 16 ] \"integer yresolution\" [ 16 ]\n\
+         WorldBegin\nAttributeBegin\nTranslate 0 {h} 0\n\
+         Material \"diffuse\" \"rgb reflectance\" [ 0 0 0 ]\n\
+         AreaLightSource \"diffuse\" \"rgb L\" [ {l} {l} {l} ]\n\
+         Shape \"sphere\" \"float radius\" [ {r} ]\nAttributeEnd\n\
+         Material \"diffuse\" \"rgb reflectance\" [ {rho} {rho} {rho} ]\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -4 0 4  4 0 4  4 0 -4  -4 0 -4 ]\n"
+    );
+    let s = scene::parse_pbrt_str(&text, "under-a-sphere.pbrt").expect("parses");
+    // The patch: |x|, |z| <= tan(10°) at distance 1 below the camera.
+    let half = 10f64.to_radians().tan();
+    let n = 400;
+    let mut sum = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let x = half * (2.0 * (i as f64 + 0.5) / n as f64 - 1.0);
+            let z = half * (2.0 * (j as f64 + 0.5) / n as f64 - 1.0);
+            let d = (h * h + x * x + z * z).sqrt();
+            sum += rho * l * r * r * h / (d * d * d);
+        }
+    }
+    let expected = sum / (n * n) as f64;
+    for integrator in [IntegratorKind::PathTracer, IntegratorKind::Bdpt] {
+        let e = estimate(&with(&s, integrator, 4096, 1), 2, 1, Bvh);
+        let got = e.mean.last().expect("the whole image")[1];
+        let se = e.stderr.last().expect("the whole image")[1];
+        assert!(
+            (got - expected).abs() < 5.0 * se + 0.002 * expected,
+            "{integrator:?}: floor radiance {got} (standard error {se}), closed form {expected}"
+        );
+    }
+}
+
+/// pbrt-v4 allows a sphere light facing inward (ReverseOrientation); lightpath refuses
+/// it with a message rather than rendering it wrongly.
+#[test]
+fn an_inward_facing_sphere_light_is_refused() {
+    let text = "WorldBegin\nReverseOrientation\nAreaLightSource \"diffuse\" \"rgb L\" [ 1 1 1 ]\n\
+                Shape \"sphere\"\n";
+    let e = scene::parse_pbrt_str(text, "inward.pbrt").expect_err("refused");
+    assert!(e.to_string().contains("facing inward"), "{e}");
+}
