@@ -13,6 +13,8 @@ use std::time::Instant;
 /// One dispatch of a kernel.
 #[derive(Clone)]
 pub struct Dispatch {
+    /// The kernel's name, for messages.
+    pub kernel: &'static str,
     pub pipeline: vk::Pipeline,
     pub layout: vk::PipelineLayout,
     pub set: vk::DescriptorSet,
@@ -31,6 +33,7 @@ impl Dispatch {
         groups: [u32; 3],
     ) -> Dispatch {
         Dispatch {
+            kernel: kernel.name,
             pipeline: kernel.pipeline,
             layout: kernel.layout,
             set,

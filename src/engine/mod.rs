@@ -391,11 +391,22 @@ impl Engine {
     /// than inside the first timed dispatch. `dispatch` must do no work.
     pub fn warm_up(&self, dispatch: Dispatch, trace: &mut Trace) -> Result<()> {
         let mut d = dispatch;
+        let name = d.kernel;
         d.span = None;
         d.groups = [1, 1, 1];
+        let started = std::time::Instant::now();
         trace.cpu("kernel warm-up", || {
             self.submit(&[d], "warming up the kernel", &mut Trace::new())
         })?;
+        // For compile-time measurements (docs/performance.md): what each first dispatch
+        // cost, most of it the driver's compile when its cache is cold.
+        if std::env::var_os("LIGHTPATH_LOG_WARM_UP").is_some() {
+            eprintln!(
+                "lightpath: warm-up of {name} ({}) took {:.2} s",
+                self.kernels.backend.name(),
+                started.elapsed().as_secs_f64()
+            );
+        }
         Ok(())
     }
 
