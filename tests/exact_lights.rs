@@ -63,7 +63,6 @@ fn room(light: &str, open: bool, max_depth: i32) -> Scene {
          Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
          \"point3 P\" [ -4 0 4  4 0 4  4 0 -3  -4 0 -3 ]\n{wall}"
     );
-    if std::env::var("DUMP_SCENE").is_ok() { eprintln!("{text}"); }
     scene::parse_pbrt_str(&text, "exact-lights.pbrt").expect("the test scene parses")
 }
 
@@ -182,7 +181,11 @@ fn subtract(a: &Image, b: &Image) -> Image {
 fn pt_depth_estimate(s: &Scene, depth: i32, spp: u32, grid: u32) -> Estimate {
     let runs: Vec<_> = (0..SEEDS)
         .map(|seed| {
-            let upto = render(&with(s, IntegratorKind::PathTracer, spp, depth), 1000 + seed, Bvh);
+            let upto = render(
+                &with(s, IntegratorKind::PathTracer, spp, depth),
+                1000 + seed,
+                Bvh,
+            );
             let img = if depth == 0 {
                 upto
             } else {
@@ -235,12 +238,18 @@ fn assert_each_strategy_alone_matches_pt(name: &str, kind: Kind, s: &Scene, max_
             let per_seed: Vec<_> = runs
                 .iter()
                 .map(|r| {
-                    let img = &r.iter().find(|x| x.0 == sl && x.1 == t).expect("strategy image").2;
+                    let img = &r
+                        .iter()
+                        .find(|x| x.0 == sl && x.1 == t)
+                        .expect("strategy image")
+                        .2;
                     region_means(img, 1)
                 })
                 .collect();
             assert_agree(
-                &format!("{name}: strategy s={sl} t={t} alone vs the path tracer's depth-{depth} image"),
+                &format!(
+                    "{name}: strategy s={sl} t={t} alone vs the path tracer's depth-{depth} image"
+                ),
                 &estimate_from_runs(&per_seed),
                 &reference,
                 5.0,
@@ -253,13 +262,30 @@ fn assert_each_strategy_alone_matches_pt(name: &str, kind: Kind, s: &Scene, max_
 /// PT, BDPT and MMLT agree at maxdepth 1, 2 and 5.
 fn assert_integrators_agree(name: &str, s: &Scene) {
     for depth in [1, 2, 5] {
-        let pt = estimate(&with(s, IntegratorKind::PathTracer, 1024, depth), SEEDS, 2, Bvh);
+        let pt = estimate(
+            &with(s, IntegratorKind::PathTracer, 1024, depth),
+            SEEDS,
+            2,
+            Bvh,
+        );
         let bdpt = estimate(&with(s, IntegratorKind::Bdpt, 256, depth), SEEDS, 2, Bvh);
-        assert_agree(&format!("{name}, maxdepth {depth}: bdpt vs pt"), &bdpt, &pt, 5.0, 0.002);
+        assert_agree(
+            &format!("{name}, maxdepth {depth}: bdpt vs pt"),
+            &bdpt,
+            &pt,
+            5.0,
+            0.002,
+        );
         let mut m = with_mmlt(s.clone(), 256);
         m.settings.max_depth = depth;
         let mmlt = estimate(&m, SEEDS, 2, Bvh);
-        assert_agree(&format!("{name}, maxdepth {depth}: mmlt vs pt"), &mmlt, &pt, 5.0, 0.005);
+        assert_agree(
+            &format!("{name}, maxdepth {depth}: mmlt vs pt"),
+            &mmlt,
+            &pt,
+            5.0,
+            0.005,
+        );
     }
 }
 
@@ -288,10 +314,27 @@ fn direct_light_matches_the_closed_forms() {
         }
         let s = room(&light, true, 1);
         let exact = estimate(&with(&s, IntegratorKind::AnalyticDirect, 64, 1), 2, 2, Bvh);
-        let pt = estimate(&with(&s, IntegratorKind::PathTracer, 1024, 1), SEEDS, 2, Bvh);
-        assert_agree(&format!("{name}: pt vs closed form"), &pt, &exact, 5.0, 0.002);
+        let pt = estimate(
+            &with(&s, IntegratorKind::PathTracer, 1024, 1),
+            SEEDS,
+            2,
+            Bvh,
+        );
+        assert_agree(
+            &format!("{name}: pt vs closed form"),
+            &pt,
+            &exact,
+            5.0,
+            0.002,
+        );
         let bdpt = estimate(&with(&s, IntegratorKind::Bdpt, 256, 1), SEEDS, 2, Bvh);
-        assert_agree(&format!("{name}: bdpt vs closed form"), &bdpt, &exact, 5.0, 0.002);
+        assert_agree(
+            &format!("{name}: bdpt vs closed form"),
+            &bdpt,
+            &exact,
+            5.0,
+            0.002,
+        );
     }
 }
 
@@ -376,13 +419,34 @@ fn every_material_under_each_light_renders_alike_in_pt_bdpt_and_mmlt() {
         if !matches!(name, "quad" | "translated sphere" | "constant environment") {
             continue;
         }
-        let s = room(&format!("{light}\nAttributeEnd\n{objects}\nAttributeBegin"), false, 5);
-        let pt = estimate(&with(&s, IntegratorKind::PathTracer, 1024, 5), SEEDS, 2, Bvh);
+        let s = room(
+            &format!("{light}\nAttributeEnd\n{objects}\nAttributeBegin"),
+            false,
+            5,
+        );
+        let pt = estimate(
+            &with(&s, IntegratorKind::PathTracer, 1024, 5),
+            SEEDS,
+            2,
+            Bvh,
+        );
         let bdpt = estimate(&with(&s, IntegratorKind::Bdpt, 256, 5), SEEDS, 2, Bvh);
-        assert_agree(&format!("every material under the {name}: bdpt vs pt"), &bdpt, &pt, 5.0, 0.002);
+        assert_agree(
+            &format!("every material under the {name}: bdpt vs pt"),
+            &bdpt,
+            &pt,
+            5.0,
+            0.002,
+        );
         let mut m = with_mmlt(s.clone(), 256);
         m.settings.max_depth = 5;
         let mmlt = estimate(&m, SEEDS, 2, Bvh);
-        assert_agree(&format!("every material under the {name}: mmlt vs pt"), &mmlt, &pt, 5.0, 0.005);
+        assert_agree(
+            &format!("every material under the {name}: mmlt vs pt"),
+            &mmlt,
+            &pt,
+            5.0,
+            0.005,
+        );
     }
 }

@@ -169,7 +169,11 @@ fn mmlt_is_deterministic_per_seed_and_seeds_are_independent() {
     for accel in [Bvh, RayQuery] {
         let a = render_mmlt(&s, 5, accel, false);
         let b = render_mmlt(&s, 5, accel, false);
-        assert_eq!(mmlt_report(&a).b, mmlt_report(&b).b, "same seed, different bootstrap");
+        assert_eq!(
+            mmlt_report(&a).b,
+            mmlt_report(&b).b,
+            "same seed, different bootstrap"
+        );
         assert!(
             a.image.pixels == b.image.pixels,
             "{accel:?}: same seed, different images (max relative difference {})",

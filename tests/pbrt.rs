@@ -236,7 +236,10 @@ fn a_sphere_light_in_pbrt_syntax_renders_like_its_test_twin_in_every_integrator(
         )
         .expect("parses")
     };
-    for (name, p) in [("one-sided", pbrt("")), ("two-sided", pbrt("\"bool twosided\" true"))] {
+    for (name, p) in [
+        ("one-sided", pbrt("")),
+        ("two-sided", pbrt("\"bool twosided\" true")),
+    ] {
         for (integrator, spp) in [
             (IntegratorKind::PathTracer, 512),
             (IntegratorKind::Bdpt, 128),

@@ -13,7 +13,7 @@ mod common;
 use ash::vk;
 use common::*;
 use lightpath::render::{AccelChoice, Renderer, Validation};
-use lightpath::scene::{IntegratorKind, NextEventEstimation};
+use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene};
 use lightpath::trace::Trace;
 
 fn open_validated(accel: AccelChoice, validation: Validation) -> Renderer {
@@ -23,6 +23,18 @@ fn open_validated(accel: AccelChoice, validation: Validation) -> Renderer {
              Install them with scripts/setup-system.sh (mesa-vulkan-drivers, vulkan-validationlayers)"
         )
     })
+}
+
+/// The project scene `name` at 24 × 16, 3 spp, maxdepth 4, NEE with MIS.
+fn small(name: &str, integrator: IntegratorKind) -> Scene {
+    let mut s = load(name);
+    s.width = 24;
+    s.height = 16;
+    s.settings.spp = 3;
+    s.settings.max_depth = 4;
+    s.settings.integrator = integrator;
+    s.settings.nee = NextEventEstimation::Mis;
+    s
 }
 
 /// Renders every integrator (BDPT in tiles with strategy images, MMLT with depth images
@@ -39,14 +51,7 @@ fn run_everything_under(runs: &[(AccelChoice, Validation)]) {
                 IntegratorKind::AnalyticDirect,
                 IntegratorKind::Bdpt,
             ] {
-                let mut s = load(name);
-                s.width = 24;
-                s.height = 16;
-                s.settings.spp = 3;
-                s.settings.max_depth = 4;
-                s.settings.integrator = integrator;
-                s.settings.nee = NextEventEstimation::Mis;
-                r.render(&s, 1, &mut Trace::new())
+                r.render(&small(name, integrator), 1, &mut Trace::new())
                     .unwrap_or_else(|e| panic!("{name} {integrator:?} {accel:?}: {e:#}"));
             }
         }
@@ -120,15 +125,12 @@ fn the_path_tracers_buffer_accesses_pass_gpu_assisted_validation() {
     let mut r = open_validated(AccelChoice::Bvh, Validation::Full);
     // Spheres, quads, GGX and Phong; the path tracer and `direct` share the kernel.
     for integrator in [IntegratorKind::PathTracer, IntegratorKind::Direct] {
-        let mut s = load("cornell-glossy.test");
-        s.width = 24;
-        s.height = 16;
-        s.settings.spp = 3;
-        s.settings.max_depth = 4;
-        s.settings.integrator = integrator;
-        s.settings.nee = NextEventEstimation::Mis;
-        r.render(&s, 1, &mut Trace::new())
-            .unwrap_or_else(|e| panic!("{integrator:?} under GPU-assisted validation: {e:#}"));
+        r.render(
+            &small("cornell-glossy.test", integrator),
+            1,
+            &mut Trace::new(),
+        )
+        .unwrap_or_else(|e| panic!("{integrator:?} under GPU-assisted validation: {e:#}"));
     }
     let v = r.validation().expect("validation was requested");
     assert!(

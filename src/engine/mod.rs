@@ -14,7 +14,8 @@ pub use passes::{band_rows, Passes};
 pub use run::{RunOptions, RunResult, SnapshotWriter, Snapshots, Work};
 
 use crate::abi::{
-    BsdfKind, SceneParams, SPLAT_WORDS_PER_PIXEL, STAT_COUNT, STAT_OUT_OF_RANGE, STAT_SPLAT_OVERFLOW,
+    BsdfKind, SceneParams, SPLAT_WORDS_PER_PIXEL, STAT_COUNT, STAT_OUT_OF_RANGE,
+    STAT_SPLAT_OVERFLOW,
 };
 use crate::accel::BvhKind;
 use crate::gpu::buffer::{memory_barrier, Buffer};

@@ -1345,12 +1345,7 @@ impl Parser {
             }
             (None, None) => None,
         };
-        for name in [
-            "diagonal",
-            "savefp16",
-            "maxcomponentvalue",
-            "whitebalance",
-        ] {
+        for name in ["diagonal", "savefp16", "maxcomponentvalue", "whitebalance"] {
             params.find(name);
         }
         self.check_used("Film", &format!("\"{ty}\""), params);
@@ -2803,8 +2798,12 @@ mod tests {
     #[test]
     fn every_parameter_name_read_is_pbrt_v4s_own() {
         let table = include_str!("data/pbrt-v4-parameters.txt");
-        let mut names: HashMap<(String, String), std::collections::HashSet<String>> = HashMap::new();
-        for line in table.lines().filter(|l| !l.starts_with('#') && !l.is_empty()) {
+        let mut names: HashMap<(String, String), std::collections::HashSet<String>> =
+            HashMap::new();
+        for line in table
+            .lines()
+            .filter(|l| !l.starts_with('#') && !l.is_empty())
+        {
             let (head, list) = line.split_once(':').expect("Directive type: names");
             let words: Vec<&str> = head.split_whitespace().collect();
             // "Texture float imagemap" and "Texture imagemap" are both "Texture imagemap".
@@ -2835,21 +2834,47 @@ mod tests {
                 "Shape \"loopsubdiv\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0 ] \"integer indices\" [ 0 1 2 ]",
             ),
         ];
-        for ty in ["path", "volpath", "bdpt", "mlt", "simplepath", "lightpath", "sppm"] {
+        for ty in [
+            "path",
+            "volpath",
+            "bdpt",
+            "mlt",
+            "simplepath",
+            "lightpath",
+            "sppm",
+        ] {
             files.push(format!("Integrator \"{ty}\"\nWorldBegin\n"));
         }
-        for ty in ["point", "spot", "distant", "infinite", "goniometric", "projection"] {
+        for ty in [
+            "point",
+            "spot",
+            "distant",
+            "infinite",
+            "goniometric",
+            "projection",
+        ] {
             files.push(world(&format!("LightSource \"{ty}\"")));
         }
         for ty in ["sphere", "disk", "cylinder", "curve", "plymesh"] {
             files.push(world(&format!("Shape \"{ty}\"")));
         }
         for ty in [
-            "diffuse", "dielectric", "thindielectric", "conductor", "coateddiffuse", "coatedconductor",
-            "diffusetransmission", "measured", "interface", "hair", "subsurface",
+            "diffuse",
+            "dielectric",
+            "thindielectric",
+            "conductor",
+            "coateddiffuse",
+            "coatedconductor",
+            "diffusetransmission",
+            "measured",
+            "interface",
+            "hair",
+            "subsurface",
         ] {
             files.push(world(&format!("Material \"{ty}\"")));
-            files.push(world(&format!("MakeNamedMaterial \"m\" \"string type\" \"{ty}\"")));
+            files.push(world(&format!(
+                "MakeNamedMaterial \"m\" \"string type\" \"{ty}\""
+            )));
         }
         files.push(world(
             "MakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n\
@@ -2857,8 +2882,18 @@ mod tests {
         ));
         for ty in ["float", "spectrum"] {
             for class in [
-                "constant", "scale", "mix", "directionmix", "checkerboard", "dots", "fbm", "wrinkled",
-                "windy", "marble", "bilerp", "ptex",
+                "constant",
+                "scale",
+                "mix",
+                "directionmix",
+                "checkerboard",
+                "dots",
+                "fbm",
+                "wrinkled",
+                "windy",
+                "marble",
+                "bilerp",
+                "ptex",
             ] {
                 files.push(world(&format!("Texture \"t\" \"{ty}\" \"{class}\"")));
             }
@@ -2886,7 +2921,12 @@ mod tests {
             foreign.join("\n")
         );
         // (The check has teeth: the directives it covers were read.)
-        for (d, ty) in [("LightSource", "spot"), ("Shape", "sphere"), ("Material", "coateddiffuse"), ("Film", "rgb")] {
+        for (d, ty) in [
+            ("LightSource", "spot"),
+            ("Shape", "sphere"),
+            ("Material", "coateddiffuse"),
+            ("Film", "rgb"),
+        ] {
             assert!(
                 read.iter().any(|(a, b, _)| a == d && b == ty),
                 "no names recorded for {d} {ty}"
