@@ -206,20 +206,24 @@ fn compile(
     Ok(artifact.as_binary_u8().to_vec())
 }
 
-/// The variants each kernel is compiled in: the kernel itself, and for the path tracer
-/// and BDPT the profiling variants of `lightpath profile`, each of which does one stage
-/// twice (the `PROFILE_X2_*` blocks of glsl/lib/trace.glsl, trace_bvh_common.glsl,
-/// rng.glsl, bsdf.glsl and lights.glsl): (name suffix, define).
+/// The variants each kernel is compiled in: the kernel itself, and the profiling variants
+/// of `lightpath profile`, each of which does one stage twice (the `PROFILE_X2_*` blocks of
+/// glsl/lib/trace.glsl, trace_bvh_common.glsl, rng.glsl, bsdf.glsl and lights.glsl), for
+/// the kernels that hold that stage: (name suffix, define).
 fn variants(kernel: &str) -> Vec<(&'static str, Option<&'static str>)> {
+    const TRACE: (&str, Option<&str>) = ("x2trace", Some("PROFILE_X2_TRACE"));
+    const PRIM: (&str, Option<&str>) = ("x2prim", Some("PROFILE_X2_PRIM"));
+    const RNG: (&str, Option<&str>) = ("x2rng", Some("PROFILE_X2_RNG"));
+    const BSDF: (&str, Option<&str>) = ("x2bsdf", Some("PROFILE_X2_BSDF"));
+    const LIGHT: (&str, Option<&str>) = ("x2light", Some("PROFILE_X2_LIGHT"));
     let mut v = vec![("", None)];
-    if kernel == "pt" || kernel == "bdpt" {
-        v.extend([
-            ("x2trace", Some("PROFILE_X2_TRACE")),
-            ("x2prim", Some("PROFILE_X2_PRIM")),
-            ("x2rng", Some("PROFILE_X2_RNG")),
-            ("x2bsdf", Some("PROFILE_X2_BSDF")),
-            ("x2light", Some("PROFILE_X2_LIGHT")),
-        ]);
+    match kernel {
+        "bdpt" => v.extend([TRACE, PRIM, RNG, BSDF, LIGHT]),
+        "pt_trace" | "pt_shadow" => v.extend([TRACE, PRIM]),
+        "pt_camera" => v.push(RNG),
+        "pt_hit" => v.extend([RNG, LIGHT]),
+        k if k.starts_with("pt_shade_") => v.extend([RNG, BSDF]),
+        _ => {}
     }
     v
 }

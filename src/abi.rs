@@ -124,6 +124,39 @@ pub struct GpuPathVertex {
     pub ns: [f32; 4],
 }
 
+/// One path of the wavefront path tracer (abi.h).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuPtPath {
+    pub o: [f32; 4],
+    pub d: [f32; 4],
+    pub beta: [f32; 4],
+    pub radiance: [f32; 4],
+    pub prev_p: [f32; 4],
+    pub hit: [f32; 4],
+    pub p: [f32; 4],
+    pub n: [f32; 4],
+    pub ns: [f32; 4],
+    pub ls_wi: [f32; 4],
+    pub ls_le: [f32; 4],
+    pub ls_p: [f32; 4],
+    pub ls_n: [f32; 4],
+}
+
+/// A wavefront stage's push constants (abi.h).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct WavefrontParams {
+    pub first_sample: u32,
+    pub samples: u32,
+    pub row_begin: u32,
+    pub row_end: u32,
+    pub slots: u32,
+    pub depth: u32,
+    pub reset: u32,
+    pub reserved: u32,
+}
+
 /// A pass's push constants (abi.h).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -307,9 +340,21 @@ pub fn layouts() -> Vec<StructLayout> {
             reserved3
         ),
         layout!(GpuPathVertex, p, n, wi, beta, ns),
+        layout!(GpuPtPath, o, d, beta, radiance, prev_p, hit, p, n, ns, ls_wi, ls_le, ls_p, ls_n),
         layout!(GpuTriangleAttributes, uv01, uv2, n0, n1, n2),
         layout!(GpuTexture, info, flags, scale, other, mapping),
         layout!(PassParams, first_sample, samples, row_begin, row_end),
+        layout!(
+            WavefrontParams,
+            first_sample,
+            samples,
+            row_begin,
+            row_end,
+            slots,
+            depth,
+            reset,
+            reserved
+        ),
         layout!(
             MmltParams,
             mode,
@@ -342,3 +387,5 @@ const _: () = assert!(std::mem::size_of::<GpuEmitter>() == 80);
 const _: () = assert!(std::mem::size_of::<SceneParams>() == 256);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 80);
+const _: () = assert!(std::mem::size_of::<GpuPtPath>() == 208);
+const _: () = assert!(std::mem::size_of::<WavefrontParams>() == 32);

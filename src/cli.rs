@@ -104,7 +104,7 @@ enum Command {
     /// List Vulkan devices with their driver, ray-query support and limits.
     Devices,
     /// Compare image A against reference B: mean per channel, RMSE, relMSE (ε = 0.01),
-    /// and how each was rendered (from its metadata).
+    /// the pixels whose bits differ, and how each was rendered (from its metadata).
     Compare { a: PathBuf, b: PathBuf },
     /// Average EXR renders of the same scene and settings made with different seeds,
     /// weighted by their samples per pixel (refuses inputs that do not belong together).
@@ -484,7 +484,7 @@ fn compare_command(a: &Path, b: &Path) -> Result<()> {
         None => "no lightpath metadata".to_string(),
     };
     let text = format!(
-        "mean A: {:.6} {:.6} {:.6}\nmean B: {:.6} {:.6} {:.6}\nRMSE: {:.6}\nrelMSE: {:.6}\nA: {}\nB: {}\n",
+        "mean A: {:.6} {:.6} {:.6}\nmean B: {:.6} {:.6} {:.6}\nRMSE: {:.6}\nrelMSE: {:.6}\ndiffering pixels: {} of {}{}\nA: {}\nB: {}\n",
         c.mean_a[0],
         c.mean_a[1],
         c.mean_a[2],
@@ -493,6 +493,9 @@ fn compare_command(a: &Path, b: &Path) -> Result<()> {
         c.mean_b[2],
         c.rmse,
         c.relmse,
+        c.differing_pixels,
+        ia.pixels.len(),
+        if c.differing_pixels == 0 { " (bit-identical)" } else { "" },
         describe(&info_a),
         describe(&info_b)
     );

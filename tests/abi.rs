@@ -104,9 +104,24 @@ fn kernel_bindings_come_from_the_spirv() {
             );
             continue;
         }
-        // Every other kernel traces rays.
-        assert!(has(abi::BINDING_SCENE), "{kernel} ({backend}): {numbers:?}");
-        if *backend == "rayquery" {
+        // Every other kernel reads the scene; the visibility backend is only in those
+        // that trace rays (of the wavefront path tracer's stages, pt_trace and pt_shadow).
+        let base = kernel.split('+').next().unwrap_or(kernel);
+        let traces = matches!(
+            base,
+            "direct" | "analytic" | "bdpt" | "mmlt" | "trace_probe" | "pt_trace" | "pt_shadow"
+        );
+        if base != "wf_queues" {
+            assert!(has(abi::BINDING_SCENE), "{kernel} ({backend}): {numbers:?}");
+        }
+        if !traces {
+            assert!(
+                !has(abi::BINDING_TLAS)
+                    && !has(abi::BINDING_BVH_NODES)
+                    && !has(abi::BINDING_BVH_PRIMS),
+                "{kernel} ({backend}) holds the visibility backend: {numbers:?}"
+            );
+        } else if *backend == "rayquery" {
             assert!(
                 has(abi::BINDING_TLAS) && !has(abi::BINDING_BVH_NODES),
                 "{kernel} ({backend}): {numbers:?}"
@@ -117,9 +132,26 @@ fn kernel_bindings_come_from_the_spirv() {
                 "{kernel} ({backend}): {numbers:?}"
             );
         }
-        let base = kernel.split('+').next().unwrap_or(kernel);
+        // The wavefront's stages keep their paths and queues in the wavefront's buffers;
+        // only pt_finish writes the film.
+        if base.starts_with("pt_") || base == "wf_queues" {
+            let finish = base == "pt_finish";
+            assert_eq!(
+                has(abi::BINDING_WF_QUEUES),
+                !finish,
+                "{kernel}: {numbers:?}"
+            );
+            assert_eq!(
+                has(abi::BINDING_WF_PATHS),
+                base != "wf_queues",
+                "{kernel}: {numbers:?}"
+            );
+            assert_eq!(has(abi::BINDING_FILM), finish, "{kernel}: {numbers:?}");
+            assert!(!has(abi::BINDING_SPLAT), "{kernel}: {numbers:?}");
+            continue;
+        }
         match base {
-            "pt" | "analytic" => assert!(has(abi::BINDING_FILM) && !has(abi::BINDING_SPLAT)),
+            "direct" | "analytic" => assert!(has(abi::BINDING_FILM) && !has(abi::BINDING_SPLAT)),
             "bdpt" => assert!(
                 has(abi::BINDING_SPLAT)
                     && has(abi::BINDING_PATH_VERTICES)

@@ -129,7 +129,7 @@ fn render_writes_images_trace_and_compare_reads_them() {
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("pt pass") && err.contains("parse"),
+        err.contains("pt trace") && err.contains("parse"),
         "summary table missing: {err}"
     );
     let out = lightpath(
@@ -159,7 +159,7 @@ fn render_writes_images_trace_and_compare_reads_them() {
     let events = trace["traceEvents"].as_array().expect("traceEvents");
     assert!(events
         .iter()
-        .any(|e| e["cat"] == "gpu" && e["name"] == "pt pass"));
+        .any(|e| e["cat"] == "gpu" && e["name"] == "pt trace"));
     assert!(events
         .iter()
         .any(|e| e["cat"] == "cpu" && e["name"] == "parse"));

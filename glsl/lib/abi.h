@@ -40,6 +40,11 @@
 #define BINDING_TEXTURES 22
 #define BINDING_TEXELS 23
 #define BINDING_TRIANGLE_ATTRIBUTES 24
+// Wavefront state (lib/wavefront.glsl): the paths, the queues' counts and dispatch
+// arguments, and the queues' entries.
+#define BINDING_WF_PATHS 25
+#define BINDING_WF_QUEUES 26
+#define BINDING_WF_ITEMS 27
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -155,6 +160,26 @@
 // 64-bit sum, and 32-bit words per pixel (low and high word of r, g, b; two unused).
 #define SPLAT_FRACTION_BITS 32
 #define SPLAT_WORDS_PER_PIXEL 8
+
+// The wavefront path tracer (pt_*.comp, lib/wavefront.glsl). Threads per workgroup of
+// its stages (one path, or one pixel, each).
+#define WF_WORKGROUP_SIZE 64
+// Its queues of path indices: paths with a ray to trace, paths with a shadow ray, and
+// one queue per material class (the shading stage of each class consumes its own).
+#define WF_QUEUE_RAYS 0
+#define WF_QUEUE_SHADOW 1
+#define WF_QUEUE_CLASS_BASIC 2
+#define WF_QUEUE_CLASS_INTERFACE 3
+#define WF_QUEUE_CLASS_COATED 4
+#define WF_QUEUE_COUNT 5
+// Material classes, each shaded by its own kernel: the course BRDFs (Phong, GGX); the
+// interfaces (dielectric, thin dielectric, conductor); coated diffuse.
+#define MATERIAL_CLASS_BASIC 0
+#define MATERIAL_CLASS_INTERFACE 1
+#define MATERIAL_CLASS_COATED 2
+#define MATERIAL_CLASS_COUNT 3
+// GpuPtPath.hit.x of a ray that left the scene.
+#define NO_HIT 4294967295
 
 // MMLT dispatch modes (MmltParams.run.x).
 #define MMLT_MODE_BOOTSTRAP 0
@@ -315,6 +340,42 @@ struct PassParams {
     uint row_begin;
     uint row_end;
 };
+
+// The push constants of a wavefront stage: the wavefront is samples first_sample ..
+// first_sample + samples of the rows row_begin .. row_end, one path each (slots paths,
+// path i is sample i / P of pixel i % P of the band, P its pixels); depth: the bounce
+// (vertices so far); reset: the queues wf_queues.comp empties (bit q: queue q).
+struct WavefrontParams {
+    uint first_sample;
+    uint samples;
+    uint row_begin;
+    uint row_end;
+    uint slots;
+    uint depth;
+    uint reset;
+    uint reserved;
+};
+
+// One path of the wavefront path tracer (lib/pt_path.glsl packs and unpacks it).
+struct GpuPtPath {
+    vec4 o;          // xyz the ray's origin, w the rng's counter (uint bits)
+    vec4 d;          // xyz its direction, w flags (PT_PATH_*)
+    vec4 beta;       // xyz throughput, w the pdf of the BSDF sample that led here
+    vec4 radiance;   // xyz radiance so far, w rays traced (uint bits)
+    vec4 prev_p;     // xyz the previous vertex, w the hit's t
+    vec4 hit;        // x primitive (NO_HIT: none), yz barycentrics, w material
+    vec4 p;          // xyz the hit point, w its u
+    vec4 n;          // xyz geometric normal on the side of -d, w its v
+    vec4 ns;         // xyz shading normal on n's side, w 1 when n is the material's front
+    vec4 ls_wi;      // light sample: direction, distance; then the shadow ray's origin, extent
+    vec4 ls_le;      // light sample: radiance, pdf; then the shadow ray's direction
+    vec4 ls_p;       // light sample: point, w 1 when delta; then the estimate f L cos w / pdf
+    vec4 ls_n;       // light sample: normal; then the throughput that multiplies the estimate
+};
+// GpuPtPath.d.w flags.
+#define PT_PATH_PREV_DELTA 1
+#define PT_PATH_LIGHT_SAMPLE 2
+#define PT_PATH_LIGHT_SAMPLE_OK 4
 
 // MMLT's push constants (mmlt.comp).
 struct MmltParams {

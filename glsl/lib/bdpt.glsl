@@ -23,10 +23,8 @@
 #include "bsdf.glsl"
 #include "trace.glsl"
 #include "lights.glsl"
+#include "visibility.glsl"
 #include "camera.glsl"
-
-// Rays this invocation traced (the kernel adds them to its film or chain).
-uint rays_traced = 0u;
 
 // Scattering vertices of the longest path that gets every strategy.
 uint max_scatter() { return scene.max_depth; }
@@ -41,8 +39,6 @@ float pixel_area() {
 float mis(float x) { return x * x; }
 
 bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
-
-bool closest(vec3 o, vec3 d, out Hit hit) { rays_traced++; return trace_closest(o, d, INF, hit); }
 
 // Is the segment between two surface points a and b (normals na, nb on the sides the
 // segment leaves from) unoccluded?

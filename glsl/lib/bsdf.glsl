@@ -437,9 +437,27 @@ bool interface_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, uint transport, out
     return conductor_sample(b, fr, lo, u, s);
 }
 
+// The material class of a BSDF kind (MATERIAL_CLASS_*): the wavefront path tracer
+// shades each class in a kernel of its own.
+uint material_class(uint kind) {
+    if (kind == BSDF_COATED_DIFFUSE) return MATERIAL_CLASS_COATED;
+    if (kind == BSDF_PHONG || kind == BSDF_GGX) return MATERIAL_CLASS_BASIC;
+    return MATERIAL_CLASS_INTERFACE;
+}
+
+// A kernel that shades one material class defines SHADE_CLASS (a MATERIAL_CLASS_*): the
+// tests below are then constants, and the other classes' code is left out of it.
 // (Kernels for scenes without interface materials take every BSDF for a course one.)
 bool bsdf_is_course_brdf(BsdfParams b) {
+#if defined(SHADE_CLASS) && SHADE_CLASS == MATERIAL_CLASS_BASIC
+    return true;
+#elif defined(SHADE_CLASS) && SHADE_CLASS == MATERIAL_CLASS_INTERFACE
+    return false;
+#elif defined(SHADE_CLASS)
+    return !has_feature(FEATURE_INTERFACES);
+#else
     return !has_feature(FEATURE_INTERFACES) || b.kind == BSDF_PHONG || b.kind == BSDF_GGX;
+#endif
 }
 
 // lightpath profile: PROFILE_X2_BSDF evaluates, samples and weighs every BSDF twice
@@ -542,7 +560,13 @@ bool analytic_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint tran
 // diffuse answers through its walk engine (layered.glsl). Neither calls the other, so
 // that a kernel inlines the engine only where it asks the coated BSDF a question.
 // (Its walk engine is large: kernels carry it only for scenes that have coated materials.)
-bool bsdf_is_coated(BsdfParams b) { return has_feature(FEATURE_COATED_DIFFUSE) && b.kind == BSDF_COATED_DIFFUSE; }
+bool bsdf_is_coated(BsdfParams b) {
+#if defined(SHADE_CLASS)
+    return SHADE_CLASS == MATERIAL_CLASS_COATED;
+#else
+    return has_feature(FEATURE_COATED_DIFFUSE) && b.kind == BSDF_COATED_DIFFUSE;
+#endif
+}
 
 vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
     if (!bsdf_is_coated(b)) return analytic_eval(b, n, wo, wi, transport);

@@ -8,6 +8,7 @@
 #define CAMERA_GLSL
 #include "bindings.glsl"
 #include "sampling.glsl"
+#include "rng.glsl"
 
 // A thin lens draws two numbers per camera ray and per t = 1 connection; a pinhole none
 // (so that pinhole renders keep the numbers they had).
@@ -71,5 +72,13 @@ bool camera_project(vec3 p, vec3 eye, out uvec2 pixel, out vec3 to_eye, out floa
     if (!(film.x >= 0.0 && film.x < 1.0 && film.y >= 0.0 && film.y < 1.0)) return false;
     pixel = min(uvec2(film * vec2(uvec2(scene.width, scene.height))), uvec2(scene.width, scene.height) - 1u);
     return true;
+}
+// A camera ray through the pixel for the path tracers: two numbers of rng over the
+// pixel, two over a thin lens.
+void camera_sample(uvec2 pixel, inout Rng rng, out vec3 o, out vec3 d) {
+    vec2 u_pixel = rng_next2(rng);
+    vec2 u_lens = vec2(0.0);
+    if (camera_has_lens()) u_lens = rng_next2(rng);
+    camera_ray(camera_pixel_film(pixel, u_pixel), u_lens, o, d);
 }
 #endif

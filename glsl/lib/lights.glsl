@@ -6,7 +6,7 @@
 #include "bindings.glsl"
 #include "sampling.glsl"
 #include "bsdf.glsl"
-#include "trace.glsl"
+#include "geometry.glsl"
 #include "texture.glsl"
 #include "features.glsl"
 
@@ -316,14 +316,21 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
 }
 #endif
 
-// Is the light sample visible from p (offset along n toward the light)?
-bool light_sample_visible(vec3 p, vec3 n, LightSample ls) {
-    vec3 o = offset_ray_origin(p, dot(ls.wi, n) > 0.0 ? n : -n);
-    if (ls.dist == INF) return !trace_occluded(o, ls.wi, INF);
+// The shadow ray of a light sample seen from p: its origin (p offset along n toward the
+// light), unit direction and extent (INF for lights at infinity). Traced by
+// light_sample_visible (visibility.glsl) or by a wavefront's shadow stage.
+void light_sample_shadow_ray(vec3 p, vec3 n, LightSample ls, out vec3 o, out vec3 d, out float tmax) {
+    o = offset_ray_origin(p, dot(ls.wi, n) > 0.0 ? n : -n);
+    if (ls.dist == INF) {
+        d = ls.wi;
+        tmax = INF;
+        return;
+    }
     vec3 target = ls.delta ? ls.p : offset_ray_origin(ls.p, dot(ls.n, -ls.wi) > 0.0 ? ls.n : -ls.n);
     vec3 to = target - o;
     float dist = length(to);
-    return !trace_occluded(o, to / dist, dist);
+    d = to / dist;
+    tmax = dist;
 }
 
 // Solid-angle pdf (pick included) with which sample_emitter would have produced the
@@ -341,6 +348,26 @@ float emitter_pdf_solid_angle(uint e, vec3 ref, vec3 p, vec3 ng) {
 // Next-event estimation and emitter hits, shared by the path tracer and BDPT (whose s = 1
 // and s = 0 strategies these are).
 
+// The BSDF's half of a light sample ls (drawn by sample_emitter, with ls.pdf > 0) at a
+// surface vertex (unit geometric normal n on the side of wo, shading normal ns on n's
+// side): f toward the light, the shading cosine |ns.wi| and the pdfs as
+// sample_direct_light gives them. False when it cannot contribute. (The wavefront path
+// tracer draws the light sample in one stage and asks the material in another.)
+bool direct_light_bsdf(BsdfParams b, vec3 n, vec3 ns, vec3 wo, uint mode, bool want_fwd, bool want_rev,
+                       LightSample ls, out vec3 f, out float cos_theta, out float pdf_fwd, out float pdf_rev) {
+    f = vec3(0.0);
+    cos_theta = 0.0;
+    pdf_fwd = 0.0;
+    pdf_rev = 0.0;
+    if (!(dot(ns, wo) > 0.0) || !shading_side_agrees(n, ns, ls.wi)) return false;
+    // The course's BRDFs reflect only; the interface BSDFs may transmit toward the light.
+    float c = dot(ns, ls.wi);
+    if (bsdf_is_course_brdf(b) && !(c > 0.0)) return false;
+    cos_theta = abs(c);
+    f = bsdf_eval_pdfs(b, mode, ns, wo, ls.wi, TRANSPORT_RADIANCE, want_fwd, want_rev, pdf_fwd, pdf_rev);
+    return f != vec3(0.0);
+}
+
 // A light sample at a surface vertex (p, unit geometric normal n on the side of wo, shading
 // normal ns on n's side) for the BSDF b: the sample, the BSDF value toward it and the
 // shading cosine |ns.wi| (the light may lie behind a transmitting surface). False when it
@@ -356,13 +383,7 @@ bool sample_direct_light(BsdfParams b, uint e, vec3 p, vec3 n, vec3 ns, vec3 wo,
     pdf_fwd = 0.0;
     pdf_rev = 0.0;
     if (!sample_emitter(e, p, u, ls) || !(ls.pdf > 0.0)) return false;
-    if (!(dot(ns, wo) > 0.0) || !shading_side_agrees(n, ns, ls.wi)) return false;
-    // The course's BRDFs reflect only; the interface BSDFs may transmit toward the light.
-    float c = dot(ns, ls.wi);
-    if (bsdf_is_course_brdf(b) && !(c > 0.0)) return false;
-    cos_theta = abs(c);
-    f = bsdf_eval_pdfs(b, mode, ns, wo, ls.wi, TRANSPORT_RADIANCE, want_fwd, want_rev, pdf_fwd, pdf_rev);
-    return f != vec3(0.0);
+    return direct_light_bsdf(b, n, ns, wo, mode, want_fwd, want_rev, ls, f, cos_theta, pdf_fwd, pdf_rev);
 }
 
 // Power-heuristic weight of a light sample against BSDF sampling of the same direction

@@ -22,6 +22,9 @@ pub struct Dispatch {
     pub groups: [u32; 3],
     /// The GPU span it is timed as in the trace; `None`: not timed.
     pub span: Option<String>,
+    /// Group counts read on the device from this buffer at this offset (a
+    /// `VkDispatchIndirectCommand` a previous dispatch wrote) instead of `groups`.
+    pub indirect: Option<(vk::Buffer, u64)>,
 }
 
 impl Dispatch {
@@ -40,7 +43,21 @@ impl Dispatch {
             push: bytemuck::bytes_of(push).to_vec(),
             groups,
             span: None,
+            indirect: None,
         }
+    }
+
+    /// `kernel` with its group counts read from `buffer` at `offset` when it runs.
+    pub fn indirect(
+        kernel: &Kernel,
+        set: vk::DescriptorSet,
+        push: &impl bytemuck::Pod,
+        buffer: vk::Buffer,
+        offset: u64,
+    ) -> Dispatch {
+        let mut d = Dispatch::new(kernel, set, push, [0, 0, 0]);
+        d.indirect = Some((buffer, offset));
+        d
     }
 
     /// Time it on the device as a span named `span`.
@@ -131,19 +148,25 @@ impl Engine {
                     }
                     None => None,
                 };
-                device
-                    .raw
-                    .cmd_dispatch(cmd, d.groups[0], d.groups[1], d.groups[2]);
+                match d.indirect {
+                    Some((buffer, offset)) => device.raw.cmd_dispatch_indirect(cmd, buffer, offset),
+                    None => device
+                        .raw
+                        .cmd_dispatch(cmd, d.groups[0], d.groups[1], d.groups[2]),
+                }
                 timestamps.end(cmd, span);
                 memory_barrier(
                     device,
                     cmd,
                     (compute, vk::AccessFlags::SHADER_WRITE),
                     (
-                        compute | vk::PipelineStageFlags::TRANSFER,
+                        compute
+                            | vk::PipelineStageFlags::TRANSFER
+                            | vk::PipelineStageFlags::DRAW_INDIRECT,
                         vk::AccessFlags::SHADER_READ
                             | vk::AccessFlags::SHADER_WRITE
-                            | vk::AccessFlags::TRANSFER_READ,
+                            | vk::AccessFlags::TRANSFER_READ
+                            | vk::AccessFlags::INDIRECT_COMMAND_READ,
                     ),
                 );
             }

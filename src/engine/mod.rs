@@ -267,6 +267,19 @@ impl Engine {
         )?)
     }
 
+    /// A zero-filled storage buffer that indirect dispatches may also read their group
+    /// counts from, and that the host can read back.
+    pub fn indirect_buffer(&self, name: &str, bytes: u64) -> Result<Buffer> {
+        Ok(Buffer::zeroed(
+            &self.device,
+            name,
+            bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::INDIRECT_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+        )?)
+    }
+
     /// A storage buffer in device memory only (the kernels' scratch).
     pub fn device_buffer(&self, name: &str, bytes: u64) -> Result<Buffer> {
         Ok(Buffer::device_local(
@@ -395,6 +408,7 @@ impl Engine {
         let name = d.kernel;
         d.span = None;
         d.groups = [1, 1, 1];
+        d.indirect = None;
         let started = std::time::Instant::now();
         trace.cpu("kernel warm-up", || {
             self.submit(&[d], "warming up the kernel", &mut Trace::new())

@@ -28,6 +28,12 @@ pub trait Work {
     fn total(&self) -> u64;
     /// The dispatches of units `first .. first + count`.
     fn dispatches(&mut self, first: u64, count: u64) -> Result<Vec<Dispatch>>;
+    /// More dispatches for the units of the last `dispatches`, asked after each
+    /// submission until it returns `None` (work whose length the device decides: the
+    /// wavefront path tracer's bounces at unbounded depth). The units count as done then.
+    fn more(&mut self) -> Result<Option<Vec<Dispatch>>> {
+        Ok(None)
+    }
     /// The image after `done` units and its samples per pixel, for a snapshot; `None`
     /// when this work writes none.
     fn snapshot(&self, _done: u64) -> Result<Option<(Image, u64)>> {
@@ -123,8 +129,12 @@ impl Engine {
             );
             let t0 = Instant::now();
             let times = self.submit(&list, &stage, trace)?;
-            let wall = t0.elapsed().as_secs_f64();
             result.times.merge(&times);
+            while let Some(list) = work.more()? {
+                let times = self.submit(&list, &stage, trace)?;
+                result.times.merge(&times);
+            }
+            let wall = t0.elapsed().as_secs_f64();
             result.done += n;
             if self.snapshot_due() {
                 if let Some((image, samples)) =

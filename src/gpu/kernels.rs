@@ -3,7 +3,7 @@
 //! kernel binds; descriptor sets are written by binding number from abi.h.
 use super::reflect::{kernel_bindings, KernelBinding};
 use super::{other_error, Device, GpuResult, Stage};
-use crate::abi::{MmltParams, PassParams};
+use crate::abi::{MmltParams, PassParams, WavefrontParams};
 use ash::vk;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -40,7 +40,9 @@ pub fn spirv(kernel: &str, backend: Backend) -> Option<&'static [u8]> {
 
 /// The push-constant range every kernel shares: the largest per-dispatch struct.
 pub fn push_constant_bytes() -> u32 {
-    std::mem::size_of::<PassParams>().max(std::mem::size_of::<MmltParams>()) as u32
+    std::mem::size_of::<PassParams>()
+        .max(std::mem::size_of::<MmltParams>())
+        .max(std::mem::size_of::<WavefrontParams>()) as u32
 }
 
 /// A kernel ready to dispatch: its pipeline, layouts and the bindings it uses.

@@ -1,0 +1,86 @@
+// The wavefront path tracer's shading stage for the material class SHADE_CLASS (defined
+// by the pt_shade_*.comp that includes this): the BSDF toward the path's light sample
+// (queued as a shadow ray with its estimate), then the BSDF sample that continues the
+// path (throughput, Russian roulette, the next ray queued for tracing). Only the class's
+// own BSDFs are compiled in (bsdf.glsl's SHADE_CLASS).
+#ifndef PT_SHADE_GLSL
+#define PT_SHADE_GLSL
+#include "wavefront.glsl"
+#include "sampling.glsl"
+#include "bsdf.glsl"
+#include "geometry.glsl"
+#include "lights.glsl"
+
+void main() {
+    uint i;
+    if (!queue_take(WF_QUEUE_CLASS_BASIC + SHADE_CLASS, i)) return;
+    GpuPtPath path = paths[i];
+    uint depth = wf.depth;
+    uint nee = scene.nee;
+    bool rr = scene.russian_roulette != 0u;
+    uint mode = scene.sample_mode;
+    uint max_vertices = scene.unbounded != 0u ? UNBOUNDED_DEPTH_CAP : scene.max_depth;
+    uint flags = floatBitsToUint(path.d.w);
+    vec3 beta = path.beta.xyz;
+    vec3 p = path.p.xyz;
+    vec3 n = path.n.xyz;
+    vec3 ns = path.ns.xyz;
+    vec2 uv = vec2(path.p.w, path.n.w);
+    vec3 wo = -path.d.xyz;
+    Rng rng = wf_rng(i, path.o.w);
+    BsdfParams b = material_bsdf(materials[floatBitsToUint(path.hit.w)], path.ns.w != 0.0, uv);
+    bool delta = bsdf_is_delta(b);
+    if ((flags & PT_PATH_LIGHT_SAMPLE) != 0u) {
+        bool queued = false;
+        if ((flags & PT_PATH_LIGHT_SAMPLE_OK) != 0u) {
+            LightSample ls;
+            ls.wi = path.ls_wi.xyz;
+            ls.dist = path.ls_wi.w;
+            ls.L = path.ls_le.xyz;
+            ls.pdf = path.ls_le.w;
+            ls.p = path.ls_p.xyz;
+            ls.delta = path.ls_p.w != 0.0;
+            ls.n = path.ls_n.xyz;
+            vec3 f;
+            float cos_s, pdf_fwd, pdf_rev;
+            bool mis = nee == NEE_MIS;
+            if (direct_light_bsdf(b, n, ns, wo, mode, mis, false, ls, f, cos_s, pdf_fwd, pdf_rev)) {
+                float w = 1.0;
+                if (mis) w = light_sample_mis_weight(ls, pdf_fwd);
+                vec3 estimate = f * ls.L * (cos_s * w / ls.pdf);
+                vec3 so, sd;
+                float tmax;
+                light_sample_shadow_ray(p, n, ls, so, sd, tmax);
+                paths[i].ls_wi = vec4(so, tmax);
+                paths[i].ls_le = vec4(sd, 0.0);
+                paths[i].ls_p = vec4(estimate, 0.0);
+                paths[i].ls_n = vec4(beta, 0.0);
+                queue_push(WF_QUEUE_SHADOW, i);
+                queued = true;
+            }
+        }
+        // A light sample that cannot contribute adds zero, as it would on one invocation.
+        if (!queued) paths[i].radiance.xyz = path.radiance.xyz + beta * vec3(0.0);
+    }
+    // With NEE on, emission found by the next bounce would not count (unless this
+    // vertex is a delta one): stop here.
+    if (nee == NEE_ON && depth + 1u == max_vertices && !delta) return;
+    BsdfSample bs;
+    if (!bsdf_sample(b, mode, ns, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) return;
+    if (!shading_side_agrees(n, ns, bs.wi)) return;
+    float cos_i = dot(n, bs.wi);
+    beta *= bs.f * (abs(dot(ns, bs.wi)) / bs.pdf);
+    if (beta == vec3(0.0)) return;
+    if (rr) {
+        float survive = min(1.0, max(beta.x, max(beta.y, beta.z)));
+        if (rng_next(rng) >= survive) return;
+        beta /= survive;
+    }
+    flags = (bs.flags & BSDF_LOBE_DELTA) != 0u ? PT_PATH_PREV_DELTA : 0u;
+    paths[i].o = vec4(offset_ray_origin(p, cos_i > 0.0 ? n : -n), uintBitsToFloat(rng.counter));
+    paths[i].d = vec4(bs.wi, uintBitsToFloat(flags));
+    paths[i].beta = vec4(beta, bs.pdf);
+    paths[i].prev_p.xyz = p;
+    queue_push(WF_QUEUE_RAYS, i);
+}
+#endif
