@@ -111,7 +111,8 @@ fn kernel_bindings_come_from_the_spirv() {
             base,
             "direct" | "analytic" | "bdpt" | "mmlt" | "trace_probe" | "pt_trace" | "pt_shadow"
         );
-        if base != "wf_queues" {
+        let wavefront = base.starts_with("pt_") || base == "wf_queues";
+        if !wavefront {
             assert!(has(abi::BINDING_SCENE), "{kernel} ({backend}): {numbers:?}");
         }
         if !traces {
@@ -134,7 +135,7 @@ fn kernel_bindings_come_from_the_spirv() {
         }
         // The wavefront's stages keep their paths and queues in the wavefront's buffers;
         // only pt_finish writes the film.
-        if base.starts_with("pt_") || base == "wf_queues" {
+        if wavefront {
             let finish = base == "pt_finish";
             assert_eq!(
                 has(abi::BINDING_WF_QUEUES),
