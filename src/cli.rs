@@ -41,7 +41,7 @@ pub struct RenderArgs {
     /// Image size, WxH.
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// Integrator: pathtracer, bdpt, mmlt, direct, analyticdirect.
+    /// Integrator: pathtracer, direct, analyticdirect, bdpt or mmlt (the registry, `integrators::names`).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Visibility backend: auto (ray query on GPUs that have it, else the default BVH),
@@ -211,7 +211,8 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
     if let Some(name) = &args.integrator {
         scene.settings.integrator = IntegratorKind::from_name(name).with_context(|| {
             format!(
-                "--integrator {name:?}: expected pathtracer, direct, analyticdirect, bdpt or mmlt"
+                "--integrator {name:?}: expected {}",
+                crate::integrators::names()
             )
         })?;
     }

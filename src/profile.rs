@@ -102,11 +102,28 @@ pub fn run(args: &ProfileArgs) -> Result<()> {
             renderer.render(&warm, 1, &mut Trace::new())?;
         }
         let mut times: Vec<Vec<f64>> = vec![Vec::new(); variants.len()];
+        // The plain kernels' GPU time by span (the wavefront path tracer's stages each
+        // have their own), per pass, per repeat.
+        let mut spans: Vec<(String, Vec<f64>)> = Vec::new();
         for repeat in 0..args.repeats.max(1) {
             for (i, &v) in variants.iter().enumerate() {
                 renderer.options.profile_variant = v;
-                let out = renderer.render(&scene, repeat, &mut Trace::new())?;
-                times[i].push(out.dispatch_seconds / out.samples_per_pixel.max(1) as f64);
+                let mut trace = Trace::new();
+                let out = renderer.render(&scene, repeat, &mut trace)?;
+                let passes = out.samples_per_pixel.max(1) as f64;
+                times[i].push(out.dispatch_seconds / passes);
+                if v.is_none() {
+                    for span in trace.spans.iter().filter(|s| s.gpu) {
+                        let seconds = span.dur_us / 1e6 / passes;
+                        match spans.iter_mut().find(|(n, _)| *n == span.name) {
+                            Some((_, t)) if t.len() > repeat as usize => {
+                                *t.last_mut().expect("a repeat") += seconds
+                            }
+                            Some((_, t)) => t.push(seconds),
+                            None => spans.push((span.name.clone(), vec![seconds])),
+                        }
+                    }
+                }
             }
         }
         renderer.options.profile_variant = None;
@@ -140,6 +157,16 @@ pub fn run(args: &ProfileArgs) -> Result<()> {
             (base - accounted) * 1e3,
             100.0 * (base - accounted) / base
         );
+        if spans.len() > 1 {
+            println!(
+                "\n{:<55} {:>10} {:>8}",
+                "kernel (GPU timestamps)", "ms/pass", "share"
+            );
+            for (name, t) in &mut spans {
+                let m = median(t);
+                println!("{:<55} {:>10.2} {:>7.1}%", name, m * 1e3, 100.0 * m / base);
+            }
+        }
     }
     Ok(())
 }

@@ -2,10 +2,52 @@
 //! map's (u, v) and directions, and the piecewise-constant 2D distribution that
 //! importance-samples a map. The kernels' versions are in glsl/lib/texture.glsl and
 //! glsl/lib/lights.glsl; these are their CPU mirrors and what the host builds.
+//! The scene's texture and environment types are defined here (and re-exported by
+//! `crate::scene`), so this module depends on nothing of the scene's.
 use crate::io::Image;
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
 use std::path::Path;
+use std::sync::Arc;
+
+/// A texture: what a material reads at a surface point's (u, v), after the mapping
+/// `(s, t) = (su u + du, sv v + dv)` (`mapping` holds su, sv, du, dv).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Texture {
+    /// An image, bilinearly filtered, repeating; t = 0 is its bottom row (as pbrt's).
+    /// Values are `scale` times the (linear) texels.
+    Image {
+        image: Arc<Image>,
+        scale: Vec3,
+        mapping: [f32; 4],
+    },
+    /// pbrt's 2D checkerboard: `even` where floor(s) + floor(t) is even, else `odd`.
+    Checkerboard {
+        even: Vec3,
+        odd: Vec3,
+        mapping: [f32; 4],
+    },
+}
+
+/// The identity texture mapping.
+pub const UV_MAPPING: [f32; 4] = [1.0, 1.0, 0.0, 0.0];
+
+/// An environment map: an image over the sphere of directions.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvironmentMap {
+    pub image: Arc<Image>,
+    pub mapping: EnvMapping,
+    /// The rotation from the map's frame to the world.
+    pub to_world: Mat3,
+}
+
+/// The environment light: radiance arriving from every direction that leaves the scene,
+/// `radiance` times the map's value in that direction (1 without a map).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Environment {
+    pub radiance: Vec3,
+    pub map: Option<EnvironmentMap>,
+}
 
 /// How the integers of an 8- or 16-bit image become linear values (float images are
 /// linear already). pbrt-v4's `imagemap` decodes them from sRGB unless told otherwise.
@@ -184,8 +226,7 @@ pub fn bilinear(image: &Image, p: Vec2, repeat_x: bool, repeat_y: bool) -> Vec3 
 }
 
 /// CPU mirror of texture.glsl's `texture_value`: the texture at surface coordinates uv.
-pub fn texture_value(t: &crate::scene::Texture, uv: Vec2) -> Vec3 {
-    use crate::scene::Texture;
+pub fn texture_value(t: &Texture, uv: Vec2) -> Vec3 {
     let st = |m: &[f32; 4]| Vec2::new(m[0] * uv.x + m[2], m[1] * uv.y + m[3]);
     match t {
         Texture::Checkerboard { even, odd, mapping } => {
@@ -208,7 +249,7 @@ pub fn texture_value(t: &crate::scene::Texture, uv: Vec2) -> Vec3 {
 }
 
 /// CPU mirror of lights.glsl's `environment_radiance`: radiance arriving along -dir.
-pub fn environment_radiance(env: &crate::scene::Environment, dir: Vec3) -> Vec3 {
+pub fn environment_radiance(env: &Environment, dir: Vec3) -> Vec3 {
     let Some(map) = &env.map else {
         return env.radiance;
     };
@@ -645,10 +686,10 @@ mod tests {
             height: 2,
             pixels: vec![[1.0; 3], [2.0; 3], [3.0; 3], [4.0; 3]],
         };
-        let t = crate::scene::Texture::Image {
+        let t = Texture::Image {
             image: std::sync::Arc::new(img),
             scale: Vec3::ONE,
-            mapping: crate::scene::UV_MAPPING,
+            mapping: UV_MAPPING,
         };
         assert_eq!(texture_value(&t, Vec2::new(0.25, 0.25)), Vec3::splat(3.0));
         assert_eq!(texture_value(&t, Vec2::new(1.75, 0.75)), Vec3::splat(2.0));

@@ -203,7 +203,8 @@ fn check_spp(spp: i64) -> PyResult<u32> {
 fn integrator_kind(name: &str) -> PyResult<IntegratorKind> {
     IntegratorKind::from_name(name).ok_or_else(|| {
         PyValueError::new_err(format!(
-            "integrator {name:?}: expected pathtracer, direct, analyticdirect, bdpt or mmlt"
+            "integrator {name:?}: expected {}",
+            lightpath::integrators::names()
         ))
     })
 }

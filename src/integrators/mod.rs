@@ -77,6 +77,17 @@ pub const REGISTRY: &[(IntegratorKind, Create)] = &[
     (IntegratorKind::Mmlt, mmlt::create),
 ];
 
+/// The names of the integrators lightpath renders, in the registry's order, as a message
+/// lists them: "a, b, c or d".
+pub fn names() -> String {
+    let names: Vec<&str> = REGISTRY.iter().map(|(k, _)| k.name()).collect();
+    match names.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        Some((last, _)) => last.to_string(),
+        None => String::new(),
+    }
+}
+
 /// The integrator `kind` with `options`; an error for a kind the scene format knows but
 /// lightpath does not render.
 pub fn create(kind: IntegratorKind, options: &IntegratorOptions) -> Result<Box<dyn Integrator>> {

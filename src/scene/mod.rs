@@ -27,14 +27,14 @@ pub fn load(path: &std::path::Path) -> Result<Scene, ParseError> {
     }
 }
 
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 use std::path::PathBuf;
-use std::sync::Arc;
 
 pub use crate::abi::{BsdfKind, SampleMode};
 use crate::abi::{
     GpuMaterial, MATERIAL_MIX, MATERIAL_TWO_SIDED_EMISSION, MAX_MATERIAL_MIX_DEPTH, NO_TEXTURE,
 };
+pub use crate::texture::{Environment, EnvironmentMap, Texture, UV_MAPPING};
 
 /// One material: the sticky material state at the moment a shape was declared.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -234,45 +234,6 @@ fn n_swap(n: &mut Option<[Vec3; 3]>) {
     if let Some(n) = n {
         n.swap(1, 2);
     }
-}
-
-/// A texture: what a material reads at a surface point's (u, v), after the mapping
-/// `(s, t) = (su u + du, sv v + dv)` (`mapping` holds su, sv, du, dv).
-#[derive(Clone, Debug, PartialEq)]
-pub enum Texture {
-    /// An image, bilinearly filtered, repeating; t = 0 is its bottom row (as pbrt's).
-    /// Values are `scale` times the (linear) texels.
-    Image {
-        image: Arc<crate::io::Image>,
-        scale: Vec3,
-        mapping: [f32; 4],
-    },
-    /// pbrt's 2D checkerboard: `even` where floor(s) + floor(t) is even, else `odd`.
-    Checkerboard {
-        even: Vec3,
-        odd: Vec3,
-        mapping: [f32; 4],
-    },
-}
-
-/// The identity texture mapping.
-pub const UV_MAPPING: [f32; 4] = [1.0, 1.0, 0.0, 0.0];
-
-/// An environment map: an image over the sphere of directions.
-#[derive(Clone, Debug, PartialEq)]
-pub struct EnvironmentMap {
-    pub image: Arc<crate::io::Image>,
-    pub mapping: crate::texture::EnvMapping,
-    /// The rotation from the map's frame to the world.
-    pub to_world: Mat3,
-}
-
-/// The environment light: radiance arriving from every direction that leaves the scene,
-/// `radiance` times the map's value in that direction (1 without a map).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Environment {
-    pub radiance: Vec3,
-    pub map: Option<EnvironmentMap>,
 }
 
 /// A sphere as the unit sphere at the origin under an affine `object_to_world`
