@@ -394,7 +394,13 @@ impl Integrator for WavefrontPathTracer {
         let film_bytes = engine.film_bytes(width, height)?;
         let path_bytes = std::mem::size_of::<GpuPtPath>() as u64;
         let limit = engine.device.info.max_storage_buffer_range;
-        let slots = WAVEFRONT_SLOTS.min(limit / path_bytes).max(1);
+        // LIGHTPATH_WAVEFRONT_SLOTS overrides the wavefront's size (for measurements,
+        // docs/performance.md); images do not depend on it.
+        let wanted = std::env::var("LIGHTPATH_WAVEFRONT_SLOTS")
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok())
+            .unwrap_or(WAVEFRONT_SLOTS);
+        let slots = wanted.min(limit / path_bytes).max(1);
         let rows = band_rows(width, height, path_bytes, slots * path_bytes)?;
         let band_pixels = (width * rows) as u64;
         let samples = (slots / band_pixels).clamp(1, 64) as u32;
