@@ -393,3 +393,31 @@ fn profiling_variants_render_the_same_image() {
         );
     }
 }
+
+#[test]
+fn the_wavefront_size_does_not_change_the_path_tracers_image() {
+    // The wavefront path tracer splits a batch of passes into wavefronts of whole bands
+    // and groups of samples (pt_finish adds a pixel's samples in order), and at
+    // unbounded depth continues a wavefront until its queue is empty. However they are
+    // cut, the film must get the same bits: 64 paths (bands of 2 rows, one sample each),
+    // 500 (bands of 16 rows, one sample), 1000 (the image, 2 samples, then 1) and the
+    // default.
+    for max_depth in [5, -1] {
+        let mut s = small("cornell-glossy.test", 5, max_depth);
+        s.settings.russian_roulette = true;
+        s.width = 24;
+        s.height = 20;
+        let base = render(&s, 3, Bvh);
+        for slots in [64, 500, 1000] {
+            let mut r = renderer(Bvh);
+            r.options.wavefront_slots = Some(slots);
+            let out = r.render(&s, 3, &mut lightpath::trace::Trace::new());
+            r.options.wavefront_slots = None;
+            let img = out.expect("render").image;
+            assert!(
+                img.pixels == base.pixels,
+                "maxdepth {max_depth}, {slots} paths: the image differs from the default wavefront's"
+            );
+        }
+    }
+}

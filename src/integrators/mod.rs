@@ -51,6 +51,9 @@ pub struct IntegratorOptions {
     /// `lightpath profile`: render the pass kernels (pt, bdpt) in this profiling variant
     /// ("x2trace", "x2prim", "x2rng", "x2bsdf", "x2light": one stage done twice).
     pub profile_variant: Option<&'static str>,
+    /// The wavefront path tracer's size in paths (default `pt::WAVEFRONT_SLOTS`, or the
+    /// `LIGHTPATH_WAVEFRONT_SLOTS` environment variable); images do not depend on it.
+    pub wavefront_slots: Option<u64>,
 }
 
 /// One integrator: renders a scene (its settings already overridden by the command line)

@@ -24,6 +24,7 @@ pub struct FilmIntegrator {
 pub fn create_pathtracer(o: &IntegratorOptions) -> Box<dyn Integrator> {
     Box::new(WavefrontPathTracer {
         profile_variant: o.profile_variant,
+        slots: o.wavefront_slots,
     })
 }
 
@@ -135,6 +136,7 @@ impl Integrator for FilmIntegrator {
 /// it, in the same order, so images are the bits the one-kernel path tracer made.
 pub struct WavefrontPathTracer {
     profile_variant: Option<&'static str>,
+    slots: Option<u64>,
 }
 
 /// Paths of one wavefront at most: their state is `GpuPtPath`-sized per path.
@@ -396,10 +398,12 @@ impl Integrator for WavefrontPathTracer {
         let limit = engine.device.info.max_storage_buffer_range;
         // LIGHTPATH_WAVEFRONT_SLOTS overrides the wavefront's size (for measurements,
         // docs/performance.md); images do not depend on it.
-        let wanted = std::env::var("LIGHTPATH_WAVEFRONT_SLOTS")
-            .ok()
-            .and_then(|v| v.parse::<u64>().ok())
-            .unwrap_or(WAVEFRONT_SLOTS);
+        let wanted = self.slots.unwrap_or_else(|| {
+            std::env::var("LIGHTPATH_WAVEFRONT_SLOTS")
+                .ok()
+                .and_then(|v| v.parse::<u64>().ok())
+                .unwrap_or(WAVEFRONT_SLOTS)
+        });
         let slots = wanted.min(limit / path_bytes).max(1);
         let rows = band_rows(width, height, path_bytes, slots * path_bytes)?;
         let band_pixels = (width * rows) as u64;
