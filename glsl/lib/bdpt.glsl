@@ -144,7 +144,7 @@ bool light_walk_start(out Walk w, out LightEmission le, out uint e) {
     w.beta = le.Le * (le.cos_l / le.pdf_emit);
     w.dvcm = mis(le.pdf_pos / le.pdf_emit);
     w.dvc = delta ? 0.0 : mis(le.cos_l / le.pdf_emit);
-    w.infinite = le.kind == EMITTER_DIRECTIONAL || le.kind == EMITTER_INFINITE;
+    w.infinite = emitter_kind_is_at_infinity(le.kind);
     w.o = delta ? le.p : offset_ray_origin(le.p, dot(le.n, le.dir) > 0.0 ? le.n : -le.n);
     w.d = le.dir;
     return true;
@@ -388,7 +388,7 @@ bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 
     value = vec3(0.0);
     weight = 0.0;
     px = uvec2(0u);
-    if (le.kind >= EMITTER_POINT) return false;
+    if (!emitter_kind_has_surface(le.kind)) return false;
     vec3 to_eye;
     float dist;
     vec3 eye = camera_lens_point(camera_lens_numbers());

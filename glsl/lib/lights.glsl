@@ -32,6 +32,12 @@ bool emitter_kind_is_delta(uint kind) {
     return kind == EMITTER_POINT || kind == EMITTER_SPOT || kind == EMITTER_DIRECTIONAL;
 }
 
+// Triangles and spheres: emitters with a surface a camera can see.
+bool emitter_kind_has_surface(uint kind) { return kind == EMITTER_TRIANGLE || kind == EMITTER_SPHERE; }
+
+// Directional lights and the environment: light from infinitely far away.
+bool emitter_kind_is_at_infinity(uint kind) { return kind == EMITTER_DIRECTIONAL || kind == EMITTER_INFINITE; }
+
 // ---- the environment light ------------------------------------------------------
 // Constant (pbrt-v4's uniform infinite light: uniform sampling over the sphere) or an
 // image over the sphere (its image infinite light: a piecewise-constant distribution over
@@ -512,5 +518,68 @@ void emitter_emission_pdfs(uint e, vec3 p, vec3 ng, vec3 w, out float pdf_pos, o
         pdf_pos = pick * emitter_area_pdf(e, p);
         pdf_emit = pdf_pos * emission_direction_pdf(em.info.z != 0u, abs(dot(ng, w)));
     }
+}
+// ---------------------------------------------------------------------------------------
+// Closed forms (analytic.comp, the `analyticdirect` oracle): the irradiance emitter e
+// gives a point p with unit normal n, with no visibility, for the surface `prim` (which
+// an emitter does not light itself). Polygonal emitters: Lambert's formula for the
+// irradiance of a polygon, E = L/2 * sum_i theta_i * dot(n, gamma_i) (Arvo 1995); point,
+// spot and directional lights; a constant environment, E = pi L; spheres: a sphere of
+// radius r whose centre is at distance D, at angle theta from the normal, gives
+// E = pi L (r/D)^2 cos theta, whatever side of it emits toward p (its visible cap is the
+// same disk of directions; in front of a constant environment it replaces that disk of
+// the environment's radiance). Ellipsoids (non-uniformly scaled spheres) are left out.
+// No horizon clipping: lights must lie entirely above the surfaces they light.
+
+// Irradiance factor sum_i theta_i * dot(n, gamma_i) / 2 of the triangle (v0, v1, v2) at p.
+float polygon_irradiance_factor(vec3 p, vec3 n, vec3 v0, vec3 v1, vec3 v2) {
+    vec3 r[3] = vec3[3](normalize(v0 - p), normalize(v1 - p), normalize(v2 - p));
+    float sum = 0.0;
+    for (int i = 0; i < 3; ++i) {
+        vec3 a = r[i];
+        vec3 b = r[(i + 1) % 3];
+        float theta = acos(clamp(dot(a, b), -1.0, 1.0));
+        vec3 c = cross(a, b);
+        float len = length(c);
+        if (len > 0.0) sum += theta * dot(n, c / len);
+    }
+    return 0.5 * abs(sum);
+}
+
+vec3 emitter_unoccluded_irradiance(uint e, vec3 p, vec3 n, uint prim) {
+    GpuEmitter em = emitters[e];
+    if (em.info.x == EMITTER_TRIANGLE) {
+        if (em.info.y == prim) return vec3(0.0);
+        vec3 ne = cross(em.p1.xyz - em.p0.xyz, em.p2.xyz - em.p0.xyz);
+        // One-sided emitters light only the half-space in front of them.
+        if (em.info.z == 0u && dot(p - em.p0.xyz, ne) <= 0.0) return vec3(0.0);
+        return em.radiance.xyz * polygon_irradiance_factor(p, n, em.p0.xyz, em.p1.xyz, em.p2.xyz);
+    } else if (em.info.x == EMITTER_POINT) {
+        vec3 to = em.p0.xyz - p;
+        float d2 = dot(to, to);
+        return em.radiance.xyz * max(0.0, dot(n, to) / sqrt(d2)) / d2;
+    } else if (em.info.x == EMITTER_INFINITE) {
+        // The whole hemisphere, unoccluded: E = pi L.
+        return PI * em.radiance.xyz;
+    } else if (em.info.x == EMITTER_SPOT) {
+        vec3 to = em.p0.xyz - p;
+        float d2 = dot(to, to);
+        vec3 w = to / sqrt(d2);
+        return em.radiance.xyz * spot_falloff(em, -w) * max(0.0, dot(n, w)) / d2;
+    } else if (em.info.x == EMITTER_DIRECTIONAL) {
+        return em.radiance.xyz * max(0.0, dot(n, em.p0.xyz));
+    } else if (em.info.x == EMITTER_SPHERE) {
+        GpuSphere sp = spheres[em.info.y];
+        if (em.info.y + scene.triangle_count == prim) return vec3(0.0);
+        vec3 to = vec3(sp.o2w0.w, sp.o2w1.w, sp.o2w2.w) - p;
+        // (A uniform scale: every column of the object-to-world map has length r.)
+        float r2 = dot(vec3(sp.o2w0.x, sp.o2w1.x, sp.o2w2.x), vec3(sp.o2w0.x, sp.o2w1.x, sp.o2w2.x));
+        float d2 = dot(to, to);
+        // (It hides the constant environment behind it: that part of the
+        // hemisphere's E = pi L_env is replaced.)
+        vec3 behind = scene.environment != NO_EMITTER ? emitters[scene.environment].radiance.xyz : vec3(0.0);
+        return (em.radiance.xyz - behind) * (PI * r2 / d2) * max(0.0, dot(n, to) / sqrt(d2));
+    }
+    return vec3(0.0);
 }
 #endif
