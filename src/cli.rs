@@ -1,6 +1,6 @@
 //! The command line: `lightpath render | devices | compare | merge | bench | profile`.
 use crate::io;
-use crate::render::{AccelChoice, Renderer};
+use crate::render::{AccelChoice, RenderRequest, Renderer};
 use crate::scene::{self, IntegratorKind, Scene};
 use crate::trace::Trace;
 use anyhow::{bail, Context, Result};
@@ -169,11 +169,6 @@ pub fn apply_overrides(scene: &mut Scene, args: &RenderArgs) -> Result<()> {
         }
         scene.settings.max_depth = d;
     }
-    if let Some(t) = args.time_limit {
-        if !(t > 0.0 && t.is_finite()) {
-            bail!("--time-limit must be a positive number of seconds, got {t}");
-        }
-    }
     if let Some(t) = args.write_partial_images {
         if !(t > 0.0 && t.is_finite()) {
             bail!("--write-partial-images must be a positive number of seconds, got {t}");
@@ -248,6 +243,16 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
     let scene_bytes = std::fs::read(&args.scene)
         .with_context(|| format!("cannot read {}", args.scene.display()))?;
     apply_overrides(&mut scene, args)?;
+    let request = RenderRequest {
+        scene,
+        seed: args.seed,
+        record_strategies: args.bdpt_strategies.is_some(),
+        record_depths: args.mmlt_depths.is_some(),
+        time_limit: args.time_limit,
+        show_progress: !args.quiet,
+    };
+    request.check("--bdpt-strategies", "--mmlt-depths", "--time-limit")?;
+    let scene = &request.scene;
     // (BDPT always uses Russian roulette beyond its cap, so the warning is the path
     // tracer's.)
     if scene.settings.max_depth < 0
@@ -265,23 +270,11 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
         io::check_writable_file(t)?;
     }
     if let Some(dir) = &args.bdpt_strategies {
-        if scene.settings.integrator != IntegratorKind::Bdpt {
-            bail!(
-                "--bdpt-strategies needs the bdpt integrator (this render uses {})",
-                scene.settings.integrator.name()
-            );
-        }
         std::fs::create_dir_all(dir)
             .with_context(|| format!("--bdpt-strategies: cannot create {}", dir.display()))?;
         io::check_writable(&dir.join("s0_t2.exr"))?;
     }
     if let Some(dir) = &args.mmlt_depths {
-        if scene.settings.integrator != IntegratorKind::Mmlt {
-            bail!(
-                "--mmlt-depths needs the mmlt integrator (this render uses {})",
-                scene.settings.integrator.name()
-            );
-        }
         std::fs::create_dir_all(dir)
             .with_context(|| format!("--mmlt-depths: cannot create {}", dir.display()))?;
         io::check_writable(&dir.join("d0.exr"))?;
@@ -297,10 +290,6 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
             },
         )
     })?;
-    renderer.engine.control.show_progress = !args.quiet;
-    renderer.engine.control.time_limit = args.time_limit;
-    renderer.options.bdpt.record_strategies = args.bdpt_strategies.is_some();
-    renderer.options.mmlt.record_depths = args.mmlt_depths.is_some();
     let started = std::time::Instant::now();
     let mut info = renderer.render_info(&scene, &args.scene, &scene_bytes, args.seed);
     // SIGINT and SIGTERM stop the render after the dispatch in flight, and the image of
@@ -332,7 +321,7 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
             }),
         });
     }
-    let out = renderer.render(&scene, args.seed, &mut trace)?;
+    let out = renderer.render_request(&request, &mut trace)?;
     info.samples_per_pixel = out.samples_per_pixel as u64;
     info.backend = out.backend.name().to_string();
     info.render_seconds = started.elapsed().as_secs_f64();

@@ -9,9 +9,65 @@ use crate::gpu::ValidationReport;
 pub use crate::integrators::bdpt::{BdptDetails, StrategyImages};
 pub use crate::integrators::mmlt::MmltReport;
 pub use crate::integrators::{IntegratorOptions, RenderOutput};
-use crate::scene::Scene;
+use crate::scene::{IntegratorKind, Scene};
 use crate::trace::Trace;
-use anyhow::Result;
+use anyhow::{bail, Result};
+
+/// One render as the command line and the Python package both ask for it: the scene with
+/// its settings as they will render (the front end's overrides applied), the seed, what
+/// to record beyond the image, and how the run is controlled. The integrator is the
+/// scene's, by its registry name.
+#[derive(Clone, Debug)]
+pub struct RenderRequest {
+    pub scene: Scene,
+    pub seed: u32,
+    /// BDPT's image of every strategy (`--bdpt-strategies`, `strategies=True`).
+    pub record_strategies: bool,
+    /// MMLT's image of every depth (`--mmlt-depths`, `depths=True`).
+    pub record_depths: bool,
+    /// Stop after about this many seconds of rendering (passes stay whole).
+    pub time_limit: Option<f64>,
+    pub show_progress: bool,
+}
+
+impl RenderRequest {
+    /// A request for `scene` with `seed` that records nothing more and has no limit.
+    pub fn new(scene: Scene, seed: u32) -> RenderRequest {
+        RenderRequest {
+            scene,
+            seed,
+            record_strategies: false,
+            record_depths: false,
+            time_limit: None,
+            show_progress: false,
+        }
+    }
+
+    /// What does not belong together, as an error naming the front end's own words for
+    /// the strategy and depth images (`--bdpt-strategies`, `strategies=True`) and the time
+    /// limit.
+    pub fn check(&self, strategies: &str, depths: &str, time_limit: &str) -> Result<()> {
+        let kind = self.scene.settings.integrator;
+        if self.record_strategies && kind != IntegratorKind::Bdpt {
+            bail!(
+                "{strategies} needs the bdpt integrator (this render uses {})",
+                kind.name()
+            );
+        }
+        if self.record_depths && kind != IntegratorKind::Mmlt {
+            bail!(
+                "{depths} needs the mmlt integrator (this render uses {})",
+                kind.name()
+            );
+        }
+        if let Some(t) = self.time_limit {
+            if !(t > 0.0 && t.is_finite()) {
+                bail!("{time_limit} must be a positive number of seconds, got {t}");
+            }
+        }
+        Ok(())
+    }
+}
 
 /// An open device with its kernels for one backend and the integrators' options;
 /// renders any number of scenes.
@@ -85,5 +141,20 @@ impl Renderer {
     pub fn render(&mut self, scene: &Scene, seed: u32, trace: &mut Trace) -> Result<RenderOutput> {
         let mut integrator = crate::integrators::create(scene.settings.integrator, &self.options)?;
         integrator.render(&mut self.engine, scene, seed, trace)
+    }
+
+    /// Render `request`: its recordings and run control become this renderer's options
+    /// and the engine's control for the render (interruption and snapshots stay as the
+    /// caller set them on `engine.control`).
+    pub fn render_request(
+        &mut self,
+        request: &RenderRequest,
+        trace: &mut Trace,
+    ) -> Result<RenderOutput> {
+        self.options.bdpt.record_strategies = request.record_strategies;
+        self.options.mmlt.record_depths = request.record_depths;
+        self.engine.control.show_progress = request.show_progress;
+        self.engine.control.time_limit = request.time_limit;
+        self.render(&request.scene, request.seed, trace)
     }
 }

@@ -5,7 +5,7 @@
 //! them for editors.
 use lightpath::cli::{apply_overrides, RenderArgs};
 use lightpath::io::{self, Image, RenderInfo};
-use lightpath::render::{AccelChoice, BdptDetails, MmltReport, Renderer};
+use lightpath::render::{AccelChoice, BdptDetails, MmltReport, RenderRequest, Renderer};
 use lightpath::scene::{self, IntegratorKind};
 use lightpath::trace::{Span, Trace};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray3, PyUntypedArrayMethods};
@@ -382,13 +382,8 @@ impl RenderResult {
 
 /// Everything `render` needs, checked before anything runs.
 struct Job {
-    scene: scene::Scene,
-    seed: u32,
+    request: RenderRequest,
     renderer: Arc<Mutex<Renderer>>,
-    strategies: bool,
-    depths: bool,
-    progress: bool,
-    time_limit: Option<f64>,
 }
 
 /// Renders `scene` (a copy: the Scene is not changed). Keyword arguments override the
@@ -439,13 +434,6 @@ fn render(
             "seed must be in [0, 2^32), got {seed}"
         )));
     }
-    if let Some(t) = time_limit {
-        if !(t > 0.0 && t.is_finite()) {
-            return Err(PyValueError::new_err(format!(
-                "time_limit must be a positive number of seconds, got {t}"
-            )));
-        }
-    }
     let args = RenderArgs {
         scene: scene.path.clone(),
         output: None,
@@ -469,40 +457,30 @@ fn render(
         quiet: !progress,
     };
     apply_overrides(&mut s.scene, &args).map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
-    let kind = s.scene.settings.integrator;
-    if strategies && kind != IntegratorKind::Bdpt {
-        return Err(PyValueError::new_err(format!(
-            "strategies=True needs the bdpt integrator (this render uses {})",
-            kind.name()
-        )));
-    }
-    if depths && kind != IntegratorKind::Mmlt {
-        return Err(PyValueError::new_err(format!(
-            "depths=True needs the mmlt integrator (this render uses {})",
-            kind.name()
-        )));
-    }
+    let request = RenderRequest {
+        scene: s.scene,
+        seed: seed as u32,
+        record_strategies: strategies,
+        record_depths: depths,
+        time_limit,
+        show_progress: progress,
+    };
+    request
+        .check("strategies=True", "depths=True", "time_limit")
+        .map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
     let renderer = py.allow_threads(|| renderer_for(device.as_deref(), accel))?;
     {
         let r = renderer.lock().unwrap_or_else(|e| e.into_inner());
         r.engine
-            .film_bytes(s.scene.width, s.scene.height)
+            .film_bytes(request.scene.width, request.scene.height)
             .map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
     }
     let info = renderer
         .lock()
         .unwrap_or_else(|e| e.into_inner())
-        .render_info(&s.scene, &s.path, &s.bytes, seed as u32);
-    let gamma = s.scene.settings.gamma;
-    let job = Job {
-        scene: s.scene,
-        seed: seed as u32,
-        renderer,
-        strategies,
-        depths,
-        progress,
-        time_limit,
-    };
+        .render_info(&request.scene, &s.path, &s.bytes, seed as u32);
+    let gamma = request.scene.settings.gamma;
+    let job = Job { request, renderer };
     run(py, job, info, gamma)
 }
 
@@ -520,13 +498,9 @@ fn run(py: Python<'_>, job: Job, mut info: RenderInfo, gamma: f32) -> PyResult<R
     let handle = std::thread::spawn(move || {
         let mut trace = Trace::new();
         let mut r = job.renderer.lock().unwrap_or_else(|e| e.into_inner());
-        r.options.bdpt.record_strategies = job.strategies;
-        r.options.mmlt.record_depths = job.depths;
-        r.engine.control.show_progress = job.progress;
-        r.engine.control.time_limit = job.time_limit;
         r.engine.control.snapshots = None;
         r.engine.control.interrupt = Some(thread_flag);
-        let out = r.render(&job.scene, job.seed, &mut trace);
+        let out = r.render_request(&job.request, &mut trace);
         r.engine.control.interrupt = None;
         (out, trace)
     });
