@@ -404,7 +404,10 @@ impl Integrator for WavefrontPathTracer {
                 .and_then(|v| v.parse::<u64>().ok())
                 .unwrap_or(WAVEFRONT_SLOTS)
         });
-        let slots = wanted.min(limit / path_bytes).max(1);
+        // (A dispatch over the paths needs at most 65 535 workgroups, Vulkan's least
+        // maxComputeWorkGroupCount.)
+        let max_slots = 65_535 * WF_WORKGROUP_SIZE as u64;
+        let slots = wanted.min(limit / path_bytes).min(max_slots).max(1);
         let rows = band_rows(width, height, path_bytes, slots * path_bytes)?;
         let band_pixels = (width * rows) as u64;
         let samples = (slots / band_pixels).clamp(1, 64) as u32;
