@@ -123,7 +123,7 @@ fn every_integrator_and_backend_runs_clean_under_the_validation_layer() {
 #[test]
 fn the_path_tracers_buffer_accesses_pass_gpu_assisted_validation() {
     let mut r = open_validated(AccelChoice::Bvh, Validation::Full);
-    // Spheres, quads, GGX and Phong; the path tracer and `direct` share the kernel.
+    // Spheres, quads, GGX and Phong, with the path tracer (its stages) and `direct`.
     for integrator in [IntegratorKind::PathTracer, IntegratorKind::Direct] {
         r.render(
             &small("cornell-glossy.test", integrator),
@@ -132,6 +132,26 @@ fn the_path_tracers_buffer_accesses_pass_gpu_assisted_validation() {
         )
         .unwrap_or_else(|e| panic!("{integrator:?} under GPU-assisted validation: {e:#}"));
     }
+    // The wavefront's every stage: each material class's shading kernel, textures, an
+    // environment map, every kind of light, unbounded depth (its continuation).
+    let sky = repo().join("tests/data/sky.pfm");
+    let mut s = parse(&format!(
+        "size 24 16\ncamera 0 1 3 0 1 0 0 1 0 50\nspp 2\nmaxdepth -1\nrussianroulette on\n\
+         nexteventestimation mis\nimportancesampling brdf\n\
+         checkerboard 0.8 0.8 0.8 0.2 0.3 0.2 4 4\ndiffuse 0.7 0.7 0.7\n\
+         vertex -1 0 -1\nvertex 1 0 -1\nvertex 1 0 1\nvertex -1 0 1\ntri 0 2 1\ntri 0 3 2\n\
+         texture none\nbrdf ggx\ndiffuse 0.2 0.6 0.2\nspecular 0.2 0.2 0.2\nroughness 0.3\n\
+         sphere -0.6 0.3 0 0.25\nbrdf dielectric\nroughness 0.2\nsphere 0 0.3 0.3 0.25\n\
+         brdf conductor\nroughness 0\nsphere 0.6 0.3 0 0.25\n\
+         brdf coateddiffuse\ndiffuse 0.2 0.4 0.7\nroughness 0.1\nsphere 0 0.9 -0.4 0.3\n\
+         brdf phong\ndiffuse 0 0 0\nemission 3 3 3\nsphere 0.7 1.5 0.3 0.1\nemission 0 0 0\n\
+         quadLight -0.3 1.9 -0.3 0.6 0 0 0 0 0.6 4 4 4\npoint -0.6 1.5 0.5 0.5 0.4 0.3\n\
+         spot 0.6 1.8 0.6 0 0 0 2 2 2 30 5\ndirectional 1 1 1 0.1 0.1 0.1\nenvmap {} 0.5\n",
+        sky.display()
+    ));
+    s.settings.integrator = IntegratorKind::PathTracer;
+    r.render(&s, 1, &mut Trace::new())
+        .unwrap_or_else(|e| panic!("every material class under GPU-assisted validation: {e:#}"));
     let v = r.validation().expect("validation was requested");
     assert!(
         v.errors == 0 && v.warnings == 0,
