@@ -5,7 +5,7 @@
 use super::{film_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
 use crate::engine::passes::PassWork;
-use crate::engine::{band_rows, Dispatch, Engine, Passes, RunOptions, Work};
+use crate::engine::{band_rows, Dispatch, Engine, Passes, RunOptions, RunResult, Work};
 use crate::gpu::buffer::Buffer;
 use crate::gpu::kernels::Kernel;
 use crate::io::Image;
@@ -41,6 +41,54 @@ pub fn create_analytic(_: &IntegratorOptions) -> Box<dyn Integrator> {
         kernel: "analytic",
         code: INTEGRATOR_ANALYTIC,
         profile_variant: None,
+    })
+}
+
+/// A film (vec4 per pixel, w: rays) after `done` passes, as an image.
+fn resolve_film(
+    film: &Buffer,
+    film_bytes: u64,
+    width: u32,
+    height: u32,
+    done: u32,
+) -> Result<Image> {
+    let data = film.download(film_bytes)?;
+    Ok(film_image(
+        bytemuck::cast_slice(&data),
+        width,
+        height,
+        1.0 / done as f32,
+    ))
+}
+
+/// A film render's result after `run`: the film read back and divided by its passes,
+/// the stats checked (`name` in their errors).
+#[allow(clippy::too_many_arguments)]
+fn film_output(
+    engine: &Engine,
+    film: &Buffer,
+    stats: &Buffer,
+    film_bytes: u64,
+    width: u32,
+    height: u32,
+    run: &RunResult,
+    name: &str,
+    trace: &mut Trace,
+) -> Result<RenderOutput> {
+    let spp = run.done as u32;
+    let (film_data, stat) = trace.cpu("readback", || -> Result<_> {
+        Ok((film.download(film_bytes)?, engine.read_stats(stats, name)?))
+    })?;
+    let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
+    Ok(RenderOutput {
+        image: film_image(film, width, height, 1.0 / spp.max(1) as f32),
+        nonfinite_samples: stat[STAT_NONFINITE as usize] as u64,
+        rays: film.iter().map(|p| p[3] as f64).sum(),
+        samples_per_pixel: spp,
+        dispatch_seconds: run.times.total(),
+        backend: engine.backend(),
+        interrupted: engine.interrupt_signal(),
+        details: None,
     })
 }
 
@@ -88,15 +136,7 @@ impl Integrator for FilmIntegrator {
             span: format!("{} pass", self.kernel),
         };
         engine.warm_up(passes.idle(), trace)?;
-        let resolve = |done: u32| -> Result<Image> {
-            let data = film.download(film_bytes)?;
-            Ok(film_image(
-                bytemuck::cast_slice(&data),
-                width,
-                height,
-                1.0 / done as f32,
-            ))
-        };
+        let resolve = |done: u32| resolve_film(&film, film_bytes, width, height, done);
         let mut work = PassWork {
             passes: &passes,
             first: 0,
@@ -104,24 +144,17 @@ impl Integrator for FilmIntegrator {
             resolve: Some(&resolve),
         };
         let run = engine.run(&mut work, &RunOptions::passes(self.kernel), trace)?;
-        let spp = run.done as u32;
-        let (film_data, stat) = trace.cpu("readback", || -> Result<_> {
-            Ok((
-                film.download(film_bytes)?,
-                engine.read_stats(&stats, self.kernel)?,
-            ))
-        })?;
-        let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
-        Ok(RenderOutput {
-            image: film_image(film, width, height, 1.0 / spp.max(1) as f32),
-            nonfinite_samples: stat[STAT_NONFINITE as usize] as u64,
-            rays: film.iter().map(|p| p[3] as f64).sum(),
-            samples_per_pixel: spp,
-            dispatch_seconds: run.times.total(),
-            backend: engine.backend(),
-            interrupted: engine.interrupt_signal(),
-            details: None,
-        })
+        film_output(
+            engine,
+            &film,
+            &stats,
+            film_bytes,
+            width,
+            height,
+            &run,
+            self.kernel,
+            trace,
+        )
     }
 }
 
@@ -414,25 +447,6 @@ impl Integrator for WavefrontPathTracer {
         let slots = band_pixels * samples as u64;
         let prepared =
             engine.prepare(scene, seed, |p| p.integrator = INTEGRATOR_PATHTRACER, trace)?;
-        let spec = prepared.specialization();
-        let variant = self.profile_variant;
-        let kernel = |engine: &mut Engine, name: &'static str| -> Result<Kernel> {
-            let v = variant.filter(|v| engine.kernels.has(&format!("{name}+{v}")));
-            engine.kernel(name, v, spec)
-        };
-        let classes = material_classes(scene);
-        let mut names = vec![
-            "wf_queues",
-            "pt_camera",
-            "pt_trace",
-            "pt_hit",
-            "pt_shadow",
-            "pt_finish",
-        ];
-        names.extend(classes.iter().map(|&c| shade_kernel(c)));
-        let kernels = trace.cpu("pipeline creation", || -> Result<Vec<Kernel>> {
-            names.iter().map(|n| kernel(engine, n)).collect()
-        })?;
         let (film, stats, paths, queue_buffer, items) =
             trace.cpu("film allocation", || -> Result<_> {
                 Ok((
@@ -453,35 +467,30 @@ impl Integrator for WavefrontPathTracer {
             (BINDING_WF_QUEUES, &queue_buffer),
             (BINDING_WF_ITEMS, &items),
         ];
-        let spans = [
-            "wf queues",
-            "pt camera",
-            "pt trace",
-            "pt hit",
-            "pt shadow",
-            "pt finish",
-        ];
-        let mut stages = Vec::new();
-        for (i, k) in kernels.into_iter().enumerate() {
-            let set = engine.bind(&k, Some(&prepared), &buffers)?;
-            let span = if i < spans.len() {
-                spans[i]
-            } else {
-                shade_span(classes[i - spans.len()])
-            };
-            stages.push(Stage {
-                kernel: k,
-                set,
-                span,
-            });
-        }
-        let shade: Vec<(u32, Stage)> = classes
-            .iter()
-            .copied()
-            .zip(stages.drain(spans.len()..))
-            .collect();
-        let mut it = stages.into_iter();
-        let mut next = || it.next().expect("every stage's kernel");
+        // Each stage's kernel (its profiling variant where it has one) and its set.
+        let variant = self.profile_variant;
+        let mut stage = |name: &'static str, span: &'static str| -> Result<Stage> {
+            let v = variant.filter(|v| engine.kernels.has(&format!("{name}+{v}")));
+            let kernel = engine.kernel(name, v, prepared.specialization())?;
+            let set = engine.bind(&kernel, Some(&prepared), &buffers)?;
+            Ok(Stage { kernel, set, span })
+        };
+        let stages = trace.cpu("pipeline creation", || -> Result<_> {
+            let shade = material_classes(scene)
+                .into_iter()
+                .map(|c| Ok((c, stage(shade_kernel(c), shade_span(c))?)))
+                .collect::<Result<Vec<_>>>()?;
+            Ok((
+                stage("wf_queues", "wf queues")?,
+                stage("pt_camera", "pt camera")?,
+                stage("pt_trace", "pt trace")?,
+                stage("pt_hit", "pt hit")?,
+                stage("pt_shadow", "pt shadow")?,
+                stage("pt_finish", "pt finish")?,
+                shade,
+            ))
+        })?;
+        let (queues, camera, trace_stage, hit, shadow, finish, shade) = stages;
         let params = prepared.params();
         let unbounded = params.unbounded != 0;
         let max_vertices = if unbounded {
@@ -490,12 +499,12 @@ impl Integrator for WavefrontPathTracer {
             params.max_depth
         };
         let plan = WavefrontPlan {
-            queues: next(),
-            camera: next(),
-            trace: next(),
-            hit: next(),
-            shadow: next(),
-            finish: next(),
+            queues,
+            camera,
+            trace: trace_stage,
+            hit,
+            shadow,
+            finish,
             shade,
             queue_buffer: queue_buffer.raw,
             width,
@@ -524,15 +533,7 @@ impl Integrator for WavefrontPathTracer {
                 trace,
             )?;
         }
-        let resolve = |done: u32| -> Result<Image> {
-            let data = film.download(film_bytes)?;
-            Ok(film_image(
-                bytemuck::cast_slice(&data),
-                width,
-                height,
-                1.0 / done as f32,
-            ))
-        };
+        let resolve = |done: u32| resolve_film(&film, film_bytes, width, height, done);
         let mut work = WavefrontWork {
             plan: &plan,
             queue_buffer: &queue_buffer,
@@ -542,23 +543,16 @@ impl Integrator for WavefrontPathTracer {
             current: None,
         };
         let run = engine.run(&mut work, &RunOptions::passes("pt"), trace)?;
-        let spp = run.done as u32;
-        let (film_data, stat) = trace.cpu("readback", || -> Result<_> {
-            Ok((
-                film.download(film_bytes)?,
-                engine.read_stats(&stats, "pathtracer")?,
-            ))
-        })?;
-        let film: &[[f32; 4]] = bytemuck::cast_slice(&film_data);
-        Ok(RenderOutput {
-            image: film_image(film, width, height, 1.0 / spp.max(1) as f32),
-            nonfinite_samples: stat[STAT_NONFINITE as usize] as u64,
-            rays: film.iter().map(|p| p[3] as f64).sum(),
-            samples_per_pixel: spp,
-            dispatch_seconds: run.times.total(),
-            backend: engine.backend(),
-            interrupted: engine.interrupt_signal(),
-            details: None,
-        })
+        film_output(
+            engine,
+            &film,
+            &stats,
+            film_bytes,
+            width,
+            height,
+            &run,
+            "pathtracer",
+            trace,
+        )
     }
 }
