@@ -490,7 +490,7 @@ impl GpuScene {
                     w2o0: w2o[0],
                     w2o1: w2o[1],
                     w2o2: w2o[2],
-                    info: [s.material, table.sphere_emitter[i], 0, 0],
+                    info: [s.material, table.sphere_emitter[i], s.inward as u32, 0],
                 }
             })
             .collect();

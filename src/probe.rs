@@ -263,6 +263,7 @@ mod tests {
                     scene.spheres.push(Sphere {
                         object_to_world: s.object_to_world,
                         material: 0,
+                        inward: false,
                     });
                 }
             }

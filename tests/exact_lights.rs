@@ -46,6 +46,11 @@ fn complete(kind: Kind, s: u32, t: u32) -> bool {
 /// A diffuse floor (y = 0, ρ 0.5) and, unless `open`, a back wall (z = -3, ρ 0.7),
 /// seen from the front and above, lit by `light` (pbrt-v4 directives in world space).
 fn room(light: &str, open: bool, max_depth: i32) -> Scene {
+    room_scaled(light, open, max_depth, 1.0)
+}
+
+/// The room with the world (camera included) scaled by `k` about the origin.
+fn room_scaled(light: &str, open: bool, max_depth: i32, k: f32) -> Scene {
     let wall = if open {
         ""
     } else {
@@ -54,14 +59,17 @@ fn room(light: &str, open: bool, max_depth: i32) -> Scene {
          \"point3 P\" [ -4 0 -3  4 0 -3  4 5 -3  -4 5 -3 ]\n"
     };
     let text = format!(
-        "Scale -1 1 1\nLookAt 0 2.5 5  0 1 -1  0 1 0\nCamera \"perspective\" \"float fov\" [ 50 ]\n\
+        "Scale -1 1 1\nLookAt 0 {} {}  0 {k} {}  0 1 0\nCamera \"perspective\" \"float fov\" [ 50 ]\n\
          Film \"rgb\" \"integer xresolution\" [ {SIZE} ] \"integer yresolution\" [ {SIZE} ]\n\
          Integrator \"bdpt\" \"integer maxdepth\" [ {max_depth} ]\n\
-         WorldBegin\n\
+         WorldBegin\nScale {k} {k} {k}\n\
          AttributeBegin\n{light}\nAttributeEnd\n\
          Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.5 0.5 ]\n\
          Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
-         \"point3 P\" [ -4 0 4  4 0 4  4 0 -3  -4 0 -3 ]\n{wall}"
+         \"point3 P\" [ -4 0 4  4 0 4  4 0 -3  -4 0 -3 ]\n{wall}",
+        2.5 * k,
+        5.0 * k,
+        -k
     );
     scene::parse_pbrt_str(&text, "exact-lights.pbrt").expect("the test scene parses")
 }
@@ -110,6 +118,16 @@ fn lights() -> Vec<(&'static str, Kind, String)> {
             format!(
                 "Translate 0 2 0\nRotate 30 0 0 1\nScale 0.8 0.25 0.45\n{area}\nShape \"sphere\""
             ),
+        ),
+        (
+            // Enclosing the room and the camera, lighting its inside: a finite-distance
+            // twin of the constant environment (the open floor's E = pi L).
+            "inward sphere",
+            Kind::Area,
+            "ReverseOrientation\nMaterial \"diffuse\" \"rgb reflectance\" [ 0 0 0 ]\n\
+             AreaLightSource \"diffuse\" \"rgb L\" [ 0.8 0.8 0.8 ]\n\
+             Shape \"sphere\" \"float radius\" [ 20 ]"
+                .into(),
         ),
         (
             "two-sided sphere",
@@ -383,14 +401,71 @@ fn the_floor_under_a_sphere_light_has_its_closed_form_radiance() {
     }
 }
 
-/// pbrt-v4 allows a sphere light facing inward (ReverseOrientation); lightpath refuses
-/// it with a message rather than rendering it wrongly.
+/// A scene's size does not change its image: the room under the quad light, and under a
+/// sphere light, scaled 500 times renders what it renders at unit scale, in every BDPT
+/// strategy alone (the same seed draws the same paths, so the images differ only by
+/// rounding) and in the path tracer. Issue 26's quad-light bias was this: a connection's
+/// shadow ray to the floor (y = 0, offset by an absolute 2^-16) from hundreds of units
+/// away hit the floor itself, and s >= 2, t >= 2 lost 4% of the depth-2 image.
 #[test]
-fn an_inward_facing_sphere_light_is_refused() {
-    let text = "WorldBegin\nReverseOrientation\nAreaLightSource \"diffuse\" \"rgb L\" [ 1 1 1 ]\n\
-                Shape \"sphere\"\n";
-    let e = scene::parse_pbrt_str(text, "inward.pbrt").expect_err("refused");
-    assert!(e.to_string().contains("facing inward"), "{e}");
+fn a_room_500_times_larger_renders_every_strategy_as_at_unit_scale() {
+    for (name, _, light) in lights() {
+        if !matches!(name, "quad" | "translated sphere") {
+            continue;
+        }
+        let mut images = Vec::new();
+        for k in [1.0, 500.0] {
+            let s = room_scaled(&light, false, 3, k);
+            let mut r = renderer(Bvh);
+            r.options.bdpt.record_strategies = true;
+            let out = r.render(&with(&s, IntegratorKind::Bdpt, 64, 3), 7, &mut Trace::new());
+            r.options.bdpt.record_strategies = false;
+            let out = out.expect("bdpt render");
+            let mut means: Vec<(String, f64)> = strategies(&out)
+                .iter()
+                .map(|st| {
+                    let m = region_means(&st.unweighted, 1)[0];
+                    (format!("s={} t={}", st.s, st.t), m[0] + m[1] + m[2])
+                })
+                .collect();
+            drop(r);
+            let pt = render(&with(&s, IntegratorKind::PathTracer, 64, 3), 7, Bvh);
+            let m = region_means(&pt, 1)[0];
+            means.push(("path tracer".into(), m[0] + m[1] + m[2]));
+            images.push(means);
+        }
+        for ((what, unit), (_, large)) in images[0].iter().zip(&images[1]) {
+            assert!(
+                (large - unit).abs() <= 0.002 * unit.abs() + 1e-7,
+                "{name}: {what} at scale 500 has mean {large}, at scale 1 {unit}"
+            );
+        }
+    }
+}
+
+/// A sphere light facing inward (ReverseOrientation) lights its inside only, and a
+/// mirroring transform turns a sphere's normal inward as pbrt-v4 does (both together
+/// turn it back out): the open floor under a small sphere light is dark when it faces
+/// inward, lit as before when it is mirrored twice.
+#[test]
+fn an_inward_facing_sphere_light_lights_only_its_inside() {
+    let mean = |prefix: &str| {
+        let light = format!(
+            "Translate 0.7 2 0.3\n{prefix}\nMaterial \"diffuse\" \"rgb reflectance\" [ 0 0 0 ]\n\
+             AreaLightSource \"diffuse\" \"rgb L\" [ 4 4 4 ]\nShape \"sphere\" \"float radius\" [ 0.4 ]"
+        );
+        let s = room(&light, true, 1);
+        let m = region_means(&render(&with(&s, IntegratorKind::PathTracer, 64, 1), 1, Bvh), 1)[0];
+        m[0] + m[1] + m[2]
+    };
+    let outward = mean("");
+    assert!(outward > 0.01, "the outward sphere lights the floor: {outward}");
+    for prefix in ["ReverseOrientation", "Scale -1 1 1"] {
+        let m = mean(prefix);
+        assert!(m == 0.0, "{prefix}: the floor outside an inward sphere light has mean {m}");
+    }
+    let twice = mean("ReverseOrientation\nScale -1 1 1");
+    assert!((twice - outward).abs() < 1e-3 * outward, "{twice} vs {outward}");
 }
 
 /// Spheres and meshes of every material class (diffuse, smooth glass, smooth and rough

@@ -238,7 +238,8 @@ struct GpuTexture {
 };
 
 // The unit sphere under an affine transform: rows of object-to-world and
-// world-to-object 3x4 matrices. info.x: material, info.y: emitter index.
+// world-to-object 3x4 matrices. info.x: material, info.y: emitter index, info.z: 1 when
+// its normal faces inward (pbrt's ReverseOrientation: it emits into its inside).
 struct GpuSphere {
     vec4 o2w0;
     vec4 o2w1;

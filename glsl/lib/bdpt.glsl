@@ -44,12 +44,11 @@ bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 // segment leaves from) unoccluded?
 bool visible(vec3 a, vec3 na, vec3 b, vec3 nb) {
     rays_traced++;
-    vec3 o = offset_ray_origin(a, na);
-    vec3 target = offset_ray_origin(b, nb);
-    vec3 to = target - o;
-    float dist = length(to);
-    if (!(dist > 0.0)) return true;
-    return !trace_occluded(o, to / dist, dist);
+    vec3 o, d;
+    float tmax;
+    shadow_ray_to(a, na, offset_ray_origin(b, nb), o, d, tmax);
+    if (!(tmax > 0.0)) return true;
+    return !trace_occluded(o, d, tmax);
 }
 
 // Solid-angle pdf with which the camera samples direction w (unit, from the eye) for a
@@ -376,8 +375,10 @@ bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out 
     float w_light = mis(pdf_cam_a / light_paths()) * (y.dvcm + y.dvc * mis(pdf_rev));
     weight = 1.0 / (1.0 + w_light);
     rays_traced++;
-    vec3 o = offset_ray_origin(y.p, cos_signed > 0.0 ? y.n : -y.n);
-    if (trace_occluded(o, to_eye, length(eye - o))) return false;
+    vec3 o, d;
+    float tmax;
+    shadow_ray_to(y.p, cos_signed > 0.0 ? y.n : -y.n, eye, o, d, tmax);
+    if (trace_occluded(o, d, tmax)) return false;
     value = y.beta * f * (pdf_cam_a / light_paths());
     return true;
 }
@@ -400,8 +401,10 @@ bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 
     float ratio = pdf_cam_a / (light_paths() * le.pdf_pos);   // camera hitting it (s = 0) vs this
     weight = 1.0 / (1.0 + mis(ratio));
     rays_traced++;
-    vec3 o = offset_ray_origin(le.p, dot(le.n, to_eye) > 0.0 ? le.n : -le.n);
-    if (trace_occluded(o, to_eye, length(eye - o))) return false;
+    vec3 o, d;
+    float tmax;
+    shadow_ray_to(le.p, dot(le.n, to_eye) > 0.0 ? le.n : -le.n, eye, o, d, tmax);
+    if (trace_occluded(o, d, tmax)) return false;
     value = Le * ratio;
     return true;
 }

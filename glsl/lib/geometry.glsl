@@ -50,9 +50,11 @@ vec3 sphere_to_world_point(GpuSphere s, vec3 q) {
     vec4 h = vec4(q, 1.0);
     return vec3(dot(s.o2w0, h), dot(s.o2w1, h), dot(s.o2w2, h));
 }
-// Unnormalised world normal at object-space point q: (W^T) q, W = world-to-object.
+// Unnormalised world normal at object-space point q: (W^T) q, W = world-to-object;
+// turned inward for an inward-facing sphere (every use of a sphere's normal is this).
 vec3 sphere_normal_unnormalized(GpuSphere s, vec3 q) {
-    return q.x * s.w2o0.xyz + q.y * s.w2o1.xyz + q.z * s.w2o2.xyz;
+    vec3 n = q.x * s.w2o0.xyz + q.y * s.w2o1.xyz + q.z * s.w2o2.xyz;
+    return s.info.z != 0u ? -n : n;
 }
 
 // The unit sphere in object space; t is the same parameter as in world space because
@@ -172,5 +174,24 @@ vec3 offset_ray_origin(vec3 p, vec3 n) {
     return vec3(abs(p.x) < origin ? p.x + float_scale * n.x : p_i.x,
                 abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
                 abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
+}
+
+// A shadow ray stops this fraction of its length short of its target (pbrt-v4's
+// ShadowEpsilon). Offsetting the target off its surface is not enough: the offset is a
+// few ULPs of the target's coordinates (an absolute 2^-16 where a coordinate is near 0),
+// while the ray's intersection with that surface, computed from a distant origin, errs in
+// proportion to the distance. A floor at y = 0 seen from 500 units away then occludes
+// its own points, and BDPT's connections to it came out dark (issue 26).
+const float SHADOW_EPSILON = 1e-4;
+
+// The shadow ray from the surface point p (offset along n, the normal on the side the
+// ray leaves) to `target` (already off its own surface, or a point in space): origin,
+// unit direction and extent. Every visibility test between two points is built here.
+void shadow_ray_to(vec3 p, vec3 n, vec3 target, out vec3 o, out vec3 d, out float tmax) {
+    o = offset_ray_origin(p, n);
+    vec3 to = target - o;
+    float dist = length(to);
+    d = dist > 0.0 ? to / dist : n;
+    tmax = dist * (1.0 - SHADOW_EPSILON);
 }
 #endif

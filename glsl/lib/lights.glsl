@@ -326,17 +326,15 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
 // light), unit direction and extent (INF for lights at infinity). Traced by
 // light_sample_visible (visibility.glsl) or by a wavefront's shadow stage.
 void light_sample_shadow_ray(vec3 p, vec3 n, LightSample ls, out vec3 o, out vec3 d, out float tmax) {
-    o = offset_ray_origin(p, dot(ls.wi, n) > 0.0 ? n : -n);
+    vec3 side = dot(ls.wi, n) > 0.0 ? n : -n;
     if (ls.dist == INF) {
+        o = offset_ray_origin(p, side);
         d = ls.wi;
         tmax = INF;
         return;
     }
     vec3 target = ls.delta ? ls.p : offset_ray_origin(ls.p, dot(ls.n, -ls.wi) > 0.0 ? ls.n : -ls.n);
-    vec3 to = target - o;
-    float dist = length(to);
-    d = to / dist;
-    tmax = dist;
+    shadow_ray_to(p, side, target, o, d, tmax);
 }
 
 // Solid-angle pdf (pick included) with which sample_emitter would have produced the
@@ -526,9 +524,11 @@ void emitter_emission_pdfs(uint e, vec3 p, vec3 ng, vec3 w, out float pdf_pos, o
 // irradiance of a polygon, E = L/2 * sum_i theta_i * dot(n, gamma_i) (Arvo 1995); point,
 // spot and directional lights; a constant environment, E = pi L; spheres: a sphere of
 // radius r whose centre is at distance D, at angle theta from the normal, gives
-// E = pi L (r/D)^2 cos theta, whatever side of it emits toward p (its visible cap is the
-// same disk of directions; in front of a constant environment it replaces that disk of
-// the environment's radiance). Ellipsoids (non-uniformly scaled spheres) are left out.
+// E = pi L (r/D)^2 cos theta to a point outside it if its outside emits (its visible
+// cap is a disk of directions; in front of a constant environment it replaces that
+// disk of the environment's radiance), and E = pi L to a point inside it if its inside
+// emits (an inward-facing or two-sided sphere fills the hemisphere and hides the
+// environment). Ellipsoids (non-uniformly scaled spheres) are left out.
 // No horizon clipping: lights must lie entirely above the surfaces they light.
 
 // Irradiance factor sum_i theta_i * dot(n, gamma_i) / 2 of the triangle (v0, v1, v2) at p.
@@ -575,9 +575,12 @@ vec3 emitter_unoccluded_irradiance(uint e, vec3 p, vec3 n, uint prim) {
         // (A uniform scale: every column of the object-to-world map has length r.)
         float r2 = dot(vec3(sp.o2w0.x, sp.o2w1.x, sp.o2w2.x), vec3(sp.o2w0.x, sp.o2w1.x, sp.o2w2.x));
         float d2 = dot(to, to);
+        bool inside = d2 < r2;
+        if (em.info.z == 0u && inside != (sp.info.z != 0u)) return vec3(0.0);   // its back faces p
         // (It hides the constant environment behind it: that part of the
         // hemisphere's E = pi L_env is replaced.)
         vec3 behind = scene.environment != NO_EMITTER ? emitters[scene.environment].radiance.xyz : vec3(0.0);
+        if (inside) return PI * (em.radiance.xyz - behind);
         return (em.radiance.xyz - behind) * (PI * r2 / d2) * max(0.0, dot(n, to) / sqrt(d2));
     }
     return vec3(0.0);

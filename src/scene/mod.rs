@@ -238,11 +238,15 @@ fn n_swap(n: &mut Option<[Vec3; 3]>) {
 
 /// A sphere as the unit sphere at the origin under an affine `object_to_world`
 /// transform (the file's centre and radius are folded into it). A non-uniform scale
-/// makes it an ellipsoid.
+/// makes it an ellipsoid. `inward`: its surface normal faces inward (pbrt-v4's
+/// `ReverseOrientation`, or a transform that swaps handedness, as pbrt-v4 defines it for
+/// spheres): a one-sided emitter then lights its inside, and a dielectric's outside (the
+/// side its index of refraction is relative to) is the inside.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
     pub object_to_world: Mat4,
     pub material: u32,
+    pub inward: bool,
 }
 
 /// A parallelogram light as written in the file (world space): corner `a`, edges

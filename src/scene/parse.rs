@@ -1037,6 +1037,7 @@ impl Parser {
         self.scene.spheres.push(Sphere {
             object_to_world,
             material,
+            inward: false,
         });
         Ok(())
     }

@@ -1113,7 +1113,7 @@ impl Parser {
                 };
                 for mut s in shapes {
                     s.ctm = ctm * s.ctm;
-                    self.emit(s, file, line)?;
+                    self.emit(s)?;
                 }
             }
             "TransformTimes" | "ActiveTransform" => {
@@ -2539,7 +2539,7 @@ impl Parser {
             }
             return Ok(());
         }
-        self.emit(decl, file, line)
+        self.emit(decl)
     }
 
     fn intern(&mut self, m: Material) -> u32 {
@@ -2554,7 +2554,7 @@ impl Parser {
     }
 
     /// Adds a declared shape to the scene, in world space.
-    fn emit(&mut self, s: ShapeDecl, file: u32, line: u32) -> Result<(), ParseError> {
+    fn emit(&mut self, s: ShapeDecl) -> Result<(), ParseError> {
         if matches!(s.material, MaterialRef::Interface) {
             return Ok(());
         }
@@ -2629,15 +2629,6 @@ impl Parser {
                 }
             }
             ShapeKind::Sphere { radius } => {
-                if let Some(a) = &s.area {
-                    if s.reverse ^ swaps && !a.two_sided {
-                        self.unsupported(
-                            file,
-                            line,
-                            "an emissive sphere facing inward (ReverseOrientation)",
-                        );
-                    }
-                }
                 let emission = s.area.as_ref().map(|a| {
                     let mut e = a.radiance * self.imaging_ratio;
                     if let Some(phi) = a.power {
@@ -2653,6 +2644,7 @@ impl Parser {
                 self.scene.spheres.push(Sphere {
                     object_to_world: ctm * Mat4::from_scale(Vec3::splat(radius)),
                     material,
+                    inward: s.reverse ^ swaps,
                 });
             }
         }
