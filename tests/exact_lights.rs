@@ -455,17 +455,29 @@ fn an_inward_facing_sphere_light_lights_only_its_inside() {
              AreaLightSource \"diffuse\" \"rgb L\" [ 4 4 4 ]\nShape \"sphere\" \"float radius\" [ 0.4 ]"
         );
         let s = room(&light, true, 1);
-        let m = region_means(&render(&with(&s, IntegratorKind::PathTracer, 64, 1), 1, Bvh), 1)[0];
+        let m = region_means(
+            &render(&with(&s, IntegratorKind::PathTracer, 64, 1), 1, Bvh),
+            1,
+        )[0];
         m[0] + m[1] + m[2]
     };
     let outward = mean("");
-    assert!(outward > 0.01, "the outward sphere lights the floor: {outward}");
+    assert!(
+        outward > 0.01,
+        "the outward sphere lights the floor: {outward}"
+    );
     for prefix in ["ReverseOrientation", "Scale -1 1 1"] {
         let m = mean(prefix);
-        assert!(m == 0.0, "{prefix}: the floor outside an inward sphere light has mean {m}");
+        assert!(
+            m == 0.0,
+            "{prefix}: the floor outside an inward sphere light has mean {m}"
+        );
     }
     let twice = mean("ReverseOrientation\nScale -1 1 1");
-    assert!((twice - outward).abs() < 1e-3 * outward, "{twice} vs {outward}");
+    assert!(
+        (twice - outward).abs() < 1e-3 * outward,
+        "{twice} vs {outward}"
+    );
 }
 
 /// Spheres and meshes of every material class (diffuse, smooth glass, smooth and rough
