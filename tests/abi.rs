@@ -109,7 +109,14 @@ fn kernel_bindings_come_from_the_spirv() {
         let base = kernel.split('+').next().unwrap_or(kernel);
         let traces = matches!(
             base,
-            "direct" | "analytic" | "bdpt" | "mmlt" | "trace_probe" | "pt_trace" | "pt_shadow"
+            "direct"
+                | "analytic"
+                | "bdpt_light"
+                | "bdpt_camera"
+                | "mmlt"
+                | "trace_probe"
+                | "pt_trace"
+                | "pt_shadow"
         );
         let wavefront = base.starts_with("pt_") || base == "wf_queues";
         if !wavefront {
@@ -153,10 +160,22 @@ fn kernel_bindings_come_from_the_spirv() {
         }
         match base {
             "direct" | "analytic" => assert!(has(abi::BINDING_FILM) && !has(abi::BINDING_SPLAT)),
-            "bdpt" => assert!(
+            // The light stage splats t = 1 and writes no film; the camera stage writes
+            // the film; both keep the light vertices and their hand-over.
+            "bdpt_light" => assert!(
                 has(abi::BINDING_SPLAT)
                     && has(abi::BINDING_PATH_VERTICES)
+                    && has(abi::BINDING_BDPT_SUBPATHS)
                     && has(abi::BINDING_STRATEGIES)
+                    && !has(abi::BINDING_FILM),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            "bdpt_camera" => assert!(
+                has(abi::BINDING_FILM)
+                    && has(abi::BINDING_PATH_VERTICES)
+                    && has(abi::BINDING_BDPT_SUBPATHS)
+                    && has(abi::BINDING_STRATEGIES),
+                "{kernel} ({backend}): {numbers:?}"
             ),
             "mmlt" => assert!(
                 has(abi::BINDING_CHAINS)

@@ -45,6 +45,8 @@
 #define BINDING_WF_PATHS 25
 #define BINDING_WF_QUEUES 26
 #define BINDING_WF_ITEMS 27
+// BDPT: per pixel of a band, where its camera stage resumes (glsl/lib/bdpt_pass.glsl).
+#define BINDING_BDPT_SUBPATHS 28
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0

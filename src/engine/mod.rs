@@ -10,7 +10,7 @@ pub mod passes;
 pub mod run;
 
 pub use dispatch::{Dispatch, SubmitTimes};
-pub use passes::{band_rows, Passes};
+pub use passes::{band_rows, PassStage, Passes};
 pub use run::{RunOptions, RunResult, SnapshotWriter, Snapshots, Work};
 
 use crate::abi::{

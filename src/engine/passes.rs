@@ -36,21 +36,28 @@ pub fn band_rows(width: u32, height: u32, per_pixel_bytes: u64, limit: u64) -> R
     Ok(rows.min(height.max(1)))
 }
 
-/// What a render's passes dispatch: a kernel and its descriptor set over a `width` ×
-/// `height` image, in bands of `band_rows` rows, timed as "`span`".
+/// One kernel of a pass and its descriptor set, timed as "`span`".
 #[derive(Clone)]
-pub struct Passes {
+pub struct PassStage {
     pub kernel: Kernel,
     pub set: vk::DescriptorSet,
+    pub span: String,
+}
+
+/// What a render's passes dispatch: over a `width` × `height` image, in bands of
+/// `band_rows` rows, each band's stages in order (BDPT: its light subpaths, then its
+/// camera subpaths; the other integrators: one kernel).
+#[derive(Clone)]
+pub struct Passes {
+    pub stages: Vec<PassStage>,
     pub width: u32,
     pub height: u32,
     pub band_rows: u32,
-    pub span: String,
 }
 
 impl Passes {
     /// The dispatches of passes `first .. first + count` (one sample per pixel each),
-    /// band by band.
+    /// band by band, each band's stages in order.
     pub fn dispatches(&self, first: u32, count: u32) -> Vec<Dispatch> {
         let mut list = Vec::new();
         for i in 0..count {
@@ -67,21 +74,28 @@ impl Passes {
                     rows.div_ceil(WORKGROUP_SIZE_Y),
                     1,
                 ];
-                list.push(Dispatch::new(&self.kernel, self.set, &params, groups).timed(&self.span));
+                for stage in &self.stages {
+                    list.push(
+                        Dispatch::new(&stage.kernel, stage.set, &params, groups).timed(&stage.span),
+                    );
+                }
             }
         }
         list
     }
 
-    /// A dispatch that does nothing (no samples), to warm the kernel up.
-    pub fn idle(&self) -> Dispatch {
+    /// Dispatches that do nothing (no samples), one per stage, to warm the kernels up.
+    pub fn idle(&self) -> Vec<Dispatch> {
         let params = PassParams {
             first_sample: 0,
             samples: 0,
             row_begin: 0,
             row_end: 1,
         };
-        Dispatch::new(&self.kernel, self.set, &params, [1, 1, 1])
+        self.stages
+            .iter()
+            .map(|s| Dispatch::new(&s.kernel, s.set, &params, [1, 1, 1]))
+            .collect()
     }
 }
 

@@ -1,11 +1,12 @@
 //! Host side of bidirectional path tracing: its options, the strategy list, the sizes
 //! of its per-pixel light-vertex buffer and of its strategy images, its render (passes in
 //! bands, resolve), and the extra passes that record strategy images in groups. (The
-//! kernel is glsl/bdpt.comp; the CPU mirror of its MIS weights is `bdpt_mis`.)
+//! kernels are glsl/bdpt_light.comp and bdpt_camera.comp; the CPU mirror of its MIS
+//! weights is `bdpt_mis`.)
 use super::{add_splat_film, film_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
 use crate::engine::passes::PassWork;
-use crate::engine::{band_rows, Engine, Passes, PreparedScene, RunOptions};
+use crate::engine::{band_rows, Engine, PassStage, Passes, PreparedScene, RunOptions};
 use crate::gpu::buffer::Buffer;
 use crate::io::Image;
 use crate::scene::Scene;
@@ -107,6 +108,50 @@ pub fn bdpt_max_scatter(scene: &Scene) -> u32 {
     }
 }
 
+/// BDPT's passes over a `width` × `height` image in bands of `rows` rows: its two stages
+/// (glsl/bdpt_light.comp, then glsl/bdpt_camera.comp; lib/bdpt_pass.glsl), bound to the
+/// scene, to `buffers` and to the per-pixel subpath state between them (allocated here,
+/// returned with the passes that use it), warmed up.
+pub(crate) fn bdpt_passes(
+    engine: &mut Engine,
+    prepared: &PreparedScene,
+    variant: Option<&'static str>,
+    buffers: &[(u32, &Buffer)],
+    (width, height, rows): (u32, u32, u32),
+    trace: &mut Trace,
+) -> Result<(Passes, Buffer)> {
+    let kernels = trace.cpu("pipeline creation", || -> Result<_> {
+        Ok([
+            engine.kernel("bdpt_light", variant, prepared.specialization())?,
+            engine.kernel("bdpt_camera", variant, prepared.specialization())?,
+        ])
+    })?;
+    let subpaths = trace.cpu("BDPT buffers", || {
+        engine.device_buffer("BDPT subpath states", rows as u64 * width as u64 * 16)
+    })?;
+    let mut all = buffers.to_vec();
+    all.push((BINDING_BDPT_SUBPATHS, &subpaths));
+    let mut stages = Vec::new();
+    for (kernel, span) in kernels.into_iter().zip(["bdpt light", "bdpt camera"]) {
+        let set = engine.bind(&kernel, Some(prepared), &all)?;
+        stages.push(PassStage {
+            kernel,
+            set,
+            span: span.to_string(),
+        });
+    }
+    let passes = Passes {
+        stages,
+        width,
+        height,
+        band_rows: rows,
+    };
+    for d in passes.idle() {
+        engine.warm_up(d, trace)?;
+    }
+    Ok((passes, subpaths))
+}
+
 /// The BDPT integrator.
 pub struct Bdpt {
     options: BdptOptions,
@@ -121,7 +166,7 @@ pub fn create(o: &IntegratorOptions) -> Box<dyn Integrator> {
 }
 
 impl Integrator for Bdpt {
-    /// Passes of glsl/bdpt.comp in bands whose light vertices fit the device, then (with
+    /// Passes of BDPT's two stages in bands whose light vertices fit the device, then (with
     /// `record_strategies`) the same passes once per further group of strategy images;
     /// image = (camera film + splat film) / spp.
     fn render(
@@ -170,9 +215,6 @@ impl Integrator for Bdpt {
             },
             trace,
         )?;
-        let kernel = trace.cpu("pipeline creation", || {
-            engine.kernel(kernel_name, self.profile_variant, prepared.specialization())
-        })?;
         let (film, stats, splat, vertices, strategy_film) =
             trace.cpu("BDPT buffers", || -> Result<_> {
                 Ok((
@@ -186,9 +228,10 @@ impl Integrator for Bdpt {
                     engine.storage_buffer("strategy films", strategy_bytes.max(16))?,
                 ))
             })?;
-        let set = engine.bind(
-            &kernel,
-            Some(&prepared),
+        let (passes, _subpaths) = bdpt_passes(
+            engine,
+            &prepared,
+            self.profile_variant,
             &[
                 (BINDING_FILM, &film),
                 (BINDING_STATS, &stats),
@@ -196,16 +239,9 @@ impl Integrator for Bdpt {
                 (BINDING_PATH_VERTICES, &vertices),
                 (BINDING_STRATEGIES, &strategy_film),
             ],
+            (width, height, rows),
+            trace,
         )?;
-        let passes = Passes {
-            kernel,
-            set,
-            width,
-            height,
-            band_rows: rows,
-            span: format!("{kernel_name} pass"),
-        };
-        engine.warm_up(passes.idle(), trace)?;
         // image = (camera film + splat film) / spp
         let resolve = |done: u32| -> Result<Image> {
             let (f, sp) = (film.download(film_bytes)?, splat.download(splat_bytes)?);

@@ -1,11 +1,11 @@
-//! CPU mirror of the MIS weights of glsl/bdpt.comp, for testing.
+//! CPU mirror of the MIS weights of glsl/lib/bdpt.glsl, for testing.
 //!
 //! The kernel never stores whole paths: it carries two running quantities per subpath
 //! vertex (dVCM and dVC, already squared for the power heuristic) and combines them at
 //! each connection. This module does the same computation, step for step, on an explicit
 //! path, and also computes the weights the long way (products of every vertex's
 //! area-measure pdf under each strategy). The tests check that the two agree and that
-//! the weights of all strategies of a path sum to one. Keep in sync with bdpt.comp.
+//! the weights of all strategies of a path sum to one. Keep in sync with bdpt.glsl.
 use crate::bsdf::{BsdfParams, SampleMode};
 use glam::Vec3;
 use std::f32::consts::PI;

@@ -7,8 +7,8 @@
 //! Stages, each timed in the trace: `mmlt bootstrap` dispatches → `mmlt chain starts` (a
 //! CDF on the host in f64) → `mmlt chain start` dispatch → `mmlt chains` dispatches of
 //! K mutations per chain, K adapted so that a submission takes about a quarter second;
-//! with maxdepth -1, `bdpt pass`es for the paths longer than the chains' cap between
-//! them.
+//! with maxdepth -1, bdpt passes (`bdpt light`, `bdpt camera`) for the paths longer than
+//! the chains' cap between them.
 use super::bdpt::bdpt_max_scatter;
 use super::mmlt_sampler::{pcg4d, stream_sizes};
 use super::{add_film, film_image, splat_image, Integrator, IntegratorOptions, RenderOutput};
@@ -498,12 +498,11 @@ impl Integrator for Mmlt {
         // one) so that a time limit ends both together. The chains' cap is bdpt's, so
         // the tail has no light subpaths and never writes the splat film the chains use.
         let tail = if plan.tail_passes > 0 {
-            let bdpt = trace.cpu("pipeline creation", || {
-                engine.kernel("bdpt", None, prepared.specialization())
-            })?;
-            let tail_set = engine.bind(
-                &bdpt,
-                Some(&prepared),
+            let rows = band_rows(width, height, 0, u64::MAX)?;
+            Some(super::bdpt::bdpt_passes(
+                engine,
+                &prepared,
+                None,
                 &[
                     (BINDING_FILM, &film),
                     (BINDING_STATS, &stats),
@@ -511,17 +510,9 @@ impl Integrator for Mmlt {
                     (BINDING_PATH_VERTICES, &unused),
                     (BINDING_STRATEGIES, &unused),
                 ],
-            )?;
-            let passes = Passes {
-                kernel: bdpt,
-                set: tail_set,
-                width,
-                height,
-                band_rows: band_rows(width, height, 0, u64::MAX)?,
-                span: "bdpt pass".to_string(),
-            };
-            engine.warm_up(passes.idle(), trace)?;
-            Some(passes)
+                (width, height, rows),
+                trace,
+            )?)
         } else {
             None
         };
@@ -606,7 +597,7 @@ impl Integrator for Mmlt {
             chains: plan.chains as u64,
             per_chain: plan.mutations_per_chain(),
             npix,
-            tail: tail.as_ref(),
+            tail: tail.as_ref().map(|(p, _)| p),
             tail_total: plan.tail_passes,
             tail_done: 0,
             resolve: &resolve,
@@ -655,7 +646,7 @@ impl Integrator for Mmlt {
             };
             let run = engine.run(&mut work, &options, trace)?;
             chain_seconds = run.times.of("mmlt chains");
-            tail_seconds += run.times.of("bdpt pass");
+            tail_seconds += run.times.of("bdpt light") + run.times.of("bdpt camera");
             mutations_done = run.done * plan.chains as u64;
         }
         let tail_done = work.tail_done;

@@ -5,7 +5,7 @@
 use super::{film_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
 use crate::engine::passes::PassWork;
-use crate::engine::{band_rows, Dispatch, Engine, Passes, RunOptions, RunResult, Work};
+use crate::engine::{band_rows, Dispatch, Engine, PassStage, Passes, RunOptions, RunResult, Work};
 use crate::gpu::buffer::Buffer;
 use crate::gpu::kernels::Kernel;
 use crate::io::Image;
@@ -128,14 +128,18 @@ impl Integrator for FilmIntegrator {
             &[(BINDING_FILM, &film), (BINDING_STATS, &stats)],
         )?;
         let passes = Passes {
-            kernel,
-            set,
+            stages: vec![PassStage {
+                kernel,
+                set,
+                span: format!("{} pass", self.kernel),
+            }],
             width,
             height,
             band_rows: rows,
-            span: format!("{} pass", self.kernel),
         };
-        engine.warm_up(passes.idle(), trace)?;
+        for d in passes.idle() {
+            engine.warm_up(d, trace)?;
+        }
         let resolve = |done: u32| resolve_film(&film, film_bytes, width, height, done);
         let mut work = PassWork {
             passes: &passes,

@@ -1,0 +1,125 @@
+// What BDPT's two stages share. A pass of bidirectional path tracing (integrator
+// `bdpt`) is two dispatches over the pixels of a band, one invocation per pixel and one
+// sample per pass:
+//   bdpt_light.comp   traces the pixel's light subpath, connects every light vertex to
+//                     the camera (t = 1, splatted to whichever pixel it lands on) and
+//                     stores the vertices in the pixel's slice of the path-vertex buffer,
+//                     with what the second stage resumes from (subpaths[]);
+//   bdpt_camera.comp  traces the camera subpath that, at each vertex, takes the emission
+//                     it finds (s = 0), a fresh light sample (s = 1) and a connection to
+//                     every stored light vertex (s >= 2).
+// The walks, connections and MIS weights are lib/bdpt.glsl's, shared with mmlt.comp.
+//
+// Films: film[pixel] (camera strategies, written only by the pixel's own invocation) and
+// the splat film (t = 1 strategies, fixed-point integer atomics whose sum does not depend
+// on the order: lib/splat.glsl). The image is (film + splat) / spp.
+// A contribution that comes out NaN or infinite is left out and counted in
+// stats[STAT_NONFINITE] (per contribution, not per sample).
+//
+// scene.min_depth > 0 restricts the pass to paths of at least that many scattering
+// vertices (MMLT's tail beyond its chains' depth cap): shorter ones are not added.
+#ifndef BDPT_PASS_GLSL
+#define BDPT_PASS_GLSL
+#include "bindings.glsl"
+#include "sampler_pcg.glsl"
+#include "sampling.glsl"
+#include "bsdf.glsl"
+#include "trace.glsl"
+#include "lights.glsl"
+#include "camera.glsl"
+#include "bdpt.glsl"
+#include "splat.glsl"
+
+layout(std430, set = 0, binding = BINDING_PATH_VERTICES) buffer PathVertexBuffer { GpuPathVertex light_vertices[]; };
+// Debug output (--bdpt-strategies): per (s,t), a weighted and an unweighted film of
+// vec4s, laid out [strategy][weighted 0 / unweighted 1][pixel].
+layout(std430, set = 0, binding = BINDING_STRATEGIES) buffer StrategyBuffer { float strategy_film[]; };
+
+// Per pixel of the band, what the camera stage resumes from: x the light vertices
+// stored, y the sampler's draw counter after the light subpath, z the rays it traced.
+layout(std430, set = 0, binding = BINDING_BDPT_SUBPATHS) buffer SubpathBuffer { uvec4 subpaths[]; };
+
+uint nonfinite = 0u;
+// Paths with fewer scattering vertices are not added (MMLT's tail: its chains have them).
+uint min_scatter() { return scene.min_depth; }
+
+// Strategy (s, t): s light vertices, t camera vertices (the camera itself included).
+// Only the group of strategies [first, first + count) that the host asked for is
+// recorded (scene.strategy_first, scene.strategy_count; count 0: none), at group-relative
+// indices: when all strategies do not fit one buffer, the host re-renders the same samples once
+// per group.
+void record_strategy(uint s, uint t, uint pixel, vec3 weighted, vec3 unweighted) {
+    uint count = scene.strategy_count;
+    if (count == 0u) return;
+    uint n = s + t - 2u;
+    uint strategy = n * (n + 3u) / 2u + s - scene.strategy_first;
+    if (strategy >= count) return;   // (strategies before the group wrap around to large values)
+    uint npix = scene.width * scene.height;
+    uint i = ((strategy * 2u) * npix + pixel) * 4u;
+    uint j = ((strategy * 2u + 1u) * npix + pixel) * 4u;
+    for (uint c = 0u; c < 3u; ++c) {
+        atomicAdd(strategy_film[i + c], weighted[c]);
+        atomicAdd(strategy_film[j + c], unweighted[c]);
+    }
+}
+
+// Add one strategy's MIS-weighted contribution to the camera film's running sum L,
+// unless it is NaN or infinite (then it is counted and left out, and the sample's other
+// strategies still count).
+void add_camera(inout vec3 L, uint s, uint t, uint pixel, vec3 unweighted, float weight) {
+    if (s + t - 2u < min_scatter()) return;
+    vec3 v = unweighted * weight;
+    if (!finite3(v) || !finite3(unweighted)) { nonfinite++; return; }
+    L += v;
+    record_strategy(s, t, pixel, v, unweighted);
+}
+
+void add_splat(uvec2 px, uint s, vec3 unweighted, float weight) {
+    if (s - 1u < min_scatter()) return;
+    vec3 v = unweighted * weight;
+    if (!finite3(v) || !finite3(unweighted)) { nonfinite++; return; }
+    uint pixel = px.y * scene.width + px.x;
+    if (!splat_add_fixed(pixel, v)) { nonfinite++; return; }
+    record_strategy(s, 1u, pixel, v, unweighted);
+}
+
+// This invocation's pixel, its index in the image and in the band (`slot`), and the
+// base of its slice of the light-vertex buffer (which holds one band; none when only
+// paths too long for light vertices are added). False when it has no pixel, or (counted
+// once, by the light stage) when its slice is past the buffer's end.
+bool bdpt_pixel(bool count_out_of_range, out uvec2 pixel, out uint index, out uint slot, out uint base) {
+    pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.row_begin);
+    index = 0u;
+    slot = 0u;
+    base = 0u;
+    if (pixel.x >= scene.width || pixel.y >= min(scene.height, pass_params.row_end)) return false;
+    index = pixel.y * scene.width + pixel.x;
+    slot = (pixel.y - pass_params.row_begin) * scene.width + pixel.x;
+    uint stride = min_scatter() > max_scatter() ? 0u : max(max_scatter(), 2u) - 1u;
+    base = slot * stride;
+    if (stride > 0u && base + stride > uint(light_vertices.length())) {
+        if (count_out_of_range) atomicAdd(stats[STAT_OUT_OF_RANGE], 1u);
+        return false;
+    }
+    return true;
+}
+
+PathVertex stored_light_vertex(uint index) {
+    GpuPathVertex g = light_vertices[index];
+    PathVertex y;
+    y.p = g.p.xyz;
+    uint m = floatBitsToUint(g.p.w);
+    y.material = m & ~PATH_VERTEX_FRONT;
+    y.n = g.n.xyz;
+    y.dvcm = g.n.w;
+    y.w = g.wi.xyz;
+    y.dvc = g.wi.w;
+    y.beta = g.beta.xyz;
+    y.emitter = NO_EMITTER;
+    y.ng = (m & PATH_VERTEX_FRONT) != 0u ? y.n : -y.n;   // (only its side matters: emission is not read here)
+    y.uv = vec2(g.ns.w, g.beta.w);
+    y.ns = g.ns.xyz;
+    return y;
+}
+
+#endif
