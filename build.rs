@@ -218,7 +218,9 @@ fn variants(kernel: &str) -> Vec<(&'static str, Option<&'static str>)> {
     const LIGHT: (&str, Option<&str>) = ("x2light", Some("PROFILE_X2_LIGHT"));
     let mut v = vec![("", None)];
     match kernel {
-        "bdpt_light" | "bdpt_camera" => v.extend([TRACE, PRIM, RNG, BSDF, LIGHT]),
+        // (bdpt_connect draws no random numbers and samples no light, but a profile
+        // asks every stage of the integrator for the same variant.)
+        "bdpt_light" | "bdpt_camera" | "bdpt_connect" => v.extend([TRACE, PRIM, RNG, BSDF, LIGHT]),
         "pt_trace" | "pt_shadow" => v.extend([TRACE, PRIM]),
         "pt_camera" => v.push(RNG),
         "pt_hit" => v.extend([RNG, LIGHT]),

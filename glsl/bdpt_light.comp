@@ -1,5 +1,5 @@
 // BDPT's first stage: the pixel's light subpath, its t = 1 splats and its stored
-// vertices (lib/bdpt_pass.glsl says how the two stages divide a pass).
+// vertices (lib/bdpt_pass.glsl says how the three stages divide a pass).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_atomic_float : require
@@ -9,7 +9,8 @@ layout(local_size_x = WORKGROUP_SIZE_X, local_size_y = WORKGROUP_SIZE_Y) in;
 #include "bdpt_pass.glsl"
 
 // Trace the light subpath, splatting t = 1 connections and storing vertices 1..stored
-// at light_vertices[base + i - 1]. Returns the number stored.
+// at path_vertices[base + i - 1] (the light half of the pixel's slice). Returns the
+// number stored.
 uint light_subpath(uint base) {
     Walk w;
     LightEmission le;
@@ -28,14 +29,7 @@ uint light_subpath(uint base) {
         // Vertices that a camera vertex can still connect to (s + t - 2 <= max_scatter()
         // with t >= 2) are stored.
         if (i < max_scatter()) {
-            GpuPathVertex v;
-            bool front = dot(y.n, y.ng) > 0.0;
-            v.p = vec4(y.p, uintBitsToFloat(y.material | (front ? PATH_VERTEX_FRONT : 0u)));
-            v.n = vec4(y.n, y.dvcm);
-            v.wi = vec4(y.w, y.dvc);
-            v.beta = vec4(y.beta, y.uv.y);
-            v.ns = vec4(y.ns, y.uv.x);
-            light_vertices[base + i - 1u] = v;
+            path_vertices[base + i - 1u] = pack_vertex(y);
             stored = i;
         }
         if (i >= min_scatter() && strategy_camera_connection(y, px, value, weight)) add_splat(px, i + 1u, value, weight);

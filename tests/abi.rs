@@ -113,6 +113,7 @@ fn kernel_bindings_come_from_the_spirv() {
                 | "analytic"
                 | "bdpt_light"
                 | "bdpt_camera"
+                | "bdpt_connect"
                 | "mmlt"
                 | "trace_probe"
                 | "pt_trace"
@@ -160,8 +161,9 @@ fn kernel_bindings_come_from_the_spirv() {
         }
         match base {
             "direct" | "analytic" => assert!(has(abi::BINDING_FILM) && !has(abi::BINDING_SPLAT)),
-            // The light stage splats t = 1 and writes no film; the camera stage writes
-            // the film; both keep the light vertices and their hand-over.
+            // The light stage splats t = 1 and writes no film; the camera and connection
+            // stages write the film and no splats; all keep the path vertices and the
+            // hand-over between stages.
             "bdpt_light" => assert!(
                 has(abi::BINDING_SPLAT)
                     && has(abi::BINDING_PATH_VERTICES)
@@ -170,8 +172,9 @@ fn kernel_bindings_come_from_the_spirv() {
                     && !has(abi::BINDING_FILM),
                 "{kernel} ({backend}): {numbers:?}"
             ),
-            "bdpt_camera" => assert!(
+            "bdpt_camera" | "bdpt_connect" => assert!(
                 has(abi::BINDING_FILM)
+                    && !has(abi::BINDING_SPLAT)
                     && has(abi::BINDING_PATH_VERTICES)
                     && has(abi::BINDING_BDPT_SUBPATHS)
                     && has(abi::BINDING_STRATEGIES),

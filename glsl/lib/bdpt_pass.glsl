@@ -1,16 +1,20 @@
-// What BDPT's two stages share. A pass of bidirectional path tracing (integrator
-// `bdpt`) is two dispatches over the pixels of a band, one invocation per pixel and one
-// sample per pass:
-//   bdpt_light.comp   traces the pixel's light subpath, connects every light vertex to
-//                     the camera (t = 1, splatted to whichever pixel it lands on) and
-//                     stores the vertices in the pixel's slice of the path-vertex buffer,
-//                     with what the second stage resumes from (subpaths[]);
-//   bdpt_camera.comp  traces the camera subpath that, at each vertex, takes the emission
-//                     it finds (s = 0), a fresh light sample (s = 1) and a connection to
-//                     every stored light vertex (s >= 2).
+// What BDPT's stages share. A pass of bidirectional path tracing (integrator `bdpt`) is
+// three dispatches over the pixels of a band, one invocation per pixel and one sample
+// per pass:
+//   bdpt_light.comp    traces the pixel's light subpath, connects every light vertex to
+//                      the camera (t = 1, splatted to whichever pixel it lands on) and
+//                      stores the vertices in the light half of the pixel's slice of the
+//                      path-vertex buffer, with what the next stage resumes from
+//                      (subpaths[]);
+//   bdpt_camera.comp   traces the camera subpath that, at each vertex, takes the
+//                      emission it finds (s = 0) and a fresh light sample (s = 1), and
+//                      stores the vertices that can connect in the camera half;
+//   bdpt_connect.comp  connects every stored camera vertex to every stored light vertex
+//                      whose path stays within maxdepth (s >= 2, t >= 2).
 // The walks, connections and MIS weights are lib/bdpt.glsl's, shared with mmlt.comp.
 //
-// Films: film[pixel] (camera strategies, written only by the pixel's own invocation) and
+// Films: film[pixel] (camera strategies, written only by the pixel's own invocations,
+// the camera stage's sum and then the connection stage's) and
 // the splat film (t = 1 strategies, fixed-point integer atomics whose sum does not depend
 // on the order: lib/splat.glsl). The image is (film + splat) / spp.
 // A contribution that comes out NaN or infinite is left out and counted in
@@ -30,13 +34,15 @@
 #include "bdpt.glsl"
 #include "splat.glsl"
 
-layout(std430, set = 0, binding = BINDING_PATH_VERTICES) buffer PathVertexBuffer { GpuPathVertex light_vertices[]; };
+// A pixel's slice: `stride` light vertices y_1.., then `stride` camera vertices z_1...
+layout(std430, set = 0, binding = BINDING_PATH_VERTICES) buffer PathVertexBuffer { GpuPathVertex path_vertices[]; };
 // Debug output (--bdpt-strategies): per (s,t), a weighted and an unweighted film of
 // vec4s, laid out [strategy][weighted 0 / unweighted 1][pixel].
 layout(std430, set = 0, binding = BINDING_STRATEGIES) buffer StrategyBuffer { float strategy_film[]; };
 
-// Per pixel of the band, what the camera stage resumes from: x the light vertices
-// stored, y the sampler's draw counter after the light subpath, z the rays it traced.
+// Per pixel of the band, what the next stage resumes from: x the light vertices stored,
+// y the sampler's draw counter after the light subpath, z the rays traced so far (set by
+// the light stage, read by the camera stage), w the camera vertices stored.
 layout(std430, set = 0, binding = BINDING_BDPT_SUBPATHS) buffer SubpathBuffer { uvec4 subpaths[]; };
 
 uint nonfinite = 0u;
@@ -83,10 +89,14 @@ void add_splat(uvec2 px, uint s, vec3 unweighted, float weight) {
     record_strategy(s, 1u, pixel, v, unweighted);
 }
 
+// Vertices a subpath stores: those a connection can use (s + t - 2 <= max_scatter()
+// with s, t >= 2); none when only paths too long for them are added.
+uint vertex_stride() { return min_scatter() > max_scatter() ? 0u : max(max_scatter(), 2u) - 1u; }
+
 // This invocation's pixel, its index in the image and in the band (`slot`), and the
-// base of its slice of the light-vertex buffer (which holds one band; none when only
-// paths too long for light vertices are added). False when it has no pixel, or (counted
-// once, by the light stage) when its slice is past the buffer's end.
+// base of its slice of the path-vertex buffer (which holds one band). False when it has
+// no pixel, or (counted once, by the light stage) when its slice is past the buffer's
+// end.
 bool bdpt_pixel(bool count_out_of_range, out uvec2 pixel, out uint index, out uint slot, out uint base) {
     pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.row_begin);
     index = 0u;
@@ -95,17 +105,30 @@ bool bdpt_pixel(bool count_out_of_range, out uvec2 pixel, out uint index, out ui
     if (pixel.x >= scene.width || pixel.y >= min(scene.height, pass_params.row_end)) return false;
     index = pixel.y * scene.width + pixel.x;
     slot = (pixel.y - pass_params.row_begin) * scene.width + pixel.x;
-    uint stride = min_scatter() > max_scatter() ? 0u : max(max_scatter(), 2u) - 1u;
-    base = slot * stride;
-    if (stride > 0u && base + stride > uint(light_vertices.length())) {
+    uint stride = vertex_stride();
+    base = slot * 2u * stride;
+    if (stride > 0u && base + 2u * stride > uint(path_vertices.length())) {
         if (count_out_of_range) atomicAdd(stats[STAT_OUT_OF_RANGE], 1u);
         return false;
     }
     return true;
 }
 
-PathVertex stored_light_vertex(uint index) {
-    GpuPathVertex g = light_vertices[index];
+// A vertex as the path-vertex buffer keeps it: what a connection reads (its emitter is
+// not kept, and of its geometric normal only the side).
+GpuPathVertex pack_vertex(PathVertex y) {
+    GpuPathVertex v;
+    bool front = dot(y.n, y.ng) > 0.0;
+    v.p = vec4(y.p, uintBitsToFloat(y.material | (front ? PATH_VERTEX_FRONT : 0u)));
+    v.n = vec4(y.n, y.dvcm);
+    v.wi = vec4(y.w, y.dvc);
+    v.beta = vec4(y.beta, y.uv.y);
+    v.ns = vec4(y.ns, y.uv.x);
+    return v;
+}
+
+PathVertex stored_vertex(uint index) {
+    GpuPathVertex g = path_vertices[index];
     PathVertex y;
     y.p = g.p.xyz;
     uint m = floatBitsToUint(g.p.w);
@@ -121,5 +144,4 @@ PathVertex stored_light_vertex(uint index) {
     y.ns = g.ns.xyz;
     return y;
 }
-
 #endif

@@ -1,8 +1,8 @@
 //! Host side of bidirectional path tracing: its options, the strategy list, the sizes
 //! of its per-pixel light-vertex buffer and of its strategy images, its render (passes in
 //! bands, resolve), and the extra passes that record strategy images in groups. (The
-//! kernels are glsl/bdpt_light.comp and bdpt_camera.comp; the CPU mirror of its MIS
-//! weights is `bdpt_mis`.)
+//! kernels are glsl/bdpt_light.comp, bdpt_camera.comp and bdpt_connect.comp; the CPU
+//! mirror of its MIS weights is `bdpt_mis`.)
 use super::{add_splat_film, film_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
 use crate::engine::passes::PassWork;
@@ -89,9 +89,10 @@ pub fn strategy_group_size(
     Ok(group as u32)
 }
 
-/// Bytes per pixel of a BDPT pass's light-vertex buffer.
+/// Bytes per pixel of a BDPT pass's path-vertex buffer: the light and the camera
+/// vertices a connection can use.
 pub fn bdpt_vertex_bytes_per_pixel(max_scatter: u32) -> u64 {
-    (max_scatter.max(2) - 1) as u64 * std::mem::size_of::<GpuPathVertex>() as u64
+    2 * (max_scatter.max(2) - 1) as u64 * std::mem::size_of::<GpuPathVertex>() as u64
 }
 
 /// Largest device allocation lightpath makes for BDPT light vertices, whatever the
@@ -108,10 +109,10 @@ pub fn bdpt_max_scatter(scene: &Scene) -> u32 {
     }
 }
 
-/// BDPT's passes over a `width` × `height` image in bands of `rows` rows: its two stages
-/// (glsl/bdpt_light.comp, then glsl/bdpt_camera.comp; lib/bdpt_pass.glsl), bound to the
-/// scene, to `buffers` and to the per-pixel subpath state between them (allocated here,
-/// returned with the passes that use it), warmed up.
+/// BDPT's passes over a `width` × `height` image in bands of `rows` rows: its three
+/// stages (glsl/bdpt_light.comp, bdpt_camera.comp, then bdpt_connect.comp;
+/// lib/bdpt_pass.glsl), bound to the scene, to `buffers` and to the per-pixel subpath
+/// state between them (allocated here, returned with the passes that use it), warmed up.
 pub(crate) fn bdpt_passes(
     engine: &mut Engine,
     prepared: &PreparedScene,
@@ -124,6 +125,7 @@ pub(crate) fn bdpt_passes(
         Ok([
             engine.kernel("bdpt_light", variant, prepared.specialization())?,
             engine.kernel("bdpt_camera", variant, prepared.specialization())?,
+            engine.kernel("bdpt_connect", variant, prepared.specialization())?,
         ])
     })?;
     let subpaths = trace.cpu("BDPT buffers", || {
@@ -132,7 +134,10 @@ pub(crate) fn bdpt_passes(
     let mut all = buffers.to_vec();
     all.push((BINDING_BDPT_SUBPATHS, &subpaths));
     let mut stages = Vec::new();
-    for (kernel, span) in kernels.into_iter().zip(["bdpt light", "bdpt camera"]) {
+    for (kernel, span) in kernels
+        .into_iter()
+        .zip(["bdpt light", "bdpt camera", "bdpt connect"])
+    {
         let set = engine.bind(&kernel, Some(prepared), &all)?;
         stages.push(PassStage {
             kernel,
@@ -166,7 +171,7 @@ pub fn create(o: &IntegratorOptions) -> Box<dyn Integrator> {
 }
 
 impl Integrator for Bdpt {
-    /// Passes of BDPT's two stages in bands whose light vertices fit the device, then (with
+    /// Passes of BDPT's three stages in bands whose path vertices fit the device, then (with
     /// `record_strategies`) the same passes once per further group of strategy images;
     /// image = (camera film + splat film) / spp.
     fn render(
@@ -222,7 +227,7 @@ impl Integrator for Bdpt {
                     engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
                     engine.storage_buffer("splat film", splat_bytes)?,
                     engine.device_buffer(
-                        "BDPT light vertices",
+                        "BDPT path vertices",
                         (rows as u64 * width as u64 * vertex_bytes).max(16),
                     )?,
                     engine.storage_buffer("strategy films", strategy_bytes.max(16))?,
@@ -393,9 +398,9 @@ mod tests {
     #[test]
     fn bdpt_bands_fit_the_storage_buffer_range() {
         let range = 128 << 20; // lavapipe
-                               // 1920x1080 at maxdepth 10: 9 stored vertices (720 bytes) per pixel.
+                               // 1920x1080 at maxdepth 10: 9 stored vertices per subpath (1440 bytes) per pixel.
         let per_pixel = bdpt_vertex_bytes_per_pixel(10);
-        assert_eq!(per_pixel, 9 * 80);
+        assert_eq!(per_pixel, 2 * 9 * 80);
         let rows = band_rows(1920, 1080, per_pixel, range).unwrap();
         assert!(rows as u64 * 1920 * per_pixel <= range);
         assert_eq!(rows % WORKGROUP_SIZE_Y, 0);

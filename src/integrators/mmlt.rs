@@ -7,8 +7,8 @@
 //! Stages, each timed in the trace: `mmlt bootstrap` dispatches → `mmlt chain starts` (a
 //! CDF on the host in f64) → `mmlt chain start` dispatch → `mmlt chains` dispatches of
 //! K mutations per chain, K adapted so that a submission takes about a quarter second;
-//! with maxdepth -1, bdpt passes (`bdpt light`, `bdpt camera`) for the paths longer than
-//! the chains' cap between them.
+//! with maxdepth -1, bdpt passes (`bdpt light`, `bdpt camera`, `bdpt connect`) for the
+//! paths longer than the chains' cap between them.
 use super::bdpt::bdpt_max_scatter;
 use super::mmlt_sampler::{pcg4d, stream_sizes};
 use super::{add_film, film_image, splat_image, Integrator, IntegratorOptions, RenderOutput};
@@ -646,7 +646,9 @@ impl Integrator for Mmlt {
             };
             let run = engine.run(&mut work, &options, trace)?;
             chain_seconds = run.times.of("mmlt chains");
-            tail_seconds += run.times.of("bdpt light") + run.times.of("bdpt camera");
+            tail_seconds += run.times.of("bdpt light")
+                + run.times.of("bdpt camera")
+                + run.times.of("bdpt connect");
             mutations_done = run.done * plan.chains as u64;
         }
         let tail_done = work.tail_done;
