@@ -404,7 +404,7 @@ mod tests {
         let rows = band_rows(1920, 1080, per_pixel, range).unwrap();
         assert!(rows as u64 * 1920 * per_pixel <= range);
         assert_eq!(rows % WORKGROUP_SIZE_Y, 0);
-        assert!(rows >= 64, "{rows}");
+        assert_eq!(rows, 48, "23 bands of 48 rows (docs/bdpt.md)");
         // The unbounded cap still fits.
         let per_pixel = bdpt_vertex_bytes_per_pixel(BDPT_UNBOUNDED_DEPTH_CAP);
         let rows = band_rows(1920, 1080, per_pixel, range).unwrap();
