@@ -223,22 +223,25 @@ fn pt_depth_estimate(s: &Scene, depth: i32, spp: u32, grid: u32) -> Estimate {
 /// Every strategy's unweighted image of a BDPT render at `max_depth`, per seed.
 fn strategy_runs(s: &Scene, spp: u32, max_depth: i32) -> Vec<Vec<(u32, u32, Image)>> {
     (0..STRATEGY_SEEDS)
-        .map(|seed| {
-            let mut r = renderer(Bvh);
-            r.options.bdpt.record_strategies = true;
-            let out = r.render(
-                &with(s, IntegratorKind::Bdpt, spp, max_depth),
-                1000 + seed,
-                &mut Trace::new(),
-            );
-            r.options.bdpt.record_strategies = false;
-            let out = out.expect("bdpt render");
-            assert_eq!(out.nonfinite_samples, 0, "NaN/Inf samples");
-            strategies(&out)
-                .iter()
-                .map(|st| (st.s, st.t, st.unweighted.clone()))
-                .collect()
-        })
+        .map(|seed| strategy_images(s, spp, max_depth, 1000 + seed))
+        .collect()
+}
+
+/// Every strategy's unweighted image of one BDPT render.
+fn strategy_images(s: &Scene, spp: u32, max_depth: i32, seed: u32) -> Vec<(u32, u32, Image)> {
+    let mut r = renderer(Bvh);
+    r.options.bdpt.record_strategies = true;
+    let out = r.render(
+        &with(s, IntegratorKind::Bdpt, spp, max_depth),
+        seed,
+        &mut Trace::new(),
+    );
+    r.options.bdpt.record_strategies = false;
+    let out = out.expect("bdpt render");
+    assert_eq!(out.nonfinite_samples, 0, "NaN/Inf samples");
+    strategies(&out)
+        .iter()
+        .map(|st| (st.s, st.t, st.unweighted.clone()))
         .collect()
 }
 
@@ -416,19 +419,13 @@ fn a_room_500_times_larger_renders_every_strategy_as_at_unit_scale() {
         let mut images = Vec::new();
         for k in [1.0, 500.0] {
             let s = room_scaled(&light, false, 3, k);
-            let mut r = renderer(Bvh);
-            r.options.bdpt.record_strategies = true;
-            let out = r.render(&with(&s, IntegratorKind::Bdpt, 64, 3), 7, &mut Trace::new());
-            r.options.bdpt.record_strategies = false;
-            let out = out.expect("bdpt render");
-            let mut means: Vec<(String, f64)> = strategies(&out)
+            let mut means: Vec<(String, f64)> = strategy_images(&s, 64, 3, 7)
                 .iter()
-                .map(|st| {
-                    let m = region_means(&st.unweighted, 1)[0];
-                    (format!("s={} t={}", st.s, st.t), m[0] + m[1] + m[2])
+                .map(|(sl, t, img)| {
+                    let m = region_means(img, 1)[0];
+                    (format!("s={sl} t={t}"), m[0] + m[1] + m[2])
                 })
                 .collect();
-            drop(r);
             let pt = render(&with(&s, IntegratorKind::PathTracer, 64, 3), 7, Bvh);
             let m = region_means(&pt, 1)[0];
             means.push(("path tracer".into(), m[0] + m[1] + m[2]));

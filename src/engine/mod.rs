@@ -425,6 +425,14 @@ impl Engine {
         Ok(())
     }
 
+    /// Warms up every stage of `passes` (one idle dispatch each).
+    pub fn warm_up_passes(&self, passes: &Passes, trace: &mut Trace) -> Result<()> {
+        for d in passes.idle() {
+            self.warm_up(d, trace)?;
+        }
+        Ok(())
+    }
+
     /// The signal that stopped the render, if one did.
     pub fn interrupt_signal(&self) -> Option<usize> {
         self.control

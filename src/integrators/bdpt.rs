@@ -151,9 +151,7 @@ pub(crate) fn bdpt_passes(
         height,
         band_rows: rows,
     };
-    for d in passes.idle() {
-        engine.warm_up(d, trace)?;
-    }
+    engine.warm_up_passes(&passes, trace)?;
     Ok((passes, subpaths))
 }
 

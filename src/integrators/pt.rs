@@ -137,9 +137,7 @@ impl Integrator for FilmIntegrator {
             height,
             band_rows: rows,
         };
-        for d in passes.idle() {
-            engine.warm_up(d, trace)?;
-        }
+        engine.warm_up_passes(&passes, trace)?;
         let resolve = |done: u32| resolve_film(&film, film_bytes, width, height, done);
         let mut work = PassWork {
             passes: &passes,
