@@ -167,6 +167,43 @@ pub struct PassParams {
     pub row_end: u32,
 }
 
+/// The push constants of BDPT's stages (abi.h).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct BdptParams {
+    pub first_sample: u32,
+    pub samples: u32,
+    pub row_begin: u32,
+    pub row_end: u32,
+    pub bounce: u32,
+    pub side: u32,
+    pub reserved0: u32,
+    pub reserved1: u32,
+}
+
+/// A pixel's subpath walk in BDPT's wavefront (abi.h).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuBdptWalk {
+    pub o: [f32; 4],
+    pub d: [f32; 4],
+    pub beta: [f32; 4],
+    pub prev_p: [f32; 4],
+    pub counts: [u32; 4],
+    pub radiance: [f32; 4],
+    pub hit: [f32; 4],
+    pub v_p: [f32; 4],
+    pub v_n: [f32; 4],
+    pub v_wi: [f32; 4],
+    pub v_beta: [f32; 4],
+    pub v_ns: [f32; 4],
+    pub ls_wi: [f32; 4],
+    pub ls_le: [f32; 4],
+    pub ls_p: [f32; 4],
+    pub ls_n: [f32; 4],
+    pub ls_pdfs: [f32; 4],
+}
+
 /// MMLT's push constants (abi.h).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -345,6 +382,37 @@ pub fn layouts() -> Vec<StructLayout> {
         layout!(GpuTexture, info, flags, scale, other, mapping),
         layout!(PassParams, first_sample, samples, row_begin, row_end),
         layout!(
+            BdptParams,
+            first_sample,
+            samples,
+            row_begin,
+            row_end,
+            bounce,
+            side,
+            reserved0,
+            reserved1
+        ),
+        layout!(
+            GpuBdptWalk,
+            o,
+            d,
+            beta,
+            prev_p,
+            counts,
+            radiance,
+            hit,
+            v_p,
+            v_n,
+            v_wi,
+            v_beta,
+            v_ns,
+            ls_wi,
+            ls_le,
+            ls_p,
+            ls_n,
+            ls_pdfs
+        ),
+        layout!(
             WavefrontParams,
             first_sample,
             samples,
@@ -388,4 +456,6 @@ const _: () = assert!(std::mem::size_of::<SceneParams>() == 256);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuPtPath>() == 208);
+const _: () = assert!(std::mem::size_of::<GpuBdptWalk>() == 272);
+const _: () = assert!(std::mem::size_of::<BdptParams>() == 32);
 const _: () = assert!(std::mem::size_of::<WavefrontParams>() == 32);

@@ -105,7 +105,8 @@ fn kernel_bindings_come_from_the_spirv() {
             continue;
         }
         // Every other kernel reads the scene; the visibility backend is only in those
-        // that trace rays (of the wavefront path tracer's stages, pt_trace and pt_shadow).
+        // that trace rays (of the wavefront path tracer's stages, pt_trace and pt_shadow;
+        // of BDPT's wavefront, bdpt_trace and bdpt_connect).
         let base = kernel.split('+').next().unwrap_or(kernel);
         let traces = matches!(
             base,
@@ -114,6 +115,7 @@ fn kernel_bindings_come_from_the_spirv() {
                 | "bdpt_light"
                 | "bdpt_camera"
                 | "bdpt_connect"
+                | "bdpt_trace"
                 | "mmlt"
                 | "trace_probe"
                 | "pt_trace"
@@ -178,6 +180,33 @@ fn kernel_bindings_come_from_the_spirv() {
                     && has(abi::BINDING_PATH_VERTICES)
                     && has(abi::BINDING_BDPT_SUBPATHS)
                     && has(abi::BINDING_STRATEGIES),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            // BDPT's wavefront: every stage keeps its walk in the walk buffer; only the
+            // trace stage adds contributions to the films (its shadow rays decide
+            // them), the hit stage records s = 0 into the pixel's walk.
+            "bdpt_trace" => assert!(
+                has(abi::BINDING_BDPT_WALKS)
+                    && has(abi::BINDING_FILM)
+                    && has(abi::BINDING_SPLAT)
+                    && has(abi::BINDING_STRATEGIES)
+                    && has(abi::BINDING_BDPT_SUBPATHS),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            "bdpt_start" | "bdpt_hit" => assert!(
+                has(abi::BINDING_BDPT_WALKS)
+                    && has(abi::BINDING_PATH_VERTICES)
+                    && !has(abi::BINDING_FILM)
+                    && !has(abi::BINDING_SPLAT),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            k if k.starts_with("bdpt_shade_") => assert!(
+                has(abi::BINDING_BDPT_WALKS)
+                    && !has(abi::BINDING_FILM)
+                    && !has(abi::BINDING_SPLAT)
+                    && !has(abi::BINDING_STRATEGIES)
+                    && !has(abi::BINDING_EMITTER_CDF)
+                    && !has(abi::BINDING_EMITTERS),
                 "{kernel} ({backend}): {numbers:?}"
             ),
             "mmlt" => assert!(

@@ -47,6 +47,8 @@
 #define BINDING_WF_ITEMS 27
 // BDPT: per pixel of a band, where its camera stage resumes (glsl/lib/bdpt_pass.glsl).
 #define BINDING_BDPT_SUBPATHS 28
+// BDPT's wavefront (glsl/lib/bdpt_wave.glsl): per pixel of a band, its subpath walk.
+#define BINDING_BDPT_WALKS 29
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -358,6 +360,57 @@ struct WavefrontParams {
     uint reset;
     uint reserved;
 };
+
+// The push constants of BDPT's stages (glsl/lib/bdpt_pass.glsl): a PassParams, then the
+// bounce of a wavefront stage (the walk's vertices so far, the one being found) and the
+// subpath it walks (BDPT_SIDE_*).
+struct BdptParams {
+    uint first_sample;
+    uint samples;
+    uint row_begin;
+    uint row_end;
+    uint bounce;
+    uint side;
+    uint reserved0;
+    uint reserved1;
+};
+#define BDPT_SIDE_LIGHT 0
+#define BDPT_SIDE_CAMERA 1
+// (bdpt_trace: after the camera subpath's last shadow ray, hand over to bdpt_connect.)
+#define BDPT_SIDE_FINISH 2
+
+// A pixel's subpath walk in BDPT's wavefront (glsl/lib/bdpt_wave.glsl): its light
+// subpath, then its camera subpath, through the start, trace, hit and shade stages.
+struct GpuBdptWalk {
+    vec4 o;          // xyz the next ray's origin, w the sampler's draw counter (uint bits)
+    vec4 d;          // xyz its direction, w flags (BDPT_WALK_*)
+    vec4 beta;       // xyz throughput, w dVCM
+    vec4 prev_p;     // xyz the vertex the ray left, w dVC
+    uvec4 counts;    // x the walk's vertices, y rays traced, z light vertices stored, w camera vertices stored
+    vec4 radiance;   // xyz the camera strategies' sum (s = 0, 1), w the last bounce's BSDF pdf
+    vec4 hit;        // x primitive (NO_HIT: none; uint bits), yz barycentrics, w t
+    vec4 v_p;        // the vertex for the shade stage, packed as GpuPathVertex
+    vec4 v_n;
+    vec4 v_wi;
+    vec4 v_beta;
+    vec4 v_ns;
+    vec4 ls_wi;      // s = 1's light sample: direction, distance; then a shadow ray's origin, extent
+    vec4 ls_le;      // radiance, pdf; then the shadow ray's direction, w the pixel it adds to (uint bits)
+    vec4 ls_p;       // point, w 1 when delta; then the unweighted contribution, w the MIS weight
+    vec4 ls_n;       // normal, w unused; then x s, y t (uint bits)
+    vec4 ls_pdfs;    // x, y the light's emission densities toward the vertex (area, direction)
+};
+// GpuBdptWalk.d.w flags.
+#define BDPT_WALK_RAY 1            // the walk goes on: its ray is to be traced
+#define BDPT_WALK_VERTEX 2         // a vertex waits for its material's shade stage
+#define BDPT_WALK_SHADOW 4         // a shadow ray waits (trace stage), with its contribution
+#define BDPT_WALK_SHADOW_SPLAT 8   // ... added to the splat film (t = 1), not the pixel's
+#define BDPT_WALK_LIGHT_SAMPLE 16  // the vertex has an s = 1 light sample (ls_*)
+#define BDPT_WALK_CONNECT 32       // the light vertex connects to the camera (t = 1)
+#define BDPT_WALK_EXTEND 64        // the vertex scatters
+#define BDPT_WALK_INFINITE 128
+#define BDPT_WALK_PREV_DELTA 256
+#define BDPT_WALK_ESCAPED 512
 
 // One path of the wavefront path tracer (lib/pt_path.glsl packs and unpacks it).
 struct GpuPtPath {

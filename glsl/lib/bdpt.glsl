@@ -20,6 +20,7 @@
 //
 #ifndef BDPT_GLSL
 #define BDPT_GLSL
+#extension GL_EXT_control_flow_attributes : require
 #include "bsdf.glsl"
 #include "trace.glsl"
 #include "lights.glsl"
@@ -149,22 +150,26 @@ bool light_walk_start(out Walk w, out LightEmission le, out uint e) {
     return true;
 }
 
-// The next surface vertex of a light subpath (y_i, i = w.vertices after the call).
-// False when the ray escapes or grazes the surface (cos^2 in the MIS sums must not
-// underflow to 0).
-bool light_walk_next(inout Walk w, out PathVertex v) {
-    Hit hit;
-    if (!closest(w.o, w.d, hit)) return false;
-    Surface s = surface_at(hit, w.o, w.d);
+// The next surface vertex of a light subpath (y_i, i = w.vertices after the call): the
+// surface s at distance t along the walk's ray (a wavefront's trace stage found it).
+// False when the surface is grazed (cos^2 in the MIS sums must not underflow to 0).
+bool light_walk_vertex(inout Walk w, float t, Surface s, out PathVertex v) {
     vec3 wi = -w.d;
     float cos_in = abs(dot(s.ng, wi));
     if (!(cos_in > 1e-6)) return false;
-    if (!(w.vertices == 0u && w.infinite)) w.dvcm *= mis(hit.t * hit.t);
+    if (!(w.vertices == 0u && w.infinite)) w.dvcm *= mis(t * t);
     w.dvcm /= mis(cos_in);
     w.dvc /= mis(cos_in);
     w.vertices++;
     v = vertex_at(w, s, wi);
     return true;
+}
+
+// The same, tracing the ray: false also when it escapes.
+bool light_walk_next(inout Walk w, out PathVertex v) {
+    Hit hit;
+    if (!closest(w.o, w.d, hit)) return false;
+    return light_walk_vertex(w, hit.t, surface_at(hit, w.o, w.d), v);
 }
 
 // Continue a subpath from its vertex v by sampling the BSDF with the numbers u: the
@@ -173,8 +178,7 @@ bool light_walk_next(inout Walk w, out PathVertex v) {
 // A delta lobe (SmallVCM's specular update; Georgiev 2012, tech. rep. eqs. 53-55): no
 // connection can end at this vertex, so dVCM restarts at 0 and dVC keeps its sum, times
 // cos^2 (the lobe's forward and reverse pdfs are equal and cancel).
-bool walk_scatter(inout Walk w, PathVertex v, vec3 u, uint transport, bool update_mis) {
-    BsdfParams b = vertex_bsdf(v);
+bool walk_scatter(inout Walk w, PathVertex v, BsdfParams b, vec3 u, uint transport, bool update_mis) {
     BsdfSample bs;
     float pdf_rev;
     if (!(dot(v.ns, v.w) > 0.0)) return false;
@@ -202,10 +206,23 @@ bool walk_scatter(inout Walk w, PathVertex v, vec3 u, uint transport, bool updat
     return true;
 }
 
-// Continue a light subpath from its vertex v (light stream).
-bool light_walk_extend(inout Walk w, PathVertex v) {
-    return walk_scatter(w, v, sample_3d(STREAM_LIGHT), TRANSPORT_IMPORTANCE, true);
+// Continue a subpath from its vertex v: a light subpath (light stream, importance), or
+// a camera subpath (camera stream, radiance). Beyond max_scatter() a camera subpath is
+// in the roulette regime, where the MIS sums are not needed.
+// (b: the vertex's BSDF, vertex_bsdf(v).)
+bool walk_extend(inout Walk w, PathVertex v, BsdfParams b, bool camera) {
+    bool beyond = camera && w.vertices > max_scatter();
+    vec3 u = sample_3d(camera ? STREAM_CAMERA : STREAM_LIGHT);
+    if (!walk_scatter(w, v, b, u, camera ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE, !beyond)) return false;
+    if (beyond) {
+        float survive = min(1.0, max(w.beta.x, max(w.beta.y, w.beta.z)));
+        if (sample_1d(STREAM_CAMERA) >= survive) return false;
+        w.beta /= survive;
+    }
+    return true;
 }
+
+bool light_walk_extend(inout Walk w, PathVertex v) { return walk_extend(w, v, vertex_bsdf(v), false); }
 
 // ---- camera subpaths --------------------------------------------------------------
 
@@ -229,108 +246,184 @@ void camera_walk_start(vec2 film, out Walk w) {
 }
 
 // The next surface vertex z_k of a camera subpath (k = w.vertices after the call;
-// strategies there have t = k + 1). The MIS sums stop being updated past max_scatter(),
-// where only s = 0 and s = 1 remain (bdpt's beyond-the-cap regime).
-bool camera_walk_next(inout Walk w, out PathVertex v) {
-    Hit hit;
-    if (!closest(w.o, w.d, hit)) {
-        w.escaped = true;
-        return false;
-    }
-    Surface s = surface_at(hit, w.o, w.d);
+// strategies there have t = k + 1): the surface s at distance t along the walk's ray. The
+// MIS sums stop being updated past max_scatter(), where only s = 0 and s = 1 remain
+// (bdpt's beyond-the-cap regime). False when the surface is grazed.
+bool camera_walk_vertex(inout Walk w, float t, Surface s, out PathVertex v) {
     vec3 wo = -w.d;
     float cos_in = abs(dot(s.ng, wo));
     if (!(cos_in > 1e-6)) return false;
     w.vertices++;
     if (w.vertices - 1u <= max_scatter()) {
-        w.dvcm *= mis(hit.t * hit.t) / mis(cos_in);
+        w.dvcm *= mis(t * t) / mis(cos_in);
         w.dvc /= mis(cos_in);
     }
     v = vertex_at(w, s, wo);
     return true;
 }
 
-// Continue a camera subpath from its vertex v (camera stream). Beyond max_scatter()
-// every longer path is in the roulette regime, where the MIS sums are not needed.
-bool camera_walk_extend(inout Walk w, PathVertex v) {
-    bool beyond = w.vertices > max_scatter();
-    if (!walk_scatter(w, v, sample_3d(STREAM_CAMERA), TRANSPORT_RADIANCE, !beyond)) return false;
-    if (beyond) {
-        float survive = min(1.0, max(w.beta.x, max(w.beta.y, w.beta.z)));
-        if (sample_1d(STREAM_CAMERA) >= survive) return false;
-        w.beta /= survive;
+// The same, tracing the ray: false also when it escapes (then w.escaped).
+bool camera_walk_next(inout Walk w, out PathVertex v) {
+    Hit hit;
+    if (!closest(w.o, w.d, hit)) {
+        w.escaped = true;
+        return false;
     }
-    return true;
+    return camera_walk_vertex(w, hit.t, surface_at(hit, w.o, w.d), v);
 }
+
+bool camera_walk_extend(inout Walk w, PathVertex v) { return walk_extend(w, v, vertex_bsdf(v), true); }
 
 // ---- strategies: each returns its unweighted contribution and its MIS weight ------
 
-// s = 0 at the camera vertex z (the walk's last): the camera subpath found an emitter.
-bool strategy_emitter_hit(Walk w, PathVertex z, out vec3 value, out float weight) {
+// What a MIS weight asks of an emitter: the densities with which emitter e emits from
+// the point p (geometric normal ng) in the unit direction dir, by area (x) and by
+// direction (y) (emitter_emission_pdfs). The s = 0 and s = 1 strategies at a camera
+// vertex each ask one; a kernel that has both asks them in one place (bdpt_hit.comp).
+struct EmissionQuery {
+    uint e;
+    vec3 p;
+    vec3 ng;
+    vec3 dir;
+};
+
+vec2 emission_pdfs(EmissionQuery q) {
+    vec2 pdfs;
+    emitter_emission_pdfs(q.e, q.p, q.ng, q.dir, pdfs.x, pdfs.y);
+    return pdfs;
+}
+
+// s = 0: the camera subpath found emission, at its last vertex z (environment false), or
+// in the environment when its last ray escaped (environment true; z is not read). The
+// path has w.vertices - 1 scattering vertices in the first case, w.vertices in the
+// second. (A camera ray that escapes at once has only this strategy: no light subpath
+// reaches the camera from infinity.) In two halves: emission_found (the unweighted
+// value, and whether its weight needs the emitter's densities: `ask`, the query q) and
+// emission_weight (the MIS weight, given those densities).
+bool emission_found(Walk w, PathVertex z, bool environment, out vec3 value, out EmissionQuery q, out bool ask) {
     value = vec3(0.0);
-    weight = 0.0;
-    if (z.emitter == NO_EMITTER) return false;
-    vec3 Le = emitted_radiance(z.material, z.ng, z.w);
-    if (Le == vec3(0.0)) return false;
-    if (w.vertices - 1u <= max_scatter()) {
-        float pdf_pos;
-        float pdf_emit;
-        emitter_emission_pdfs(z.emitter, z.p, z.ng, z.w, pdf_pos, pdf_emit);
-        float w_cam = mis(pdf_pos) * z.dvcm + mis(pdf_emit) * z.dvc;
-        weight = 1.0 / (1.0 + w_cam);
+    ask = false;
+    q.e = z.emitter;
+    uint scatter = w.vertices - 1u;
+    vec3 Le, beta;
+    if (environment) {
+        if (scene.environment == NO_EMITTER || !w.escaped) return false;
+        q.e = scene.environment;
+        Le = environment_radiance(w.d);
+        q.p = w.o;
+        q.ng = vec3(0.0);
+        q.dir = -w.d;
+        beta = w.beta;
+        scatter = w.vertices;
     } else {
-        weight = w.prev_delta ? 1.0 : emitter_hit_mis_weight(z.emitter, w.prev_p, w.prev_pdf_w, z.p, z.ng);
+        if (q.e == NO_EMITTER) return false;
+        Le = emitted_radiance(z.material, z.ng, z.w);
+        q.p = z.p;
+        q.ng = z.ng;
+        q.dir = z.w;
+        beta = z.beta;
     }
-    value = z.beta * Le;
+    if (Le == vec3(0.0)) return false;
+    ask = !(environment && scatter == 0u) && scatter <= max_scatter();
+    value = beta * Le;
     return true;
 }
 
-// s = 0 toward the environment: the camera subpath's last ray escaped. The path has
-// w.vertices scattering vertices. (A camera ray that escapes at once has only this
-// strategy: no light subpath reaches the camera from infinity.)
-bool strategy_environment_hit(Walk w, out vec3 value, out float weight) {
-    value = vec3(0.0);
-    weight = 0.0;
-    if (scene.environment == NO_EMITTER || !w.escaped) return false;
-    vec3 Le = environment_radiance(w.d);
-    if (Le == vec3(0.0)) return false;
-    if (w.vertices == 0u) {
-        weight = 1.0;
-    } else if (w.vertices <= max_scatter()) {
-        float pdf_pos;
-        float pdf_emit;
-        emitter_emission_pdfs(scene.environment, w.o, vec3(0.0), -w.d, pdf_pos, pdf_emit);
-        float w_cam = mis(pdf_pos) * w.dvcm + mis(pdf_emit) * w.dvc;
-        weight = 1.0 / (1.0 + w_cam);
-    } else {
-        weight = w.prev_delta ? 1.0 : power_heuristic(w.prev_pdf_w, environment_pdf(w.d));
+float emission_weight(Walk w, PathVertex z, bool environment, EmissionQuery q, vec2 pdfs) {
+    uint scatter = environment ? w.vertices : w.vertices - 1u;
+    if (environment && scatter == 0u) return 1.0;
+    if (scatter <= max_scatter()) {
+        float dvcm = environment ? w.dvcm : z.dvcm;
+        float dvc = environment ? w.dvc : z.dvc;
+        float w_cam = mis(pdfs.x) * dvcm + mis(pdfs.y) * dvc;
+        return 1.0 / (1.0 + w_cam);
     }
-    value = w.beta * Le;
+    if (w.prev_delta) return 1.0;
+    float pdf_light = environment ? environment_pdf(w.d) : emitter_pdf_solid_angle(q.e, w.prev_p, q.p, q.ng);
+    return power_heuristic(w.prev_pdf_w, pdf_light);
+}
+
+bool strategy_emission(Walk w, PathVertex z, bool environment, out vec3 value, out float weight) {
+    EmissionQuery q;
+    bool ask;
+    weight = 0.0;
+    if (!emission_found(w, z, environment, value, q, ask)) return false;
+    weight = emission_weight(w, z, environment, q, ask ? emission_pdfs(q) : vec2(0.0));
     return true;
+}
+
+bool strategy_emitter_hit(Walk w, PathVertex z, out vec3 value, out float weight) {
+    return strategy_emission(w, z, false, value, weight);
+}
+
+bool strategy_environment_hit(Walk w, out vec3 value, out float weight) {
+    PathVertex none;
+    none.emitter = NO_EMITTER;
+    none.dvcm = 0.0;
+    none.dvc = 0.0;
+    return strategy_emission(w, none, true, value, weight);
 }
 
 // s = 1 at the camera vertex z (the walk's last): a fresh sample on a light, picked
-// and placed with the connection stream. Traces the shadow ray.
-bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weight) {
+// and placed with the connection stream, in two halves: the light's (light_sample_draw:
+// the emitter picked and its point, and the query of the densities with which it would
+// emit toward z, for the MIS weight) and the BSDF's (light_sample_connect).
+bool light_sample_draw(Walk w, PathVertex z, out LightSample ls, out EmissionQuery q) {
+    ls.delta = false;
+    ls.n = vec3(0.0);
+    ls.L = vec3(0.0);
+    ls.pdf = 0.0;
+    ls.dist = 0.0;
+    ls.wi = vec3(0.0, 0.0, 1.0);
+    ls.p = z.p;
+    q.e = 0u;
+    if (scene.emitter_count == 0u) return false;
+    q.e = pick_emitter(sample_u32(STREAM_CONNECT));
+    vec2 u = sample_2d(STREAM_CONNECT);
+    if (!sample_emitter(q.e, z.p, u, ls) || !(ls.pdf > 0.0)) return false;
+    q.p = ls.p;
+    q.ng = ls.n;
+    q.dir = -ls.wi;
+    return true;
+}
+
+// The light's half of s = 1: the sample and (for paths within max_scatter(), whose
+// weight needs them) its densities pdfs.
+bool light_sample_pick(Walk w, PathVertex z, out LightSample ls, out vec2 pdfs) {
+    EmissionQuery q;
+    pdfs = vec2(0.0);
+    if (!light_sample_draw(w, z, ls, q)) return false;
+    if (w.vertices <= max_scatter()) pdfs = emission_pdfs(q);
+    return true;
+}
+
+// The BSDF's half of the s = 1 strategy at z for the light sample ls (light_sample_pick),
+// in three steps so that a kernel can ask the BSDF its question in one place for this and
+// for the t = 1 connection (bdpt_shade.glsl): light_sample_faces (can the BSDF send the
+// light toward z.w; the shading cosine), the question (light_sample_connect shows it),
+// light_sample_end (the unweighted contribution, the MIS weight and the shadow ray
+// (o, d, tmax)). False when it cannot contribute.
+bool light_sample_faces(BsdfParams b, PathVertex z, LightSample ls, out float cos_s) {
+    return direct_light_faces(b, z.n, z.ns, z.w, ls.wi, cos_s);
+}
+
+// Whether the s = 1 strategy weighs itself against every strategy (paths within
+// max_scatter()) or, beyond it, against the camera subpath's BSDF sampling alone; the
+// BSDF's reverse pdf is wanted only for the former.
+bool light_sample_weighs_all(Walk w) { return w.vertices <= max_scatter(); }
+
+bool light_sample_end(Walk w, PathVertex z, LightSample ls, vec2 pdfs, float cos_s, vec3 f, float pdf_dir,
+                      float pdf_rev, out vec3 value, out float weight, out vec3 o, out vec3 d, out float tmax) {
     value = vec3(0.0);
     weight = 0.0;
-    if (scene.emitter_count == 0u) return false;
-    uint e = pick_emitter(sample_u32(STREAM_CONNECT));
-    vec2 u = sample_2d(STREAM_CONNECT);
-    BsdfParams b = vertex_bsdf(z);
-    LightSample ls;
-    vec3 f;
-    float cos_s;
-    float pdf_dir, pdf_rev;
-    bool weigh_all = w.vertices <= max_scatter();
-    if (!sample_direct_light(b, e, z.p, z.n, z.ns, z.w, u, scene.sample_mode, true, weigh_all, ls, f, cos_s, pdf_dir,
-                             pdf_rev))
-        return false;
+    o = z.p;
+    d = vec3(0.0, 0.0, 1.0);
+    tmax = 0.0;
+    if (f == vec3(0.0)) return false;
     float cos_z = abs(dot(z.n, ls.wi));
-    if (weigh_all) {
-        float pdf_pos;
-        float pdf_emit;
-        emitter_emission_pdfs(e, ls.p, ls.n, -ls.wi, pdf_pos, pdf_emit);
+    if (light_sample_weighs_all(w)) {
+        float pdf_pos = pdfs.x;
+        float pdf_emit = pdfs.y;
         float d2 = ls.dist == INF ? 1.0 : ls.dist * ls.dist;
         float w_light = ls.delta ? 0.0 : mis(pdf_dir / ls.pdf);
         float w_cam = mis(pdf_emit * cos_z / (pdf_pos * d2)) * (z.dvcm + z.dvc * mis(pdf_rev));
@@ -338,9 +431,42 @@ bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weigh
     } else {
         weight = light_sample_mis_weight(ls, pdf_dir);
     }
-    rays_traced++;
-    if (!light_sample_visible(z.p, z.n, ls)) return false;
+    light_sample_shadow_ray(z.p, z.n, ls, o, d, tmax);
     value = z.beta * f * ls.L * (cos_s / ls.pdf);
+    return true;
+}
+
+bool light_sample_connect(Walk w, PathVertex z, LightSample ls, vec2 pdfs, out vec3 value, out float weight,
+                          out vec3 o, out vec3 d, out float tmax) {
+    value = vec3(0.0);
+    weight = 0.0;
+    o = z.p;
+    d = vec3(0.0, 0.0, 1.0);
+    tmax = 0.0;
+    float cos_s;
+    BsdfParams b = vertex_bsdf(z);
+    if (!light_sample_faces(b, z, ls, cos_s)) return false;
+    float pdf_dir, pdf_rev;
+    vec3 f = bsdf_eval_pdfs(b, scene.sample_mode, z.ns, z.w, ls.wi, TRANSPORT_RADIANCE, true,
+                            light_sample_weighs_all(w), pdf_dir, pdf_rev);
+    return light_sample_end(w, z, ls, pdfs, cos_s, f, pdf_dir, pdf_rev, value, weight, o, d, tmax);
+}
+
+// Both halves and the shadow ray, traced.
+bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weight) {
+    LightSample ls;
+    vec2 pdfs;
+    vec3 o, d;
+    float tmax;
+    value = vec3(0.0);
+    weight = 0.0;
+    if (!light_sample_pick(w, z, ls, pdfs)) return false;
+    if (!light_sample_connect(w, z, ls, pdfs, value, weight, o, d, tmax)) return false;
+    rays_traced++;
+    if (trace_occluded(o, d, tmax)) {
+        value = vec3(0.0);
+        return false;
+    }
     return true;
 }
 
@@ -352,43 +478,80 @@ vec2 camera_lens_numbers() {
     return u;
 }
 
-// t = 1 from the light vertex y: the camera (a point of its lens) sees it. `px` is the pixel it lands on.
-bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out float weight) {
+// t = 1 from the light vertex y: the camera (a point of its lens) sees it, in three
+// steps as the s = 1 strategy (light_sample_faces): camera_connection_faces (the lens
+// point `eye`, the pixel `px` it lands on, the direction and distance to the eye; false
+// when the camera cannot see y), the question to the BSDF (camera_connection shows it),
+// camera_connection_end (the contribution, its MIS weight and the shadow ray (o, d,
+// tmax) for the caller to trace and count).
+bool camera_connection_faces(PathVertex y, out vec3 eye, out uvec2 px, out vec3 to_eye, out float dist) {
+    eye = camera_lens_point(camera_lens_numbers());
+    if (!camera_project(y.p, eye, px, to_eye, dist)) return false;
+    if (!(abs(dot(y.n, to_eye)) > 0.0)) return false;
+    return dot(y.ns, y.w) > 0.0 && shading_side_agrees(y.n, y.ns, to_eye);
+}
+
+bool camera_connection_end(PathVertex y, vec3 eye, vec3 to_eye, float dist, vec3 f, float pdf_rev, out vec3 value,
+                           out float weight, out vec3 o, out vec3 d, out float tmax) {
     value = vec3(0.0);
     weight = 0.0;
-    vec3 to_eye;
-    float dist;
-    vec3 eye = camera_lens_point(camera_lens_numbers());
-    if (!camera_project(y.p, eye, px, to_eye, dist)) return false;
+    o = y.p;
+    d = vec3(0.0, 0.0, 1.0);
+    tmax = 0.0;
+    if (f == vec3(0.0)) return false;
     float cos_signed = dot(y.n, to_eye);
     float cos_y = abs(cos_signed);
-    if (!(cos_y > 0.0)) return false;
-    if (!(dot(y.ns, y.w) > 0.0) || !shading_side_agrees(y.n, y.ns, to_eye)) return false;
-    BsdfParams b = vertex_bsdf(y);
-    float pdf_fwd, pdf_rev;
-    vec3 f = bsdf_eval_pdfs(b, scene.sample_mode, y.ns, y.w, to_eye, TRANSPORT_IMPORTANCE, false, true, pdf_fwd, pdf_rev);
-    if (f == vec3(0.0)) return false;
     // The measurement's cosine at y is the geometric cos_y (in pdf_cam_a) times the
     // adjoint BSDF's shading correction (shading_cosine's importance form).
     f *= abs(dot(y.ns, y.w)) / abs(dot(y.n, y.w));
     float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
     float w_light = mis(pdf_cam_a / light_paths()) * (y.dvcm + y.dvc * mis(pdf_rev));
     weight = 1.0 / (1.0 + w_light);
-    rays_traced++;
-    vec3 o, d;
-    float tmax;
     shadow_ray_to(y.p, cos_signed > 0.0 ? y.n : -y.n, eye, o, d, tmax);
-    if (trace_occluded(o, d, tmax)) return false;
     value = y.beta * f * (pdf_cam_a / light_paths());
     return true;
 }
 
-// s = 1, t = 1: the point a light subpath started from, seen by the camera. (Delta
-// lights are not visible to the camera, as in the path tracer.)
-bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 value, out float weight) {
+bool camera_connection(PathVertex y, out uvec2 px, out vec3 value, out float weight, out vec3 o, out vec3 d,
+                       out float tmax) {
+    value = vec3(0.0);
+    weight = 0.0;
+    o = y.p;
+    d = vec3(0.0, 0.0, 1.0);
+    tmax = 0.0;
+    vec3 eye, to_eye;
+    float dist;
+    if (!camera_connection_faces(y, eye, px, to_eye, dist)) return false;
+    float pdf_fwd, pdf_rev;
+    vec3 f = bsdf_eval_pdfs(vertex_bsdf(y), scene.sample_mode, y.ns, y.w, to_eye, TRANSPORT_IMPORTANCE, false, true,
+                            pdf_fwd, pdf_rev);
+    return camera_connection_end(y, eye, to_eye, dist, f, pdf_rev, value, weight, o, d, tmax);
+}
+
+// The same with its shadow ray traced.
+bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out float weight) {
+    vec3 o, d;
+    float tmax;
+    if (!camera_connection(y, px, value, weight, o, d, tmax)) return false;
+    rays_traced++;
+    if (trace_occluded(o, d, tmax)) {
+        value = vec3(0.0);
+        return false;
+    }
+    return true;
+}
+
+// s = 1, t = 1: the point a light subpath started from, seen by the camera, and the
+// shadow ray that decides it. (Delta lights are not visible to the camera, as in the
+// path tracer.)
+bool light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 value, out float weight, out vec3 o,
+                      out vec3 d, out float tmax) {
     value = vec3(0.0);
     weight = 0.0;
     px = uvec2(0u);
+    o = le.p;
+    d = vec3(0.0, 0.0, 1.0);
+    tmax = 0.0;
     if (!emitter_kind_has_surface(le.kind)) return false;
     vec3 to_eye;
     float dist;
@@ -400,12 +563,21 @@ bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 
     float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
     float ratio = pdf_cam_a / (light_paths() * le.pdf_pos);   // camera hitting it (s = 0) vs this
     weight = 1.0 / (1.0 + mis(ratio));
-    rays_traced++;
+    shadow_ray_to(le.p, dot(le.n, to_eye) > 0.0 ? le.n : -le.n, eye, o, d, tmax);
+    value = Le * ratio;
+    return true;
+}
+
+// The same with its shadow ray traced.
+bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 value, out float weight) {
     vec3 o, d;
     float tmax;
-    shadow_ray_to(le.p, dot(le.n, to_eye) > 0.0 ? le.n : -le.n, eye, o, d, tmax);
-    if (trace_occluded(o, d, tmax)) return false;
-    value = Le * ratio;
+    if (!light_point_seen(le, e, px, value, weight, o, d, tmax)) return false;
+    rays_traced++;
+    if (trace_occluded(o, d, tmax)) {
+        value = vec3(0.0);
+        return false;
+    }
     return true;
 }
 
@@ -425,12 +597,19 @@ bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float w
     if (!(cos_z > 0.0) || !(cos_y > 0.0)) return false;
     if (!(dot(z.ns, z.w) > 0.0) || !(dot(y.ns, y.w) > 0.0)) return false;
     if (!shading_side_agrees(z.n, z.ns, dir) || !shading_side_agrees(y.n, y.ns, -dir)) return false;
-    BsdfParams bz = vertex_bsdf(z);
-    BsdfParams by = vertex_bsdf(y);
-    float cam_dir, cam_rev, light_dir, light_rev;
-    vec3 f_z = bsdf_eval_pdfs(bz, scene.sample_mode, z.ns, z.w, dir, TRANSPORT_RADIANCE, true, true, cam_dir, cam_rev);
-    vec3 f_y = bsdf_eval_pdfs(by, scene.sample_mode, y.ns, y.w, -dir, TRANSPORT_IMPORTANCE, true, true, light_dir,
-                              light_rev);
+    // Both ends' BSDFs, asked in one place (a loop the compiler keeps: each call site
+    // would be a copy of every BSDF the kernel holds).
+    vec3 f[2];
+    float pdf_dir[2], pdf_rev[2];
+    [[dont_unroll]] for (uint i = 0u; i < 2u; ++i) {
+        bool cam = i == 0u;
+        PathVertex x = cam ? z : y;
+        f[i] = bsdf_eval_pdfs(vertex_bsdf(x), scene.sample_mode, x.ns, x.w, cam ? dir : -dir,
+                              cam ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE, true, true, pdf_dir[i], pdf_rev[i]);
+    }
+    vec3 f_z = f[0];
+    vec3 f_y = f[1];
+    float cam_dir = pdf_dir[0], cam_rev = pdf_rev[0], light_dir = pdf_dir[1], light_rev = pdf_rev[1];
     float g = shading_cosine(z.n, z.ns, z.w, dir, TRANSPORT_RADIANCE)
             * shading_cosine(y.n, y.ns, y.w, -dir, TRANSPORT_IMPORTANCE) / d2;
     vec3 c = z.beta * f_z * f_y * y.beta * g;

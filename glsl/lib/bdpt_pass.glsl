@@ -24,7 +24,9 @@
 // vertices (MMLT's tail beyond its chains' depth cap): shorter ones are not added.
 #ifndef BDPT_PASS_GLSL
 #define BDPT_PASS_GLSL
+#define OWN_PUSH_CONSTANTS
 #include "bindings.glsl"
+layout(push_constant) uniform BdptBlock { BdptParams pass_params; };
 #include "sampler_pcg.glsl"
 #include "sampling.glsl"
 #include "bsdf.glsl"
@@ -127,8 +129,7 @@ GpuPathVertex pack_vertex(PathVertex y) {
     return v;
 }
 
-PathVertex stored_vertex(uint index) {
-    GpuPathVertex g = path_vertices[index];
+PathVertex unpack_vertex(GpuPathVertex g) {
     PathVertex y;
     y.p = g.p.xyz;
     uint m = floatBitsToUint(g.p.w);
@@ -144,4 +145,6 @@ PathVertex stored_vertex(uint index) {
     y.ns = g.ns.xyz;
     return y;
 }
+
+PathVertex stored_vertex(uint index) { return unpack_vertex(path_vertices[index]); }
 #endif

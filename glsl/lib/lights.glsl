@@ -352,6 +352,19 @@ float emitter_pdf_solid_angle(uint e, vec3 ref, vec3 p, vec3 ng) {
 // Next-event estimation and emitter hits, shared by the path tracer and BDPT (whose s = 1
 // and s = 0 strategies these are).
 
+// Whether the BSDF b at a surface vertex (unit geometric normal n on the side of wo,
+// shading normal ns on n's side) can send light arriving from wi toward wo, and the
+// shading cosine |ns.wi|: the checks before direct_light_bsdf evaluates it.
+bool direct_light_faces(BsdfParams b, vec3 n, vec3 ns, vec3 wo, vec3 wi, out float cos_theta) {
+    cos_theta = 0.0;
+    if (!(dot(ns, wo) > 0.0) || !shading_side_agrees(n, ns, wi)) return false;
+    // The course's BRDFs reflect only; the interface BSDFs may transmit toward the light.
+    float c = dot(ns, wi);
+    if (bsdf_is_course_brdf(b) && !(c > 0.0)) return false;
+    cos_theta = abs(c);
+    return true;
+}
+
 // The BSDF's half of a light sample ls (drawn by sample_emitter, with ls.pdf > 0) at a
 // surface vertex (unit geometric normal n on the side of wo, shading normal ns on n's
 // side): f toward the light, the shading cosine |ns.wi| and the pdfs as
@@ -360,14 +373,9 @@ float emitter_pdf_solid_angle(uint e, vec3 ref, vec3 p, vec3 ng) {
 bool direct_light_bsdf(BsdfParams b, vec3 n, vec3 ns, vec3 wo, uint mode, bool want_fwd, bool want_rev,
                        LightSample ls, out vec3 f, out float cos_theta, out float pdf_fwd, out float pdf_rev) {
     f = vec3(0.0);
-    cos_theta = 0.0;
     pdf_fwd = 0.0;
     pdf_rev = 0.0;
-    if (!(dot(ns, wo) > 0.0) || !shading_side_agrees(n, ns, ls.wi)) return false;
-    // The course's BRDFs reflect only; the interface BSDFs may transmit toward the light.
-    float c = dot(ns, ls.wi);
-    if (bsdf_is_course_brdf(b) && !(c > 0.0)) return false;
-    cos_theta = abs(c);
+    if (!direct_light_faces(b, n, ns, wo, ls.wi, cos_theta)) return false;
     f = bsdf_eval_pdfs(b, mode, ns, wo, ls.wi, TRANSPORT_RADIANCE, want_fwd, want_rev, pdf_fwd, pdf_rev);
     return f != vec3(0.0);
 }

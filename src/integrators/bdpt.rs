@@ -5,8 +5,9 @@
 //! mirror of its MIS weights is `bdpt_mis`.)
 use super::{add_splat_film, film_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
-use crate::engine::passes::PassWork;
-use crate::engine::{band_rows, Engine, PassStage, Passes, PreparedScene, RunOptions};
+use crate::engine::{
+    band_rows, Dispatch, Engine, PassStage, Passes, PreparedScene, RunOptions, Work,
+};
 use crate::gpu::buffer::Buffer;
 use crate::io::Image;
 use crate::scene::Scene;
@@ -155,6 +156,210 @@ pub(crate) fn bdpt_passes(
     Ok((passes, subpaths))
 }
 
+/// Bytes per pixel of BDPT's wavefront walk state (GpuBdptWalk).
+pub const BDPT_WALK_BYTES: u64 = std::mem::size_of::<GpuBdptWalk>() as u64;
+
+/// BDPT as a wavefront of small kernels over a band's pixels (glsl/lib/bdpt_wave.glsl):
+/// per pass and band, `bdpt_start` and per bounce `bdpt_trace`, `bdpt_hit` and one
+/// `bdpt_shade_CLASS` per material class of the scene, for the light subpath and then
+/// the camera subpath, then `bdpt_connect`. For bounded maxdepth; at maxdepth -1 the
+/// camera subpaths run until Russian roulette ends them, and BDPT renders with the
+/// three stages of [`bdpt_passes`].
+pub(crate) struct BdptWave {
+    start: PassStage,
+    trace: PassStage,
+    hit: PassStage,
+    shade: Vec<PassStage>,
+    connect: PassStage,
+    width: u32,
+    height: u32,
+    band_rows: u32,
+    /// Scattering vertices of the longest path that gets every strategy.
+    max_scatter: u32,
+}
+
+impl BdptWave {
+    fn dispatch(&self, stage: &PassStage, p: &BdptParams, bounce: u32, side: u32) -> Dispatch {
+        let groups = [
+            self.width.div_ceil(WORKGROUP_SIZE_X),
+            (p.row_end - p.row_begin).div_ceil(WORKGROUP_SIZE_Y),
+            1,
+        ];
+        let p = BdptParams { bounce, side, ..*p };
+        Dispatch::new(&stage.kernel, stage.set, &p, groups).timed(&stage.span)
+    }
+
+    /// One bounce of a subpath: its rays traced, its vertices found, shaded by class.
+    fn bounce(
+        &self,
+        p: &BdptParams,
+        bounce: u32,
+        side: u32,
+        shade: bool,
+        list: &mut Vec<Dispatch>,
+    ) {
+        list.push(self.dispatch(&self.trace, p, bounce, side));
+        list.push(self.dispatch(&self.hit, p, bounce, side));
+        if shade {
+            for s in &self.shade {
+                list.push(self.dispatch(s, p, bounce, side));
+            }
+        }
+    }
+
+    /// The dispatches of one band's pass.
+    fn band(&self, p: &BdptParams, list: &mut Vec<Dispatch>) {
+        list.push(self.dispatch(&self.start, p, 0, BDPT_SIDE_LIGHT));
+        for b in 1..=self.max_scatter {
+            self.bounce(p, b, BDPT_SIDE_LIGHT, true, list);
+        }
+        // (The last light vertices' shadow rays, before the camera side takes the walk.)
+        list.push(self.dispatch(&self.trace, p, 0, BDPT_SIDE_LIGHT));
+        list.push(self.dispatch(&self.start, p, 0, BDPT_SIDE_CAMERA));
+        // Camera vertices z_1 .. z_{max+1}; the last only for the emission it finds.
+        for k in 1..=self.max_scatter + 1 {
+            self.bounce(p, k, BDPT_SIDE_CAMERA, k <= self.max_scatter, list);
+        }
+        list.push(self.dispatch(&self.trace, p, 0, BDPT_SIDE_FINISH));
+        list.push(self.dispatch(&self.connect, p, 0, BDPT_SIDE_FINISH));
+    }
+
+    /// Every stage once with no samples (each compiles at its first dispatch).
+    fn idle(&self) -> Vec<Dispatch> {
+        let p = BdptParams {
+            row_end: 1,
+            ..Default::default()
+        };
+        [&self.start, &self.trace, &self.hit, &self.connect]
+            .into_iter()
+            .chain(&self.shade)
+            .map(|s| Dispatch::new(&s.kernel, s.set, &p, [1, 1, 1]))
+            .collect()
+    }
+}
+
+/// A BDPT render's passes: the wavefront, or (maxdepth -1) the three stages.
+pub(crate) enum BdptPasses {
+    Wave(Box<BdptWave>),
+    Stages(Passes),
+}
+
+impl BdptPasses {
+    /// The dispatches of passes `first .. first + count`, band by band.
+    pub fn dispatches(&self, first: u32, count: u32) -> Vec<Dispatch> {
+        match self {
+            BdptPasses::Stages(p) => p.dispatches(first, count),
+            BdptPasses::Wave(w) => {
+                let mut list = Vec::new();
+                for i in 0..count {
+                    for y0 in (0..w.height).step_by(w.band_rows as usize) {
+                        let rows = w.band_rows.min(w.height - y0);
+                        let p = BdptParams {
+                            first_sample: first + i,
+                            samples: 1,
+                            row_begin: y0,
+                            row_end: y0 + rows,
+                            ..Default::default()
+                        };
+                        w.band(&p, &mut list);
+                    }
+                }
+                list
+            }
+        }
+    }
+}
+
+/// `spp` BDPT passes, with a resolve for snapshots.
+struct BdptWork<'a> {
+    passes: &'a BdptPasses,
+    spp: u32,
+    resolve: Option<&'a dyn Fn(u32) -> Result<Image>>,
+}
+
+impl Work for BdptWork<'_> {
+    fn total(&self) -> u64 {
+        self.spp as u64
+    }
+
+    fn dispatches(&mut self, first: u64, count: u64) -> Result<Vec<Dispatch>> {
+        Ok(self.passes.dispatches(first as u32, count as u32))
+    }
+
+    fn snapshot(&self, done: u64) -> Result<Option<(Image, u64)>> {
+        match self.resolve {
+            Some(r) => Ok(Some((r(done as u32)?, done))),
+            None => Ok(None),
+        }
+    }
+}
+
+fn shade_kernel(class: u32) -> (&'static str, &'static str) {
+    match class {
+        MATERIAL_CLASS_BASIC => ("bdpt_shade_basic", "bdpt shade basic"),
+        MATERIAL_CLASS_INTERFACE => ("bdpt_shade_interface", "bdpt shade interface"),
+        _ => ("bdpt_shade_coated", "bdpt shade coated"),
+    }
+}
+
+/// BDPT's wavefront over a `width` × `height` image in bands of `rows` rows, bound to
+/// the scene, to `buffers` and to the walk and subpath state it allocates (returned with
+/// it), warmed up.
+fn bdpt_wave(
+    engine: &mut Engine,
+    prepared: &PreparedScene,
+    scene: &Scene,
+    variant: Option<&'static str>,
+    buffers: &[(u32, &Buffer)],
+    (width, height, rows): (u32, u32, u32),
+    trace: &mut Trace,
+) -> Result<(BdptPasses, [Buffer; 2])> {
+    let (walks, subpaths) = trace.cpu("BDPT buffers", || -> Result<_> {
+        let pixels = rows as u64 * width as u64;
+        Ok((
+            engine.device_buffer("BDPT walks", pixels * BDPT_WALK_BYTES)?,
+            engine.device_buffer("BDPT subpath states", pixels * 16)?,
+        ))
+    })?;
+    let mut all = buffers.to_vec();
+    all.push((BINDING_BDPT_SUBPATHS, &subpaths));
+    all.push((BINDING_BDPT_WALKS, &walks));
+    let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
+        let v = variant.filter(|v| engine.kernels.has(&format!("{name}+{v}")));
+        let kernel = engine.kernel(name, v, prepared.specialization())?;
+        let set = engine.bind(&kernel, Some(prepared), &all)?;
+        Ok(PassStage {
+            kernel,
+            set,
+            span: span.to_string(),
+        })
+    };
+    let wave = trace.cpu("pipeline creation", || -> Result<_> {
+        let shade = super::pt::material_classes(scene)
+            .into_iter()
+            .map(|c| {
+                let (k, s) = shade_kernel(c);
+                stage(k, s)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(BdptWave {
+            start: stage("bdpt_start", "bdpt start")?,
+            trace: stage("bdpt_trace", "bdpt trace")?,
+            hit: stage("bdpt_hit", "bdpt hit")?,
+            shade,
+            connect: stage("bdpt_connect", "bdpt connect")?,
+            width,
+            height,
+            band_rows: rows,
+            max_scatter: prepared.params().max_depth,
+        })
+    })?;
+    for d in wave.idle() {
+        engine.warm_up(d, trace)?;
+    }
+    Ok((BdptPasses::Wave(Box::new(wave)), [walks, subpaths]))
+}
+
 /// The BDPT integrator.
 pub struct Bdpt {
     options: BdptOptions,
@@ -191,7 +396,12 @@ impl Integrator for Bdpt {
         let vertex_limit = limit
             .min(VERTEX_BUFFER_BUDGET)
             .min(self.options.vertex_buffer_limit.unwrap_or(u64::MAX));
-        let rows = band_rows(width, height, vertex_bytes, vertex_limit)?;
+        let rows = band_rows(
+            width,
+            height,
+            vertex_bytes.max(BDPT_WALK_BYTES),
+            vertex_limit,
+        )?;
         let strategies = if self.options.record_strategies {
             bdpt_strategies(max_scatter)
         } else {
@@ -231,20 +441,35 @@ impl Integrator for Bdpt {
                     engine.storage_buffer("strategy films", strategy_bytes.max(16))?,
                 ))
             })?;
-        let (passes, _subpaths) = bdpt_passes(
-            engine,
-            &prepared,
-            self.profile_variant,
-            &[
-                (BINDING_FILM, &film),
-                (BINDING_STATS, &stats),
-                (BINDING_SPLAT, &splat),
-                (BINDING_PATH_VERTICES, &vertices),
-                (BINDING_STRATEGIES, &strategy_film),
-            ],
-            (width, height, rows),
-            trace,
-        )?;
+        let bound = [
+            (BINDING_FILM, &film),
+            (BINDING_STATS, &stats),
+            (BINDING_SPLAT, &splat),
+            (BINDING_PATH_VERTICES, &vertices),
+            (BINDING_STRATEGIES, &strategy_film),
+        ];
+        let (passes, _state) = if scene.settings.max_depth < 0 {
+            let (p, subpaths) = bdpt_passes(
+                engine,
+                &prepared,
+                self.profile_variant,
+                &bound,
+                (width, height, rows),
+                trace,
+            )?;
+            (BdptPasses::Stages(p), vec![subpaths])
+        } else {
+            let (p, state) = bdpt_wave(
+                engine,
+                &prepared,
+                scene,
+                self.profile_variant,
+                &bound,
+                (width, height, rows),
+                trace,
+            )?;
+            (p, state.into())
+        };
         // image = (camera film + splat film) / spp
         let resolve = |done: u32| -> Result<Image> {
             let (f, sp) = (film.download(film_bytes)?, splat.download(splat_bytes)?);
@@ -253,9 +478,8 @@ impl Integrator for Bdpt {
             add_splat_film(&mut image, bytemuck::cast_slice(&sp), inv);
             Ok(image)
         };
-        let mut work = PassWork {
+        let mut work = BdptWork {
             passes: &passes,
-            first: 0,
             spp: scene.settings.spp.max(1),
             resolve: Some(&resolve),
         };
@@ -287,6 +511,8 @@ impl Integrator for Bdpt {
                     prepared: &prepared,
                     strategy_film: &strategy_film,
                     passes: &passes,
+                    width,
+                    height,
                     spp,
                 },
                 strategy_group,
@@ -336,7 +562,9 @@ impl Integrator for Bdpt {
 struct StrategyGroupPass<'a> {
     prepared: &'a PreparedScene,
     strategy_film: &'a Buffer,
-    passes: &'a Passes,
+    passes: &'a BdptPasses,
+    width: u32,
+    height: u32,
     spp: u32,
 }
 
@@ -353,7 +581,7 @@ fn record_other_strategy_groups(
     total: u32,
     trace: &mut Trace,
 ) -> Result<(Vec<Vec<u8>>, f64)> {
-    let film_bytes = p.passes.width as u64 * p.passes.height as u64 * 16;
+    let film_bytes = p.width as u64 * p.height as u64 * 16;
     let mut out = Vec::new();
     let mut first = first;
     let mut seconds = 0.0;
@@ -364,9 +592,8 @@ fn record_other_strategy_groups(
         params.strategy_count = count;
         engine.update_params(p.prepared, &params, &[p.strategy_film])?;
         // Exactly the first render's passes, whatever the time limit.
-        let mut work = PassWork {
+        let mut work = BdptWork {
             passes: p.passes,
-            first: 0,
             spp: p.spp,
             resolve: None,
         };

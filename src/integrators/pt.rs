@@ -207,7 +207,7 @@ struct WavefrontPlan {
 }
 
 /// The material classes (abi.h MATERIAL_CLASS_*) of a scene's materials.
-fn material_classes(scene: &Scene) -> Vec<u32> {
+pub(crate) fn material_classes(scene: &Scene) -> Vec<u32> {
     let mut classes = Vec::new();
     for m in &scene.materials {
         if m.mix.is_some() {

@@ -1,0 +1,100 @@
+// BDPT as a wavefront of small kernels (bounded maxdepth): each pixel of a band walks its
+// light subpath, then its camera subpath, one bounce per round of dispatches over the
+// band, its state in walks[] between them:
+//   bdpt_start.comp         a subpath's first ray (the light's emission, with the
+//                           s = 1, t = 1 strategy; or the camera's ray);
+//   bdpt_trace.comp         the pending shadow ray (its contribution added when nothing
+//                           blocks it), then the walk's closest hit: the only kernel that
+//                           holds the visibility backend besides bdpt_connect;
+//   bdpt_hit.comp           the vertex at the hit, stored for connections, and what the
+//                           emitters give there (s = 0, the s = 1 light sample's point):
+//                           every emitter's code;
+//   bdpt_shade_CLASS.comp   one per material class (bsdf.glsl's SHADE_CLASS): the BSDF
+//                           toward the camera (t = 1) or toward the light sample (s = 1),
+//                           their shadow rays queued for the trace stage, and the BSDF
+//                           sample that continues the walk; a vertex of another class is
+//                           left to its own kernel;
+//   bdpt_connect.comp       every s, t >= 2 connection (lib/bdpt_pass.glsl).
+// A pixel's draws, contributions and their order are the same as when one invocation
+// walked both subpaths (bdpt_light.comp, bdpt_camera.comp), so the images are the same
+// bits. The host records bdpt_start, per bounce bdpt_trace, bdpt_hit and one
+// bdpt_shade_CLASS per class the scene has, then bdpt_trace for the last shadow rays,
+// for the light side and then the camera side (BdptParams.side and .bounce), then
+// bdpt_connect.
+#ifndef BDPT_WAVE_GLSL
+#define BDPT_WAVE_GLSL
+#include "bdpt_pass.glsl"
+
+layout(std430, set = 0, binding = BINDING_BDPT_WALKS) buffer BdptWalkBuffer { GpuBdptWalk walks[]; };
+
+// The walk as lib/bdpt.glsl has it.
+Walk walk_load(GpuBdptWalk g) {
+    Walk w;
+    uint flags = floatBitsToUint(g.d.w);
+    w.o = g.o.xyz;
+    w.d = g.d.xyz;
+    w.beta = g.beta.xyz;
+    w.dvcm = g.beta.w;
+    w.dvc = g.prev_p.w;
+    w.vertices = g.counts.x;
+    w.infinite = (flags & BDPT_WALK_INFINITE) != 0u;
+    w.prev_pdf_w = g.radiance.w;
+    w.prev_delta = (flags & BDPT_WALK_PREV_DELTA) != 0u;
+    w.prev_p = g.prev_p.xyz;
+    w.escaped = (flags & BDPT_WALK_ESCAPED) != 0u;
+    return w;
+}
+
+// Write the walk (and the flags that are its: infinite, previous delta, escaped) into g.
+void walk_save(inout GpuBdptWalk g, Walk w, uint flags) {
+    flags &= ~(BDPT_WALK_INFINITE | BDPT_WALK_PREV_DELTA | BDPT_WALK_ESCAPED);
+    if (w.infinite) flags |= BDPT_WALK_INFINITE;
+    if (w.prev_delta) flags |= BDPT_WALK_PREV_DELTA;
+    if (w.escaped) flags |= BDPT_WALK_ESCAPED;
+    g.o.xyz = w.o;
+    g.d = vec4(w.d, uintBitsToFloat(flags));
+    g.beta = vec4(w.beta, w.dvcm);
+    g.prev_p = vec4(w.prev_p, w.dvc);
+    g.counts.x = w.vertices;
+    g.radiance.w = w.prev_pdf_w;
+}
+
+// The pixel's sampler, resumed where the walk's last stage left it.
+void sampler_resume(uint index, GpuBdptWalk g) {
+    sampler_start(scene.seed, index, pass_params.first_sample);
+    sampler_rng.counter = floatBitsToUint(g.o.w);
+}
+
+// A shadow ray for the trace stage and what it adds when nothing blocks it: strategy
+// (s, t), its unweighted value and MIS weight, added to the splat film at `pixel` (t = 1)
+// or to the walk's own pixel.
+void queue_shadow(inout GpuBdptWalk g, inout uint flags, vec3 o, vec3 d, float tmax, uint s, uint t, uint pixel,
+                  vec3 value, float weight) {
+    g.ls_wi = vec4(o, tmax);
+    g.ls_le = vec4(d, uintBitsToFloat(pixel));
+    g.ls_p = vec4(value, weight);
+    g.ls_n = vec4(uintBitsToFloat(s), uintBitsToFloat(t), 0.0, 0.0);
+    flags |= BDPT_WALK_SHADOW;
+    if (t == 1u) flags |= BDPT_WALK_SHADOW_SPLAT;
+}
+
+// The vertex waiting for the shade stage.
+PathVertex walk_vertex(GpuBdptWalk g) {
+    GpuPathVertex v;
+    v.p = g.v_p;
+    v.n = g.v_n;
+    v.wi = g.v_wi;
+    v.beta = g.v_beta;
+    v.ns = g.v_ns;
+    return unpack_vertex(v);
+}
+
+void set_walk_vertex(inout GpuBdptWalk g, PathVertex y) {
+    GpuPathVertex v = pack_vertex(y);
+    g.v_p = v.p;
+    g.v_n = v.n;
+    g.v_wi = v.wi;
+    g.v_beta = v.beta;
+    g.v_ns = v.ns;
+}
+#endif
