@@ -59,7 +59,7 @@ void main() {
     uint index, slot, base;
     if (!bdpt_pixel(false, pixel, index, slot, base) || pass_params.samples == 0u) return;
     uvec4 light = subpaths[slot];
-    sampler_start(scene.seed, index, pass_params.first_sample);
+    sampler_start(scene.seed, index, bdpt_sample());
     sampler_rng.counter = light.y;
     rays_traced = light.z;
     uint connectable;

@@ -15,17 +15,7 @@ void main() {
     uint index, slot, base;
     if (!bdpt_pixel(false, pixel, index, slot, base) || pass_params.samples == 0u) return;
     uvec4 counts = subpaths[slot];
-    uint stored = counts.x;
-    vec3 L = vec3(0.0);
-    for (uint k = 1u; k <= counts.w; ++k) {
-        PathVertex z = stored_vertex(base + vertex_stride() + k - 1u);
-        uint last = min(stored, max_scatter() - k);
-        for (uint j = max(1u, min_scatter() - min(min_scatter(), k)); j <= last; ++j) {
-            vec3 value;
-            float weight;
-            if (strategy_connection(z, stored_vertex(base + j - 1u), value, weight)) add_camera(L, j + 1u, k + 1u, index, value, weight);
-        }
-    }
+    vec3 L = connect_strategies(index, base, counts.x, counts.w);
     if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
     film[index] += vec4(L, float(rays_traced));
 }

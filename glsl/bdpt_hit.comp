@@ -18,7 +18,7 @@ void main() {
     uint flags = floatBitsToUint(walks[slot].d.w);
     if ((flags & BDPT_WALK_RAY) == 0u) return;
     flags &= ~BDPT_WALK_RAY;
-    GpuBdptWalk g = walks[slot];
+    GpuBdptWalk g = walks[slot];   // (the compiler loads only the members read)
     Walk w = walk_load(g);
     uint prim = floatBitsToUint(g.hit.x);
     Hit hit;
@@ -44,7 +44,7 @@ void main() {
         // with t >= 2) are stored.
         if (i < max_scatter()) {
             path_vertices[base + i - 1u] = pack_vertex(v);
-            g.counts.z = i;
+            walks[slot].counts.z = i;
         }
         flags |= BDPT_WALK_VERTEX;
         if (i >= min_scatter()) flags |= BDPT_WALK_CONNECT;
@@ -75,27 +75,26 @@ void main() {
             if (ask[i]) pdfs[i] = emission_pdfs(q[i]);
         }
         if (emission) add_camera(L, 0u, k + 1u, index, value, emission_weight(w, v, !found, q[0], pdfs[0]));
-        g.radiance.xyz = L;
+        if (emission) walks[slot].radiance.xyz = L;
         if (found && k <= max_vertices) {
             if (sampled) {
                 flags |= BDPT_WALK_LIGHT_SAMPLE;
-                g.ls_wi = vec4(ls.wi, ls.dist);
-                g.ls_le = vec4(ls.L, ls.pdf);
-                g.ls_p = vec4(ls.p, ls.delta ? 1.0 : 0.0);
-                g.ls_n = vec4(ls.n, 0.0);
-                g.ls_pdfs = vec4(pdfs[1], 0.0, 0.0);
+                walks[slot].ls_wi = vec4(ls.wi, ls.dist);
+                walks[slot].ls_le = vec4(ls.L, ls.pdf);
+                walks[slot].ls_p = vec4(ls.p, ls.delta ? 1.0 : 0.0);
+                walks[slot].ls_n = vec4(ls.n, 0.0);
+                walks[slot].ls_pdfs = vec4(pdfs[1], 0.0, 0.0);
             }
             // s >= 2 (bdpt_connect.comp): light vertices y_j with j + k <= max_scatter().
             if (k < max_scatter() && g.counts.z > 0u) {
                 path_vertices[base + vertex_stride() + k - 1u] = pack_vertex(v);
-                g.counts.w = k;
+                walks[slot].counts.w = k;
             }
             flags |= BDPT_WALK_VERTEX | BDPT_WALK_EXTEND;
         }
-        g.o.w = uintBitsToFloat(sampler_rng.counter);
+        walks[slot].o.w = uintBitsToFloat(sampler_rng.counter);
     }
-    set_walk_vertex(g, v);
-    walk_save(g, w, flags);
-    walks[slot] = g;
+    if ((flags & BDPT_WALK_VERTEX) != 0u) store_vertex(slot, v);
+    store_walk_vertex(slot, w, flags);
     if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
 }

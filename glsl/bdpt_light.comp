@@ -43,7 +43,7 @@ void main() {
     uvec2 pixel;
     uint index, slot, base;
     if (!bdpt_pixel(true, pixel, index, slot, base) || pass_params.samples == 0u) return;
-    sampler_start(scene.seed, index, pass_params.first_sample);
+    sampler_start(scene.seed, index, bdpt_sample());
     uint stored = light_subpath(base);
     subpaths[slot] = uvec4(stored, sampler_rng.counter, rays_traced, 0u);
     if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);

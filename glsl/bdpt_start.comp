@@ -19,7 +19,7 @@ void main() {
     Walk w;
     uint flags = 0u;
     if (light) {
-        sampler_start(scene.seed, index, pass_params.first_sample);
+        sampler_start(scene.seed, index, bdpt_sample());
         g.counts = uvec4(0u);
         g.radiance = vec4(0.0);
         LightEmission le;
@@ -30,7 +30,11 @@ void main() {
             float weight, tmax;
             if (min_scatter() == 0u && light_point_seen(le, e, px, value, weight, o, d, tmax)) {
                 g.counts.y++;
-                queue_shadow(g, flags, o, d, tmax, 1u, 1u, px.y * scene.width + px.x, value, weight);
+                g.ls_wi = vec4(o, tmax);
+                g.ls_le = vec4(d, uintBitsToFloat(px.y * scene.width + px.x));
+                g.ls_p = vec4(value, weight);
+                g.ls_n = vec4(uintBitsToFloat(1u), uintBitsToFloat(1u), 0.0, 0.0);
+                flags |= BDPT_WALK_SHADOW | BDPT_WALK_SHADOW_SPLAT;
             }
             // Light vertices serve only paths of at most max_scatter() scattering vertices.
             if (max_scatter() > 0u && min_scatter() <= max_scatter()) flags |= BDPT_WALK_RAY;

@@ -1,8 +1,6 @@
 // BDPT's wavefront (lib/bdpt_wave.glsl): the visibility stage. The pixel's pending
 // shadow ray first (its contribution added to the splat film or to the pixel's sum when
-// nothing blocks it), then its walk's closest hit. On the side BDPT_SIDE_FINISH, after
-// the camera subpath, the pixel's camera strategies and rays go to the film and the
-// stored-vertex counts to bdpt_connect.
+// nothing blocks it), then its walk's closest hit.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_atomic_float : require
@@ -42,9 +40,5 @@ void main() {
         walks[slot].counts.y = counts.y;
     }
     walks[slot].d.w = uintBitsToFloat(flags);
-    if (pass_params.side == BDPT_SIDE_FINISH) {
-        subpaths[slot] = uvec4(counts.z, 0u, 0u, counts.w);
-        film[index] += vec4(walks[slot].radiance.xyz, float(counts.y));
-    }
     if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
 }

@@ -44,10 +44,19 @@ uint nonfinite = 0u;
 
 float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 
+// The strategies of a path, by what they ask (mmlt_path).
+#define MMLT_NONE 0u
+#define MMLT_LIGHT_POINT 1u        // s = 1, t = 1
+#define MMLT_CAMERA_CONNECTION 2u  // s >= 2, t = 1
+#define MMLT_EMISSION 3u           // s = 0 (an emitter or the environment)
+#define MMLT_LIGHT_SAMPLE 4u       // s = 1, t >= 2
+#define MMLT_CONNECTION 5u         // s >= 2, t >= 2
+
 // One path of `depth` scattering vertices from the sampler's numbers: its contribution
-// C (MIS-weighted, times the number of strategies) and the pixel it lands on. (Each
-// walk and each connection appears once in this function: lavapipe's compiler inlines
-// everything, and every copy of a walk costs compile time and memory.)
+// C (MIS-weighted, times the number of strategies) and the pixel it lands on. Each step
+// of a walk, each question to a BSDF or to an emitter's densities and each shadow ray
+// appears once in this function, whichever strategy asks it: lavapipe's compiler
+// inlines everything, and every copy costs compile time and memory.
 vec3 mmlt_path(uint depth, out uint pixel) {
     uint strategies = depth + 2u;
     uint s = min(uint(sample_1d(STREAM_CAMERA) * float(strategies)), depth + 1u);
@@ -58,53 +67,140 @@ vec3 mmlt_path(uint depth, out uint pixel) {
     float weight = 0.0;
     bool found = false;
 
-    // The light subpath's last vertex y_{s-1}, for s >= 2 (and the light point for
-    // s = 1, t = 1).
-    Walk lw;
+    // The walks, in one loop: the light subpath's vertices y_1 .. y_{s-1} (for s >= 2;
+    // for t = 1 its start too), then the camera subpath's z_1 .. z_{t-1} (t >= 2; for
+    // s >= 2 only when the light subpath has its vertices). w is the walk going on, v its
+    // last vertex; y keeps the light subpath's last.
+    bool light_walk = t == 1u || s >= 2u;
+    uint light_steps = s >= 2u ? s - 1u : 0u;
+    uint camera_steps = t >= 2u ? t - 1u : 0u;
+    Walk w;
     LightEmission le;
     uint e = 0u;
-    PathVertex y;
+    PathVertex y, v;
     bool lit = false;
-    if (t == 1u || s >= 2u) {
-        lit = light_walk_start(lw, le, e);
-        for (uint i = 1u; lit && i < s; ++i) {
-            lit = (i == 1u || light_walk_extend(lw, y)) && light_walk_next(lw, y);
+    bool camera = false;    // the camera subpath started
+    bool alive = false;     // ... and has all its vertices
+    bool escaped = false;   // ... or its last ray escaped toward the environment
+    if (light_walk) lit = light_walk_start(w, le, e);
+    for (uint step = 0u; step < light_steps + camera_steps; ++step) {
+        bool cam = step >= light_steps;
+        uint k = cam ? step - light_steps + 1u : step + 1u;
+        if (cam && k == 1u) {
+            if (light_walk && !lit) break;
+            y = v;
+            camera_walk_start(film, w);
+            camera = true;
+        }
+        bool ok = k == 1u || walk_extend(w, v, vertex_bsdf(v), cam);
+        if (ok) {
+            Hit hit;
+            if (closest(w.o, w.d, hit)) {
+                Surface sf = surface_at(hit, w.o, w.d);
+                ok = cam ? camera_walk_vertex(w, hit.t, sf, v) : light_walk_vertex(w, hit.t, sf, v);
+            } else {
+                ok = false;
+                w.escaped = cam;
+            }
+        }
+        if (!cam) {
+            lit = ok;
+            if (!lit) break;
+            continue;
+        }
+        alive = ok;
+        if (!alive) {
+            escaped = w.escaped && k == t - 1u;
+            break;
         }
     }
+    if (!camera) y = v;
+
+    // The strategy: what it asks of an emitter's densities (q), of BSDFs (up to two
+    // questions) and of a shadow ray.
+    uint kind = MMLT_NONE;
+    EmissionQuery q;
+    bool ask = false;
+    uint asks = 0u;
+    PathVertex qv[2];
+    vec3 qdir[2];
+    uint qtransport[2];
+    bool qfwd[2];
+    bool qrev[2];
+    vec3 eye, to_eye, dir;
+    float dist, d2, cos_s;
+    uvec2 cpx;
+    LightSample ls;
     if (t == 1u) {
         // Light tracing: the light subpath seen by the camera.
-        if (lit) {
-            if (s == 1u) {
-                found = strategy_light_point_seen(le, e, px, value, weight);
-            } else {
-                found = strategy_camera_connection(y, px, value, weight);
+        if (lit && s == 1u) {
+            kind = MMLT_LIGHT_POINT;
+        } else if (lit && camera_connection_faces(y, eye, cpx, to_eye, dist)) {
+            kind = MMLT_CAMERA_CONNECTION;
+            qv[0] = y;
+            qdir[0] = to_eye;
+            qtransport[0] = TRANSPORT_IMPORTANCE;
+            qfwd[0] = false;
+            qrev[0] = true;
+            asks = 1u;
+        }
+    } else if (camera && ((escaped && s == 0u) || (alive && s == 0u))) {
+        if (emission_found(w, v, escaped, value, q, ask)) kind = MMLT_EMISSION;
+    } else if (camera && alive && s == 1u) {
+        if (light_sample_draw(w, v, ls, q)) {
+            ask = light_sample_weighs_all(w);
+            if (light_sample_faces(vertex_bsdf(v), v, ls, cos_s)) {
+                kind = MMLT_LIGHT_SAMPLE;
+                qv[0] = v;
+                qdir[0] = ls.wi;
+                qtransport[0] = TRANSPORT_RADIANCE;
+                qfwd[0] = true;
+                qrev[0] = ask;
+                asks = 1u;
             }
         }
-    } else if (s < 2u || lit) {
-        // A camera subpath of t vertices (the camera and t - 1 surface vertices).
-        Walk cw;
-        camera_walk_start(film, cw);
-        PathVertex z;
-        bool alive = true;
-        bool escaped = false;   // the last vertex is the environment
-        for (uint k = 1u; alive && k < t; ++k) {
-            alive = k == 1u || camera_walk_extend(cw, z);
-            if (alive) {
-                alive = camera_walk_next(cw, z);
-                escaped = !alive && cw.escaped && k == t - 1u;
-            }
-        }
-        if (escaped && s == 0u) {
-            found = strategy_environment_hit(cw, value, weight);
-        } else if (alive) {
-            if (s == 0u) {
-                found = strategy_emitter_hit(cw, z, value, weight);
-            } else if (s == 1u) {
-                found = strategy_light_sample(cw, z, value, weight);
-            } else {
-                found = strategy_connection(z, y, value, weight);
-            }
-        }
+    } else if (camera && alive && connection_faces(v, y, dir, d2)) {
+        kind = MMLT_CONNECTION;
+        qv[0] = v;
+        qdir[0] = dir;
+        qtransport[0] = TRANSPORT_RADIANCE;
+        qv[1] = y;
+        qdir[1] = -dir;
+        qtransport[1] = TRANSPORT_IMPORTANCE;
+        qfwd[0] = true;
+        qrev[0] = true;
+        qfwd[1] = true;
+        qrev[1] = true;
+        asks = 2u;
+    }
+    vec2 pdfs = vec2(0.0);
+    if (ask) pdfs = emission_pdfs(q);
+    vec3 f[2];
+    float pdf_fwd[2], pdf_rev[2];
+    [[dont_unroll]] for (uint i = 0u; i < asks; ++i) {
+        f[i] = bsdf_eval_pdfs(vertex_bsdf(qv[i]), scene.sample_mode, qv[i].ns, qv[i].w, qdir[i], qtransport[i], qfwd[i],
+                              qrev[i], pdf_fwd[i], pdf_rev[i]);
+    }
+    bool shadow = false;
+    vec3 o, d;
+    float tmax;
+    if (kind == MMLT_LIGHT_POINT) {
+        shadow = light_point_seen(le, e, px, value, weight, o, d, tmax);
+    } else if (kind == MMLT_CAMERA_CONNECTION) {
+        px = cpx;
+        shadow = camera_connection_end(y, eye, to_eye, dist, f[0], pdf_rev[0], value, weight, o, d, tmax);
+    } else if (kind == MMLT_EMISSION) {
+        weight = emission_weight(w, v, escaped, q, pdfs);
+        found = true;
+    } else if (kind == MMLT_LIGHT_SAMPLE) {
+        shadow = light_sample_end(w, v, ls, pdfs, cos_s, f[0], pdf_fwd[0], pdf_rev[0], value, weight, o, d, tmax);
+    } else if (kind == MMLT_CONNECTION) {
+        shadow = connection_end(v, y, dir, d2, f[0], pdf_fwd[0], pdf_rev[0], f[1], pdf_fwd[1], pdf_rev[1], value, weight,
+                                o, d, tmax);
+    }
+    if (shadow) {
+        rays_traced++;
+        found = !(tmax > 0.0) || !trace_occluded(o, d, tmax);
     }
     pixel = px.y * scene.width + px.x;
     return found ? value * (weight * float(strategies)) : vec3(0.0);

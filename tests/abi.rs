@@ -106,7 +106,7 @@ fn kernel_bindings_come_from_the_spirv() {
         }
         // Every other kernel reads the scene; the visibility backend is only in those
         // that trace rays (of the wavefront path tracer's stages, pt_trace and pt_shadow;
-        // of BDPT's wavefront, bdpt_trace and bdpt_connect).
+        // of BDPT's wavefront, bdpt_trace and bdpt_finish).
         let base = kernel.split('+').next().unwrap_or(kernel);
         let traces = matches!(
             base,
@@ -116,6 +116,7 @@ fn kernel_bindings_come_from_the_spirv() {
                 | "bdpt_camera"
                 | "bdpt_connect"
                 | "bdpt_trace"
+                | "bdpt_finish"
                 | "mmlt"
                 | "trace_probe"
                 | "pt_trace"
@@ -182,15 +183,23 @@ fn kernel_bindings_come_from_the_spirv() {
                     && has(abi::BINDING_STRATEGIES),
                 "{kernel} ({backend}): {numbers:?}"
             ),
-            // BDPT's wavefront: every stage keeps its walk in the walk buffer; only the
-            // trace stage adds contributions to the films (its shadow rays decide
-            // them), the hit stage records s = 0 into the pixel's walk.
+            // BDPT's wavefront: every stage keeps its walk in the walk buffer; the trace
+            // stage adds what its shadow rays decide to the splat film (t = 1) or to the
+            // walk's sum, which only bdpt_finish adds to the film (with the connections).
             "bdpt_trace" => assert!(
                 has(abi::BINDING_BDPT_WALKS)
-                    && has(abi::BINDING_FILM)
+                    && !has(abi::BINDING_FILM)
                     && has(abi::BINDING_SPLAT)
                     && has(abi::BINDING_STRATEGIES)
-                    && has(abi::BINDING_BDPT_SUBPATHS),
+                    && !has(abi::BINDING_BDPT_SUBPATHS),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            "bdpt_finish" => assert!(
+                has(abi::BINDING_BDPT_WALKS)
+                    && has(abi::BINDING_FILM)
+                    && !has(abi::BINDING_SPLAT)
+                    && has(abi::BINDING_PATH_VERTICES)
+                    && has(abi::BINDING_STRATEGIES),
                 "{kernel} ({backend}): {numbers:?}"
             ),
             "bdpt_start" | "bdpt_hit" => assert!(

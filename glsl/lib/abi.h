@@ -361,9 +361,10 @@ struct WavefrontParams {
     uint reserved;
 };
 
-// The push constants of BDPT's stages (glsl/lib/bdpt_pass.glsl): a PassParams, then the
-// bounce of a wavefront stage (the walk's vertices so far, the one being found) and the
-// subpath it walks (BDPT_SIDE_*).
+// The push constants of BDPT's stages (glsl/lib/bdpt_pass.glsl): samples first_sample ..
+// first_sample + samples of the rows row_begin .. row_end (a wavefront dispatch has a z
+// layer per sample; the three stages take one), then the bounce of a wavefront stage
+// (the vertex being found) and the subpath it walks (BDPT_SIDE_*).
 struct BdptParams {
     uint first_sample;
     uint samples;
@@ -376,8 +377,6 @@ struct BdptParams {
 };
 #define BDPT_SIDE_LIGHT 0
 #define BDPT_SIDE_CAMERA 1
-// (bdpt_trace: after the camera subpath's last shadow ray, hand over to bdpt_connect.)
-#define BDPT_SIDE_FINISH 2
 
 // A pixel's subpath walk in BDPT's wavefront (glsl/lib/bdpt_wave.glsl): its light
 // subpath, then its camera subpath, through the start, trace, hit and shade stages.

@@ -41,17 +41,6 @@ float mis(float x) { return x * x; }
 
 bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 
-// Is the segment between two surface points a and b (normals na, nb on the sides the
-// segment leaves from) unoccluded?
-bool visible(vec3 a, vec3 na, vec3 b, vec3 nb) {
-    rays_traced++;
-    vec3 o, d;
-    float tmax;
-    shadow_ray_to(a, na, offset_ray_origin(b, nb), o, d, tmax);
-    if (!(tmax > 0.0)) return true;
-    return !trace_occluded(o, d, tmax);
-}
-
 // Solid-angle pdf with which the camera samples direction w (unit, from the eye) for a
 // given pixel: 1 / (pixel_area() cos^3(theta)).
 float camera_pdf_w(vec3 w) {
@@ -581,22 +570,56 @@ bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 
     return true;
 }
 
-// s >= 2, t >= 2: connect the camera vertex z to the light vertex y.
-bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float weight) {
+// s >= 2, t >= 2: connect the camera vertex z to the light vertex y, in three steps as
+// the other connections: connection_faces (the unit direction dir from z to y and the
+// squared distance d2; false when the segment cannot carry light), the questions to both
+// vertices' BSDFs (strategy_connection shows them), connection_end (the contribution,
+// its MIS weight and the shadow ray (o, d, tmax) between the two points).
+bool connection_faces(PathVertex z, PathVertex y, out vec3 dir, out float d2) {
+    vec3 to = y.p - z.p;
+    d2 = dot(to, to);
+    dir = vec3(0.0, 0.0, 1.0);
+    if (!(d2 > 0.0)) return false;
+    dir = to * inversesqrt(d2);
+    // (Either vertex may transmit: the cosines' signs say which side the segment leaves.)
+    if (!(abs(dot(z.n, dir)) > 0.0) || !(abs(dot(y.n, dir)) > 0.0)) return false;
+    if (!(dot(z.ns, z.w) > 0.0) || !(dot(y.ns, y.w) > 0.0)) return false;
+    return shading_side_agrees(z.n, z.ns, dir) && shading_side_agrees(y.n, y.ns, -dir);
+}
+
+// f_z, cam_dir, cam_rev: z's BSDF toward y (radiance) and its pdfs; f_y, light_dir,
+// light_rev: y's toward z (importance).
+bool connection_end(PathVertex z, PathVertex y, vec3 dir, float d2, vec3 f_z, float cam_dir, float cam_rev,
+                    vec3 f_y, float light_dir, float light_rev, out vec3 value, out float weight, out vec3 o,
+                    out vec3 d, out float tmax) {
     value = vec3(0.0);
     weight = 0.0;
-    vec3 to = y.p - z.p;
-    float d2 = dot(to, to);
-    if (!(d2 > 0.0)) return false;
-    vec3 dir = to * inversesqrt(d2);
-    // (Either vertex may transmit: the cosines' signs say which side the segment leaves.)
+    o = z.p;
+    d = dir;
+    tmax = 0.0;
     float cz = dot(z.n, dir);
     float cy = -dot(y.n, dir);
     float cos_z = abs(cz);
     float cos_y = abs(cy);
-    if (!(cos_z > 0.0) || !(cos_y > 0.0)) return false;
-    if (!(dot(z.ns, z.w) > 0.0) || !(dot(y.ns, y.w) > 0.0)) return false;
-    if (!shading_side_agrees(z.n, z.ns, dir) || !shading_side_agrees(y.n, y.ns, -dir)) return false;
+    float g = shading_cosine(z.n, z.ns, z.w, dir, TRANSPORT_RADIANCE)
+            * shading_cosine(y.n, y.ns, y.w, -dir, TRANSPORT_IMPORTANCE) / d2;
+    vec3 c = z.beta * f_z * f_y * y.beta * g;
+    if (c == vec3(0.0)) return false;
+    // The densities convert with the geometric cosines.
+    float w_light = mis(cam_dir * cos_y / d2) * (y.dvcm + y.dvc * mis(light_rev));
+    float w_cam = mis(light_dir * cos_z / d2) * (z.dvcm + z.dvc * mis(cam_rev));
+    weight = 1.0 / (w_light + 1.0 + w_cam);
+    shadow_ray_to(z.p, cz > 0.0 ? z.n : -z.n, offset_ray_origin(y.p, cy > 0.0 ? y.n : -y.n), o, d, tmax);
+    value = c;
+    return true;
+}
+
+bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float weight) {
+    value = vec3(0.0);
+    weight = 0.0;
+    vec3 dir;
+    float d2;
+    if (!connection_faces(z, y, dir, d2)) return false;
     // Both ends' BSDFs, asked in one place (a loop the compiler keeps: each call site
     // would be a copy of every BSDF the kernel holds).
     vec3 f[2];
@@ -607,19 +630,17 @@ bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float w
         f[i] = bsdf_eval_pdfs(vertex_bsdf(x), scene.sample_mode, x.ns, x.w, cam ? dir : -dir,
                               cam ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE, true, true, pdf_dir[i], pdf_rev[i]);
     }
-    vec3 f_z = f[0];
-    vec3 f_y = f[1];
-    float cam_dir = pdf_dir[0], cam_rev = pdf_rev[0], light_dir = pdf_dir[1], light_rev = pdf_rev[1];
-    float g = shading_cosine(z.n, z.ns, z.w, dir, TRANSPORT_RADIANCE)
-            * shading_cosine(y.n, y.ns, y.w, -dir, TRANSPORT_IMPORTANCE) / d2;
-    vec3 c = z.beta * f_z * f_y * y.beta * g;
-    if (c == vec3(0.0)) return false;
-    // The densities convert with the geometric cosines.
-    float w_light = mis(cam_dir * cos_y / d2) * (y.dvcm + y.dvc * mis(light_rev));
-    float w_cam = mis(light_dir * cos_z / d2) * (z.dvcm + z.dvc * mis(cam_rev));
-    weight = 1.0 / (w_light + 1.0 + w_cam);
-    if (!visible(z.p, cz > 0.0 ? z.n : -z.n, y.p, cy > 0.0 ? y.n : -y.n)) return false;
-    value = c;
+    vec3 o, d;
+    float tmax;
+    if (!connection_end(z, y, dir, d2, f[0], pdf_dir[0], pdf_rev[0], f[1], pdf_dir[1], pdf_rev[1], value, weight, o, d,
+                        tmax))
+        return false;
+    rays_traced++;
+    if (!(tmax > 0.0)) return true;
+    if (trace_occluded(o, d, tmax)) {
+        value = vec3(0.0);
+        return false;
+    }
     return true;
 }
 #endif

@@ -95,18 +95,26 @@ void add_splat(uvec2 px, uint s, vec3 unweighted, float weight) {
 // with s, t >= 2); none when only paths too long for them are added.
 uint vertex_stride() { return min_scatter() > max_scatter() ? 0u : max(max_scatter(), 2u) - 1u; }
 
-// This invocation's pixel, its index in the image and in the band (`slot`), and the
-// base of its slice of the path-vertex buffer (which holds one band). False when it has
-// no pixel, or (counted once, by the light stage) when its slice is past the buffer's
-// end.
+// The band's pixels.
+uint band_pixels() { return (min(scene.height, pass_params.row_end) - pass_params.row_begin) * scene.width; }
+
+// The sample this invocation adds: a dispatch over pass_params.samples samples of the
+// band has one z layer per sample (BDPT's wavefront; the three stages run one).
+uint bdpt_sample() { return pass_params.first_sample + gl_GlobalInvocationID.z; }
+
+// This invocation's pixel, its index in the image and its slot (its walk, its slice of
+// the path-vertex buffer, which holds the band's pixels for each sample of the
+// dispatch), and the base of that slice. False when it has no pixel, or (counted once, by
+// the light stage) when its slice is past the buffer's end.
 bool bdpt_pixel(bool count_out_of_range, out uvec2 pixel, out uint index, out uint slot, out uint base) {
     pixel = gl_GlobalInvocationID.xy + uvec2(0u, pass_params.row_begin);
     index = 0u;
     slot = 0u;
     base = 0u;
     if (pixel.x >= scene.width || pixel.y >= min(scene.height, pass_params.row_end)) return false;
+    if (gl_GlobalInvocationID.z >= max(pass_params.samples, 1u)) return false;
     index = pixel.y * scene.width + pixel.x;
-    slot = (pixel.y - pass_params.row_begin) * scene.width + pixel.x;
+    slot = gl_GlobalInvocationID.z * band_pixels() + (pixel.y - pass_params.row_begin) * scene.width + pixel.x;
     uint stride = vertex_stride();
     base = slot * 2u * stride;
     if (stride > 0u && base + 2u * stride > uint(path_vertices.length())) {
@@ -147,4 +155,22 @@ PathVertex unpack_vertex(GpuPathVertex g) {
 }
 
 PathVertex stored_vertex(uint index) { return unpack_vertex(path_vertices[index]); }
+
+// The s, t >= 2 strategies of the pixel `index` whose stored vertices are at `base`
+// (`stored` light vertices, `connectable` camera vertices): every camera vertex z_k
+// connected to every light vertex y_j whose path stays within maxdepth. Their sum; the
+// shadow rays counted in rays_traced.
+vec3 connect_strategies(uint index, uint base, uint stored, uint connectable) {
+    vec3 L = vec3(0.0);
+    for (uint k = 1u; k <= connectable; ++k) {
+        PathVertex z = stored_vertex(base + vertex_stride() + k - 1u);
+        uint last = min(stored, max_scatter() - k);
+        for (uint j = max(1u, min_scatter() - min(min_scatter(), k)); j <= last; ++j) {
+            vec3 value;
+            float weight;
+            if (strategy_connection(z, stored_vertex(base + j - 1u), value, weight)) add_camera(L, j + 1u, k + 1u, index, value, weight);
+        }
+    }
+    return L;
+}
 #endif

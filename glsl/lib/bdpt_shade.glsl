@@ -17,7 +17,7 @@ void main() {
     if ((flags & BDPT_WALK_VERTEX) == 0u) return;
     uint material = floatBitsToUint(walks[slot].v_p.w) & ~PATH_VERTEX_FRONT;
     if (material_class(materials[material].info.x) != SHADE_CLASS) return;
-    GpuBdptWalk g = walks[slot];
+    GpuBdptWalk g = walks[slot];   // (the compiler loads only the members read)
     Walk w = walk_load(g);
     PathVertex v = walk_vertex(g);
     BsdfParams b = vertex_bsdf(v);
@@ -62,19 +62,22 @@ void main() {
         float weight, tmax;
         if (!camera) {
             if (camera_connection_end(v, eye, to_eye, dist, f, pdf_rev, value, weight, o, d, tmax)) {
-                g.counts.y++;
-                queue_shadow(g, flags, o, d, tmax, w.vertices + 1u, 1u, px.y * scene.width + px.x, value, weight);
+                walks[slot].counts.y = g.counts.y + 1u;
+                queue_shadow(slot, flags, o, d, tmax, w.vertices + 1u, 1u, px.y * scene.width + px.x, value, weight);
             }
         } else if (light_sample_end(w, v, ls, g.ls_pdfs.xy, cos_s, f, pdf_fwd, pdf_rev, value, weight, o, d, tmax)) {
-            g.counts.y++;
-            queue_shadow(g, flags, o, d, tmax, 1u, w.vertices + 1u, index, value, weight);
+            walks[slot].counts.y = g.counts.y + 1u;
+            queue_shadow(slot, flags, o, d, tmax, 1u, w.vertices + 1u, index, value, weight);
         }
     }
     bool extend = (flags & BDPT_WALK_EXTEND) != 0u && walk_extend(w, v, b, camera);
     flags &= ~(BDPT_WALK_VERTEX | BDPT_WALK_CONNECT | BDPT_WALK_EXTEND | BDPT_WALK_LIGHT_SAMPLE);
     if (extend) flags |= BDPT_WALK_RAY;
-    walk_save(g, w, flags);
-    g.o.w = uintBitsToFloat(sampler_rng.counter);
-    walks[slot] = g;
+    if (extend) {
+        store_walk_scatter(slot, w, flags);
+    } else {
+        walks[slot].d.w = uintBitsToFloat(walk_flags(w, flags));
+    }
+    walks[slot].o.w = uintBitsToFloat(sampler_rng.counter);
 }
 #endif

@@ -45,35 +45,60 @@ Walk walk_load(GpuBdptWalk g) {
     return w;
 }
 
-// Write the walk (and the flags that are its: infinite, previous delta, escaped) into g.
-void walk_save(inout GpuBdptWalk g, Walk w, uint flags) {
+// The flags with the walk's own (infinite, previous delta, escaped) set from w.
+uint walk_flags(Walk w, uint flags) {
     flags &= ~(BDPT_WALK_INFINITE | BDPT_WALK_PREV_DELTA | BDPT_WALK_ESCAPED);
     if (w.infinite) flags |= BDPT_WALK_INFINITE;
     if (w.prev_delta) flags |= BDPT_WALK_PREV_DELTA;
     if (w.escaped) flags |= BDPT_WALK_ESCAPED;
+    return flags;
+}
+
+// Write the whole walk into g.
+void walk_save(inout GpuBdptWalk g, Walk w, uint flags) {
     g.o.xyz = w.o;
-    g.d = vec4(w.d, uintBitsToFloat(flags));
+    g.d = vec4(w.d, uintBitsToFloat(walk_flags(w, flags)));
     g.beta = vec4(w.beta, w.dvcm);
     g.prev_p = vec4(w.prev_p, w.dvc);
     g.counts.x = w.vertices;
     g.radiance.w = w.prev_pdf_w;
 }
 
+// Store what a new vertex changes of the walk (its MIS sums and vertex count) and the
+// flags. (Each stage stores only what it changed: on lavapipe every word of a walk
+// is a memory access per pixel.)
+void store_walk_vertex(uint slot, Walk w, uint flags) {
+    walks[slot].beta.w = w.dvcm;
+    walks[slot].prev_p.w = w.dvc;
+    walks[slot].counts.x = w.vertices;
+    walks[slot].d.w = uintBitsToFloat(walk_flags(w, flags));
+}
+
+// Store what a scattering changes of the walk: its next ray, throughput, MIS sums and
+// last bounce, and the flags.
+void store_walk_scatter(uint slot, Walk w, uint flags) {
+    walks[slot].o.xyz = w.o;
+    walks[slot].d = vec4(w.d, uintBitsToFloat(walk_flags(w, flags)));
+    walks[slot].beta = vec4(w.beta, w.dvcm);
+    walks[slot].prev_p = vec4(w.prev_p, w.dvc);
+    walks[slot].radiance.w = w.prev_pdf_w;
+}
+
 // The pixel's sampler, resumed where the walk's last stage left it.
 void sampler_resume(uint index, GpuBdptWalk g) {
-    sampler_start(scene.seed, index, pass_params.first_sample);
+    sampler_start(scene.seed, index, bdpt_sample());
     sampler_rng.counter = floatBitsToUint(g.o.w);
 }
 
 // A shadow ray for the trace stage and what it adds when nothing blocks it: strategy
 // (s, t), its unweighted value and MIS weight, added to the splat film at `pixel` (t = 1)
 // or to the walk's own pixel.
-void queue_shadow(inout GpuBdptWalk g, inout uint flags, vec3 o, vec3 d, float tmax, uint s, uint t, uint pixel,
-                  vec3 value, float weight) {
-    g.ls_wi = vec4(o, tmax);
-    g.ls_le = vec4(d, uintBitsToFloat(pixel));
-    g.ls_p = vec4(value, weight);
-    g.ls_n = vec4(uintBitsToFloat(s), uintBitsToFloat(t), 0.0, 0.0);
+void queue_shadow(uint slot, inout uint flags, vec3 o, vec3 d, float tmax, uint s, uint t, uint pixel, vec3 value,
+                  float weight) {
+    walks[slot].ls_wi = vec4(o, tmax);
+    walks[slot].ls_le = vec4(d, uintBitsToFloat(pixel));
+    walks[slot].ls_p = vec4(value, weight);
+    walks[slot].ls_n = vec4(uintBitsToFloat(s), uintBitsToFloat(t), 0.0, 0.0);
     flags |= BDPT_WALK_SHADOW;
     if (t == 1u) flags |= BDPT_WALK_SHADOW_SPLAT;
 }
@@ -89,12 +114,12 @@ PathVertex walk_vertex(GpuBdptWalk g) {
     return unpack_vertex(v);
 }
 
-void set_walk_vertex(inout GpuBdptWalk g, PathVertex y) {
+void store_vertex(uint slot, PathVertex y) {
     GpuPathVertex v = pack_vertex(y);
-    g.v_p = v.p;
-    g.v_n = v.n;
-    g.v_wi = v.wi;
-    g.v_beta = v.beta;
-    g.v_ns = v.ns;
+    walks[slot].v_p = v.p;
+    walks[slot].v_n = v.n;
+    walks[slot].v_wi = v.wi;
+    walks[slot].v_beta = v.beta;
+    walks[slot].v_ns = v.ns;
 }
 #endif

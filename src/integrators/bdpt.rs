@@ -170,10 +170,13 @@ pub(crate) struct BdptWave {
     trace: PassStage,
     hit: PassStage,
     shade: Vec<PassStage>,
-    connect: PassStage,
+    finish: PassStage,
     width: u32,
     height: u32,
     band_rows: u32,
+    /// Samples per pixel of one dispatch (its z layers): its walks and vertices are
+    /// held for each.
+    samples: u32,
     /// Scattering vertices of the longest path that gets every strategy.
     max_scatter: u32,
 }
@@ -183,7 +186,7 @@ impl BdptWave {
         let groups = [
             self.width.div_ceil(WORKGROUP_SIZE_X),
             (p.row_end - p.row_begin).div_ceil(WORKGROUP_SIZE_Y),
-            1,
+            p.samples,
         ];
         let p = BdptParams { bounce, side, ..*p };
         Dispatch::new(&stage.kernel, stage.set, &p, groups).timed(&stage.span)
@@ -207,7 +210,7 @@ impl BdptWave {
         }
     }
 
-    /// The dispatches of one band's pass.
+    /// The dispatches of one band's samples `p`.
     fn band(&self, p: &BdptParams, list: &mut Vec<Dispatch>) {
         list.push(self.dispatch(&self.start, p, 0, BDPT_SIDE_LIGHT));
         for b in 1..=self.max_scatter {
@@ -220,8 +223,11 @@ impl BdptWave {
         for k in 1..=self.max_scatter + 1 {
             self.bounce(p, k, BDPT_SIDE_CAMERA, k <= self.max_scatter, list);
         }
-        list.push(self.dispatch(&self.trace, p, 0, BDPT_SIDE_FINISH));
-        list.push(self.dispatch(&self.connect, p, 0, BDPT_SIDE_FINISH));
+        list.push(self.dispatch(&self.trace, p, 0, BDPT_SIDE_CAMERA));
+        // One invocation per pixel adds the samples in order.
+        let mut f = self.dispatch(&self.finish, p, 0, BDPT_SIDE_CAMERA);
+        f.groups[2] = 1;
+        list.push(f);
     }
 
     /// Every stage once with no samples (each compiles at its first dispatch).
@@ -230,7 +236,7 @@ impl BdptWave {
             row_end: 1,
             ..Default::default()
         };
-        [&self.start, &self.trace, &self.hit, &self.connect]
+        [&self.start, &self.trace, &self.hit, &self.finish]
             .into_iter()
             .chain(&self.shade)
             .map(|s| Dispatch::new(&s.kernel, s.set, &p, [1, 1, 1]))
@@ -251,18 +257,21 @@ impl BdptPasses {
             BdptPasses::Stages(p) => p.dispatches(first, count),
             BdptPasses::Wave(w) => {
                 let mut list = Vec::new();
-                for i in 0..count {
+                let mut i = 0;
+                while i < count {
+                    let n = w.samples.min(count - i);
                     for y0 in (0..w.height).step_by(w.band_rows as usize) {
                         let rows = w.band_rows.min(w.height - y0);
                         let p = BdptParams {
                             first_sample: first + i,
-                            samples: 1,
+                            samples: n,
                             row_begin: y0,
                             row_end: y0 + rows,
                             ..Default::default()
                         };
                         w.band(&p, &mut list);
                     }
+                    i += n;
                 }
                 list
             }
@@ -311,18 +320,14 @@ fn bdpt_wave(
     scene: &Scene,
     variant: Option<&'static str>,
     buffers: &[(u32, &Buffer)],
-    (width, height, rows): (u32, u32, u32),
+    (width, height, rows, samples): (u32, u32, u32, u32),
     trace: &mut Trace,
-) -> Result<(BdptPasses, [Buffer; 2])> {
-    let (walks, subpaths) = trace.cpu("BDPT buffers", || -> Result<_> {
-        let pixels = rows as u64 * width as u64;
-        Ok((
-            engine.device_buffer("BDPT walks", pixels * BDPT_WALK_BYTES)?,
-            engine.device_buffer("BDPT subpath states", pixels * 16)?,
-        ))
+) -> Result<(BdptPasses, Buffer)> {
+    let walks = trace.cpu("BDPT buffers", || {
+        let slots = rows as u64 * width as u64 * samples as u64;
+        engine.device_buffer("BDPT walks", slots * BDPT_WALK_BYTES)
     })?;
     let mut all = buffers.to_vec();
-    all.push((BINDING_BDPT_SUBPATHS, &subpaths));
     all.push((BINDING_BDPT_WALKS, &walks));
     let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
         let v = variant.filter(|v| engine.kernels.has(&format!("{name}+{v}")));
@@ -347,29 +352,42 @@ fn bdpt_wave(
             trace: stage("bdpt_trace", "bdpt trace")?,
             hit: stage("bdpt_hit", "bdpt hit")?,
             shade,
-            connect: stage("bdpt_connect", "bdpt connect")?,
+            finish: stage("bdpt_finish", "bdpt finish")?,
             width,
             height,
             band_rows: rows,
+            samples,
             max_scatter: prepared.params().max_depth,
         })
     })?;
     for d in wave.idle() {
         engine.warm_up(d, trace)?;
     }
-    Ok((BdptPasses::Wave(Box::new(wave)), [walks, subpaths]))
+    Ok((BdptPasses::Wave(Box::new(wave)), walks))
 }
+
+/// Pixel samples the wavefront holds at once when memory allows (as the path tracer's
+/// wavefront; `LIGHTPATH_WAVEFRONT_SLOTS` sets it for measurements). Images do not
+/// depend on it.
+const WAVE_SLOTS: u64 = 1 << 16;
 
 /// The BDPT integrator.
 pub struct Bdpt {
     options: BdptOptions,
     profile_variant: Option<&'static str>,
+    slots: Option<u64>,
 }
 
 pub fn create(o: &IntegratorOptions) -> Box<dyn Integrator> {
+    let slots = o.wavefront_slots.or_else(|| {
+        std::env::var("LIGHTPATH_WAVEFRONT_SLOTS")
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok())
+    });
     Box::new(Bdpt {
         options: o.bdpt.clone(),
         profile_variant: o.profile_variant,
+        slots,
     })
 }
 
@@ -396,12 +414,24 @@ impl Integrator for Bdpt {
         let vertex_limit = limit
             .min(VERTEX_BUFFER_BUDGET)
             .min(self.options.vertex_buffer_limit.unwrap_or(u64::MAX));
-        let rows = band_rows(
-            width,
-            height,
-            vertex_bytes.max(BDPT_WALK_BYTES),
-            vertex_limit,
-        )?;
+        // The wavefront (bounded maxdepth) also holds a walk per pixel, and runs several
+        // samples of a band per dispatch when they fit: about WAVE_SLOTS pixel samples.
+        let wave = scene.settings.max_depth >= 0;
+        let per_pixel = if wave {
+            vertex_bytes.max(BDPT_WALK_BYTES)
+        } else {
+            vertex_bytes
+        };
+        let rows = band_rows(width, height, per_pixel, vertex_limit)?;
+        let band = rows as u64 * width as u64;
+        let samples = if wave {
+            let wanted = self.slots.unwrap_or(WAVE_SLOTS);
+            (wanted / band)
+                .min(vertex_limit / (band * per_pixel))
+                .clamp(1, 64) as u32
+        } else {
+            1
+        };
         let strategies = if self.options.record_strategies {
             bdpt_strategies(max_scatter)
         } else {
@@ -436,7 +466,7 @@ impl Integrator for Bdpt {
                     engine.storage_buffer("splat film", splat_bytes)?,
                     engine.device_buffer(
                         "BDPT path vertices",
-                        (rows as u64 * width as u64 * vertex_bytes).max(16),
+                        (band * samples as u64 * vertex_bytes).max(16),
                     )?,
                     engine.storage_buffer("strategy films", strategy_bytes.max(16))?,
                 ))
@@ -448,7 +478,7 @@ impl Integrator for Bdpt {
             (BINDING_PATH_VERTICES, &vertices),
             (BINDING_STRATEGIES, &strategy_film),
         ];
-        let (passes, _state) = if scene.settings.max_depth < 0 {
+        let (passes, _state) = if !wave {
             let (p, subpaths) = bdpt_passes(
                 engine,
                 &prepared,
@@ -459,16 +489,16 @@ impl Integrator for Bdpt {
             )?;
             (BdptPasses::Stages(p), vec![subpaths])
         } else {
-            let (p, state) = bdpt_wave(
+            let (p, walks) = bdpt_wave(
                 engine,
                 &prepared,
                 scene,
                 self.profile_variant,
                 &bound,
-                (width, height, rows),
+                (width, height, rows, samples),
                 trace,
             )?;
-            (p, state.into())
+            (p, vec![walks])
         };
         // image = (camera film + splat film) / spp
         let resolve = |done: u32| -> Result<Image> {

@@ -1,0 +1,29 @@
+// BDPT's wavefront (lib/bdpt_wave.glsl): its last stage, one invocation per pixel of the
+// band. For each sample of the dispatch in order, the camera subpath's strategies
+// (s = 0, 1) and rays, then every s, t >= 2 connection of the sample's stored vertices,
+// are added to the pixel's film: the order in which passes of one sample each would add
+// them.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_atomic_float : require
+
+#include "abi.h"
+layout(local_size_x = WORKGROUP_SIZE_X, local_size_y = WORKGROUP_SIZE_Y) in;
+#include "bdpt_wave.glsl"
+
+void main() {
+    uvec2 pixel;
+    uint index, slot, base;
+    if (!bdpt_pixel(false, pixel, index, slot, base) || pass_params.samples == 0u) return;
+    uint stride = 2u * vertex_stride();
+    for (uint s = 0u; s < pass_params.samples; ++s) {
+        uint at = slot + s * band_pixels();
+        if (stride > 0u && (at + 1u) * stride > uint(path_vertices.length())) break;
+        uvec4 counts = walks[at].counts;
+        film[index] += vec4(walks[at].radiance.xyz, float(counts.y));
+        rays_traced = 0u;
+        vec3 L = connect_strategies(index, at * stride, counts.z, counts.w);
+        film[index] += vec4(L, float(rays_traced));
+    }
+    if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
+}
