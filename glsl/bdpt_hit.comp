@@ -67,7 +67,7 @@ void main() {
         // s = 1: a fresh sample on a light (k scattering vertices); its BSDF half is the
         // shade stage's.
         LightSample ls;
-        bool sampled = found && k <= max_vertices && k >= min_scatter() && light_sample_draw(w, v, ls, q[1]);
+        bool sampled = found && k <= max_vertices && k >= min_scatter() && light_sample_draw(v, ls, q[1]);
         ask[1] = sampled && w.vertices <= max_scatter();
         // Both strategies' emitter densities, asked in one place.
         vec2 pdfs[2] = vec2[2](vec2(0.0), vec2(0.0));
@@ -79,10 +79,7 @@ void main() {
         if (found && k <= max_vertices) {
             if (sampled) {
                 flags |= BDPT_WALK_LIGHT_SAMPLE;
-                walks[slot].ls_wi = vec4(ls.wi, ls.dist);
-                walks[slot].ls_le = vec4(ls.L, ls.pdf);
-                walks[slot].ls_p = vec4(ls.p, ls.delta ? 1.0 : 0.0);
-                walks[slot].ls_n = vec4(ls.n, 0.0);
+                pack_light_sample(ls, walks[slot].ls_wi, walks[slot].ls_le, walks[slot].ls_p, walks[slot].ls_n);
                 walks[slot].ls_pdfs = vec4(pdfs[1], 0.0, 0.0);
             }
             // s >= 2 (bdpt_connect.comp): light vertices y_j with j + k <= max_scatter().

@@ -147,7 +147,7 @@ vec3 mmlt_path(uint depth, out uint pixel) {
     } else if (camera && ((escaped && s == 0u) || (alive && s == 0u))) {
         if (emission_found(w, v, escaped, value, q, ask)) kind = MMLT_EMISSION;
     } else if (camera && alive && s == 1u) {
-        if (light_sample_draw(w, v, ls, q)) {
+        if (light_sample_draw(v, ls, q)) {
             ask = light_sample_weighs_all(w);
             if (light_sample_faces(vertex_bsdf(v), v, ls, cos_s)) {
                 kind = MMLT_LIGHT_SAMPLE;

@@ -80,10 +80,7 @@ void main() {
         flags |= PT_PATH_LIGHT_SAMPLE;
         if (sample_emitter(e, s.p, u, ls) && ls.pdf > 0.0) {
             flags |= PT_PATH_LIGHT_SAMPLE_OK;
-            paths[i].ls_wi = vec4(ls.wi, ls.dist);
-            paths[i].ls_le = vec4(ls.L, ls.pdf);
-            paths[i].ls_p = vec4(ls.p, ls.delta ? 1.0 : 0.0);
-            paths[i].ls_n = vec4(ls.n, 0.0);
+            pack_light_sample(ls, paths[i].ls_wi, paths[i].ls_le, paths[i].ls_p, paths[i].ls_n);
         }
         paths[i].o.w = uintBitsToFloat(rng.counter);
     }

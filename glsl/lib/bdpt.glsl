@@ -357,14 +357,7 @@ bool strategy_environment_hit(Walk w, out vec3 value, out float weight) {
 // and placed with the connection stream, in two halves: the light's (light_sample_draw:
 // the emitter picked and its point, and the query of the densities with which it would
 // emit toward z, for the MIS weight) and the BSDF's (light_sample_connect).
-bool light_sample_draw(Walk w, PathVertex z, out LightSample ls, out EmissionQuery q) {
-    ls.delta = false;
-    ls.n = vec3(0.0);
-    ls.L = vec3(0.0);
-    ls.pdf = 0.0;
-    ls.dist = 0.0;
-    ls.wi = vec3(0.0, 0.0, 1.0);
-    ls.p = z.p;
+bool light_sample_draw(PathVertex z, out LightSample ls, out EmissionQuery q) {
     q.e = 0u;
     if (scene.emitter_count == 0u) return false;
     q.e = pick_emitter(sample_u32(STREAM_CONNECT));
@@ -381,7 +374,7 @@ bool light_sample_draw(Walk w, PathVertex z, out LightSample ls, out EmissionQue
 bool light_sample_pick(Walk w, PathVertex z, out LightSample ls, out vec2 pdfs) {
     EmissionQuery q;
     pdfs = vec2(0.0);
-    if (!light_sample_draw(w, z, ls, q)) return false;
+    if (!light_sample_draw(z, ls, q)) return false;
     if (w.vertices <= max_scatter()) pdfs = emission_pdfs(q);
     return true;
 }

@@ -43,13 +43,7 @@ void main() {
             transport = TRANSPORT_IMPORTANCE;
         }
     } else if ((flags & BDPT_WALK_LIGHT_SAMPLE) != 0u) {
-        ls.wi = g.ls_wi.xyz;
-        ls.dist = g.ls_wi.w;
-        ls.L = g.ls_le.xyz;
-        ls.pdf = g.ls_le.w;
-        ls.p = g.ls_p.xyz;
-        ls.delta = g.ls_p.w != 0.0;
-        ls.n = g.ls_n.xyz;
+        ls = unpack_light_sample(g.ls_wi, g.ls_le, g.ls_p, g.ls_n);
         connect = light_sample_faces(b, v, ls, cos_s);
         wi = ls.wi;
         want_fwd = true;

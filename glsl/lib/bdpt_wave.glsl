@@ -5,7 +5,7 @@
 //                           s = 1, t = 1 strategy; or the camera's ray);
 //   bdpt_trace.comp         the pending shadow ray (its contribution added when nothing
 //                           blocks it), then the walk's closest hit: the only kernel that
-//                           holds the visibility backend besides bdpt_connect;
+//                           holds the visibility backend besides bdpt_finish;
 //   bdpt_hit.comp           the vertex at the hit, stored for connections, and what the
 //                           emitters give there (s = 0, the s = 1 light sample's point):
 //                           every emitter's code;
@@ -14,13 +14,14 @@
 //                           their shadow rays queued for the trace stage, and the BSDF
 //                           sample that continues the walk; a vertex of another class is
 //                           left to its own kernel;
-//   bdpt_connect.comp       every s, t >= 2 connection (lib/bdpt_pass.glsl).
+//   bdpt_finish.comp        per pixel, each sample's camera strategies and then its
+//                           s, t >= 2 connections added to the film, in sample order.
 // A pixel's draws, contributions and their order are the same as when one invocation
-// walked both subpaths (bdpt_light.comp, bdpt_camera.comp), so the images are the same
-// bits. The host records bdpt_start, per bounce bdpt_trace, bdpt_hit and one
+// walked both subpaths (bdpt_light.comp, bdpt_camera.comp), so the images are theirs (to
+// the last bits where the compiler fuses multiply-adds differently). The host records bdpt_start, per bounce bdpt_trace, bdpt_hit and one
 // bdpt_shade_CLASS per class the scene has, then bdpt_trace for the last shadow rays,
 // for the light side and then the camera side (BdptParams.side and .bounce), then
-// bdpt_connect.
+// bdpt_finish.
 #ifndef BDPT_WAVE_GLSL
 #define BDPT_WAVE_GLSL
 #include "bdpt_pass.glsl"

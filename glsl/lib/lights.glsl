@@ -322,6 +322,27 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
 }
 #endif
 
+// A light sample as the wavefronts keep it between their stages (pt_hit to pt_shade,
+// bdpt_hit to bdpt_shade): four vec4s.
+void pack_light_sample(LightSample ls, out vec4 wi, out vec4 le, out vec4 p, out vec4 n) {
+    wi = vec4(ls.wi, ls.dist);
+    le = vec4(ls.L, ls.pdf);
+    p = vec4(ls.p, ls.delta ? 1.0 : 0.0);
+    n = vec4(ls.n, 0.0);
+}
+
+LightSample unpack_light_sample(vec4 wi, vec4 le, vec4 p, vec4 n) {
+    LightSample ls;
+    ls.wi = wi.xyz;
+    ls.dist = wi.w;
+    ls.L = le.xyz;
+    ls.pdf = le.w;
+    ls.p = p.xyz;
+    ls.delta = p.w != 0.0;
+    ls.n = n.xyz;
+    return ls;
+}
+
 // The shadow ray of a light sample seen from p: its origin (p offset along n toward the
 // light), unit direction and extent (INF for lights at infinity). Traced by
 // light_sample_visible (visibility.glsl) or by a wavefront's shadow stage.

@@ -33,14 +33,7 @@ void main() {
     if ((flags & PT_PATH_LIGHT_SAMPLE) != 0u) {
         bool queued = false;
         if ((flags & PT_PATH_LIGHT_SAMPLE_OK) != 0u) {
-            LightSample ls;
-            ls.wi = path.ls_wi.xyz;
-            ls.dist = path.ls_wi.w;
-            ls.L = path.ls_le.xyz;
-            ls.pdf = path.ls_le.w;
-            ls.p = path.ls_p.xyz;
-            ls.delta = path.ls_p.w != 0.0;
-            ls.n = path.ls_n.xyz;
+            LightSample ls = unpack_light_sample(path.ls_wi, path.ls_le, path.ls_p, path.ls_n);
             vec3 f;
             float cos_s, pdf_fwd, pdf_rev;
             bool mis = nee == NEE_MIS;
