@@ -235,6 +235,28 @@ pub struct GpuChain {
     pub start: [u32; 4],
 }
 
+/// One proposal's path in MMLT's wavefront (abi.h).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuMmltPath {
+    pub path: [u32; 4],
+    pub key: [u32; 4],
+    pub used: [u32; 4],
+    pub camera_o: [f32; 4],
+    pub camera_d: [f32; 4],
+    pub value: [f32; 4],
+    pub y_p: [f32; 4],
+    pub y_n: [f32; 4],
+    pub y_wi: [f32; 4],
+    pub y_beta: [f32; 4],
+    pub y_ns: [f32; 4],
+    pub conn: [f32; 4],
+    pub to_eye: [f32; 4],
+    pub answer_z: [f32; 4],
+    pub answer_y: [f32; 4],
+    pub answer_rev: [f32; 4],
+}
+
 /// The BSDF probe's input (abi.h).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -443,6 +465,25 @@ pub fn layouts() -> Vec<StructLayout> {
             reserved1
         ),
         layout!(GpuChain, current, state, counts, start),
+        layout!(
+            GpuMmltPath,
+            path,
+            key,
+            used,
+            camera_o,
+            camera_d,
+            value,
+            y_p,
+            y_n,
+            y_wi,
+            y_beta,
+            y_ns,
+            conn,
+            to_eye,
+            answer_z,
+            answer_y,
+            answer_rev
+        ),
         layout!(BsdfProbeInput, info, n, wo, wi, u),
         layout!(BsdfProbeOutput, eval, sample_dir, sample_f, info),
     ]

@@ -176,7 +176,7 @@ pub fn mmlt_sampler(
     let stats = engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?;
     // The probe modes touch no film, splat or bootstrap targets; mmlt.comp binds them.
     let unused = engine.storage_buffer("unused", 16)?;
-    let kernel = engine.kernel("mmlt", None, prepared.specialization())?;
+    let kernel = engine.kernel("mmlt_probe", None, prepared.specialization())?;
     let set = engine.bind(
         &kernel,
         Some(&prepared),

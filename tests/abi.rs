@@ -106,7 +106,7 @@ fn kernel_bindings_come_from_the_spirv() {
         }
         // Every other kernel reads the scene; the visibility backend is only in those
         // that trace rays (of the wavefront path tracer's stages, pt_trace and pt_shadow;
-        // of BDPT's wavefront, bdpt_trace and bdpt_finish).
+        // of BDPT's wavefront, bdpt_trace and bdpt_finish; of MMLT's, mmlt_trace).
         let base = kernel.split('+').next().unwrap_or(kernel);
         let traces = matches!(
             base,
@@ -117,7 +117,7 @@ fn kernel_bindings_come_from_the_spirv() {
                 | "bdpt_connect"
                 | "bdpt_trace"
                 | "bdpt_finish"
-                | "mmlt"
+                | "mmlt_trace"
                 | "trace_probe"
                 | "pt_trace"
                 | "pt_shadow"
@@ -218,10 +218,39 @@ fn kernel_bindings_come_from_the_spirv() {
                     && !has(abi::BINDING_EMITTERS),
                 "{kernel} ({backend}): {numbers:?}"
             ),
-            "mmlt" => assert!(
-                has(abi::BINDING_CHAINS)
+            // MMLT's wavefront: every stage keeps its path in the walk and path buffers;
+            // only mmlt_accept splats and touches the chains' state beyond reading it; the
+            // shade stages hold no emitter, the accept stage no material.
+            "mmlt_start" | "mmlt_hit" | "mmlt_end" | "mmlt_trace" => assert!(
+                has(abi::BINDING_BDPT_WALKS)
+                    && has(abi::BINDING_MMLT_PATHS)
+                    && !has(abi::BINDING_SPLAT)
+                    && !has(abi::BINDING_FILM),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            k if k.starts_with("mmlt_shade_") => assert!(
+                has(abi::BINDING_BDPT_WALKS)
+                    && has(abi::BINDING_MMLT_PATHS)
+                    && !has(abi::BINDING_SPLAT)
+                    && !has(abi::BINDING_FILM)
+                    && !has(abi::BINDING_EMITTER_CDF)
+                    && !has(abi::BINDING_EMITTERS)
+                    && !has(abi::BINDING_CHAINS),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            "mmlt_accept" => assert!(
+                has(abi::BINDING_MMLT_PATHS)
+                    && has(abi::BINDING_CHAINS)
+                    && has(abi::BINDING_SPLAT)
                     && has(abi::BINDING_DEPTH_FILMS)
-                    && !has(abi::BINDING_STRATEGIES)
+                    && !has(abi::BINDING_MATERIALS)
+                    && !has(abi::BINDING_FILM),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            "mmlt_probe" => assert!(
+                has(abi::BINDING_CHAINS)
+                    && has(abi::BINDING_CHAIN_SAMPLES)
+                    && !has(abi::BINDING_MATERIALS)
                     && !has(abi::BINDING_FILM),
                 "{kernel} ({backend}): {numbers:?}"
             ),

@@ -49,6 +49,9 @@
 #define BINDING_BDPT_SUBPATHS 28
 // BDPT's wavefront (glsl/lib/bdpt_wave.glsl): per pixel of a band, its subpath walk.
 #define BINDING_BDPT_WALKS 29
+// MMLT's wavefront (glsl/lib/mmlt_wave.glsl): per slot (a chain or a bootstrap sample),
+// its proposal's path beyond the walk.
+#define BINDING_MMLT_PATHS 30
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -459,8 +462,43 @@ struct GpuChain {
     vec4 current;        // xyz contribution C of the current path, w its target f = luminance(C)
     uvec4 state;         // x pixel of the current path, y depth, z step (accepted mutations), w step of the last accepted large step
     uvec4 counts;        // x large steps proposed, y accepted, z small steps proposed, w accepted
-    uvec4 start;         // x the bootstrap sample it started from (index within its depth), y rays traced
+    uvec4 start;         // x the bootstrap sample it started from (index within its depth), y rays traced,
+                         // z the current path's splat weight not yet splatted (float bits; the host adds it)
 };
+
+// One proposal's path in MMLT's wavefront (glsl/lib/mmlt_wave.glsl), beside its walk
+// (GpuBdptWalk, the same slot): the strategy, the sampler's place, the light subpath's
+// last vertex, the strategy's questions to the BSDFs and their answers, the result.
+struct GpuMmltPath {
+    uvec4 path;      // x s, y t, z flags (MMLT_PATH_*) | kind (MMLT_KIND_*) << 8, w the pixel the path lands on
+    uvec4 key;       // the proposal: x its number, y its step, z the chain's last large step, w 1 for a large step
+    uvec4 used;      // xyz numbers used per stream, w rays traced
+    vec4 camera_o;   // s >= 2, t >= 2: the camera subpath's first ray (drawn by mmlt_start), its origin
+    vec4 camera_d;   // ... and direction
+    vec4 value;      // xyz the unweighted contribution, w its MIS weight
+    vec4 y_p;        // y, the light subpath's last vertex, packed as GpuPathVertex
+    vec4 y_n;
+    vec4 y_wi;
+    vec4 y_beta;
+    vec4 y_ns;
+    vec4 conn;       // t = 1: the lens point, w the distance to it; s, t >= 2: direction z -> y, w squared distance
+    vec4 to_eye;     // t = 1: the direction from y to the lens point
+    vec4 answer_z;   // the BSDF at z (the camera subpath's last vertex): xyz f, w forward pdf
+    vec4 answer_y;   // the BSDF at y (importance): xyz f, w forward pdf
+    vec4 answer_rev; // x z's reverse pdf, y y's, z the s = 1 light sample's shading cosine
+};
+// GpuMmltPath.path.z flags.
+#define MMLT_PATH_CAMERA 1   // the walk is the camera subpath (else the light subpath)
+#define MMLT_PATH_ASK_Z 2    // a question to the BSDF at z waits for its class's shade stage
+#define MMLT_PATH_ASK_Y 4    // ... to the BSDF at y
+#define MMLT_PATH_FOUND 8    // the contribution (value) is the path's: nothing blocks it
+// The strategy of a path, by what it asks (GpuMmltPath.path.z >> 8).
+#define MMLT_KIND_NONE 0
+#define MMLT_KIND_LIGHT_POINT 1        // s = 1, t = 1
+#define MMLT_KIND_CAMERA_CONNECTION 2  // s >= 2, t = 1
+#define MMLT_KIND_EMISSION 3           // s = 0 (an emitter or the environment)
+#define MMLT_KIND_LIGHT_SAMPLE 4       // s = 1, t >= 2
+#define MMLT_KIND_CONNECTION 5         // s >= 2, t >= 2
 // The BSDF probe's input: material `info.x` (an index into the material buffer),
 // sampling mode info.y, transport info.z, info.w 1 when n is on the material's inside;
 // unit n, wo, wi; u the sample's three uniforms.

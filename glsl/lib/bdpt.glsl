@@ -39,8 +39,6 @@ float pixel_area() {
 
 float mis(float x) { return x * x; }
 
-bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
-
 // Solid-angle pdf with which the camera samples direction w (unit, from the eye) for a
 // given pixel: 1 / (pixel_area() cos^3(theta)).
 float camera_pdf_w(vec3 w) {
@@ -70,6 +68,37 @@ struct PathVertex {
     vec3 ns;         // unit shading normal on n's side: the BSDF's frame (geometric
                      // normals convert densities and place rays)
 };
+
+// A vertex as a wavefront keeps it between stages (the path-vertex buffer, a walk):
+// what a connection reads (its emitter is not kept, and of its geometric normal only
+// the side).
+GpuPathVertex pack_vertex(PathVertex y) {
+    GpuPathVertex v;
+    bool front = dot(y.n, y.ng) > 0.0;
+    v.p = vec4(y.p, uintBitsToFloat(y.material | (front ? PATH_VERTEX_FRONT : 0u)));
+    v.n = vec4(y.n, y.dvcm);
+    v.wi = vec4(y.w, y.dvc);
+    v.beta = vec4(y.beta, y.uv.y);
+    v.ns = vec4(y.ns, y.uv.x);
+    return v;
+}
+
+PathVertex unpack_vertex(GpuPathVertex g) {
+    PathVertex y;
+    y.p = g.p.xyz;
+    uint m = floatBitsToUint(g.p.w);
+    y.material = m & ~PATH_VERTEX_FRONT;
+    y.n = g.n.xyz;
+    y.dvcm = g.n.w;
+    y.w = g.wi.xyz;
+    y.dvc = g.wi.w;
+    y.beta = g.beta.xyz;
+    y.emitter = NO_EMITTER;
+    y.ng = (m & PATH_VERTEX_FRONT) != 0u ? y.n : -y.n;   // (only its side matters: emission is not read here)
+    y.uv = vec2(g.ns.w, g.beta.w);
+    y.ns = g.ns.xyz;
+    return y;
+}
 
 // The BSDF at a path vertex: its material, seen from the side of its normal n.
 BsdfParams vertex_bsdf(PathVertex v) {
@@ -215,14 +244,11 @@ bool light_walk_extend(inout Walk w, PathVertex v) { return walk_extend(w, v, ve
 
 // ---- camera subpaths --------------------------------------------------------------
 
-// Start a camera subpath through the film position `film` in [0,1)^2 (whole image);
-// a thin lens draws its point from the camera stream. (The lens point's area pdf is the
-// same for every strategy, and no light subpath can hit the lens, so it cancels from
-// the MIS weights as a pinhole's delta does.)
-void camera_walk_start(vec2 film, out Walk w) {
-    vec2 u_lens = vec2(0.0);
-    if (camera_has_lens()) u_lens = sample_2d(STREAM_CAMERA);
-    camera_ray(film, u_lens, w.o, w.d);
+// A camera subpath that starts with the camera's ray (o, d) (camera_walk_start, or a
+// ray a wavefront stage drew before).
+void camera_walk_from(vec3 o, vec3 d, out Walk w) {
+    w.o = o;
+    w.d = d;
     w.beta = vec3(1.0);
     w.dvcm = mis(light_paths() / camera_pdf_w(w.d));
     w.dvc = 0.0;
@@ -232,6 +258,18 @@ void camera_walk_start(vec2 film, out Walk w) {
     w.prev_delta = false;
     w.prev_p = w.o;
     w.escaped = false;
+}
+
+// Start a camera subpath through the film position `film` in [0,1)^2 (whole image);
+// a thin lens draws its point from the camera stream. (The lens point's area pdf is the
+// same for every strategy, and no light subpath can hit the lens, so it cancels from
+// the MIS weights as a pinhole's delta does.)
+void camera_walk_start(vec2 film, out Walk w) {
+    vec2 u_lens = vec2(0.0);
+    if (camera_has_lens()) u_lens = sample_2d(STREAM_CAMERA);
+    vec3 o, d;
+    camera_ray(film, u_lens, o, d);
+    camera_walk_from(o, d, w);
 }
 
 // The next surface vertex z_k of a camera subpath (k = w.vertices after the call;

@@ -124,36 +124,6 @@ bool bdpt_pixel(bool count_out_of_range, out uvec2 pixel, out uint index, out ui
     return true;
 }
 
-// A vertex as the path-vertex buffer keeps it: what a connection reads (its emitter is
-// not kept, and of its geometric normal only the side).
-GpuPathVertex pack_vertex(PathVertex y) {
-    GpuPathVertex v;
-    bool front = dot(y.n, y.ng) > 0.0;
-    v.p = vec4(y.p, uintBitsToFloat(y.material | (front ? PATH_VERTEX_FRONT : 0u)));
-    v.n = vec4(y.n, y.dvcm);
-    v.wi = vec4(y.w, y.dvc);
-    v.beta = vec4(y.beta, y.uv.y);
-    v.ns = vec4(y.ns, y.uv.x);
-    return v;
-}
-
-PathVertex unpack_vertex(GpuPathVertex g) {
-    PathVertex y;
-    y.p = g.p.xyz;
-    uint m = floatBitsToUint(g.p.w);
-    y.material = m & ~PATH_VERTEX_FRONT;
-    y.n = g.n.xyz;
-    y.dvcm = g.n.w;
-    y.w = g.wi.xyz;
-    y.dvc = g.wi.w;
-    y.beta = g.beta.xyz;
-    y.emitter = NO_EMITTER;
-    y.ng = (m & PATH_VERTEX_FRONT) != 0u ? y.n : -y.n;   // (only its side matters: emission is not read here)
-    y.uv = vec2(g.ns.w, g.beta.w);
-    y.ns = g.ns.xyz;
-    return y;
-}
-
 PathVertex stored_vertex(uint index) { return unpack_vertex(path_vertices[index]); }
 
 // The s, t >= 2 strategies of the pixel `index` whose stored vertices are at `base`

@@ -23,6 +23,7 @@
 // src/integrators/mmlt_sampler.rs.
 #ifndef SAMPLER_PSS_GLSL
 #define SAMPLER_PSS_GLSL
+#extension GL_EXT_control_flow_attributes : require
 #include "rng.glsl"
 
 #define STREAM_CAMERA 0u
@@ -136,17 +137,17 @@ void pss_reject() {
     }
 }
 
+// (Each call site is a copy of pss_next: sample_2d and sample_3d ask in one place.)
 uint sample_u32(uint stream) { return pss_next(stream); }
 float sample_1d(uint stream) { return pss_unit(pss_next(stream)); }
 vec2 sample_2d(uint stream) {
-    float a = sample_1d(stream);
-    float b = sample_1d(stream);
-    return vec2(a, b);
+    vec2 u;
+    [[dont_unroll]] for (uint i = 0u; i < 2u; ++i) u[i] = sample_1d(stream);
+    return u;
 }
 vec3 sample_3d(uint stream) {
-    float a = sample_1d(stream);
-    float b = sample_1d(stream);
-    float c = sample_1d(stream);
-    return vec3(a, b, c);
+    vec3 u;
+    [[dont_unroll]] for (uint i = 0u; i < 3u; ++i) u[i] = sample_1d(stream);
+    return u;
 }
 #endif

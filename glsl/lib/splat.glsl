@@ -22,6 +22,8 @@
 
 layout(std430, set = 0, binding = BINDING_SPLAT) buffer SplatBuffer { uint splat[]; };
 
+bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
+
 bool splat_in_range(vec3 v) {
     return all(greaterThanEqual(v, vec3(0.0))) && all(lessThan(v, vec3(4294967296.0)));
 }

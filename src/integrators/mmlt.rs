@@ -13,8 +13,10 @@ use super::bdpt::bdpt_max_scatter;
 use super::mmlt_sampler::{pcg4d, stream_sizes};
 use super::{add_film, film_image, splat_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
-use crate::engine::{band_rows, Dispatch, Engine, Passes, RunOptions, Work};
-use crate::gpu::kernels::Kernel;
+use crate::engine::{
+    band_rows, Dispatch, Engine, PassStage, Passes, PreparedScene, RunOptions, Work,
+};
+use crate::gpu::buffer::Buffer;
 use crate::io::Image;
 use crate::scene::Scene;
 use crate::trace::Trace;
@@ -53,9 +55,6 @@ pub fn default_chains(device_kind: vk::PhysicalDeviceType) -> u32 {
 
 /// The largest allocation MMLT makes for its chains' primary numbers.
 pub const CHAIN_STATE_BUDGET: u64 = 1 << 30;
-
-/// Bootstrap samples per dispatch.
-const BOOTSTRAP_BATCH: u32 = 1 << 16;
 
 /// What an MMLT render will do, checked against the device before anything runs.
 #[derive(Clone, Debug, PartialEq)]
@@ -215,6 +214,26 @@ pub fn pick_chain_starts(f: &[f32], chains: u32, seed: u32) -> Vec<u32> {
         .collect()
 }
 
+/// Adds to `image`, times `scale`, what each chain still owes its current path: the
+/// rejected proposals' weight since it last moved (GpuChain.start.z), C × owed / f at its
+/// pixel, as glsl/lib/mmlt_chain.glsl would splat it; only chains of `depth` when given.
+pub fn add_owed(image: &mut Image, chains: &[GpuChain], scale: f32, depth: Option<u32>) {
+    for c in chains {
+        let owed = f32::from_bits(c.start[2]);
+        let f = c.current[3];
+        if !(owed > 0.0 && f > 0.0) || depth.is_some_and(|d| d != c.state[1]) {
+            continue;
+        }
+        let Some(p) = image.pixels.get_mut(c.state[0] as usize) else {
+            continue;
+        };
+        let w = owed / f;
+        for (x, c) in p.iter_mut().zip(c.current) {
+            *x += c * w * scale;
+        }
+    }
+}
+
 /// Per-depth statistics of the chains.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DepthStats {
@@ -303,11 +322,14 @@ impl MmltReport {
 /// The MMLT integrator.
 pub struct Mmlt {
     options: MmltOptions,
+    /// The wavefront's slots (`IntegratorOptions::wavefront_slots`).
+    slots: Option<u64>,
 }
 
 pub fn create(o: &IntegratorOptions) -> Box<dyn Integrator> {
     Box::new(Mmlt {
         options: o.mmlt.clone(),
+        slots: o.wavefront_slots,
     })
 }
 
@@ -340,22 +362,169 @@ fn params(
     }
 }
 
-/// A dispatch of mmlt.comp over `p.items` items.
-fn mmlt_dispatch(kernel: &Kernel, set: vk::DescriptorSet, p: &MmltParams, span: &str) -> Dispatch {
-    Dispatch::new(
-        kernel,
-        set,
-        p,
-        [p.items.div_ceil(MMLT_WORKGROUP_SIZE), 1, 1],
-    )
-    .timed(span)
+/// MMLT's wavefront (glsl/lib/mmlt_wave.glsl): its stages bound to the scene and to the
+/// per-slot state, and how many slots (bootstrap samples or chains) a dispatch holds.
+pub(crate) struct MmltWave {
+    start: PassStage,
+    trace: PassStage,
+    hit: PassStage,
+    shade: Vec<PassStage>,
+    end: PassStage,
+    accept: PassStage,
+    /// Rounds of trace, hit and shade per path: the depth cap + 1 (a path of depth d
+    /// traces at most d + 1 rays to find its vertices).
+    rounds: u32,
+    /// Slots the state buffers hold: the items of one dispatch.
+    pub slots: u32,
 }
 
-/// The chains' run: `per_chain` mutations per chain, K per dispatch, and (maxdepth -1)
+/// Bytes of wavefront state per slot (the walk and the path).
+pub const MMLT_SLOT_BYTES: u64 =
+    (std::mem::size_of::<GpuBdptWalk>() + std::mem::size_of::<GpuMmltPath>()) as u64;
+
+/// Slots when memory and the device allow: every chain of a CPU device's default at
+/// once, and a bootstrap batch.
+const MMLT_WAVE_SLOTS: u64 = 1 << 16;
+
+fn shade_kernel(class: u32) -> (&'static str, &'static str) {
+    match class {
+        MATERIAL_CLASS_BASIC => ("mmlt_shade_basic", "mmlt shade basic"),
+        MATERIAL_CLASS_INTERFACE => ("mmlt_shade_interface", "mmlt shade interface"),
+        _ => ("mmlt_shade_coated", "mmlt shade coated"),
+    }
+}
+
+/// The spans of MMLT's stages, for the device time of a run.
+const MMLT_SPANS: [&str; 8] = [
+    "mmlt start",
+    "mmlt trace",
+    "mmlt hit",
+    "mmlt shade basic",
+    "mmlt shade interface",
+    "mmlt shade coated",
+    "mmlt end",
+    "mmlt accept",
+];
+
+impl MmltWave {
+    fn dispatch(&self, stage: &PassStage, p: &MmltParams) -> Dispatch {
+        Dispatch::new(
+            &stage.kernel,
+            stage.set,
+            p,
+            [p.items.div_ceil(MMLT_WORKGROUP_SIZE), 1, 1],
+        )
+        .timed(&stage.span)
+    }
+
+    /// One path for each of p's items (a bootstrap sample, a chain start, or a chain's
+    /// proposal), evaluated and taken by its chain.
+    fn path(&self, p: &MmltParams, list: &mut Vec<Dispatch>) {
+        list.push(self.dispatch(&self.start, p));
+        for _ in 0..self.rounds {
+            list.push(self.dispatch(&self.trace, p));
+            list.push(self.dispatch(&self.hit, p));
+            for s in &self.shade {
+                list.push(self.dispatch(s, p));
+            }
+        }
+        list.push(self.dispatch(&self.end, p));
+        list.push(self.dispatch(&self.trace, p));
+        list.push(self.dispatch(&self.accept, p));
+    }
+
+    /// `proposals` paths per item for items 0..items in groups of at most `slots`
+    /// (each group's proposals in order).
+    fn paths(&self, base: &MmltParams, items: u32, proposals: u32) -> Vec<Dispatch> {
+        let mut list = Vec::new();
+        for first in (0..items).step_by(self.slots as usize) {
+            let p = MmltParams {
+                first_item: base.first_item + first,
+                items: (items - first).min(self.slots),
+                ..*base
+            };
+            for _ in 0..proposals {
+                self.path(&p, &mut list);
+            }
+        }
+        list
+    }
+
+    /// Every stage once with no items (each compiles at its first dispatch).
+    fn idle(&self, base: &MmltParams) -> Vec<Dispatch> {
+        let p = MmltParams { items: 0, ..*base };
+        [&self.start, &self.trace, &self.hit, &self.end, &self.accept]
+            .into_iter()
+            .chain(&self.shade)
+            .map(|s| Dispatch::new(&s.kernel, s.set, &p, [1, 1, 1]))
+            .collect()
+    }
+}
+
+/// MMLT's wavefront for `scene`, bound to the scene and to `buffers` and to the slot
+/// state it allocates (returned with it), warmed up.
+fn mmlt_wave(
+    engine: &mut Engine,
+    prepared: &PreparedScene,
+    scene: &Scene,
+    buffers: &[(u32, &Buffer)],
+    (rounds, slots): (u32, u32),
+    base: &MmltParams,
+    trace: &mut Trace,
+) -> Result<(MmltWave, [Buffer; 2])> {
+    let state = trace.cpu("MMLT buffers", || -> Result<_> {
+        Ok([
+            engine.device_buffer(
+                "MMLT walks",
+                slots as u64 * std::mem::size_of::<GpuBdptWalk>() as u64,
+            )?,
+            engine.device_buffer(
+                "MMLT paths",
+                slots as u64 * std::mem::size_of::<GpuMmltPath>() as u64,
+            )?,
+        ])
+    })?;
+    let mut all = buffers.to_vec();
+    all.push((BINDING_BDPT_WALKS, &state[0]));
+    all.push((BINDING_MMLT_PATHS, &state[1]));
+    let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
+        let kernel = engine.kernel(name, None, prepared.specialization())?;
+        let set = engine.bind(&kernel, Some(prepared), &all)?;
+        Ok(PassStage {
+            kernel,
+            set,
+            span: span.to_string(),
+        })
+    };
+    let wave = trace.cpu("pipeline creation", || -> Result<_> {
+        let shade = super::pt::material_classes(scene)
+            .into_iter()
+            .map(|c| {
+                let (k, s) = shade_kernel(c);
+                stage(k, s)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(MmltWave {
+            start: stage("mmlt_start", "mmlt start")?,
+            trace: stage("mmlt_trace", "mmlt trace")?,
+            hit: stage("mmlt_hit", "mmlt hit")?,
+            shade,
+            end: stage("mmlt_end", "mmlt end")?,
+            accept: stage("mmlt_accept", "mmlt accept")?,
+            rounds,
+            slots,
+        })
+    })?;
+    for d in wave.idle(base) {
+        engine.warm_up(d, trace)?;
+    }
+    Ok((wave, state))
+}
+
+/// The chains' run: `per_chain` mutations per chain, K per submission, and (maxdepth -1)
 /// the bdpt tail passes due by then.
 struct ChainWork<'a> {
-    kernel: &'a Kernel,
-    set: vk::DescriptorSet,
+    wave: &'a MmltWave,
     base: MmltParams,
     chains: u64,
     per_chain: u64,
@@ -390,10 +559,7 @@ impl Work for ChainWork<'_> {
     fn dispatches(&mut self, _first: u64, count: u64) -> Result<Vec<Dispatch>> {
         let mut p = self.base;
         p.mode = MMLT_MODE_CHAINS;
-        p.first_item = 0;
-        p.items = self.chains as u32;
-        p.mutations = count as u32;
-        let mut list = vec![mmlt_dispatch(self.kernel, self.set, &p, "mmlt chains")];
+        let mut list = self.wave.paths(&p, self.chains as u32, count as u32);
         // maxdepth -1: one tail pass per 8 mutations per pixel, interleaved with the
         // chains so that a time limit ends both together.
         let per_pixel = (_first + count) * self.chains / self.npix;
@@ -422,12 +588,8 @@ impl Integrator for Mmlt {
         let film_bytes = engine.film_bytes(width, height)?;
         let npix = width as u64 * height as u64;
         let info = &engine.device.info;
-        let plan = plan(
-            scene,
-            info.kind,
-            info.max_storage_buffer_range,
-            record_depths,
-        )?;
+        let range = info.max_storage_buffer_range;
+        let plan = plan(scene, info.kind, range, record_depths)?;
         let depths = plan.depths();
         let prepared = engine.prepare(
             scene,
@@ -473,12 +635,26 @@ impl Integrator for Mmlt {
                     engine.storage_buffer("unused", 16)?,
                 ))
             })?;
-        let kernel = trace.cpu("pipeline creation", || {
-            engine.kernel("mmlt", None, prepared.specialization())
-        })?;
-        let set = engine.bind(
-            &kernel,
-            Some(&prepared),
+        let base = params(&plan, record_depths, MMLT_MODE_BOOTSTRAP, 0, 0, 0);
+        // Slots: a chain or a bootstrap sample each, as many as fit the device's
+        // storage-buffer range and one dispatch (LIGHTPATH_WAVEFRONT_SLOTS sets it for
+        // measurements; images do not depend on it).
+        let wanted = self.slots.unwrap_or_else(|| {
+            std::env::var("LIGHTPATH_WAVEFRONT_SLOTS")
+                .ok()
+                .and_then(|v| v.parse::<u64>().ok())
+                .unwrap_or(MMLT_WAVE_SLOTS)
+        });
+        let per_slot = std::mem::size_of::<GpuBdptWalk>() as u64;
+        let slots = wanted
+            .min(range / per_slot)
+            .min(65_535 * MMLT_WORKGROUP_SIZE as u64)
+            .min((plan.chains as u64).max(boot_count))
+            .max(1) as u32;
+        let (wave, _state) = mmlt_wave(
+            engine,
+            &prepared,
+            scene,
             &[
                 (BINDING_STATS, &stats),
                 (BINDING_SPLAT, &splat),
@@ -487,9 +663,10 @@ impl Integrator for Mmlt {
                 (BINDING_CHAINS, &chain_buffer),
                 (BINDING_BOOTSTRAP, &bootstrap),
             ],
+            (plan.depth_cap + 1, slots),
+            &base,
+            trace,
         )?;
-        let base = params(&plan, record_depths, MMLT_MODE_BOOTSTRAP, 0, 0, 0);
-        engine.warm_up(mmlt_dispatch(&kernel, set, &base, "mmlt"), trace)?;
         let start = Instant::now();
 
         // maxdepth -1: paths longer than the chains' cap come from bdpt's own estimator,
@@ -517,29 +694,25 @@ impl Integrator for Mmlt {
             None
         };
 
-        // Bootstrap: depths × per_depth samples, each one strategy of its depth.
-        let batches: Vec<Dispatch> = (0..boot_count)
-            .step_by(BOOTSTRAP_BATCH as usize)
-            .map(|first| {
-                let items = (boot_count - first).min(BOOTSTRAP_BATCH as u64) as u32;
-                let p = params(
-                    &plan,
-                    record_depths,
-                    MMLT_MODE_BOOTSTRAP,
-                    first as u32,
-                    items,
-                    0,
-                );
-                mmlt_dispatch(&kernel, set, &p, "mmlt bootstrap")
-            })
-            .collect();
+        // Bootstrap: depths × per_depth samples, each one strategy of its depth, a
+        // submission per group of slots.
         let mut bootstrap_seconds = 0.0;
-        for group in batches.chunks(8) {
+        for first in (0..boot_count).step_by(slots as usize) {
             if engine.interrupted() {
                 break;
             }
+            let items = (boot_count - first).min(slots as u64) as u32;
+            let p = params(
+                &plan,
+                record_depths,
+                MMLT_MODE_BOOTSTRAP,
+                first as u32,
+                items,
+                0,
+            );
+            let list = wave.paths(&p, items, 1);
             bootstrap_seconds += engine
-                .submit(group, "running mmlt bootstrap", trace)?
+                .submit(&list, "running mmlt bootstrap", trace)?
                 .total();
         }
         let targets = trace.cpu("readback", || bootstrap.download(boot_count * 4))?;
@@ -573,6 +746,7 @@ impl Integrator for Mmlt {
                 0.0
             }
         };
+        let chain_bytes = plan.chains as u64 * std::mem::size_of::<GpuChain>() as u64;
         let resolve = |mutations: u64, tail: u32| -> Result<(Image, f64)> {
             let sp = splat.download(splat_bytes)?;
             let mut image = splat_image(
@@ -581,6 +755,15 @@ impl Integrator for Mmlt {
                 height,
                 mutation_scale(mutations),
             );
+            if mutations > 0 {
+                let data = chain_buffer.download(chain_bytes)?;
+                add_owed(
+                    &mut image,
+                    bytemuck::cast_slice(&data),
+                    mutation_scale(mutations),
+                    None,
+                );
+            }
             let mut tail_rays = 0.0;
             if tail > 0 {
                 let f = film.download(film_bytes)?;
@@ -591,8 +774,7 @@ impl Integrator for Mmlt {
             Ok((image, tail_rays))
         };
         let mut work = ChainWork {
-            kernel: &kernel,
-            set,
+            wave: &wave,
             base,
             chains: plan.chains as u64,
             per_chain: plan.mutations_per_chain(),
@@ -629,7 +811,7 @@ impl Integrator for Mmlt {
             chain_buffer.upload(bytemuck::cast_slice(&chain_init))?;
             let p = params(&plan, record_depths, MMLT_MODE_START, 0, plan.chains, 0);
             engine.submit(
-                &[mmlt_dispatch(&kernel, set, &p, "mmlt chain start")],
+                &wave.paths(&p, plan.chains, 1),
                 "running mmlt chain start",
                 trace,
             )?;
@@ -640,12 +822,13 @@ impl Integrator for Mmlt {
                 unit: "mutations",
                 progress_scale: plan.chains as u64,
                 first_batch: 4,
-                max_batch: 1 << 16,
+                // (Each proposal is 3 + rounds × (2 + classes) dispatches.)
+                max_batch: 256,
                 time_limited: true,
                 started: Some(start),
             };
             let run = engine.run(&mut work, &options, trace)?;
-            chain_seconds = run.times.of("mmlt chains");
+            chain_seconds = MMLT_SPANS.iter().map(|s| run.times.of(s)).sum();
             tail_seconds += run.times.of("bdpt light")
                 + run.times.of("bdpt camera")
                 + run.times.of("bdpt connect");
@@ -693,7 +876,14 @@ impl Integrator for Mmlt {
             let scale = mutation_scale(mutations_done);
             report.depth_images = all
                 .chunks_exact(npix as usize)
-                .map(|d| film_image(d, width, height, scale))
+                .enumerate()
+                .map(|(depth, d)| {
+                    let mut image = film_image(d, width, height, scale);
+                    if mutations_done > 0 {
+                        add_owed(&mut image, chain_state, scale, Some(depth as u32));
+                    }
+                    image
+                })
                 .collect();
         }
         let spp = (mutations_done / npix.max(1)) as u32;

@@ -1,0 +1,125 @@
+// MMLT's wavefront (lib/mmlt_wave.glsl): the surface interaction. The vertex at the
+// walk's hit. A light vertex before the subpath's last waits for its class's shade stage
+// to scatter; at the last, y, the camera subpath starts (or, t = 1, the camera's side of
+// the connection to y: the lens point, the pixel). A camera vertex before the last
+// scatters; at the last, z (or where the camera subpath escaped), the strategy: s = 0 the
+// emission found, whole; s = 1 a light sample (its BSDF half is the shade stage's);
+// s, t >= 2 the connection's geometry. Every emitter's code of MMLT is here, each of
+// the emitters' densities asked in one place.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_atomic_float : require
+
+#include "abi.h"
+layout(local_size_x = MMLT_WORKGROUP_SIZE) in;
+#include "mmlt_wave.glsl"
+
+void main() {
+    uint slot, item;
+    if (!mmlt_slot(slot, item)) return;
+    uint wflags = floatBitsToUint(walks[slot].d.w);
+    if ((wflags & BDPT_WALK_RAY) == 0u) return;
+    wflags &= ~BDPT_WALK_RAY;
+    GpuBdptWalk g = walks[slot];   // (the compiler loads only the members read)
+    Walk w = walk_load(g);
+    uvec4 path = mpaths[slot].path;
+    uint s = path.x;
+    uint t = path.y;
+    uint pflags = path.z;
+    bool cam = (pflags & MMLT_PATH_CAMERA) != 0u;
+    uint prim = floatBitsToUint(g.hit.x);
+    Hit hit;
+    hit.t = g.hit.w;
+    hit.prim = prim;
+    hit.bary = g.hit.yz;
+    PathVertex v;
+    bool ok = false;
+    if (prim != NO_HIT) {
+        Surface sf = surface_at(hit, w.o, w.d);
+        ok = cam ? camera_walk_vertex(w, hit.t, sf, v) : light_walk_vertex(w, hit.t, sf, v);
+    } else {
+        w.escaped = cam;
+    }
+    pss_resume(slot, item);
+    uint kind = MMLT_KIND_NONE;
+    bool vertex = false;   // v waits for the shade stage
+    if (!cam) {
+        if (ok && w.vertices < s - 1u) {
+            wflags |= BDPT_WALK_EXTEND;
+            vertex = true;
+        } else if (ok) {
+            store_path_y(slot, v);
+            if (t == 1u) {
+                vec3 eye, to_eye;
+                float dist;
+                uvec2 cpx;
+                if (camera_connection_faces(v, eye, cpx, to_eye, dist)) {
+                    kind = MMLT_KIND_CAMERA_CONNECTION;
+                    pflags |= MMLT_PATH_ASK_Y;
+                    mpaths[slot].conn = vec4(eye, dist);
+                    mpaths[slot].to_eye = vec4(to_eye, 0.0);
+                    path.w = cpx.y * scene.width + cpx.x;
+                }
+            } else {
+                camera_walk_from(mpaths[slot].camera_o.xyz, mpaths[slot].camera_d.xyz, w);
+                pflags |= MMLT_PATH_CAMERA;
+                wflags |= BDPT_WALK_RAY;
+            }
+        }
+    } else {
+        // The camera subpath's vertex z_k (k = w.vertices when found).
+        uint k = ok ? w.vertices : w.vertices + 1u;
+        bool last = k == t - 1u;
+        bool escaped = !ok && w.escaped && last;
+        if (ok && !last) {
+            wflags |= BDPT_WALK_EXTEND;
+            vertex = true;
+        } else if (ok || escaped) {
+            // The emitters' densities, asked in one place for s = 0 and s = 1.
+            EmissionQuery q;
+            bool ask = false;
+            vec3 value;
+            LightSample ls;
+            if (s == 0u) {
+                if (emission_found(w, v, escaped, value, q, ask)) kind = MMLT_KIND_EMISSION;
+            } else if (s == 1u) {
+                if (light_sample_draw(v, ls, q)) {
+                    kind = MMLT_KIND_LIGHT_SAMPLE;
+                    ask = light_sample_weighs_all(w);
+                }
+            } else {
+                vec3 dir;
+                float d2;
+                if (connection_faces(v, path_y(slot), dir, d2)) {
+                    kind = MMLT_KIND_CONNECTION;
+                    mpaths[slot].conn = vec4(dir, d2);
+                }
+            }
+            vec2 pdfs = vec2(0.0);
+            if (ask) pdfs = emission_pdfs(q);
+            if (kind == MMLT_KIND_EMISSION) {
+                mpaths[slot].value = vec4(value, emission_weight(w, v, escaped, q, pdfs));
+                pflags |= MMLT_PATH_FOUND;
+            } else if (kind == MMLT_KIND_LIGHT_SAMPLE) {
+                pack_light_sample(ls, walks[slot].ls_wi, walks[slot].ls_le, walks[slot].ls_p, walks[slot].ls_n);
+                walks[slot].ls_pdfs = vec4(pdfs, 0.0, 0.0);
+                pflags |= MMLT_PATH_ASK_Z;
+                vertex = true;
+            } else if (kind == MMLT_KIND_CONNECTION) {
+                pflags |= MMLT_PATH_ASK_Z | MMLT_PATH_ASK_Y;
+                vertex = true;
+            }
+        }
+    }
+    if (vertex) store_vertex(slot, v);
+    walk_save(g, w, wflags);
+    walks[slot].o.xyz = g.o.xyz;
+    walks[slot].d = g.d;
+    walks[slot].beta = g.beta;
+    walks[slot].prev_p = g.prev_p;
+    walks[slot].counts.x = g.counts.x;
+    walks[slot].radiance.w = g.radiance.w;
+    mpaths[slot].path.zw = uvec2(pflags | (kind << 8u), path.w);
+    pss_save(slot);
+    if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
+}
