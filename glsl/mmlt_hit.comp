@@ -40,9 +40,13 @@ void main() {
     } else {
         w.escaped = cam;
     }
-    pss_resume(slot, item);
+    // (The sampler only where this stage draws numbers: t = 1's lens point, s = 1's light
+    // sample; each word of state is a memory access per slot on lavapipe.)
+    bool draws = cam ? (ok && w.vertices == t - 1u && s == 1u) : (ok && w.vertices == s - 1u && t == 1u);
+    if (draws) pss_resume(slot, item);
     uint kind = MMLT_KIND_NONE;
     bool vertex = false;   // v waits for the shade stage
+    bool started = false;  // the camera subpath starts
     if (!cam) {
         if (ok && w.vertices < s - 1u) {
             wflags |= BDPT_WALK_EXTEND;
@@ -62,6 +66,7 @@ void main() {
                 }
             } else {
                 camera_walk_from(mpaths[slot].camera_o.xyz, mpaths[slot].camera_d.xyz, w);
+                started = true;
                 pflags |= MMLT_PATH_CAMERA;
                 wflags |= BDPT_WALK_RAY;
             }
@@ -112,14 +117,18 @@ void main() {
         }
     }
     if (vertex) store_vertex(slot, v);
-    walk_save(g, w, wflags);
-    walks[slot].o.xyz = g.o.xyz;
-    walks[slot].d = g.d;
-    walks[slot].beta = g.beta;
-    walks[slot].prev_p = g.prev_p;
-    walks[slot].counts.x = g.counts.x;
-    walks[slot].radiance.w = g.radiance.w;
+    if (started) {
+        walk_save(g, w, wflags);
+        walks[slot].o.xyz = g.o.xyz;
+        walks[slot].d = g.d;
+        walks[slot].beta = g.beta;
+        walks[slot].prev_p = g.prev_p;
+        walks[slot].counts.x = g.counts.x;
+        walks[slot].radiance.w = g.radiance.w;
+    } else {
+        store_walk_vertex(slot, w, wflags);
+    }
     mpaths[slot].path.zw = uvec2(pflags | (kind << 8u), path.w);
-    pss_save(slot);
+    if (draws) pss_save(slot);
     if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
 }

@@ -371,9 +371,6 @@ pub(crate) struct MmltWave {
     shade: Vec<PassStage>,
     end: PassStage,
     accept: PassStage,
-    /// Rounds of trace, hit and shade per path: the depth cap + 1 (a path of depth d
-    /// traces at most d + 1 rays to find its vertices).
-    rounds: u32,
     /// Slots the state buffers hold: the items of one dispatch.
     pub slots: u32,
 }
@@ -417,15 +414,19 @@ impl MmltWave {
         .timed(&stage.span)
     }
 
-    /// One path for each of p's items (a bootstrap sample, a chain start, or a chain's
-    /// proposal), evaluated and taken by its chain.
-    fn path(&self, p: &MmltParams, list: &mut Vec<Dispatch>) {
+    /// One path of depth `depth` for each of p's items (a bootstrap sample, a chain
+    /// start, or a chain's proposal), evaluated and taken by its chain: depth + 1 rounds
+    /// of trace, hit and shade (a path of depth d finds its vertices with at most d + 1
+    /// rays; the last round's vertices are s = 0's, which ask no BSDF, so it has no shade).
+    fn path(&self, p: &MmltParams, depth: u32, list: &mut Vec<Dispatch>) {
         list.push(self.dispatch(&self.start, p));
-        for _ in 0..self.rounds {
+        for round in 0..=depth {
             list.push(self.dispatch(&self.trace, p));
             list.push(self.dispatch(&self.hit, p));
-            for s in &self.shade {
-                list.push(self.dispatch(s, p));
+            if round < depth {
+                for s in &self.shade {
+                    list.push(self.dispatch(s, p));
+                }
             }
         }
         list.push(self.dispatch(&self.end, p));
@@ -433,18 +434,25 @@ impl MmltWave {
         list.push(self.dispatch(&self.accept, p));
     }
 
-    /// `proposals` paths per item for items 0..items in groups of at most `slots`
-    /// (each group's proposals in order).
-    fn paths(&self, base: &MmltParams, items: u32, proposals: u32) -> Vec<Dispatch> {
+    /// `proposals` paths per item of `groups` (first item, items, their depth), in
+    /// dispatches of at most `slots` items (each one's proposals in order).
+    fn paths(
+        &self,
+        base: &MmltParams,
+        groups: &[(u32, u32, u32)],
+        proposals: u32,
+    ) -> Vec<Dispatch> {
         let mut list = Vec::new();
-        for first in (0..items).step_by(self.slots as usize) {
-            let p = MmltParams {
-                first_item: base.first_item + first,
-                items: (items - first).min(self.slots),
-                ..*base
-            };
-            for _ in 0..proposals {
-                self.path(&p, &mut list);
+        for &(first, items, depth) in groups {
+            for at in (0..items).step_by(self.slots as usize) {
+                let p = MmltParams {
+                    first_item: first + at,
+                    items: (items - at).min(self.slots),
+                    ..*base
+                };
+                for _ in 0..proposals {
+                    self.path(&p, depth, &mut list);
+                }
             }
         }
         list
@@ -468,7 +476,7 @@ fn mmlt_wave(
     prepared: &PreparedScene,
     scene: &Scene,
     buffers: &[(u32, &Buffer)],
-    (rounds, slots): (u32, u32),
+    slots: u32,
     base: &MmltParams,
     trace: &mut Trace,
 ) -> Result<(MmltWave, [Buffer; 2])> {
@@ -511,7 +519,6 @@ fn mmlt_wave(
             shade,
             end: stage("mmlt_end", "mmlt end")?,
             accept: stage("mmlt_accept", "mmlt accept")?,
-            rounds,
             slots,
         })
     })?;
@@ -526,6 +533,8 @@ fn mmlt_wave(
 struct ChainWork<'a> {
     wave: &'a MmltWave,
     base: MmltParams,
+    /// The chains' groups for MmltWave::paths.
+    groups: Vec<(u32, u32, u32)>,
     chains: u64,
     per_chain: u64,
     npix: u64,
@@ -559,7 +568,7 @@ impl Work for ChainWork<'_> {
     fn dispatches(&mut self, _first: u64, count: u64) -> Result<Vec<Dispatch>> {
         let mut p = self.base;
         p.mode = MMLT_MODE_CHAINS;
-        let mut list = self.wave.paths(&p, self.chains as u32, count as u32);
+        let mut list = self.wave.paths(&p, &self.groups, count as u32);
         // maxdepth -1: one tail pass per 8 mutations per pixel, interleaved with the
         // chains so that a time limit ends both together.
         let per_pixel = (_first + count) * self.chains / self.npix;
@@ -663,7 +672,7 @@ impl Integrator for Mmlt {
                 (BINDING_CHAINS, &chain_buffer),
                 (BINDING_BOOTSTRAP, &bootstrap),
             ],
-            (plan.depth_cap + 1, slots),
+            slots,
             &base,
             trace,
         )?;
@@ -695,25 +704,24 @@ impl Integrator for Mmlt {
         };
 
         // Bootstrap: depths × per_depth samples, each one strategy of its depth, a
-        // submission per group of slots.
+        // submission per depth and group of slots.
         let mut bootstrap_seconds = 0.0;
-        for first in (0..boot_count).step_by(slots as usize) {
-            if engine.interrupted() {
-                break;
+        let boot = params(&plan, record_depths, MMLT_MODE_BOOTSTRAP, 0, 0, 0);
+        'bootstrap: for depth in 0..depths {
+            for at in (0..plan.per_depth).step_by(slots as usize) {
+                if engine.interrupted() {
+                    break 'bootstrap;
+                }
+                let items = (plan.per_depth - at).min(slots);
+                let group = [(depth * plan.per_depth + at, items, depth)];
+                bootstrap_seconds += engine
+                    .submit(
+                        &wave.paths(&boot, &group, 1),
+                        "running mmlt bootstrap",
+                        trace,
+                    )?
+                    .total();
             }
-            let items = (boot_count - first).min(slots as u64) as u32;
-            let p = params(
-                &plan,
-                record_depths,
-                MMLT_MODE_BOOTSTRAP,
-                first as u32,
-                items,
-                0,
-            );
-            let list = wave.paths(&p, items, 1);
-            bootstrap_seconds += engine
-                .submit(&list, "running mmlt bootstrap", trace)?
-                .total();
         }
         let targets = trace.cpu("readback", || bootstrap.download(boot_count * 4))?;
         let targets: &[f32] = bytemuck::cast_slice(&targets);
@@ -776,6 +784,7 @@ impl Integrator for Mmlt {
         let mut work = ChainWork {
             wave: &wave,
             base,
+            groups: Vec::new(),
             chains: plan.chains as u64,
             per_chain: plan.mutations_per_chain(),
             npix,
@@ -809,9 +818,14 @@ impl Integrator for Mmlt {
                 })
                 .collect();
             chain_buffer.upload(bytemuck::cast_slice(&chain_init))?;
+            // (All chains in each dispatch, with the rounds of the deepest: on lavapipe
+            // a dispatch costs about 0.15 ms whatever it does, more than the rounds that
+            // shallower chains sit out.)
+            let deepest = chain_init.iter().map(|c| c.state[1]).max().unwrap_or(0);
+            work.groups = vec![(0, plan.chains, deepest)];
             let p = params(&plan, record_depths, MMLT_MODE_START, 0, plan.chains, 0);
             engine.submit(
-                &wave.paths(&p, plan.chains, 1),
+                &wave.paths(&p, &work.groups, 1),
                 "running mmlt chain start",
                 trace,
             )?;
