@@ -190,6 +190,41 @@ fn mmlt_is_deterministic_per_seed_and_seeds_are_independent() {
     assert_ne!(ra.b, mmlt_report(&c).b);
 }
 
+/// Each proposal splats a·C′/f′ and owes (1 − a)·C/f to the current path (splatted when
+/// the chain moves, else added by the host at the end): luminance weights a and 1 − a.
+/// So the image's summed luminance is exactly b × pixels (the resolve's scale is
+/// b × pixels / mutations), whatever was accepted: a render that dropped what chains
+/// still owe, or splatted a weight twice, misses it. Slots (how many chains and
+/// bootstrap samples a dispatch holds) change nothing.
+#[test]
+fn every_proposal_is_splatted_or_owed_once_and_slots_change_nothing() {
+    let s = with_mmlt(sized("cornell-glossy.test", 16, 16, 4), 4);
+    let lum = |i: &Image| -> f64 {
+        i.pixels
+            .iter()
+            .map(|p| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64)
+            .sum()
+    };
+    let a = render_mmlt(&s, 3, Bvh, false);
+    let r = mmlt_report(&a);
+    // (Chains make 2 proposals each: the owed weight is a large share.)
+    assert_eq!(r.mutations, 4 * 256);
+    let ratio = lum(&a.image) / (r.b * 256.0);
+    assert!(
+        (ratio - 1.0).abs() < 1e-4,
+        "summed luminance / (b x pixels) = {ratio}"
+    );
+    let mut small = renderer(Bvh);
+    small.options.wavefront_slots = Some(100);
+    let b = small.render(&s, 3, &mut Trace::new()).expect("mmlt render");
+    small.options.wavefront_slots = None;
+    assert!(
+        a.image.pixels == b.image.pixels,
+        "100 slots: a different image (max relative difference {})",
+        max_relative_difference(&a.image, &b.image)
+    );
+}
+
 #[test]
 fn ray_query_and_bvh_mmlt_agree() {
     let s = with_mmlt(sized("cornell-glossy.test", 16, 16, 3), 32);
