@@ -3,7 +3,7 @@
 //! `trace_closest` and `trace_occluded` (glsl/trace_probe.comp) for every visibility
 //! backend; `bsdf` evaluates, samples and takes pdfs of the BSDFs (glsl/bsdf_probe.comp);
 //! `mmlt_sampler` runs MMLT's primary-sample-space chains on a synthetic path
-//! (glsl/mmlt.comp's probe modes). Each runs through the engine like any render.
+//! (glsl/mmlt_probe.comp, with the chains' code of the renders: lib/mmlt_chain.glsl). Each runs through the engine like any render.
 use crate::abi::*;
 use crate::engine::{Dispatch, Engine, Specialization};
 use crate::integrators::mmlt_sampler::stream_sizes;
@@ -138,7 +138,7 @@ pub fn bsdf(
 }
 
 /// MMLT's sampler against its CPU mirror: `chains` chains (chain c started on bootstrap
-/// sample c of depth `depth_cap`) make `proposals` proposals on mmlt.comp's synthetic
+/// sample c of depth `depth_cap`) make `proposals` proposals on mmlt_probe.comp's synthetic
 /// probe path. Returns every chain's primary numbers (dimension-major, as the kernel
 /// keeps them) and the chains' state.
 pub fn mmlt_sampler(
@@ -174,7 +174,7 @@ pub fn mmlt_sampler(
     )?;
     chain_buffer.upload(bytemuck::cast_slice(&init))?;
     let stats = engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?;
-    // The probe modes touch no film, splat or bootstrap targets; mmlt.comp binds them.
+    // The probe modes touch no film, splat or bootstrap targets; mmlt_probe.comp binds them.
     let unused = engine.storage_buffer("unused", 16)?;
     let kernel = engine.kernel("mmlt_probe", None, prepared.specialization())?;
     let set = engine.bind(

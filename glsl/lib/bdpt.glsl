@@ -1,6 +1,6 @@
-// Bidirectional path tracing's physics, written once and driven two ways: bdpt.comp
-// walks whole subpaths and combines every (s,t) strategy; mmlt.comp evaluates one
-// strategy per sample. Subpath walks, the four kinds of connection and their MIS
+// Bidirectional path tracing's physics, written once and driven two ways: BDPT's kernels
+// (lib/bdpt_wave.glsl, lib/bdpt_pass.glsl) walk whole subpaths and combine every (s,t)
+// strategy; MMLT's (lib/mmlt_wave.glsl) evaluate one strategy per sample. Subpath walks, the four kinds of connection and their MIS
 // weights live here.
 //
 // MIS: power heuristic over every strategy of a path, computed recursively without
@@ -229,7 +229,11 @@ bool walk_scatter(inout Walk w, PathVertex v, BsdfParams b, vec3 u, uint transpo
 // in the roulette regime, where the MIS sums are not needed.
 // (b: the vertex's BSDF, vertex_bsdf(v).)
 bool walk_extend(inout Walk w, PathVertex v, BsdfParams b, bool camera) {
+#ifdef BDPT_BOUNDED_WALKS
+    bool beyond = false;   // (the wavefronts' walks stop at max_scatter())
+#else
     bool beyond = camera && w.vertices > max_scatter();
+#endif
     vec3 u = sample_3d(camera ? STREAM_CAMERA : STREAM_LIGHT);
     if (!walk_scatter(w, v, b, u, camera ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE, !beyond)) return false;
     if (beyond) {
@@ -365,9 +369,13 @@ float emission_weight(Walk w, PathVertex z, bool environment, EmissionQuery q, v
         float w_cam = mis(pdfs.x) * dvcm + mis(pdfs.y) * dvc;
         return 1.0 / (1.0 + w_cam);
     }
+#ifdef BDPT_BOUNDED_WALKS
+    return 0.0;   // (never: the wavefronts' paths stay within max_scatter())
+#else
     if (w.prev_delta) return 1.0;
     float pdf_light = environment ? environment_pdf(w.d) : emitter_pdf_solid_angle(q.e, w.prev_p, q.p, q.ng);
     return power_heuristic(w.prev_pdf_w, pdf_light);
+#endif
 }
 
 bool strategy_emission(Walk w, PathVertex z, bool environment, out vec3 value, out float weight) {
@@ -449,7 +457,9 @@ bool light_sample_end(Walk w, PathVertex z, LightSample ls, vec2 pdfs, float cos
         float w_cam = mis(pdf_emit * cos_z / (pdf_pos * d2)) * (z.dvcm + z.dvc * mis(pdf_rev));
         weight = 1.0 / (w_light + 1.0 + w_cam);
     } else {
+#ifndef BDPT_BOUNDED_WALKS   // (the wavefronts' paths stay within max_scatter())
         weight = light_sample_mis_weight(ls, pdf_dir);
+#endif
     }
     light_sample_shadow_ray(z.p, z.n, ls, o, d, tmax);
     value = z.beta * f * ls.L * (cos_s / ls.pdf);

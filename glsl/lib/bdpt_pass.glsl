@@ -11,7 +11,7 @@
 //                      stores the vertices that can connect in the camera half;
 //   bdpt_connect.comp  connects every stored camera vertex to every stored light vertex
 //                      whose path stays within maxdepth (s >= 2, t >= 2).
-// The walks, connections and MIS weights are lib/bdpt.glsl's, shared with mmlt.comp.
+// The walks, connections and MIS weights are lib/bdpt.glsl's, shared with MMLT's kernels.
 //
 // Films: film[pixel] (camera strategies, written only by the pixel's own invocations,
 // the camera stage's sum and then the connection stage's) and

@@ -24,6 +24,8 @@
 // bdpt_finish.
 #ifndef BDPT_WAVE_GLSL
 #define BDPT_WAVE_GLSL
+// Walks never go beyond max_scatter() here (lib/bdpt.glsl's walk_extend).
+#define BDPT_BOUNDED_WALKS
 #include "bdpt_pass.glsl"
 #include "walk_state.glsl"
 

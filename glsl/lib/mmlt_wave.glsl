@@ -26,6 +26,8 @@
 // evaluation did (per stream: the streams are separate), so the paths are its.
 #ifndef MMLT_WAVE_GLSL
 #define MMLT_WAVE_GLSL
+// Walks never go beyond max_scatter() here (lib/bdpt.glsl's walk_extend).
+#define BDPT_BOUNDED_WALKS
 #define OWN_PUSH_CONSTANTS
 #include "bindings.glsl"
 layout(push_constant) uniform MmltBlock { MmltParams params; };

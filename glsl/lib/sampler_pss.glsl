@@ -1,4 +1,4 @@
-// The sampler interface of lib/bdpt.glsl for mmlt.comp: primary sample space
+// The sampler interface of lib/bdpt.glsl for MMLT's kernels (lib/mmlt_wave.glsl): primary sample space
 // (Kelemen et al. 2002) with lazy mutation, in three streams so that changing the
 // strategy (s,t) does not shift one subpath's numbers onto another's:
 //   STREAM_CAMERA  the strategy number, the film position, the camera walk
@@ -78,9 +78,9 @@ uvec4 pss_hash(uint tag, uint dim) {
 
 float pss_unit(uint x) { return float(x >> 8u) * (1.0 / 16777216.0); }
 
-// A standard normal number (Box-Muller) for a dimension's small step.
-float pss_gaussian(uint dim) {
-    uvec4 h = pss_hash(PSS_TAG_GAUSS, dim);
+// A standard normal number (Box-Muller) for a dimension's small step, from its hash
+// h = pss_hash(PSS_TAG_GAUSS, dim).
+float pss_gaussian(uvec4 h) {
     float u1 = (float(h.x >> 8u) + 1.0) * (1.0 / 16777216.0);   // (0, 1]
     float u2 = pss_unit(h.y);
     return sqrt(-2.0 * log(u1)) * cos(TWO_PI * u2);
@@ -94,31 +94,36 @@ uint pss_small_step_offset(float g, float sigma) {
     return uint(int(clamp(t * 4294967296.0, -2147483648.0, 2147483520.0)));
 }
 
+// (Two hashes per number, each computed in one place: every call site of a sampler
+// function is a copy of this one.)
 uint pss_next(uint stream) {
     uint i = pss.used[stream];
     pss.used[stream] = i + 1u;
+    // Past the stream's capacity (the host sizes streams for the depth cap, so this is a
+    // bug): a fresh number, outside the chain's state.
+    bool past = i >= pss.capacity[stream];
+    bool key = pss.mode == PSS_FROM_KEY;
     uint dim = pss.base[stream] + min(i, pss.capacity[stream] - 1u);
-    if (i >= pss.capacity[stream]) {
-        // Past the stream's capacity (the host sizes streams for the depth cap, so this
-        // is a bug): a fresh number, outside the chain's state.
-        return pss_hash(PSS_TAG_LARGE, 0xffffu).y ^ i;
-    }
-    if (pss.mode == PSS_FROM_KEY) return pss_key_number(pss.key_index, pss.key_depth, dim);
     uint slot = dim * pss.chains + pss.chain;
-    uvec4 x = chain_samples[slot];
-    if (pss.mode == PSS_READ) return x.x;
-    if (x.y < pss.last_large) {
-        // Keyed by the large step, not the proposal: the number's value since that step
-        // is one fixed draw, however many rejected proposals look at it.
-        x.x = pcg4d(uvec4(pss.chain, pss.last_large, pss.seed, 0x40000000u | (PSS_TAG_RESET << 16) | dim)).x;
-        x.y = pss.last_large;
-    }
+    uvec4 x = past || key ? uvec4(0u) : chain_samples[slot];
+    if (!past && pss.mode == PSS_READ) return x.x;
+    // A number last modified before the chain's last accepted large step is redrawn
+    // first, keyed by that step, not the proposal: its value since that step is one
+    // fixed draw, however many rejected proposals look at it.
+    bool reset = x.y < pss.last_large;
+    uvec4 h = pcg4d(past ? uvec4(pss.chain, pss.proposal, pss.seed, 0x40000000u | (PSS_TAG_LARGE << 16) | 0xffffu)
+                    : key ? uvec4(pss.key_index, pss.key_depth, pss.seed, 0x80000000u | dim)
+                          : uvec4(pss.chain, pss.last_large, pss.seed, 0x40000000u | (PSS_TAG_RESET << 16) | dim));
+    if (past) return h.y ^ i;
+    if (key) return h.x;
+    if (reset) x.xy = uvec2(h.x, pss.last_large);
     x.zw = x.xy;
+    h = pss_hash(pss.large ? PSS_TAG_LARGE : PSS_TAG_GAUSS, dim);
     if (pss.large) {
-        x.x = pss_hash(PSS_TAG_LARGE, dim).x;
+        x.x = h.x;
     } else {
         float n = float(pss.step - x.y);
-        x.x += pss_small_step_offset(pss_gaussian(dim), pss.sigma * sqrt(n));
+        x.x += pss_small_step_offset(pss_gaussian(h), pss.sigma * sqrt(n));
     }
     x.y = pss.step;
     chain_samples[slot] = x;

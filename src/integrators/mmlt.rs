@@ -1,14 +1,17 @@
-//! Host side of multiplexed Metropolis light transport (glsl/mmlt.comp): the plan (depth
-//! cap, bootstrap size, chains, primary-sample streams) checked against the device's
-//! limits, the bootstrap's normalization in double precision, chain starts drawn in
-//! proportion to the bootstrap targets, the chain dispatches, and the resolve
-//! image = splat film × b × width × height / mutations.
+//! Host side of multiplexed Metropolis light transport (its kernels: glsl/mmlt_*.comp,
+//! a wavefront described in glsl/lib/mmlt_wave.glsl): the plan (depth cap, bootstrap
+//! size, chains, primary-sample streams) checked against the device's limits, the
+//! bootstrap's normalization in double precision, chain starts drawn in proportion to the
+//! bootstrap targets, the chains' proposals, and the resolve image = (splat film + what
+//! the chains still owe their current paths) × b × width × height / mutations.
 //!
-//! Stages, each timed in the trace: `mmlt bootstrap` dispatches → `mmlt chain starts` (a
-//! CDF on the host in f64) → `mmlt chain start` dispatch → `mmlt chains` dispatches of
-//! K mutations per chain, K adapted so that a submission takes about a quarter second;
-//! with maxdepth -1, bdpt passes (`bdpt light`, `bdpt camera`, `bdpt connect`) for the
-//! paths longer than the chains' cap between them.
+//! The run: the bootstrap (a submission per depth and group of slots) → `mmlt chain
+//! starts` (a CDF on the host in f64) → the chain start → submissions of K proposals per
+//! chain, K adapted so that a submission takes about a quarter second; with maxdepth -1,
+//! bdpt passes (`bdpt light`, `bdpt camera`, `bdpt connect`) for the paths longer than
+//! the chains' cap between them. Each path is `mmlt start`, per round `mmlt trace`,
+//! `mmlt hit` and `mmlt shade CLASS`, then `mmlt end`, `mmlt trace` and `mmlt accept`,
+//! each a span of the trace.
 use super::bdpt::bdpt_max_scatter;
 use super::mmlt_sampler::{pcg4d, stream_sizes};
 use super::{add_film, film_image, splat_image, Integrator, IntegratorOptions, RenderOutput};

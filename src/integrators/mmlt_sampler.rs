@@ -63,7 +63,8 @@ pub struct Number {
     pub backup_modified: u32,
 }
 
-/// One chain's numbers and counters, as mmlt.comp keeps them.
+/// One chain's numbers and counters, as the device keeps them (glsl/lib/sampler_pss.glsl,
+/// lib/mmlt_chain.glsl).
 #[derive(Clone, Debug)]
 pub struct ChainSampler {
     pub seed: u32,
@@ -225,7 +226,7 @@ impl ChainSampler {
     }
 }
 
-/// mmlt.comp's sampler probe: its synthetic path asks each stream for a hash-chosen
+/// glsl/mmlt_probe.comp's synthetic path: its synthetic path asks each stream for a hash-chosen
 /// count of numbers (mutating them unless the chain is only read, as at its start) and
 /// returns a hashed target.
 pub fn probe_path(c: &mut ChainSampler, mutate: bool) -> f32 {
