@@ -52,6 +52,9 @@
 // MMLT's wavefront (glsl/lib/mmlt_wave.glsl): per slot (a chain or a bootstrap sample),
 // its proposal's path beyond the walk.
 #define BINDING_MMLT_PATHS 30
+// BDPT's wavefront at maxdepth -1: per camera bounce, the walks that go on (the host
+// reads it to know when to stop).
+#define BINDING_BDPT_LIVE 31
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -95,8 +98,11 @@
 #define FEATURE_ENVIRONMENT_MAP 8
 // Mix materials.
 #define FEATURE_MIX 16
+// maxdepth -1: BDPT's camera walks go on beyond the strategies' cap, with Russian
+// roulette and the weights of the two strategies left there (lib/bdpt.glsl).
+#define FEATURE_UNBOUNDED 32
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 31
+#define FEATURE_ALL 63
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1

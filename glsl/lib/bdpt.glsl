@@ -29,6 +29,17 @@
 
 // Scattering vertices of the longest path that gets every strategy.
 uint max_scatter() { return scene.max_depth; }
+// Whether camera walks can go beyond max_scatter() (maxdepth -1: Russian roulette, and
+// the BSDF-only weights of s = 0 and s = 1 there). A constant where the kernel is built
+// for bounded walks (MMLT's: BDPT_BOUNDED_WALKS) or specialized for a bounded scene, so
+// that their code is left out.
+bool walks_unbounded() {
+#ifdef BDPT_BOUNDED_WALKS
+    return false;
+#else
+    return has_feature(FEATURE_UNBOUNDED);
+#endif
+}
 // N, the light subpaths of a pass.
 float light_paths() { return float(scene.width) * float(scene.height); }
 // A pixel's area on the image plane at distance 1.
@@ -229,11 +240,7 @@ bool walk_scatter(inout Walk w, PathVertex v, BsdfParams b, vec3 u, uint transpo
 // in the roulette regime, where the MIS sums are not needed.
 // (b: the vertex's BSDF, vertex_bsdf(v).)
 bool walk_extend(inout Walk w, PathVertex v, BsdfParams b, bool camera) {
-#ifdef BDPT_BOUNDED_WALKS
-    bool beyond = false;   // (the wavefronts' walks stop at max_scatter())
-#else
-    bool beyond = camera && w.vertices > max_scatter();
-#endif
+    bool beyond = walks_unbounded() && camera && w.vertices > max_scatter();
     vec3 u = sample_3d(camera ? STREAM_CAMERA : STREAM_LIGHT);
     if (!walk_scatter(w, v, b, u, camera ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE, !beyond)) return false;
     if (beyond) {
@@ -369,13 +376,10 @@ float emission_weight(Walk w, PathVertex z, bool environment, EmissionQuery q, v
         float w_cam = mis(pdfs.x) * dvcm + mis(pdfs.y) * dvc;
         return 1.0 / (1.0 + w_cam);
     }
-#ifdef BDPT_BOUNDED_WALKS
-    return 0.0;   // (never: the wavefronts' paths stay within max_scatter())
-#else
+    if (!walks_unbounded()) return 0.0;   // (never: bounded walks stay within max_scatter())
     if (w.prev_delta) return 1.0;
     float pdf_light = environment ? environment_pdf(w.d) : emitter_pdf_solid_angle(q.e, w.prev_p, q.p, q.ng);
     return power_heuristic(w.prev_pdf_w, pdf_light);
-#endif
 }
 
 bool strategy_emission(Walk w, PathVertex z, bool environment, out vec3 value, out float weight) {
@@ -457,9 +461,7 @@ bool light_sample_end(Walk w, PathVertex z, LightSample ls, vec2 pdfs, float cos
         float w_cam = mis(pdf_emit * cos_z / (pdf_pos * d2)) * (z.dvcm + z.dvc * mis(pdf_rev));
         weight = 1.0 / (w_light + 1.0 + w_cam);
     } else {
-#ifndef BDPT_BOUNDED_WALKS   // (the wavefronts' paths stay within max_scatter())
-        weight = light_sample_mis_weight(ls, pdf_dir);
-#endif
+        if (walks_unbounded()) weight = light_sample_mis_weight(ls, pdf_dir);
     }
     light_sample_shadow_ray(z.p, z.n, ls, o, d, tmax);
     value = z.beta * f * ls.L * (cos_s / ls.pdf);

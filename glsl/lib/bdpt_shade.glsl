@@ -67,6 +67,9 @@ void main() {
     bool extend = (flags & BDPT_WALK_EXTEND) != 0u && walk_extend(w, v, b, camera);
     flags &= ~(BDPT_WALK_VERTEX | BDPT_WALK_CONNECT | BDPT_WALK_EXTEND | BDPT_WALK_LIGHT_SAMPLE);
     if (extend) flags |= BDPT_WALK_RAY;
+    // maxdepth -1: how many camera walks go on after this bounce, for the host to know
+    // when none do.
+    if (extend && camera && has_feature(FEATURE_UNBOUNDED)) atomicAdd(bdpt_live[pass_params.bounce], 1u);
     if (extend) {
         store_walk_scatter(slot, w, flags);
     } else {

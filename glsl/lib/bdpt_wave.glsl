@@ -1,4 +1,4 @@
-// BDPT as a wavefront of small kernels (bounded maxdepth): each pixel of a band walks its
+// BDPT as a wavefront of small kernels: each pixel of a band walks its
 // light subpath, then its camera subpath, one bounce per round of dispatches over the
 // band, its state in walks[] between them:
 //   bdpt_start.comp         a subpath's first ray (the light's emission, with the
@@ -18,16 +18,19 @@
 //                           s, t >= 2 connections added to the film, in sample order.
 // A pixel's draws, contributions and their order are the same as when one invocation
 // walked both subpaths (bdpt_light.comp, bdpt_camera.comp), so the images are theirs (to
-// the last bits where the compiler fuses multiply-adds differently). The host records bdpt_start, per bounce bdpt_trace, bdpt_hit and one
-// bdpt_shade_CLASS per class the scene has, then bdpt_trace for the last shadow rays,
-// for the light side and then the camera side (BdptParams.side and .bounce), then
-// bdpt_finish.
+// the last bits where the compiler fuses multiply-adds differently). The host records
+// bdpt_start, per bounce bdpt_trace, bdpt_hit and one bdpt_shade_CLASS per class the
+// scene has, then bdpt_trace for the last shadow rays, for the light side and then the
+// camera side (BdptParams.side and .bounce), then bdpt_finish. At maxdepth -1 the camera
+// walks go on with Russian roulette beyond the strategies' cap (BDPT_UNBOUNDED_DEPTH_CAP
+// scattering vertices): the shade stages count the walks that go on per bounce
+// (bdpt_live[]), and the host records further bounces while some do.
 #ifndef BDPT_WAVE_GLSL
 #define BDPT_WAVE_GLSL
-// Walks never go beyond max_scatter() here (lib/bdpt.glsl's walk_extend).
-#define BDPT_BOUNDED_WALKS
 #include "bdpt_pass.glsl"
 #include "walk_state.glsl"
+
+layout(std430, set = 0, binding = BINDING_BDPT_LIVE) buffer BdptLiveBuffer { uint bdpt_live[]; };
 
 // The pixel's sampler, resumed where the walk's last stage left it.
 void sampler_resume(uint index, GpuBdptWalk g) {

@@ -453,7 +453,7 @@ impl Engine {
 pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
         FEATURE_COATED_DIFFUSE, FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES,
-        FEATURE_MATERIAL_TEXTURES, FEATURE_MIX,
+        FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
@@ -473,6 +473,9 @@ pub fn scene_features(scene: &Scene) -> u32 {
     }
     if scene.environment.as_ref().is_some_and(|e| e.map.is_some()) {
         features |= FEATURE_ENVIRONMENT_MAP;
+    }
+    if scene.settings.max_depth < 0 {
+        features |= FEATURE_UNBOUNDED;
     }
     features
 }

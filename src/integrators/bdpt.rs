@@ -162,9 +162,9 @@ pub const BDPT_WALK_BYTES: u64 = std::mem::size_of::<GpuBdptWalk>() as u64;
 /// BDPT as a wavefront of small kernels over a band's pixels (glsl/lib/bdpt_wave.glsl):
 /// per pass and band, `bdpt_start` and per bounce `bdpt_trace`, `bdpt_hit` and one
 /// `bdpt_shade_CLASS` per material class of the scene, for the light subpath and then
-/// the camera subpath, then `bdpt_connect`. For bounded maxdepth; at maxdepth -1 the
-/// camera subpaths run until Russian roulette ends them, and BDPT renders with the
-/// three stages of [`bdpt_passes`].
+/// the camera subpath, then `bdpt_finish`. At maxdepth -1 the camera subpaths go on with
+/// Russian roulette until none is left (the shade stages count them, `live`), up to
+/// UNBOUNDED_DEPTH_CAP vertices, `UNBOUNDED_CHUNK` bounces per submission.
 pub(crate) struct BdptWave {
     start: PassStage,
     trace: PassStage,
@@ -179,7 +179,12 @@ pub(crate) struct BdptWave {
     samples: u32,
     /// Scattering vertices of the longest path that gets every strategy.
     max_scatter: u32,
+    /// maxdepth -1: the per-bounce counts of camera walks that go on.
+    live: Option<Buffer>,
 }
+
+/// Camera bounces per submission at maxdepth -1, between looks at how many walks go on.
+const UNBOUNDED_CHUNK: u32 = 8;
 
 impl BdptWave {
     fn dispatch(&self, stage: &PassStage, p: &BdptParams, bounce: u32, side: u32) -> Dispatch {
@@ -210,8 +215,18 @@ impl BdptWave {
         }
     }
 
-    /// The dispatches of one band's samples `p`.
-    fn band(&self, p: &BdptParams, list: &mut Vec<Dispatch>) {
+    /// The camera vertices z_k with strategies of their own: max_scatter, or at maxdepth
+    /// -1 UNBOUNDED_DEPTH_CAP (beyond the cap, s = 0 and s = 1 only).
+    fn max_vertices(&self) -> u32 {
+        if self.live.is_some() {
+            UNBOUNDED_DEPTH_CAP
+        } else {
+            self.max_scatter
+        }
+    }
+
+    /// A band's samples `p` up to its camera subpaths' first ray.
+    fn begin(&self, p: &BdptParams, list: &mut Vec<Dispatch>) {
         list.push(self.dispatch(&self.start, p, 0, BDPT_SIDE_LIGHT));
         for b in 1..=self.max_scatter {
             self.bounce(p, b, BDPT_SIDE_LIGHT, true, list);
@@ -219,15 +234,43 @@ impl BdptWave {
         // (The last light vertices' shadow rays, before the camera side takes the walk.)
         list.push(self.dispatch(&self.trace, p, 0, BDPT_SIDE_LIGHT));
         list.push(self.dispatch(&self.start, p, 0, BDPT_SIDE_CAMERA));
-        // Camera vertices z_1 .. z_{max+1}; the last only for the emission it finds.
-        for k in 1..=self.max_scatter + 1 {
-            self.bounce(p, k, BDPT_SIDE_CAMERA, k <= self.max_scatter, list);
+    }
+
+    /// Camera vertices z_first ..= z_last; the last of all (max_vertices + 1) only for
+    /// the emission it finds.
+    fn camera(&self, p: &BdptParams, first: u32, last: u32, list: &mut Vec<Dispatch>) {
+        for k in first..=last {
+            self.bounce(p, k, BDPT_SIDE_CAMERA, k <= self.max_vertices(), list);
         }
+    }
+
+    /// The last shadow rays, then one invocation per pixel adds the samples in order.
+    fn end(&self, p: &BdptParams, list: &mut Vec<Dispatch>) {
         list.push(self.dispatch(&self.trace, p, 0, BDPT_SIDE_CAMERA));
-        // One invocation per pixel adds the samples in order.
         let mut f = self.dispatch(&self.finish, p, 0, BDPT_SIDE_CAMERA);
         f.groups[2] = 1;
         list.push(f);
+    }
+
+    /// The bands' sample groups of passes `first .. first + count`.
+    fn batches(&self, first: u32, count: u32) -> Vec<BdptParams> {
+        let mut out = Vec::new();
+        let mut i = 0;
+        while i < count {
+            let n = self.samples.min(count - i);
+            for y0 in (0..self.height).step_by(self.band_rows as usize) {
+                let rows = self.band_rows.min(self.height - y0);
+                out.push(BdptParams {
+                    first_sample: first + i,
+                    samples: n,
+                    row_begin: y0,
+                    row_end: y0 + rows,
+                    ..Default::default()
+                });
+            }
+            i += n;
+        }
+        out
     }
 
     /// Every stage once with no samples (each compiles at its first dispatch).
@@ -244,46 +287,29 @@ impl BdptWave {
     }
 }
 
-/// A BDPT render's passes: the wavefront, or (maxdepth -1) the three stages.
-pub(crate) enum BdptPasses {
-    Wave(Box<BdptWave>),
-    Stages(Passes),
-}
-
-impl BdptPasses {
-    /// The dispatches of passes `first .. first + count`, band by band.
-    pub fn dispatches(&self, first: u32, count: u32) -> Vec<Dispatch> {
-        match self {
-            BdptPasses::Stages(p) => p.dispatches(first, count),
-            BdptPasses::Wave(w) => {
-                let mut list = Vec::new();
-                let mut i = 0;
-                while i < count {
-                    let n = w.samples.min(count - i);
-                    for y0 in (0..w.height).step_by(w.band_rows as usize) {
-                        let rows = w.band_rows.min(w.height - y0);
-                        let p = BdptParams {
-                            first_sample: first + i,
-                            samples: n,
-                            row_begin: y0,
-                            row_end: y0 + rows,
-                            ..Default::default()
-                        };
-                        w.band(&p, &mut list);
-                    }
-                    i += n;
-                }
-                list
-            }
-        }
-    }
-}
-
-/// `spp` BDPT passes, with a resolve for snapshots.
+/// `spp` BDPT passes, with a resolve for snapshots. At maxdepth -1 one band's samples at
+/// a time, their camera bounces in chunks while some walk goes on.
 struct BdptWork<'a> {
-    passes: &'a BdptPasses,
+    wave: &'a BdptWave,
     spp: u32,
     resolve: Option<&'a dyn Fn(u32) -> Result<Image>>,
+    /// maxdepth -1: the batches still to run, the current one and its camera bounces done.
+    pending: Vec<BdptParams>,
+    current: Option<(BdptParams, u32)>,
+}
+
+impl BdptWork<'_> {
+    /// Start batch `p` (maxdepth -1): its light subpaths and first camera bounces.
+    fn start(&mut self, p: BdptParams, list: &mut Vec<Dispatch>) -> Result<()> {
+        if let Some(live) = &self.wave.live {
+            live.upload(&vec![0u8; 4 * (UNBOUNDED_DEPTH_CAP as usize + 2)])?;
+        }
+        self.wave.begin(&p, list);
+        let last = UNBOUNDED_CHUNK.min(self.wave.max_vertices() + 1);
+        self.wave.camera(&p, 1, last, list);
+        self.current = Some((p, last));
+        Ok(())
+    }
 }
 
 impl Work for BdptWork<'_> {
@@ -292,7 +318,49 @@ impl Work for BdptWork<'_> {
     }
 
     fn dispatches(&mut self, first: u64, count: u64) -> Result<Vec<Dispatch>> {
-        Ok(self.passes.dispatches(first as u32, count as u32))
+        let wave = self.wave;
+        let mut batches = wave.batches(first as u32, count as u32);
+        let mut list = Vec::new();
+        if wave.live.is_none() {
+            for p in &batches {
+                wave.begin(p, &mut list);
+                wave.camera(p, 1, wave.max_scatter + 1, &mut list);
+                wave.end(p, &mut list);
+            }
+            return Ok(list);
+        }
+        batches.reverse();
+        self.pending = batches;
+        if let Some(p) = self.pending.pop() {
+            self.start(p, &mut list)?;
+        }
+        Ok(list)
+    }
+
+    fn more(&mut self) -> Result<Option<Vec<Dispatch>>> {
+        let (Some((p, done)), Some(live)) = (self.current, &self.wave.live) else {
+            return Ok(None);
+        };
+        // Camera walks that went on after the last bounce shaded.
+        let shaded = done.min(self.wave.max_vertices()) as u64;
+        let counts = live.download(4 * (shaded + 1))?;
+        let at = 4 * shaded as usize;
+        let going =
+            u32::from_le_bytes([counts[at], counts[at + 1], counts[at + 2], counts[at + 3]]);
+        let mut list = Vec::new();
+        let all = self.wave.max_vertices() + 1;
+        if going > 0 && done < all {
+            let last = (done + UNBOUNDED_CHUNK).min(all);
+            self.wave.camera(&p, done + 1, last, &mut list);
+            self.current = Some((p, last));
+            return Ok(Some(list));
+        }
+        self.wave.end(&p, &mut list);
+        self.current = None;
+        if let Some(next) = self.pending.pop() {
+            self.start(next, &mut list)?;
+        }
+        Ok(Some(list))
     }
 
     fn snapshot(&self, done: u64) -> Result<Option<(Image, u64)>> {
@@ -322,13 +390,18 @@ fn bdpt_wave(
     buffers: &[(u32, &Buffer)],
     (width, height, rows, samples): (u32, u32, u32, u32),
     trace: &mut Trace,
-) -> Result<(BdptPasses, Buffer)> {
-    let walks = trace.cpu("BDPT buffers", || {
+) -> Result<(BdptWave, Buffer)> {
+    let unbounded = scene.settings.max_depth < 0;
+    let (walks, live) = trace.cpu("BDPT buffers", || -> Result<_> {
         let slots = rows as u64 * width as u64 * samples as u64;
-        engine.device_buffer("BDPT walks", slots * BDPT_WALK_BYTES)
+        Ok((
+            engine.device_buffer("BDPT walks", slots * BDPT_WALK_BYTES)?,
+            engine.storage_buffer("BDPT live walks", 4 * (UNBOUNDED_DEPTH_CAP as u64 + 2))?,
+        ))
     })?;
     let mut all = buffers.to_vec();
     all.push((BINDING_BDPT_WALKS, &walks));
+    all.push((BINDING_BDPT_LIVE, &live));
     let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
         let v = variant.filter(|v| engine.kernels.has(&format!("{name}+{v}")));
         let kernel = engine.kernel(name, v, prepared.specialization())?;
@@ -358,12 +431,19 @@ fn bdpt_wave(
             band_rows: rows,
             samples,
             max_scatter: prepared.params().max_depth,
+            live: None,
         })
     })?;
+    drop(stage);
+    drop(all);
     for d in wave.idle() {
         engine.warm_up(d, trace)?;
     }
-    Ok((BdptPasses::Wave(Box::new(wave)), walks))
+    let wave = BdptWave {
+        live: unbounded.then_some(live),
+        ..wave
+    };
+    Ok((wave, walks))
 }
 
 /// Pixel samples the wavefront holds at once when memory allows (as the path tracer's
@@ -414,24 +494,15 @@ impl Integrator for Bdpt {
         let vertex_limit = limit
             .min(VERTEX_BUFFER_BUDGET)
             .min(self.options.vertex_buffer_limit.unwrap_or(u64::MAX));
-        // The wavefront (bounded maxdepth) also holds a walk per pixel, and runs several
-        // samples of a band per dispatch when they fit: about WAVE_SLOTS pixel samples.
-        let wave = scene.settings.max_depth >= 0;
-        let per_pixel = if wave {
-            vertex_bytes.max(BDPT_WALK_BYTES)
-        } else {
-            vertex_bytes
-        };
+        // The wavefront also holds a walk per pixel, and runs several samples of a band
+        // per dispatch when they fit: about WAVE_SLOTS pixel samples.
+        let per_pixel = vertex_bytes.max(BDPT_WALK_BYTES);
         let rows = band_rows(width, height, per_pixel, vertex_limit)?;
         let band = rows as u64 * width as u64;
-        let samples = if wave {
-            let wanted = self.slots.unwrap_or(WAVE_SLOTS);
-            (wanted / band)
-                .min(vertex_limit / (band * per_pixel))
-                .clamp(1, 64) as u32
-        } else {
-            1
-        };
+        let wanted = self.slots.unwrap_or(WAVE_SLOTS);
+        let samples = (wanted / band)
+            .min(vertex_limit / (band * per_pixel))
+            .clamp(1, 64) as u32;
         let strategies = if self.options.record_strategies {
             bdpt_strategies(max_scatter)
         } else {
@@ -478,28 +549,15 @@ impl Integrator for Bdpt {
             (BINDING_PATH_VERTICES, &vertices),
             (BINDING_STRATEGIES, &strategy_film),
         ];
-        let (passes, _state) = if !wave {
-            let (p, subpaths) = bdpt_passes(
-                engine,
-                &prepared,
-                self.profile_variant,
-                &bound,
-                (width, height, rows),
-                trace,
-            )?;
-            (BdptPasses::Stages(p), vec![subpaths])
-        } else {
-            let (p, walks) = bdpt_wave(
-                engine,
-                &prepared,
-                scene,
-                self.profile_variant,
-                &bound,
-                (width, height, rows, samples),
-                trace,
-            )?;
-            (p, vec![walks])
-        };
+        let (wave, _walks) = bdpt_wave(
+            engine,
+            &prepared,
+            scene,
+            self.profile_variant,
+            &bound,
+            (width, height, rows, samples),
+            trace,
+        )?;
         // image = (camera film + splat film) / spp
         let resolve = |done: u32| -> Result<Image> {
             let (f, sp) = (film.download(film_bytes)?, splat.download(splat_bytes)?);
@@ -509,9 +567,11 @@ impl Integrator for Bdpt {
             Ok(image)
         };
         let mut work = BdptWork {
-            passes: &passes,
+            wave: &wave,
             spp: scene.settings.spp.max(1),
             resolve: Some(&resolve),
+            pending: Vec::new(),
+            current: None,
         };
         let run = engine.run(&mut work, &RunOptions::passes(kernel_name), trace)?;
         let spp = run.done as u32;
@@ -540,7 +600,7 @@ impl Integrator for Bdpt {
                 StrategyGroupPass {
                     prepared: &prepared,
                     strategy_film: &strategy_film,
-                    passes: &passes,
+                    wave: &wave,
                     width,
                     height,
                     spp,
@@ -592,7 +652,7 @@ impl Integrator for Bdpt {
 struct StrategyGroupPass<'a> {
     prepared: &'a PreparedScene,
     strategy_film: &'a Buffer,
-    passes: &'a BdptPasses,
+    wave: &'a BdptWave,
     width: u32,
     height: u32,
     spp: u32,
@@ -623,9 +683,11 @@ fn record_other_strategy_groups(
         engine.update_params(p.prepared, &params, &[p.strategy_film])?;
         // Exactly the first render's passes, whatever the time limit.
         let mut work = BdptWork {
-            passes: p.passes,
+            wave: p.wave,
             spp: p.spp,
             resolve: None,
+            pending: Vec::new(),
+            current: None,
         };
         let options = RunOptions {
             time_limited: false,
