@@ -218,9 +218,6 @@ fn variants(kernel: &str) -> Vec<(&'static str, Option<&'static str>)> {
     const LIGHT: (&str, Option<&str>) = ("x2light", Some("PROFILE_X2_LIGHT"));
     let mut v = vec![("", None)];
     match kernel {
-        // (bdpt_connect draws no random numbers and samples no light, but a profile
-        // asks every stage of the integrator for the same variant.)
-        "bdpt_light" | "bdpt_camera" | "bdpt_connect" => v.extend([TRACE, PRIM, RNG, BSDF, LIGHT]),
         "bdpt_trace" => v.extend([TRACE, PRIM]),
         "bdpt_start" | "bdpt_hit" => v.extend([RNG, LIGHT]),
         k if k.starts_with("bdpt_shade_") => v.extend([RNG, BSDF]),

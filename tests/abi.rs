@@ -112,9 +112,6 @@ fn kernel_bindings_come_from_the_spirv() {
             base,
             "direct"
                 | "analytic"
-                | "bdpt_light"
-                | "bdpt_camera"
-                | "bdpt_connect"
                 | "bdpt_trace"
                 | "bdpt_finish"
                 | "mmlt_trace"
@@ -164,25 +161,6 @@ fn kernel_bindings_come_from_the_spirv() {
         }
         match base {
             "direct" | "analytic" => assert!(has(abi::BINDING_FILM) && !has(abi::BINDING_SPLAT)),
-            // The light stage splats t = 1 and writes no film; the camera and connection
-            // stages write the film and no splats; all keep the path vertices and the
-            // hand-over between stages.
-            "bdpt_light" => assert!(
-                has(abi::BINDING_SPLAT)
-                    && has(abi::BINDING_PATH_VERTICES)
-                    && has(abi::BINDING_BDPT_SUBPATHS)
-                    && has(abi::BINDING_STRATEGIES)
-                    && !has(abi::BINDING_FILM),
-                "{kernel} ({backend}): {numbers:?}"
-            ),
-            "bdpt_camera" | "bdpt_connect" => assert!(
-                has(abi::BINDING_FILM)
-                    && !has(abi::BINDING_SPLAT)
-                    && has(abi::BINDING_PATH_VERTICES)
-                    && has(abi::BINDING_BDPT_SUBPATHS)
-                    && has(abi::BINDING_STRATEGIES),
-                "{kernel} ({backend}): {numbers:?}"
-            ),
             // BDPT's wavefront: every stage keeps its walk in the walk buffer; the trace
             // stage adds what its shadow rays decide to the splat film (t = 1) or to the
             // walk's sum, which only bdpt_finish adds to the film (with the connections).
@@ -190,8 +168,7 @@ fn kernel_bindings_come_from_the_spirv() {
                 has(abi::BINDING_BDPT_WALKS)
                     && !has(abi::BINDING_FILM)
                     && has(abi::BINDING_SPLAT)
-                    && has(abi::BINDING_STRATEGIES)
-                    && !has(abi::BINDING_BDPT_SUBPATHS),
+                    && has(abi::BINDING_STRATEGIES),
                 "{kernel} ({backend}): {numbers:?}"
             ),
             "bdpt_finish" => assert!(

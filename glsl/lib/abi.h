@@ -45,8 +45,7 @@
 #define BINDING_WF_PATHS 25
 #define BINDING_WF_QUEUES 26
 #define BINDING_WF_ITEMS 27
-// BDPT: per pixel of a band, where its camera stage resumes (glsl/lib/bdpt_pass.glsl).
-#define BINDING_BDPT_SUBPATHS 28
+// (28: free; it was the three BDPT stages' hand-over.)
 // BDPT's wavefront (glsl/lib/bdpt_wave.glsl): per pixel of a band, its subpath walk.
 #define BINDING_BDPT_WALKS 29
 // MMLT's wavefront (glsl/lib/mmlt_wave.glsl): per slot (a chain or a bootstrap sample),

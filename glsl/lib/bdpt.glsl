@@ -194,13 +194,6 @@ bool light_walk_vertex(inout Walk w, float t, Surface s, out PathVertex v) {
     return true;
 }
 
-// The same, tracing the ray: false also when it escapes.
-bool light_walk_next(inout Walk w, out PathVertex v) {
-    Hit hit;
-    if (!closest(w.o, w.d, hit)) return false;
-    return light_walk_vertex(w, hit.t, surface_at(hit, w.o, w.d), v);
-}
-
 // Continue a subpath from its vertex v by sampling the BSDF with the numbers u: the
 // throughput, and (update_mis) the MIS sums, follow the new direction.
 //
@@ -251,8 +244,6 @@ bool walk_extend(inout Walk w, PathVertex v, BsdfParams b, bool camera) {
     return true;
 }
 
-bool light_walk_extend(inout Walk w, PathVertex v) { return walk_extend(w, v, vertex_bsdf(v), false); }
-
 // ---- camera subpaths --------------------------------------------------------------
 
 // A camera subpath that starts with the camera's ray (o, d) (camera_walk_start, or a
@@ -299,18 +290,6 @@ bool camera_walk_vertex(inout Walk w, float t, Surface s, out PathVertex v) {
     v = vertex_at(w, s, wo);
     return true;
 }
-
-// The same, tracing the ray: false also when it escapes (then w.escaped).
-bool camera_walk_next(inout Walk w, out PathVertex v) {
-    Hit hit;
-    if (!closest(w.o, w.d, hit)) {
-        w.escaped = true;
-        return false;
-    }
-    return camera_walk_vertex(w, hit.t, surface_at(hit, w.o, w.d), v);
-}
-
-bool camera_walk_extend(inout Walk w, PathVertex v) { return walk_extend(w, v, vertex_bsdf(v), true); }
 
 // ---- strategies: each returns its unweighted contribution and its MIS weight ------
 
@@ -382,31 +361,10 @@ float emission_weight(Walk w, PathVertex z, bool environment, EmissionQuery q, v
     return power_heuristic(w.prev_pdf_w, pdf_light);
 }
 
-bool strategy_emission(Walk w, PathVertex z, bool environment, out vec3 value, out float weight) {
-    EmissionQuery q;
-    bool ask;
-    weight = 0.0;
-    if (!emission_found(w, z, environment, value, q, ask)) return false;
-    weight = emission_weight(w, z, environment, q, ask ? emission_pdfs(q) : vec2(0.0));
-    return true;
-}
-
-bool strategy_emitter_hit(Walk w, PathVertex z, out vec3 value, out float weight) {
-    return strategy_emission(w, z, false, value, weight);
-}
-
-bool strategy_environment_hit(Walk w, out vec3 value, out float weight) {
-    PathVertex none;
-    none.emitter = NO_EMITTER;
-    none.dvcm = 0.0;
-    none.dvc = 0.0;
-    return strategy_emission(w, none, true, value, weight);
-}
-
 // s = 1 at the camera vertex z (the walk's last): a fresh sample on a light, picked
 // and placed with the connection stream, in two halves: the light's (light_sample_draw:
 // the emitter picked and its point, and the query of the densities with which it would
-// emit toward z, for the MIS weight) and the BSDF's (light_sample_connect).
+// emit toward z, for the MIS weight) and the BSDF's (below).
 bool light_sample_draw(PathVertex z, out LightSample ls, out EmissionQuery q) {
     q.e = 0u;
     if (scene.emitter_count == 0u) return false;
@@ -419,21 +377,11 @@ bool light_sample_draw(PathVertex z, out LightSample ls, out EmissionQuery q) {
     return true;
 }
 
-// The light's half of s = 1: the sample and (for paths within max_scatter(), whose
-// weight needs them) its densities pdfs.
-bool light_sample_pick(Walk w, PathVertex z, out LightSample ls, out vec2 pdfs) {
-    EmissionQuery q;
-    pdfs = vec2(0.0);
-    if (!light_sample_draw(z, ls, q)) return false;
-    if (w.vertices <= max_scatter()) pdfs = emission_pdfs(q);
-    return true;
-}
-
-// The BSDF's half of the s = 1 strategy at z for the light sample ls (light_sample_pick),
-// in three steps so that a kernel can ask the BSDF its question in one place for this and
-// for the t = 1 connection (bdpt_shade.glsl): light_sample_faces (can the BSDF send the
-// light toward z.w; the shading cosine), the question (light_sample_connect shows it),
-// light_sample_end (the unweighted contribution, the MIS weight and the shadow ray
+// The BSDF's half of the s = 1 strategy at z for the light sample ls, in three steps so
+// that a kernel can ask the BSDF its question in one place for this and for the t = 1
+// connection (bdpt_shade.glsl): light_sample_faces (can the BSDF send the light toward
+// z.w; the shading cosine), the question (bsdf_eval_pdfs toward ls.wi, radiance, its
+// forward pdf and, if light_sample_weighs_all, its reverse one), light_sample_end (the unweighted contribution, the MIS weight and the shadow ray
 // (o, d, tmax)). False when it cannot contribute.
 bool light_sample_faces(BsdfParams b, PathVertex z, LightSample ls, out float cos_s) {
     return direct_light_faces(b, z.n, z.ns, z.w, ls.wi, cos_s);
@@ -468,40 +416,6 @@ bool light_sample_end(Walk w, PathVertex z, LightSample ls, vec2 pdfs, float cos
     return true;
 }
 
-bool light_sample_connect(Walk w, PathVertex z, LightSample ls, vec2 pdfs, out vec3 value, out float weight,
-                          out vec3 o, out vec3 d, out float tmax) {
-    value = vec3(0.0);
-    weight = 0.0;
-    o = z.p;
-    d = vec3(0.0, 0.0, 1.0);
-    tmax = 0.0;
-    float cos_s;
-    BsdfParams b = vertex_bsdf(z);
-    if (!light_sample_faces(b, z, ls, cos_s)) return false;
-    float pdf_dir, pdf_rev;
-    vec3 f = bsdf_eval_pdfs(b, scene.sample_mode, z.ns, z.w, ls.wi, TRANSPORT_RADIANCE, true,
-                            light_sample_weighs_all(w), pdf_dir, pdf_rev);
-    return light_sample_end(w, z, ls, pdfs, cos_s, f, pdf_dir, pdf_rev, value, weight, o, d, tmax);
-}
-
-// Both halves and the shadow ray, traced.
-bool strategy_light_sample(Walk w, PathVertex z, out vec3 value, out float weight) {
-    LightSample ls;
-    vec2 pdfs;
-    vec3 o, d;
-    float tmax;
-    value = vec3(0.0);
-    weight = 0.0;
-    if (!light_sample_pick(w, z, ls, pdfs)) return false;
-    if (!light_sample_connect(w, z, ls, pdfs, value, weight, o, d, tmax)) return false;
-    rays_traced++;
-    if (trace_occluded(o, d, tmax)) {
-        value = vec3(0.0);
-        return false;
-    }
-    return true;
-}
-
 // The lens numbers of a t = 1 strategy, from the connection stream (which no t = 1
 // strategy uses otherwise); none for a pinhole.
 vec2 camera_lens_numbers() {
@@ -513,7 +427,8 @@ vec2 camera_lens_numbers() {
 // t = 1 from the light vertex y: the camera (a point of its lens) sees it, in three
 // steps as the s = 1 strategy (light_sample_faces): camera_connection_faces (the lens
 // point `eye`, the pixel `px` it lands on, the direction and distance to the eye; false
-// when the camera cannot see y), the question to the BSDF (camera_connection shows it),
+// when the camera cannot see y), the question to the BSDF (bsdf_eval_pdfs toward the eye,
+// importance, its reverse pdf),
 // camera_connection_end (the contribution, its MIS weight and the shadow ray (o, d,
 // tmax) for the caller to trace and count).
 bool camera_connection_faces(PathVertex y, out vec3 eye, out uvec2 px, out vec3 to_eye, out float dist) {
@@ -544,35 +459,6 @@ bool camera_connection_end(PathVertex y, vec3 eye, vec3 to_eye, float dist, vec3
     return true;
 }
 
-bool camera_connection(PathVertex y, out uvec2 px, out vec3 value, out float weight, out vec3 o, out vec3 d,
-                       out float tmax) {
-    value = vec3(0.0);
-    weight = 0.0;
-    o = y.p;
-    d = vec3(0.0, 0.0, 1.0);
-    tmax = 0.0;
-    vec3 eye, to_eye;
-    float dist;
-    if (!camera_connection_faces(y, eye, px, to_eye, dist)) return false;
-    float pdf_fwd, pdf_rev;
-    vec3 f = bsdf_eval_pdfs(vertex_bsdf(y), scene.sample_mode, y.ns, y.w, to_eye, TRANSPORT_IMPORTANCE, false, true,
-                            pdf_fwd, pdf_rev);
-    return camera_connection_end(y, eye, to_eye, dist, f, pdf_rev, value, weight, o, d, tmax);
-}
-
-// The same with its shadow ray traced.
-bool strategy_camera_connection(PathVertex y, out uvec2 px, out vec3 value, out float weight) {
-    vec3 o, d;
-    float tmax;
-    if (!camera_connection(y, px, value, weight, o, d, tmax)) return false;
-    rays_traced++;
-    if (trace_occluded(o, d, tmax)) {
-        value = vec3(0.0);
-        return false;
-    }
-    return true;
-}
-
 // s = 1, t = 1: the point a light subpath started from, seen by the camera, and the
 // shadow ray that decides it. (Delta lights are not visible to the camera, as in the
 // path tracer.)
@@ -597,19 +483,6 @@ bool light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 value, ou
     weight = 1.0 / (1.0 + mis(ratio));
     shadow_ray_to(le.p, dot(le.n, to_eye) > 0.0 ? le.n : -le.n, eye, o, d, tmax);
     value = Le * ratio;
-    return true;
-}
-
-// The same with its shadow ray traced.
-bool strategy_light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 value, out float weight) {
-    vec3 o, d;
-    float tmax;
-    if (!light_point_seen(le, e, px, value, weight, o, d, tmax)) return false;
-    rays_traced++;
-    if (trace_occluded(o, d, tmax)) {
-        value = vec3(0.0);
-        return false;
-    }
     return true;
 }
 

@@ -1,20 +1,11 @@
-// What BDPT's stages share. A pass of bidirectional path tracing (integrator `bdpt`) is
-// three dispatches over the pixels of a band, one invocation per pixel and one sample
-// per pass:
-//   bdpt_light.comp    traces the pixel's light subpath, connects every light vertex to
-//                      the camera (t = 1, splatted to whichever pixel it lands on) and
-//                      stores the vertices in the light half of the pixel's slice of the
-//                      path-vertex buffer, with what the next stage resumes from
-//                      (subpaths[]);
-//   bdpt_camera.comp   traces the camera subpath that, at each vertex, takes the
-//                      emission it finds (s = 0) and a fresh light sample (s = 1), and
-//                      stores the vertices that can connect in the camera half;
-//   bdpt_connect.comp  connects every stored camera vertex to every stored light vertex
-//                      whose path stays within maxdepth (s >= 2, t >= 2).
-// The walks, connections and MIS weights are lib/bdpt.glsl's, shared with MMLT's kernels.
+// What BDPT's kernels share (the wavefront, lib/bdpt_wave.glsl): the push constants,
+// the pixel a slot serves, the path-vertex buffer (per pixel sample, its light vertices
+// y_1.. and then its camera vertices z_1.. that connections use), the films and the
+// strategy images, and the s, t >= 2 connections of a sample's stored vertices. The
+// walks, connections and MIS weights are lib/bdpt.glsl's, shared with MMLT's kernels.
 //
 // Films: film[pixel] (camera strategies, written only by the pixel's own invocations,
-// the camera stage's sum and then the connection stage's) and
+// bdpt_finish's) and
 // the splat film (t = 1 strategies, fixed-point integer atomics whose sum does not depend
 // on the order: lib/splat.glsl). The image is (film + splat) / spp.
 // A contribution that comes out NaN or infinite is left out and counted in
@@ -41,11 +32,6 @@ layout(std430, set = 0, binding = BINDING_PATH_VERTICES) buffer PathVertexBuffer
 // Debug output (--bdpt-strategies): per (s,t), a weighted and an unweighted film of
 // vec4s, laid out [strategy][weighted 0 / unweighted 1][pixel].
 layout(std430, set = 0, binding = BINDING_STRATEGIES) buffer StrategyBuffer { float strategy_film[]; };
-
-// Per pixel of the band, what the next stage resumes from: x the light vertices stored,
-// y the sampler's draw counter after the light subpath, z the rays traced so far (set by
-// the light stage, read by the camera stage), w the camera vertices stored.
-layout(std430, set = 0, binding = BINDING_BDPT_SUBPATHS) buffer SubpathBuffer { uvec4 subpaths[]; };
 
 uint nonfinite = 0u;
 // Paths with fewer scattering vertices are not added (MMLT's tail: its chains have them).

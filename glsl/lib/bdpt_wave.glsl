@@ -17,8 +17,8 @@
 //   bdpt_finish.comp        per pixel, each sample's camera strategies and then its
 //                           s, t >= 2 connections added to the film, in sample order.
 // A pixel's draws, contributions and their order are the same as when one invocation
-// walked both subpaths (bdpt_light.comp, bdpt_camera.comp), so the images are theirs (to
-// the last bits where the compiler fuses multiply-adds differently). The host records
+// walked both subpaths (the three stages that preceded this wavefront), so the images
+// are theirs (to the last bits where the compiler fuses multiply-adds differently). The host records
 // bdpt_start, per bounce bdpt_trace, bdpt_hit and one bdpt_shade_CLASS per class the
 // scene has, then bdpt_trace for the last shadow rays, for the light side and then the
 // camera side (BdptParams.side and .bounce), then bdpt_finish. At maxdepth -1 the camera

@@ -1,13 +1,11 @@
 //! Host side of bidirectional path tracing: its options, the strategy list, the sizes
 //! of its per-pixel light-vertex buffer and of its strategy images, its render (passes in
 //! bands, resolve), and the extra passes that record strategy images in groups. (The
-//! kernels are glsl/bdpt_light.comp, bdpt_camera.comp and bdpt_connect.comp; the CPU
-//! mirror of its MIS weights is `bdpt_mis`.)
+//! kernels are a wavefront, glsl/bdpt_*.comp, described in glsl/lib/bdpt_wave.glsl; the
+//! CPU mirror of its MIS weights is `bdpt_mis`.)
 use super::{add_splat_film, film_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
-use crate::engine::{
-    band_rows, Dispatch, Engine, PassStage, Passes, PreparedScene, RunOptions, Work,
-};
+use crate::engine::{band_rows, Dispatch, Engine, PassStage, PreparedScene, RunOptions, Work};
 use crate::gpu::buffer::Buffer;
 use crate::io::Image;
 use crate::scene::Scene;
@@ -108,52 +106,6 @@ pub fn bdpt_max_scatter(scene: &Scene) -> u32 {
     } else {
         scene.settings.max_depth as u32
     }
-}
-
-/// BDPT's passes over a `width` × `height` image in bands of `rows` rows: its three
-/// stages (glsl/bdpt_light.comp, bdpt_camera.comp, then bdpt_connect.comp;
-/// lib/bdpt_pass.glsl), bound to the scene, to `buffers` and to the per-pixel subpath
-/// state between them (allocated here, returned with the passes that use it), warmed up.
-pub(crate) fn bdpt_passes(
-    engine: &mut Engine,
-    prepared: &PreparedScene,
-    variant: Option<&'static str>,
-    buffers: &[(u32, &Buffer)],
-    (width, height, rows): (u32, u32, u32),
-    trace: &mut Trace,
-) -> Result<(Passes, Buffer)> {
-    let kernels = trace.cpu("pipeline creation", || -> Result<_> {
-        Ok([
-            engine.kernel("bdpt_light", variant, prepared.specialization())?,
-            engine.kernel("bdpt_camera", variant, prepared.specialization())?,
-            engine.kernel("bdpt_connect", variant, prepared.specialization())?,
-        ])
-    })?;
-    let subpaths = trace.cpu("BDPT buffers", || {
-        engine.device_buffer("BDPT subpath states", rows as u64 * width as u64 * 16)
-    })?;
-    let mut all = buffers.to_vec();
-    all.push((BINDING_BDPT_SUBPATHS, &subpaths));
-    let mut stages = Vec::new();
-    for (kernel, span) in kernels
-        .into_iter()
-        .zip(["bdpt light", "bdpt camera", "bdpt connect"])
-    {
-        let set = engine.bind(&kernel, Some(prepared), &all)?;
-        stages.push(PassStage {
-            kernel,
-            set,
-            span: span.to_string(),
-        });
-    }
-    let passes = Passes {
-        stages,
-        width,
-        height,
-        band_rows: rows,
-    };
-    engine.warm_up_passes(&passes, trace)?;
-    Ok((passes, subpaths))
 }
 
 /// Bytes per pixel of BDPT's wavefront walk state (GpuBdptWalk).
@@ -289,7 +241,7 @@ impl BdptWave {
 
 /// `spp` BDPT passes, with a resolve for snapshots. At maxdepth -1 one band's samples at
 /// a time, their camera bounces in chunks while some walk goes on.
-struct BdptWork<'a> {
+pub(crate) struct BdptWork<'a> {
     wave: &'a BdptWave,
     spp: u32,
     resolve: Option<&'a dyn Fn(u32) -> Result<Image>>,
@@ -298,7 +250,18 @@ struct BdptWork<'a> {
     current: Option<(BdptParams, u32)>,
 }
 
-impl BdptWork<'_> {
+impl<'a> BdptWork<'a> {
+    /// `spp` passes of `wave` (counted from the `first` that `dispatches` is given).
+    pub(crate) fn new(wave: &'a BdptWave, spp: u32) -> BdptWork<'a> {
+        BdptWork {
+            wave,
+            spp,
+            resolve: None,
+            pending: Vec::new(),
+            current: None,
+        }
+    }
+
     /// Start batch `p` (maxdepth -1): its light subpaths and first camera bounces.
     fn start(&mut self, p: BdptParams, list: &mut Vec<Dispatch>) -> Result<()> {
         if let Some(live) = &self.wave.live {
@@ -371,6 +334,17 @@ impl Work for BdptWork<'_> {
     }
 }
 
+/// The spans of BDPT's wavefront stages, for the device time of a run.
+pub(crate) const BDPT_SPANS: [&str; 7] = [
+    "bdpt start",
+    "bdpt trace",
+    "bdpt hit",
+    "bdpt shade basic",
+    "bdpt shade interface",
+    "bdpt shade coated",
+    "bdpt finish",
+];
+
 fn shade_kernel(class: u32) -> (&'static str, &'static str) {
     match class {
         MATERIAL_CLASS_BASIC => ("bdpt_shade_basic", "bdpt shade basic"),
@@ -382,7 +356,7 @@ fn shade_kernel(class: u32) -> (&'static str, &'static str) {
 /// BDPT's wavefront over a `width` × `height` image in bands of `rows` rows, bound to
 /// the scene, to `buffers` and to the walk and subpath state it allocates (returned with
 /// it), warmed up.
-fn bdpt_wave(
+pub(crate) fn bdpt_wave(
     engine: &mut Engine,
     prepared: &PreparedScene,
     scene: &Scene,
@@ -399,43 +373,44 @@ fn bdpt_wave(
             engine.storage_buffer("BDPT live walks", 4 * (UNBOUNDED_DEPTH_CAP as u64 + 2))?,
         ))
     })?;
-    let mut all = buffers.to_vec();
-    all.push((BINDING_BDPT_WALKS, &walks));
-    all.push((BINDING_BDPT_LIVE, &live));
-    let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
-        let v = variant.filter(|v| engine.kernels.has(&format!("{name}+{v}")));
-        let kernel = engine.kernel(name, v, prepared.specialization())?;
-        let set = engine.bind(&kernel, Some(prepared), &all)?;
-        Ok(PassStage {
-            kernel,
-            set,
-            span: span.to_string(),
-        })
-    };
-    let wave = trace.cpu("pipeline creation", || -> Result<_> {
-        let shade = super::pt::material_classes(scene)
-            .into_iter()
-            .map(|c| {
-                let (k, s) = shade_kernel(c);
-                stage(k, s)
+    // (The stages borrow the buffers while they are bound.)
+    let wave = {
+        let mut all = buffers.to_vec();
+        all.push((BINDING_BDPT_WALKS, &walks));
+        all.push((BINDING_BDPT_LIVE, &live));
+        let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
+            let v = variant.filter(|v| engine.kernels.has(&format!("{name}+{v}")));
+            let kernel = engine.kernel(name, v, prepared.specialization())?;
+            let set = engine.bind(&kernel, Some(prepared), &all)?;
+            Ok(PassStage {
+                kernel,
+                set,
+                span: span.to_string(),
             })
-            .collect::<Result<Vec<_>>>()?;
-        Ok(BdptWave {
-            start: stage("bdpt_start", "bdpt start")?,
-            trace: stage("bdpt_trace", "bdpt trace")?,
-            hit: stage("bdpt_hit", "bdpt hit")?,
-            shade,
-            finish: stage("bdpt_finish", "bdpt finish")?,
-            width,
-            height,
-            band_rows: rows,
-            samples,
-            max_scatter: prepared.params().max_depth,
-            live: None,
-        })
-    })?;
-    drop(stage);
-    drop(all);
+        };
+        trace.cpu("pipeline creation", || -> Result<_> {
+            let shade = super::pt::material_classes(scene)
+                .into_iter()
+                .map(|c| {
+                    let (k, s) = shade_kernel(c);
+                    stage(k, s)
+                })
+                .collect::<Result<Vec<_>>>()?;
+            Ok(BdptWave {
+                start: stage("bdpt_start", "bdpt start")?,
+                trace: stage("bdpt_trace", "bdpt trace")?,
+                hit: stage("bdpt_hit", "bdpt hit")?,
+                shade,
+                finish: stage("bdpt_finish", "bdpt finish")?,
+                width,
+                height,
+                band_rows: rows,
+                samples,
+                max_scatter: prepared.params().max_depth,
+                live: None,
+            })
+        })?
+    };
     for d in wave.idle() {
         engine.warm_up(d, trace)?;
     }

@@ -12,13 +12,11 @@
 //! the chains' cap between them. Each path is `mmlt start`, per round `mmlt trace`,
 //! `mmlt hit` and `mmlt shade CLASS`, then `mmlt end`, `mmlt trace` and `mmlt accept`,
 //! each a span of the trace.
-use super::bdpt::bdpt_max_scatter;
+use super::bdpt::{bdpt_max_scatter, bdpt_wave, BdptWork, BDPT_SPANS, BDPT_WALK_BYTES};
 use super::mmlt_sampler::{pcg4d, stream_sizes};
 use super::{add_film, film_image, splat_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
-use crate::engine::{
-    band_rows, Dispatch, Engine, PassStage, Passes, PreparedScene, RunOptions, Work,
-};
+use crate::engine::{band_rows, Dispatch, Engine, PassStage, PreparedScene, RunOptions, Work};
 use crate::gpu::buffer::Buffer;
 use crate::io::Image;
 use crate::scene::Scene;
@@ -541,25 +539,27 @@ struct ChainWork<'a> {
     chains: u64,
     per_chain: u64,
     npix: u64,
-    tail: Option<&'a Passes>,
+    /// maxdepth -1: BDPT's passes for the paths beyond the chains' cap.
+    tail: Option<BdptWork<'a>>,
     tail_total: u32,
     tail_done: u32,
     resolve: &'a dyn Fn(u64, u32) -> Result<(Image, f64)>,
 }
 
 impl ChainWork<'_> {
-    /// The tail passes from tail_done up to `wanted` (clamped to 1..=tail_total).
-    fn tail_to(&mut self, wanted: u32) -> Vec<Dispatch> {
-        let Some(passes) = self.tail else {
-            return Vec::new();
+    /// The tail passes from tail_done up to `wanted` (clamped to 1..=tail_total): their
+    /// first dispatches (`more` gives the rest).
+    fn tail_to(&mut self, wanted: u32) -> Result<Vec<Dispatch>> {
+        let Some(tail) = &mut self.tail else {
+            return Ok(Vec::new());
         };
         let wanted = wanted.clamp(1, self.tail_total);
         if wanted <= self.tail_done {
-            return Vec::new();
+            return Ok(Vec::new());
         }
-        let list = passes.dispatches(self.tail_done, wanted - self.tail_done);
+        let list = tail.dispatches(self.tail_done as u64, (wanted - self.tail_done) as u64)?;
         self.tail_done = wanted;
-        list
+        Ok(list)
     }
 }
 
@@ -575,8 +575,15 @@ impl Work for ChainWork<'_> {
         // maxdepth -1: one tail pass per 8 mutations per pixel, interleaved with the
         // chains so that a time limit ends both together.
         let per_pixel = (_first + count) * self.chains / self.npix;
-        list.extend(self.tail_to((per_pixel / 8).min(u32::MAX as u64) as u32));
+        list.extend(self.tail_to((per_pixel / 8).min(u32::MAX as u64) as u32)?);
         Ok(list)
+    }
+
+    fn more(&mut self) -> Result<Option<Vec<Dispatch>>> {
+        match &mut self.tail {
+            Some(tail) => tail.more(),
+            None => Ok(None),
+        }
     }
 
     fn snapshot(&self, done: u64) -> Result<Option<(Image, u64)>> {
@@ -687,10 +694,16 @@ impl Integrator for Mmlt {
         // one) so that a time limit ends both together. The chains' cap is bdpt's, so
         // the tail has no light subpaths and never writes the splat film the chains use.
         let tail = if plan.tail_passes > 0 {
-            let rows = band_rows(width, height, 0, u64::MAX)?;
-            Some(super::bdpt::bdpt_passes(
+            // (BDPT's wavefront: a walk per pixel sample, about 2^16 at once.)
+            let rows = band_rows(width, height, BDPT_WALK_BYTES, range)?;
+            let band = rows as u64 * width as u64;
+            let samples = ((1u64 << 16) / band)
+                .min(range / (band * BDPT_WALK_BYTES))
+                .clamp(1, 64) as u32;
+            Some(bdpt_wave(
                 engine,
                 &prepared,
+                scene,
                 None,
                 &[
                     (BINDING_FILM, &film),
@@ -699,7 +712,7 @@ impl Integrator for Mmlt {
                     (BINDING_PATH_VERTICES, &unused),
                     (BINDING_STRATEGIES, &unused),
                 ],
-                (width, height, rows),
+                (width, height, rows, samples),
                 trace,
             )?)
         } else {
@@ -791,7 +804,9 @@ impl Integrator for Mmlt {
             chains: plan.chains as u64,
             per_chain: plan.mutations_per_chain(),
             npix,
-            tail: tail.as_ref().map(|(p, _)| p),
+            tail: tail
+                .as_ref()
+                .map(|(w, _)| BdptWork::new(w, plan.tail_passes)),
             tail_total: plan.tail_passes,
             tail_done: 0,
             resolve: &resolve,
@@ -800,11 +815,14 @@ impl Integrator for Mmlt {
         let mut chain_seconds = 0.0;
         let mut tail_seconds = 0.0;
         if !engine.interrupted() {
-            let first_tail = work.tail_to(1);
-            if !first_tail.is_empty() {
+            // (The first tail pass now, so that the tail has one even when the chains
+            // do not run.)
+            let mut list = work.tail_to(1)?;
+            while !list.is_empty() {
                 tail_seconds += engine
-                    .submit(&first_tail, "running bdpt passes 0..1", trace)?
+                    .submit(&list, "running bdpt passes 0..1", trace)?
                     .total();
+                list = work.more()?.unwrap_or_default();
             }
         }
         if b > 0.0 && !engine.interrupted() {
@@ -846,9 +864,7 @@ impl Integrator for Mmlt {
             };
             let run = engine.run(&mut work, &options, trace)?;
             chain_seconds = MMLT_SPANS.iter().map(|s| run.times.of(s)).sum();
-            tail_seconds += run.times.of("bdpt light")
-                + run.times.of("bdpt camera")
-                + run.times.of("bdpt connect");
+            tail_seconds += BDPT_SPANS.iter().map(|s| run.times.of(s)).sum::<f64>();
             mutations_done = run.done * plan.chains as u64;
         }
         let tail_done = work.tail_done;
