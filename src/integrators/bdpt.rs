@@ -131,8 +131,11 @@ pub(crate) struct BdptWave {
     samples: u32,
     /// Scattering vertices of the longest path that gets every strategy.
     max_scatter: u32,
-    /// maxdepth -1: the per-bounce counts of camera walks that go on.
-    live: Option<Buffer>,
+    /// maxdepth -1: camera walks go on beyond max_scatter, until none is left.
+    unbounded: bool,
+    /// The per-bounce counts of camera walks that go on (bound in every render: the
+    /// shade stages hold it).
+    live: Buffer,
 }
 
 /// Camera bounces per submission at maxdepth -1, between looks at how many walks go on.
@@ -170,7 +173,7 @@ impl BdptWave {
     /// The camera vertices z_k with strategies of their own: max_scatter, or at maxdepth
     /// -1 UNBOUNDED_DEPTH_CAP (beyond the cap, s = 0 and s = 1 only).
     fn max_vertices(&self) -> u32 {
-        if self.live.is_some() {
+        if self.unbounded {
             UNBOUNDED_DEPTH_CAP
         } else {
             self.max_scatter
@@ -264,9 +267,9 @@ impl<'a> BdptWork<'a> {
 
     /// Start batch `p` (maxdepth -1): its light subpaths and first camera bounces.
     fn start(&mut self, p: BdptParams, list: &mut Vec<Dispatch>) -> Result<()> {
-        if let Some(live) = &self.wave.live {
-            live.upload(&vec![0u8; 4 * (UNBOUNDED_DEPTH_CAP as usize + 2)])?;
-        }
+        self.wave
+            .live
+            .upload(&vec![0u8; 4 * (UNBOUNDED_DEPTH_CAP as usize + 2)])?;
         self.wave.begin(&p, list);
         let last = UNBOUNDED_CHUNK.min(self.wave.max_vertices() + 1);
         self.wave.camera(&p, 1, last, list);
@@ -284,7 +287,7 @@ impl Work for BdptWork<'_> {
         let wave = self.wave;
         let mut batches = wave.batches(first as u32, count as u32);
         let mut list = Vec::new();
-        if wave.live.is_none() {
+        if !wave.unbounded {
             for p in &batches {
                 wave.begin(p, &mut list);
                 wave.camera(p, 1, wave.max_scatter + 1, &mut list);
@@ -301,9 +304,10 @@ impl Work for BdptWork<'_> {
     }
 
     fn more(&mut self) -> Result<Option<Vec<Dispatch>>> {
-        let (Some((p, done)), Some(live)) = (self.current, &self.wave.live) else {
+        let Some((p, done)) = self.current else {
             return Ok(None);
         };
+        let live = &self.wave.live;
         // Camera walks that went on after the last bounce shaded.
         let shaded = done.min(self.wave.max_vertices()) as u64;
         let counts = live.download(4 * (shaded + 1))?;
@@ -374,7 +378,7 @@ pub(crate) fn bdpt_wave(
         ))
     })?;
     // (The stages borrow the buffers while they are bound.)
-    let wave = {
+    let (start, trace_stage, hit, shade, finish) = {
         let mut all = buffers.to_vec();
         all.push((BINDING_BDPT_WALKS, &walks));
         all.push((BINDING_BDPT_LIVE, &live));
@@ -396,28 +400,32 @@ pub(crate) fn bdpt_wave(
                     stage(k, s)
                 })
                 .collect::<Result<Vec<_>>>()?;
-            Ok(BdptWave {
-                start: stage("bdpt_start", "bdpt start")?,
-                trace: stage("bdpt_trace", "bdpt trace")?,
-                hit: stage("bdpt_hit", "bdpt hit")?,
+            Ok((
+                stage("bdpt_start", "bdpt start")?,
+                stage("bdpt_trace", "bdpt trace")?,
+                stage("bdpt_hit", "bdpt hit")?,
                 shade,
-                finish: stage("bdpt_finish", "bdpt finish")?,
-                width,
-                height,
-                band_rows: rows,
-                samples,
-                max_scatter: prepared.params().max_depth,
-                live: None,
-            })
+                stage("bdpt_finish", "bdpt finish")?,
+            ))
         })?
+    };
+    let wave = BdptWave {
+        start,
+        trace: trace_stage,
+        hit,
+        shade,
+        finish,
+        width,
+        height,
+        band_rows: rows,
+        samples,
+        max_scatter: prepared.params().max_depth,
+        unbounded,
+        live,
     };
     for d in wave.idle() {
         engine.warm_up(d, trace)?;
     }
-    let wave = BdptWave {
-        live: unbounded.then_some(live),
-        ..wave
-    };
     Ok((wave, walks))
 }
 
