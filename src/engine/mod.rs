@@ -538,12 +538,17 @@ mod tests {
             }),
         });
         assert_eq!(scene_features(&s), FEATURE_ENVIRONMENT_MAP);
+        s.environment = None;
+        // maxdepth -1: BDPT's camera walks beyond the strategies' cap.
+        s.settings.max_depth = -1;
+        assert_eq!(scene_features(&s), FEATURE_UNBOUNDED);
         // FEATURE_ALL (the BSDF probe's) holds every bit.
         let every = FEATURE_COATED_DIFFUSE
             | FEATURE_INTERFACES
             | FEATURE_MATERIAL_TEXTURES
             | FEATURE_ENVIRONMENT_MAP
-            | FEATURE_MIX;
+            | FEATURE_MIX
+            | FEATURE_UNBOUNDED;
         assert_eq!(FEATURE_ALL, every);
     }
 }
