@@ -118,13 +118,7 @@ void main() {
     }
     if (vertex) store_vertex(slot, v);
     if (started) {
-        walk_save(g, w, wflags);
-        walks[slot].o.xyz = g.o.xyz;
-        walks[slot].d = g.d;
-        walks[slot].beta = g.beta;
-        walks[slot].prev_p = g.prev_p;
-        walks[slot].counts.x = g.counts.x;
-        walks[slot].radiance.w = g.radiance.w;
+        store_walk(slot, w, wflags);
     } else {
         store_walk_vertex(slot, w, wflags);
     }

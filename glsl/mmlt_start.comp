@@ -31,7 +31,6 @@ void main() {
     uint kind = MMLT_KIND_NONE;
     vec3 value = vec3(0.0);
     float weight = 0.0;
-    GpuBdptWalk g;
     bool light = t == 1u || s >= 2u;
     bool lit = false;
     if (light) {
@@ -42,11 +41,7 @@ void main() {
             kind = MMLT_KIND_LIGHT_POINT;
             vec3 o, d;
             float tmax;
-            if (light_point_seen(le, e, px, value, weight, o, d, tmax)) {
-                g.ls_wi = vec4(o, tmax);
-                g.ls_le = vec4(d, 0.0);
-                wflags |= BDPT_WALK_SHADOW;
-            }
+            if (light_point_seen(le, e, px, value, weight, o, d, tmax)) queue_path_shadow(slot, wflags, o, d, tmax);
         } else if (lit) {
             wflags |= BDPT_WALK_RAY;
         }
@@ -66,17 +61,7 @@ void main() {
             wflags |= BDPT_WALK_RAY;
         }
     }
-    walk_save(g, w, wflags);
-    walks[slot].o = g.o;
-    walks[slot].d = g.d;
-    walks[slot].beta = g.beta;
-    walks[slot].prev_p = g.prev_p;
-    walks[slot].counts.x = g.counts.x;
-    walks[slot].radiance.w = g.radiance.w;
-    if ((wflags & BDPT_WALK_SHADOW) != 0u) {
-        walks[slot].ls_wi = g.ls_wi;
-        walks[slot].ls_le = g.ls_le;
-    }
+    store_walk(slot, w, wflags);
     mpaths[slot].path = uvec4(s, t, pflags | (kind << 8u), px.y * scene.width + px.x);
     mpaths[slot].key = uvec4(pss.proposal, pss.step, pss.last_large, pss.large ? 1u : 0u);
     mpaths[slot].used = uvec4(pss.used[0], pss.used[1], pss.used[2], 0u);

@@ -63,6 +63,12 @@ void store_walk_scatter(uint slot, Walk w, uint flags) {
     walks[slot].radiance.w = w.prev_pdf_w;
 }
 
+// Store the whole walk (a new one), and the flags.
+void store_walk(uint slot, Walk w, uint flags) {
+    store_walk_scatter(slot, w, flags);
+    walks[slot].counts.x = w.vertices;
+}
+
 // The vertex waiting for the shade stage.
 PathVertex walk_vertex(GpuBdptWalk g) {
     GpuPathVertex v;

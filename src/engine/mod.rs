@@ -239,6 +239,26 @@ impl Engine {
     /// A descriptor set for `kernel`: the scene's resources and `buffers` (binding number,
     /// buffer), each at the binding the kernel declares. A binding the kernel uses that
     /// neither provides is an error naming it.
+    /// Kernel `name` (in profile `variant` where it has one) specialized for `scene`,
+    /// bound to the scene and `buffers`, timed as `span`: one stage of a wavefront.
+    pub fn stage(
+        &mut self,
+        name: &'static str,
+        variant: Option<&'static str>,
+        scene: &PreparedScene,
+        buffers: &[(u32, &Buffer)],
+        span: &str,
+    ) -> Result<PassStage> {
+        let variant = variant.filter(|v| self.kernels.has(&format!("{name}+{v}")));
+        let kernel = self.kernel(name, variant, scene.specialization())?;
+        let set = self.bind(&kernel, Some(scene), buffers)?;
+        Ok(PassStage {
+            kernel,
+            set,
+            span: span.to_string(),
+        })
+    }
+
     pub fn bind(
         &self,
         kernel: &Kernel,

@@ -383,14 +383,7 @@ pub(crate) fn bdpt_wave(
         all.push((BINDING_BDPT_WALKS, &walks));
         all.push((BINDING_BDPT_LIVE, &live));
         let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
-            let v = variant.filter(|v| engine.kernels.has(&format!("{name}+{v}")));
-            let kernel = engine.kernel(name, v, prepared.specialization())?;
-            let set = engine.bind(&kernel, Some(prepared), &all)?;
-            Ok(PassStage {
-                kernel,
-                set,
-                span: span.to_string(),
-            })
+            engine.stage(name, variant, prepared, &all, span)
         };
         trace.cpu("pipeline creation", || -> Result<_> {
             let shade = super::pt::material_classes(scene)

@@ -497,13 +497,7 @@ fn mmlt_wave(
     all.push((BINDING_BDPT_WALKS, &state[0]));
     all.push((BINDING_MMLT_PATHS, &state[1]));
     let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
-        let kernel = engine.kernel(name, None, prepared.specialization())?;
-        let set = engine.bind(&kernel, Some(prepared), &all)?;
-        Ok(PassStage {
-            kernel,
-            set,
-            span: span.to_string(),
-        })
+        engine.stage(name, None, prepared, &all, span)
     };
     let wave = trace.cpu("pipeline creation", || -> Result<_> {
         let shade = super::pt::material_classes(scene)
