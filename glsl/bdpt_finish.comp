@@ -1,8 +1,8 @@
 // BDPT's wavefront (lib/bdpt_wave.glsl): its last stage, one invocation per pixel of the
-// band. For each sample of the dispatch in order, the camera subpath's strategies
-// (s = 0, 1) and rays, then every s, t >= 2 connection of the sample's stored vertices,
-// are added to the pixel's film: the order in which passes of one sample each would add
-// them.
+// band. For each sample of the dispatch in order, the sums its walk kept: the camera
+// subpath's strategies (s = 0, 1) and rays, then its s, t >= 2 connections and their
+// shadow rays, added to the pixel's film: the order in which passes of one sample each
+// would add them.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_atomic_float : require
@@ -19,11 +19,7 @@ void main() {
     for (uint s = 0u; s < pass_params.samples; ++s) {
         uint at = slot + s * band_pixels();
         if (stride > 0u && (at + 1u) * stride > uint(path_vertices.length())) break;
-        uvec4 counts = walks[at].counts;
-        film[index] += vec4(walks[at].radiance.xyz, float(counts.y));
-        rays_traced = 0u;
-        vec3 L = connect_strategies(index, at * stride, counts.z, counts.w);
-        film[index] += vec4(L, float(rays_traced));
+        film[index] += vec4(walks[at].radiance.xyz, float(walks[at].counts.y));
+        film[index] += walks[at].connected;
     }
-    if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
 }

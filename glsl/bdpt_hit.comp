@@ -82,10 +82,12 @@ void main() {
                 pack_light_sample(ls, walks[slot].ls_wi, walks[slot].ls_le, walks[slot].ls_p, walks[slot].ls_n);
                 walks[slot].ls_pdfs = vec4(pdfs[1], 0.0, 0.0);
             }
-            // s >= 2 (bdpt_finish.comp): light vertices y_j with j + k <= max_scatter().
+            // s >= 2: light vertices y_j with j + k <= max_scatter() (shade, then trace).
             if (k < max_scatter() && g.counts.z > 0u) {
                 path_vertices[base + vertex_stride() + k - 1u] = pack_vertex(v);
                 walks[slot].counts.w = k;
+                uint first, last;
+                if (connection_range(k, g.counts.z, first, last)) flags |= BDPT_WALK_CONNECTIONS;
             }
             flags |= BDPT_WALK_VERTEX | BDPT_WALK_EXTEND;
         }

@@ -44,6 +44,7 @@ void main() {
         camera_walk_start((vec2(pixel) + sample_2d(STREAM_CAMERA)) / vec2(uvec2(scene.width, scene.height)), w);
         g.counts.w = 0u;
         g.radiance = vec4(0.0);
+        g.connected = vec4(0.0);
         flags = BDPT_WALK_RAY;
     }
     walk_save(g, w, flags);

@@ -1,6 +1,9 @@
 // BDPT's wavefront (lib/bdpt_wave.glsl): the visibility stage. The pixel's pending
-// shadow ray first (its contribution added to the splat film or to the pixel's sum when
-// nothing blocks it), then its walk's closest hit.
+// shadow ray (its contribution added to the splat film or to the pixel's sum when nothing
+// blocks it) and the s, t >= 2 connections of its newest camera vertex z_k, whose BSDFs
+// the shade stages have answered (each connection's contribution, MIS weight and shadow
+// ray; its sum kept in the walk for bdpt_finish), then the walk's closest hit. The only
+// kernel of BDPT's that holds the visibility backend.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_atomic_float : require
@@ -15,23 +18,59 @@ void main() {
     if (!bdpt_pixel(false, pixel, index, slot, base) || pass_params.samples == 0u) return;
     uint flags = floatBitsToUint(walks[slot].d.w);
     uvec4 counts = walks[slot].counts;
-    if ((flags & BDPT_WALK_SHADOW) != 0u) {
-        vec4 o = walks[slot].ls_wi;
-        vec4 d = walks[slot].ls_le;
-        if (!trace_occluded(o.xyz, d.xyz, o.w)) {
+    bool shadow = (flags & BDPT_WALK_SHADOW) != 0u;
+    uint first, last;
+    uint connections = 0u;
+    if ((flags & BDPT_WALK_CONNECTIONS) != 0u && connection_range(counts.w, counts.z, first, last))
+        connections = last + 1u - first;
+    vec4 connected = walks[slot].connected;
+    vec3 radiance = walks[slot].radiance.xyz;
+    PathVertex z;
+    if (connections > 0u) z = stored_vertex(base + vertex_stride() + counts.w - 1u);
+    // Every shadow ray in one kept loop (each trace_occluded is a copy of the backend):
+    // r = 0 the pending one, then one per connection z_k - y_j.
+    uint first_ray = shadow ? 0u : 1u;
+    [[dont_unroll]] for (uint r = first_ray; r <= connections; ++r) {
+        vec3 o, d, value;
+        float tmax, weight;
+        uint j = 0u;
+        if (r == 0u) {
+            vec4 ow = walks[slot].ls_wi;
+            vec4 dw = walks[slot].ls_le;
             vec4 c = walks[slot].ls_p;
-            uvec2 st = floatBitsToUint(walks[slot].ls_n.xy);
-            if ((flags & BDPT_WALK_SHADOW_SPLAT) != 0u) {
-                uint to = floatBitsToUint(d.w);
-                add_splat(uvec2(to % scene.width, to / scene.width), st.x, c.xyz, c.w);
-            } else {
-                vec3 L = walks[slot].radiance.xyz;
-                add_camera(L, st.x, st.y, index, c.xyz, c.w);
-                walks[slot].radiance.xyz = L;
-            }
+            o = ow.xyz;
+            tmax = ow.w;
+            d = dw.xyz;
+            value = c.xyz;
+            weight = c.w;
+        } else {
+            j = first + r - 1u;
+            PathVertex y = stored_vertex(base + j - 1u);
+            vec3 dir;
+            float d2;
+            if (!connection_faces(z, y, dir, d2)) continue;
+            uint az = answer_at(slot, j, 0u), ay = answer_at(slot, j, 1u);
+            if (!connection_end(z, y, dir, d2, answer_f(az), answer(az, 3u), answer(az, 4u), answer_f(ay),
+                                answer(ay, 3u), answer(ay, 4u), value, weight, o, d, tmax))
+                continue;
+            connected.w += 1.0;
         }
-        flags &= ~(BDPT_WALK_SHADOW | BDPT_WALK_SHADOW_SPLAT);
+        // (A connection of no length has nothing to block it.)
+        if ((r == 0u || tmax > 0.0) && trace_occluded(o, d, tmax)) continue;
+        uvec2 st = r > 0u ? uvec2(j + 1u, counts.w + 1u) : floatBitsToUint(walks[slot].ls_n.xy);
+        if (r == 0u && (flags & BDPT_WALK_SHADOW_SPLAT) != 0u) {
+            uint to = floatBitsToUint(walks[slot].ls_le.w);
+            add_splat(uvec2(to % scene.width, to / scene.width), st.x, value, weight);
+            continue;
+        }
+        // (s = 1 joins the camera strategies' sum, the connections their own.)
+        vec3 L = r > 0u ? connected.xyz : radiance;
+        add_camera(L, st.x, st.y, index, value, weight);
+        if (r > 0u) connected.xyz = L; else radiance = L;
     }
+    if (shadow) walks[slot].radiance.xyz = radiance;
+    if (connections > 0u) walks[slot].connected = connected;
+    flags &= ~(BDPT_WALK_SHADOW | BDPT_WALK_SHADOW_SPLAT | BDPT_WALK_CONNECTIONS);
     if ((flags & BDPT_WALK_RAY) != 0u) {
         Hit hit;
         bool found = trace_closest(walks[slot].o.xyz, walks[slot].d.xyz, INF, hit);

@@ -202,6 +202,7 @@ pub struct GpuBdptWalk {
     pub ls_p: [f32; 4],
     pub ls_n: [f32; 4],
     pub ls_pdfs: [f32; 4],
+    pub connected: [f32; 4],
 }
 
 /// MMLT's push constants (abi.h).
@@ -432,7 +433,8 @@ pub fn layouts() -> Vec<StructLayout> {
             ls_le,
             ls_p,
             ls_n,
-            ls_pdfs
+            ls_pdfs,
+            connected
         ),
         layout!(
             WavefrontParams,
@@ -497,6 +499,6 @@ const _: () = assert!(std::mem::size_of::<SceneParams>() == 256);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuPtPath>() == 208);
-const _: () = assert!(std::mem::size_of::<GpuBdptWalk>() == 272);
+const _: () = assert!(std::mem::size_of::<GpuBdptWalk>() == 288);
 const _: () = assert!(std::mem::size_of::<BdptParams>() == 32);
 const _: () = assert!(std::mem::size_of::<WavefrontParams>() == 32);

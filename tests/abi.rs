@@ -106,14 +106,13 @@ fn kernel_bindings_come_from_the_spirv() {
         }
         // Every other kernel reads the scene; the visibility backend is only in those
         // that trace rays (of the wavefront path tracer's stages, pt_trace and pt_shadow;
-        // of BDPT's wavefront, bdpt_trace and bdpt_finish; of MMLT's, mmlt_trace).
+        // of BDPT's wavefront, bdpt_trace; of MMLT's, mmlt_trace).
         let base = kernel.split('+').next().unwrap_or(kernel);
         let traces = matches!(
             base,
             "direct"
                 | "analytic"
                 | "bdpt_trace"
-                | "bdpt_finish"
                 | "mmlt_trace"
                 | "trace_probe"
                 | "pt_trace"
@@ -163,20 +162,24 @@ fn kernel_bindings_come_from_the_spirv() {
             "direct" | "analytic" => assert!(has(abi::BINDING_FILM) && !has(abi::BINDING_SPLAT)),
             // BDPT's wavefront: every stage keeps its walk in the walk buffer; the trace
             // stage adds what its shadow rays decide to the splat film (t = 1) or to the
-            // walk's sum, which only bdpt_finish adds to the film (with the connections).
+            // walk's sums (with the connections, from the shade stages' BSDF answers), which
+            // only bdpt_finish adds to the film; finish holds no material and no ray.
             "bdpt_trace" => assert!(
                 has(abi::BINDING_BDPT_WALKS)
                     && !has(abi::BINDING_FILM)
                     && has(abi::BINDING_SPLAT)
-                    && has(abi::BINDING_STRATEGIES),
+                    && has(abi::BINDING_STRATEGIES)
+                    && has(abi::BINDING_PATH_VERTICES)
+                    && has(abi::BINDING_BDPT_ANSWERS),
                 "{kernel} ({backend}): {numbers:?}"
             ),
             "bdpt_finish" => assert!(
                 has(abi::BINDING_BDPT_WALKS)
                     && has(abi::BINDING_FILM)
                     && !has(abi::BINDING_SPLAT)
-                    && has(abi::BINDING_PATH_VERTICES)
-                    && has(abi::BINDING_STRATEGIES),
+                    && !has(abi::BINDING_MATERIALS)
+                    && !has(abi::BINDING_TEXTURES)
+                    && !has(abi::BINDING_BDPT_ANSWERS),
                 "{kernel} ({backend}): {numbers:?}"
             ),
             "bdpt_start" | "bdpt_hit" => assert!(
@@ -188,6 +191,8 @@ fn kernel_bindings_come_from_the_spirv() {
             ),
             k if k.starts_with("bdpt_shade_") => assert!(
                 has(abi::BINDING_BDPT_WALKS)
+                    && has(abi::BINDING_BDPT_ANSWERS)
+                    && has(abi::BINDING_PATH_VERTICES)
                     && !has(abi::BINDING_FILM)
                     && !has(abi::BINDING_SPLAT)
                     && !has(abi::BINDING_STRATEGIES)

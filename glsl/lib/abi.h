@@ -45,7 +45,10 @@
 #define BINDING_WF_PATHS 25
 #define BINDING_WF_QUEUES 26
 #define BINDING_WF_ITEMS 27
-// (28: free; it was the three BDPT stages' hand-over.)
+// BDPT's wavefront: per pixel sample, the BSDFs' answers for the connections of its
+// newest camera vertex z_k to the light vertices y_j (BDPT_ANSWER_FLOATS per j), written
+// by the shade stages of the two vertices' classes, read by the trace stage.
+#define BINDING_BDPT_ANSWERS 28
 // BDPT's wavefront (glsl/lib/bdpt_wave.glsl): per pixel of a band, its subpath walk.
 #define BINDING_BDPT_WALKS 29
 // MMLT's wavefront (glsl/lib/mmlt_wave.glsl): per slot (a chain or a bootstrap sample),
@@ -406,6 +409,7 @@ struct GpuBdptWalk {
     vec4 ls_p;       // point, w 1 when delta; then the unweighted contribution, w the MIS weight
     vec4 ls_n;       // normal, w unused; then x s, y t (uint bits)
     vec4 ls_pdfs;    // x, y the light's emission densities toward the vertex (area, direction)
+    vec4 connected;  // xyz the s, t >= 2 strategies' sum, w their shadow rays
 };
 // GpuBdptWalk.d.w flags.
 #define BDPT_WALK_RAY 1            // the walk goes on: its ray is to be traced
@@ -418,6 +422,10 @@ struct GpuBdptWalk {
 #define BDPT_WALK_INFINITE 128
 #define BDPT_WALK_PREV_DELTA 256
 #define BDPT_WALK_ESCAPED 512
+#define BDPT_WALK_CONNECTIONS 1024 // z_k's s, t >= 2 connections wait: answers (shade), then rays (trace)
+// Floats per connection in the answers buffer: z's BSDF toward y (rgb, pdf there, pdf
+// back), then y's toward z (the same).
+#define BDPT_ANSWER_FLOATS 10
 
 // One path of the wavefront path tracer (lib/pt_path.glsl packs and unpacks it).
 struct GpuPtPath {

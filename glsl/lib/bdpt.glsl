@@ -489,7 +489,7 @@ bool light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 value, ou
 // s >= 2, t >= 2: connect the camera vertex z to the light vertex y, in three steps as
 // the other connections: connection_faces (the unit direction dir from z to y and the
 // squared distance d2; false when the segment cannot carry light), the questions to both
-// vertices' BSDFs (strategy_connection shows them), connection_end (the contribution,
+// vertices' BSDFs (BDPT's and MMLT's shade stages, each by its class), connection_end (the contribution,
 // its MIS weight and the shadow ray (o, d, tmax) between the two points).
 bool connection_faces(PathVertex z, PathVertex y, out vec3 dir, out float d2) {
     vec3 to = y.p - z.p;
@@ -530,33 +530,4 @@ bool connection_end(PathVertex z, PathVertex y, vec3 dir, float d2, vec3 f_z, fl
     return true;
 }
 
-bool strategy_connection(PathVertex z, PathVertex y, out vec3 value, out float weight) {
-    value = vec3(0.0);
-    weight = 0.0;
-    vec3 dir;
-    float d2;
-    if (!connection_faces(z, y, dir, d2)) return false;
-    // Both ends' BSDFs, asked in one place (a loop the compiler keeps: each call site
-    // would be a copy of every BSDF the kernel holds).
-    vec3 f[2];
-    float pdf_dir[2], pdf_rev[2];
-    [[dont_unroll]] for (uint i = 0u; i < 2u; ++i) {
-        bool cam = i == 0u;
-        PathVertex x = cam ? z : y;
-        f[i] = bsdf_eval_pdfs(vertex_bsdf(x), scene.sample_mode, x.ns, x.w, cam ? dir : -dir,
-                              cam ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE, true, true, pdf_dir[i], pdf_rev[i]);
-    }
-    vec3 o, d;
-    float tmax;
-    if (!connection_end(z, y, dir, d2, f[0], pdf_dir[0], pdf_rev[0], f[1], pdf_dir[1], pdf_rev[1], value, weight, o, d,
-                        tmax))
-        return false;
-    rays_traced++;
-    if (!(tmax > 0.0)) return true;
-    if (trace_occluded(o, d, tmax)) {
-        value = vec3(0.0);
-        return false;
-    }
-    return true;
-}
 #endif

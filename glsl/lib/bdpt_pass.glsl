@@ -1,8 +1,8 @@
 // What BDPT's kernels share (the wavefront, lib/bdpt_wave.glsl): the push constants,
 // the pixel a slot serves, the path-vertex buffer (per pixel sample, its light vertices
 // y_1.. and then its camera vertices z_1.. that connections use), the films and the
-// strategy images, and the s, t >= 2 connections of a sample's stored vertices. The
-// walks, connections and MIS weights are lib/bdpt.glsl's, shared with MMLT's kernels.
+// strategy images, and which stored vertices an s, t >= 2 connection joins. The walks,
+// connections and MIS weights are lib/bdpt.glsl's, shared with MMLT's kernels.
 //
 // Films: film[pixel] (camera strategies, written only by the pixel's own invocations,
 // bdpt_finish's) and
@@ -112,21 +112,12 @@ bool bdpt_pixel(bool count_out_of_range, out uvec2 pixel, out uint index, out ui
 
 PathVertex stored_vertex(uint index) { return unpack_vertex(path_vertices[index]); }
 
-// The s, t >= 2 strategies of the pixel `index` whose stored vertices are at `base`
-// (`stored` light vertices, `connectable` camera vertices): every camera vertex z_k
-// connected to every light vertex y_j whose path stays within maxdepth. Their sum; the
-// shadow rays counted in rays_traced.
-vec3 connect_strategies(uint index, uint base, uint stored, uint connectable) {
-    vec3 L = vec3(0.0);
-    for (uint k = 1u; k <= connectable; ++k) {
-        PathVertex z = stored_vertex(base + vertex_stride() + k - 1u);
-        uint last = min(stored, max_scatter() - k);
-        for (uint j = max(1u, min_scatter() - min(min_scatter(), k)); j <= last; ++j) {
-            vec3 value;
-            float weight;
-            if (strategy_connection(z, stored_vertex(base + j - 1u), value, weight)) add_camera(L, j + 1u, k + 1u, index, value, weight);
-        }
-    }
-    return L;
+// The light vertices y_first ..= y_last that the camera vertex z_k connects to (s, t >= 2)
+// when `stored` light vertices are: those whose path stays within maxdepth (and, for
+// MMLT's tail, reaches min_scatter()). False when there are none.
+bool connection_range(uint k, uint stored, out uint first, out uint last) {
+    first = max(1u, min_scatter() - min(min_scatter(), k));
+    last = min(stored, max_scatter() - min(max_scatter(), k));
+    return first <= last;
 }
 #endif

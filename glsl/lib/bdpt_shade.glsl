@@ -3,8 +3,11 @@
 // that class. Light side: the connection to the camera (t = 1); camera side: the BSDF's
 // half of the s = 1 light sample; either's shadow ray queued for the trace stage. Then
 // the BSDF sample that continues the walk (the camera's with Russian roulette beyond
-// max_scatter()). Only the class's own BSDFs are compiled in (bsdf.glsl's SHADE_CLASS),
-// and each is asked in one place for both sides: one evaluation, one sample.
+// max_scatter()). On the camera side also the s, t >= 2 connections of the new vertex
+// z_k to the light vertices y_j: the question to z's BSDF when z is of the class, and to
+// each y_j's that is; the answers wait in answers[] for the trace stage. Only the class's
+// own BSDFs are compiled in (bsdf.glsl's SHADE_CLASS), and each is asked in one place for
+// every question: one evaluation, one sample.
 #ifndef BDPT_SHADE_GLSL
 #define BDPT_SHADE_GLSL
 #include "bdpt_wave.glsl"
@@ -14,21 +17,19 @@ void main() {
     uint index, slot, base;
     if (!bdpt_pixel(false, pixel, index, slot, base) || pass_params.samples == 0u) return;
     uint flags = floatBitsToUint(walks[slot].d.w);
-    if ((flags & BDPT_WALK_VERTEX) == 0u) return;
-    uint material = floatBitsToUint(walks[slot].v_p.w) & ~PATH_VERTEX_FRONT;
-    if (material_class(materials[material].info.x) != SHADE_CLASS) return;
+    if ((flags & (BDPT_WALK_VERTEX | BDPT_WALK_CONNECTIONS)) == 0u) return;
     GpuBdptWalk g = walks[slot];   // (the compiler loads only the members read)
-    Walk w = walk_load(g);
     PathVertex v = walk_vertex(g);
-    BsdfParams b = vertex_bsdf(v);
-    sampler_resume(index, g);
+    // The vertex is this class's (its walk goes on here), or only some y_j it connects to is.
+    bool own = (flags & BDPT_WALK_VERTEX) != 0u && material_class(materials[v.material].info.x) == SHADE_CLASS;
+    uint first, last;
+    uint connections = 0u;
+    if ((flags & BDPT_WALK_CONNECTIONS) != 0u && connection_range(g.counts.w, g.counts.z, first, last))
+        connections = last + 1u - first;
+    if (!own && connections == 0u) return;
+    Walk w = walk_load(g);
     bool camera = pass_params.side == BDPT_SIDE_CAMERA;
-    // The connection's direction from v and what the BSDF is asked about it.
-    bool connect = false;
-    vec3 wi = vec3(0.0, 0.0, 1.0);
-    uint transport = TRANSPORT_RADIANCE;
-    bool want_fwd = false;
-    bool want_rev = true;
+    if (own) sampler_resume(index, g);
     // t = 1
     vec3 eye, to_eye;
     float dist;
@@ -36,34 +37,68 @@ void main() {
     // s = 1
     LightSample ls;
     float cos_s;
-    if (!camera) {
-        if ((flags & BDPT_WALK_CONNECT) != 0u) {
-            connect = camera_connection_faces(v, eye, px, to_eye, dist);
-            wi = to_eye;
-            transport = TRANSPORT_IMPORTANCE;
+    BsdfParams b;
+    // The questions, in kept loops (each BSDF is compiled in once): i = 0 v's own
+    // connection (t = 1 or s = 1), i >= 1 the connection to y_j, j = first + i - 1, asked
+    // of each end of the class (side 0: v toward y_j, side 1: y_j toward v).
+    [[dont_unroll]] for (uint i = 0u; i <= connections; ++i) {
+        uint j = first + i - 1u;
+        PathVertex y;
+        vec3 dir;
+        float d2;
+        if (i > 0u) {
+            y = stored_vertex(base + j - 1u);
+            if (!connection_faces(v, y, dir, d2)) continue;
         }
-    } else if ((flags & BDPT_WALK_LIGHT_SAMPLE) != 0u) {
-        ls = unpack_light_sample(g.ls_wi, g.ls_le, g.ls_p, g.ls_n);
-        connect = light_sample_faces(b, v, ls, cos_s);
-        wi = ls.wi;
-        want_fwd = true;
-        want_rev = light_sample_weighs_all(w);
-    }
-    if (connect) {
-        float pdf_fwd, pdf_rev;
-        vec3 f = bsdf_eval_pdfs(b, scene.sample_mode, v.ns, v.w, wi, transport, want_fwd, want_rev, pdf_fwd, pdf_rev);
-        vec3 value, o, d;
-        float weight, tmax;
-        if (!camera) {
-            if (camera_connection_end(v, eye, to_eye, dist, f, pdf_rev, value, weight, o, d, tmax)) {
-                walks[slot].counts.y = g.counts.y + 1u;
-                queue_shadow(slot, flags, o, d, tmax, w.vertices + 1u, 1u, px.y * scene.width + px.x, value, weight);
+        [[dont_unroll]] for (uint side = 0u; side < (i == 0u ? 1u : 2u); ++side) {
+            PathVertex x = side == 0u ? v : y;
+            if (side == 0u ? !own : material_class(materials[x.material].info.x) != SHADE_CLASS) continue;
+            BsdfParams bx = b;
+            if (i == 0u || side == 1u) bx = vertex_bsdf(x);
+            if (i == 0u) b = bx;
+            vec3 wi = side == 0u ? dir : -dir;
+            uint transport = side == 0u ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE;
+            bool want_fwd = true;
+            bool want_rev = true;
+            if (i == 0u) {
+                bool connect = false;
+                want_fwd = false;
+                if (!camera) {
+                    if ((flags & BDPT_WALK_CONNECT) != 0u) {
+                        connect = camera_connection_faces(v, eye, px, to_eye, dist);
+                        wi = to_eye;
+                        transport = TRANSPORT_IMPORTANCE;
+                    }
+                } else if ((flags & BDPT_WALK_LIGHT_SAMPLE) != 0u) {
+                    ls = unpack_light_sample(g.ls_wi, g.ls_le, g.ls_p, g.ls_n);
+                    connect = light_sample_faces(bx, v, ls, cos_s);
+                    wi = ls.wi;
+                    want_fwd = true;
+                    want_rev = light_sample_weighs_all(w);
+                }
+                if (!connect) continue;
             }
-        } else if (light_sample_end(w, v, ls, g.ls_pdfs.xy, cos_s, f, pdf_fwd, pdf_rev, value, weight, o, d, tmax)) {
-            walks[slot].counts.y = g.counts.y + 1u;
-            queue_shadow(slot, flags, o, d, tmax, 1u, w.vertices + 1u, index, value, weight);
+            float pdf_fwd, pdf_rev;
+            vec3 f = bsdf_eval_pdfs(bx, scene.sample_mode, x.ns, x.w, wi, transport, want_fwd, want_rev, pdf_fwd, pdf_rev);
+            if (i > 0u) {
+                store_answer(answer_at(slot, j, side), f, pdf_fwd, pdf_rev);
+                continue;
+            }
+            vec3 value, o, d;
+            float weight, tmax;
+            if (!camera) {
+                if (camera_connection_end(v, eye, to_eye, dist, f, pdf_rev, value, weight, o, d, tmax)) {
+                    walks[slot].counts.y = g.counts.y + 1u;
+                    queue_shadow(slot, flags, o, d, tmax, w.vertices + 1u, 1u, px.y * scene.width + px.x, value, weight);
+                }
+            } else if (light_sample_end(w, v, ls, g.ls_pdfs.xy, cos_s, f, pdf_fwd, pdf_rev, value, weight, o, d, tmax)) {
+                walks[slot].counts.y = g.counts.y + 1u;
+                queue_shadow(slot, flags, o, d, tmax, 1u, w.vertices + 1u, index, value, weight);
+            }
         }
     }
+    // The walk is the vertex's class's to go on with; another class only answered.
+    if (!own) return;
     bool extend = (flags & BDPT_WALK_EXTEND) != 0u && walk_extend(w, v, b, camera);
     flags &= ~(BDPT_WALK_VERTEX | BDPT_WALK_CONNECT | BDPT_WALK_EXTEND | BDPT_WALK_LIGHT_SAMPLE);
     if (extend) flags |= BDPT_WALK_RAY;

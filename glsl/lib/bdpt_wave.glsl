@@ -31,6 +31,33 @@
 #include "walk_state.glsl"
 
 layout(std430, set = 0, binding = BINDING_BDPT_LIVE) buffer BdptLiveBuffer { uint bdpt_live[]; };
+// Per slot, vertex_stride() connections of its newest camera vertex z_k, one per light
+// vertex y_j: BDPT_ANSWER_FLOATS floats each, z's BSDF toward y and then y's toward z
+// (value rgb, pdf in the direction asked, pdf back). Each float of a connection is an
+// array over the dispatch's slots, so that neighbouring invocations touch neighbouring
+// words.
+layout(std430, set = 0, binding = BINDING_BDPT_ANSWERS) buffer BdptAnswerBuffer { float answers[]; };
+
+uint answer_slots() { return band_pixels() * max(pass_params.samples, 1u); }
+
+// Where the first float of slot's answer for the connection to y_j, side 0 (z) or 1 (y),
+// is; the next are answer_slots() apart.
+uint answer_at(uint slot, uint j, uint side) {
+    return ((j - 1u) * BDPT_ANSWER_FLOATS + side * (BDPT_ANSWER_FLOATS / 2u)) * answer_slots() + slot;
+}
+
+float answer(uint at, uint i) { return answers[at + i * answer_slots()]; }
+
+void store_answer(uint at, vec3 f, float pdf_dir, float pdf_rev) {
+    uint n = answer_slots();
+    answers[at] = f.x;
+    answers[at + n] = f.y;
+    answers[at + 2u * n] = f.z;
+    answers[at + 3u * n] = pdf_dir;
+    answers[at + 4u * n] = pdf_rev;
+}
+
+vec3 answer_f(uint at) { return vec3(answer(at, 0u), answer(at, 1u), answer(at, 2u)); }
 
 // The pixel's sampler, resumed where the walk's last stage left it.
 void sampler_resume(uint index, GpuBdptWalk g) {

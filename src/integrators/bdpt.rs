@@ -94,6 +94,13 @@ pub fn bdpt_vertex_bytes_per_pixel(max_scatter: u32) -> u64 {
     2 * (max_scatter.max(2) - 1) as u64 * std::mem::size_of::<GpuPathVertex>() as u64
 }
 
+/// Bytes per pixel sample of BDPT's connection answers: per light vertex a connection of
+/// the newest camera vertex can use, both ends' BSDF values and densities
+/// (BDPT_ANSWER_FLOATS floats).
+pub fn bdpt_answer_bytes_per_pixel(max_scatter: u32) -> u64 {
+    (max_scatter.max(2) - 1) as u64 * 4 * BDPT_ANSWER_FLOATS as u64
+}
+
 /// Largest device allocation lightpath makes for BDPT light vertices, whatever the
 /// device's storage-buffer range.
 pub(crate) const VERTEX_BUFFER_BUDGET: u64 = 1 << 30;
@@ -136,6 +143,9 @@ pub(crate) struct BdptWave {
     /// The per-bounce counts of camera walks that go on (bound in every render: the
     /// shade stages hold it).
     live: Buffer,
+    /// The connections' BSDF answers, from the shade stages to the trace stage (held
+    /// while the stages are bound to it).
+    _answers: Buffer,
 }
 
 /// Camera bounces per submission at maxdepth -1, between looks at how many walks go on.
@@ -370,11 +380,20 @@ pub(crate) fn bdpt_wave(
     trace: &mut Trace,
 ) -> Result<(BdptWave, Buffer)> {
     let unbounded = scene.settings.max_depth < 0;
-    let (walks, live) = trace.cpu("BDPT buffers", || -> Result<_> {
+    let params = prepared.params();
+    // (MMLT's tail, whose paths are all longer than the strategies' cap, connects nothing.)
+    let connects = params.min_depth <= params.max_depth;
+    let (walks, live, answers) = trace.cpu("BDPT buffers", || -> Result<_> {
         let slots = rows as u64 * width as u64 * samples as u64;
+        let answer_bytes = if connects {
+            bdpt_answer_bytes_per_pixel(params.max_depth)
+        } else {
+            0
+        };
         Ok((
             engine.device_buffer("BDPT walks", slots * BDPT_WALK_BYTES)?,
             engine.storage_buffer("BDPT live walks", 4 * (UNBOUNDED_DEPTH_CAP as u64 + 2))?,
+            engine.device_buffer("BDPT connection answers", (slots * answer_bytes).max(16))?,
         ))
     })?;
     // (The stages borrow the buffers while they are bound.)
@@ -382,6 +401,7 @@ pub(crate) fn bdpt_wave(
         let mut all = buffers.to_vec();
         all.push((BINDING_BDPT_WALKS, &walks));
         all.push((BINDING_BDPT_LIVE, &live));
+        all.push((BINDING_BDPT_ANSWERS, &answers));
         let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
             engine.stage(name, variant, prepared, &all, span)
         };
@@ -415,6 +435,7 @@ pub(crate) fn bdpt_wave(
         max_scatter: prepared.params().max_depth,
         unbounded,
         live,
+        _answers: answers,
     };
     for d in wave.idle() {
         engine.warm_up(d, trace)?;
@@ -472,7 +493,9 @@ impl Integrator for Bdpt {
             .min(self.options.vertex_buffer_limit.unwrap_or(u64::MAX));
         // The wavefront also holds a walk per pixel, and runs several samples of a band
         // per dispatch when they fit: about WAVE_SLOTS pixel samples.
-        let per_pixel = vertex_bytes.max(BDPT_WALK_BYTES);
+        let per_pixel = vertex_bytes
+            .max(BDPT_WALK_BYTES)
+            .max(bdpt_answer_bytes_per_pixel(max_scatter));
         let rows = band_rows(width, height, per_pixel, vertex_limit)?;
         let band = rows as u64 * width as u64;
         let wanted = self.slots.unwrap_or(WAVE_SLOTS);
