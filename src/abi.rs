@@ -289,17 +289,32 @@ pub enum BsdfKind {
     ThinDielectric = BSDF_THIN_DIELECTRIC,
     Conductor = BSDF_CONDUCTOR,
     CoatedDiffuse = BSDF_COATED_DIFFUSE,
+    DiffuseTransmission = BSDF_DIFFUSE_TRANSMISSION,
 }
 
 impl BsdfKind {
-    pub const ALL: [BsdfKind; 6] = [
+    pub const ALL: [BsdfKind; 7] = [
         BsdfKind::Phong,
         BsdfKind::Ggx,
         BsdfKind::Dielectric,
         BsdfKind::ThinDielectric,
         BsdfKind::Conductor,
         BsdfKind::CoatedDiffuse,
+        BsdfKind::DiffuseTransmission,
     ];
+
+    /// The material class (abi.h `MATERIAL_CLASS_*`) whose shade kernels hold this kind:
+    /// GLSL `material_class`.
+    pub fn class(self) -> u32 {
+        match self {
+            BsdfKind::Phong | BsdfKind::Ggx => MATERIAL_CLASS_BASIC,
+            BsdfKind::Dielectric
+            | BsdfKind::ThinDielectric
+            | BsdfKind::Conductor
+            | BsdfKind::DiffuseTransmission => MATERIAL_CLASS_INTERFACE,
+            BsdfKind::CoatedDiffuse => MATERIAL_CLASS_COATED,
+        }
+    }
 
     /// The kind of a record's `info.x`, if it is one.
     pub fn from_code(code: u32) -> Option<BsdfKind> {

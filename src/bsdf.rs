@@ -456,7 +456,10 @@ impl BsdfParams {
             BsdfKind::ThinDielectric => true,
             BsdfKind::Dielectric => self.is_smooth() || self.eta.x == 1.0,
             BsdfKind::Conductor => self.is_smooth(),
-            BsdfKind::Phong | BsdfKind::Ggx | BsdfKind::CoatedDiffuse => false,
+            BsdfKind::Phong
+            | BsdfKind::Ggx
+            | BsdfKind::CoatedDiffuse
+            | BsdfKind::DiffuseTransmission => false,
         }
     }
 
@@ -713,6 +716,28 @@ fn conductor_pdf(b: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
     tr_d_visible(wo, wm, b.alpha) / (4.0 * wo.dot(wm).abs())
 }
 
+/// Diffuse transmission's lobe weights: max(R) and max(T) (pbrt-v4's).
+fn diffuse_transmission_weights(b: &BsdfParams) -> (f32, f32) {
+    (b.kd.max_element().max(0.0), b.ks.max_element().max(0.0))
+}
+
+/// pbrt-v4's DiffuseTransmissionBxDF in wo's local frame (wo.z > 0): R/π on wo's side,
+/// T/π on the other.
+fn diffuse_transmission_f(b: &BsdfParams, wi: Vec3) -> Vec3 {
+    if wi.z == 0.0 {
+        return Vec3::ZERO;
+    }
+    (if wi.z > 0.0 { b.kd } else { b.ks }) * INV_PI
+}
+
+fn diffuse_transmission_pdf(b: &BsdfParams, wi: Vec3) -> f32 {
+    let (pr, pt) = diffuse_transmission_weights(b);
+    if wi.z == 0.0 || !(pr + pt > 0.0) {
+        return 0.0;
+    }
+    wi.z.abs() * INV_PI * (if wi.z > 0.0 { pr } else { pt }) / (pr + pt)
+}
+
 fn reflect_about(wo: Vec3, m: Vec3) -> Vec3 {
     reflect(-wo, m)
 }
@@ -729,6 +754,9 @@ fn interface_eval(b: &BsdfParams, n: Vec3, wo: Vec3, wi: Vec3, transport: Transp
     if b.kind == BsdfKind::Dielectric {
         return dielectric_f(b.alpha, local_eta(b, &fr), lo, li, transport);
     }
+    if b.kind == BsdfKind::DiffuseTransmission {
+        return diffuse_transmission_f(b, li);
+    }
     conductor_f(b, lo, li)
 }
 
@@ -743,6 +771,9 @@ fn interface_pdf(b: &BsdfParams, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
     }
     if b.kind == BsdfKind::Dielectric {
         return dielectric_pdf(b.alpha, local_eta(b, &fr), lo, li);
+    }
+    if b.kind == BsdfKind::DiffuseTransmission {
+        return diffuse_transmission_pdf(b, li);
     }
     conductor_pdf(b, lo, li)
 }
@@ -822,6 +853,27 @@ fn interface_sample(
                     flags,
                 )
             }
+        }
+        BsdfKind::DiffuseTransmission => {
+            let (pr, pt) = diffuse_transmission_weights(b);
+            if !(pr + pt > 0.0) {
+                return None;
+            }
+            let mut wi = sampling::sample_cosine_hemisphere(uv);
+            let reflect = u.x < pr / (pr + pt);
+            if !reflect {
+                wi.z = -wi.z;
+            }
+            (
+                wi,
+                diffuse_transmission_f(b, wi),
+                diffuse_transmission_pdf(b, wi),
+                if reflect {
+                    BSDF_LOBE_REFLECTION
+                } else {
+                    BSDF_LOBE_TRANSMISSION
+                },
+            )
         }
         BsdfKind::ThinDielectric => {
             let mut r = fr_dielectric(lo.z, b.eta.x);
@@ -1761,8 +1813,20 @@ mod tests {
         }
     }
 
-    /// Rough dielectrics (both sides, wo above and below n, anisotropic) and rough
-    /// conductors, at three incidences each.
+    /// Diffuse transmission: reflectance and transmittance of different colours and
+    /// lobe weights (max 0.45 and 0.5).
+    fn diffuse_transmission() -> BsdfParams {
+        BsdfParams {
+            kind: BsdfKind::DiffuseTransmission,
+            kd: Vec3::new(0.3, 0.45, 0.2),
+            ks: Vec3::new(0.5, 0.2, 0.4),
+            eta: Vec3::ONE,
+            ..Default::default()
+        }
+    }
+
+    /// Rough dielectrics (both sides, wo above and below n, anisotropic), rough
+    /// conductors and diffuse transmission, at three incidences each.
     fn interface_cases() -> Vec<Case> {
         let mut out = Vec::new();
         let materials = [
@@ -1777,6 +1841,25 @@ mod tests {
             (material_of(BsdfKind::Dielectric, (0.3, 0.3), 1.5), true),
             (material_of(BsdfKind::Conductor, (0.2, 0.2), 1.0), false),
             (material_of(BsdfKind::Conductor, (0.1, 0.4), 1.0), false),
+            (diffuse_transmission(), false),
+            (diffuse_transmission(), true),
+            // (Transmission only, then reflection only.)
+            (
+                BsdfParams {
+                    kd: Vec3::ZERO,
+                    ks: Vec3::new(0.9, 0.6, 0.7),
+                    ..diffuse_transmission()
+                },
+                false,
+            ),
+            (
+                BsdfParams {
+                    kd: Vec3::new(0.8, 0.7, 0.9),
+                    ks: Vec3::ZERO,
+                    ..diffuse_transmission()
+                },
+                true,
+            ),
         ];
         for (mi, (bsdf, below)) in materials.into_iter().enumerate() {
             for (k, theta) in INCIDENCES_DEG.into_iter().enumerate() {
@@ -2074,7 +2157,8 @@ mod tests {
                 }
             }
             let mean = sum / count as f64;
-            let se = ((sum2 / count as f64 - mean * mean) / count as f64).sqrt();
+            // (A constant weight, as diffuse transmission's, rounds to a variance below 0.)
+            let se = ((sum2 / count as f64 - mean * mean).max(0.0) / count as f64).sqrt();
             assert!(
                 mean <= 1.0 + 4.0 * se + 1e-3,
                 "{}: albedo {mean} ± {se}",

@@ -82,6 +82,21 @@ fn materials(rng: &mut Rng) -> Vec<GpuMaterial> {
         }
         out.push(m.record());
     }
+    // Diffuse transmission: reflectance and transmittance of any colour, either black.
+    for i in 0..8 {
+        let mut m = Material {
+            bsdf: BsdfKind::DiffuseTransmission,
+            diffuse: rng.colour(),
+            transmittance: rng.colour(),
+            ..Material::default()
+        };
+        match i {
+            6 => m.diffuse = Vec3::ZERO,
+            7 => m.transmittance = Vec3::ZERO,
+            _ => {}
+        }
+        out.push(m.record());
+    }
     out
 }
 

@@ -112,6 +112,53 @@ fn bdpt_and_mmlt_render_the_glass_furnace_at_one() {
     );
 }
 
+/// Diffuse transmission (pbrt-v4's `diffusetransmission`) conserves energy when R + T =
+/// 1: each bounce's weight is R + T whatever the lobe, so a grey sphere that reflects 0.3
+/// and transmits 0.7 renders exactly 1 in the white furnace, in the path tracer, BDPT and
+/// MMLT (the light left inside after 24 bounces, 0.3^22, is nothing); one that absorbs
+/// (T 0.5) renders less (the test can fail).
+#[test]
+fn diffuse_transmission_renders_the_white_furnace_at_one_in_every_integrator() {
+    let s = furnace(
+        "brdf diffusetransmission\ndiffuse 0.3 0.3 0.3\ntransmittance 0.7 0.7 0.7",
+        24,
+    );
+    let pt = with_integrator(s.clone(), IntegratorKind::PathTracer, 64);
+    assert_agree(
+        "pt diffuse transmission furnace",
+        &estimate(&pt, 4, 3, Bvh),
+        &exact([1.0; 3], 10),
+        5.0,
+        0.002,
+    );
+    let bdpt = with_integrator(s.clone(), IntegratorKind::Bdpt, 32);
+    assert_agree(
+        "bdpt diffuse transmission furnace",
+        &estimate(&bdpt, 4, 3, Bvh),
+        &exact([1.0; 3], 10),
+        5.0,
+        0.002,
+    );
+    let mmlt = with_mmlt(s, 64);
+    assert_agree(
+        "mmlt diffuse transmission furnace",
+        &estimate(&mmlt, 4, 3, Bvh),
+        &exact([1.0; 3], 10),
+        5.0,
+        0.01,
+    );
+    let absorbing = furnace(
+        "brdf diffusetransmission\ndiffuse 0.3 0.3 0.3\ntransmittance 0.5 0.5 0.5",
+        24,
+    );
+    let dim = render(
+        &with_integrator(absorbing, IntegratorKind::PathTracer, 16),
+        1,
+        Bvh,
+    );
+    assert!(dim.mean()[0] < 0.95, "{:?}", dim.mean());
+}
+
 /// The Cornell box with a glass sphere and a rough copper box, at test size.
 fn cornell_glass(roughness: f32) -> Scene {
     let mut s = sized("cornell-glass.test", 24, 24, 6);

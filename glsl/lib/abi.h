@@ -85,6 +85,9 @@
 #define BSDF_THIN_DIELECTRIC 3
 #define BSDF_CONDUCTOR 4
 #define BSDF_COATED_DIFFUSE 5
+// pbrt-v4's diffusetransmission: Lambertian reflection (kd) on wo's side, Lambertian
+// transmission (ks) through to the other.
+#define BSDF_DIFFUSE_TRANSMISSION 6
 
 // Specialization constants (set per scene when a pipeline is created): code for what
 // the scene lacks is removed before the driver compiles the kernel (lib/features.glsl).
@@ -103,8 +106,10 @@
 // maxdepth -1: BDPT's camera walks go on beyond the strategies' cap, with Russian
 // roulette and the weights of the two strategies left there (lib/bdpt.glsl).
 #define FEATURE_UNBOUNDED 32
+// Diffuse transmission materials (a case of the interface class's kernels).
+#define FEATURE_DIFFUSE_TRANSMISSION 64
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 63
+#define FEATURE_ALL 127
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
@@ -188,7 +193,8 @@
 #define WF_QUEUE_CLASS_COATED 4
 #define WF_QUEUE_COUNT 5
 // Material classes, each shaded by its own kernel: the course BRDFs (Phong, GGX); the
-// interfaces (dielectric, thin dielectric, conductor); coated diffuse.
+// interfaces (dielectric, thin dielectric, conductor) and diffuse transmission; coated
+// diffuse.
 #define MATERIAL_CLASS_BASIC 0
 #define MATERIAL_CLASS_INTERFACE 1
 #define MATERIAL_CLASS_COATED 2
@@ -269,13 +275,13 @@ struct GpuSphere {
 // kinds to come (a dielectric's index of refraction, a conductor's complex Fresnel per
 // channel, anisotropic roughness, textures). Fields a kind does not use are zero.
 struct GpuMaterial {
-    vec4 diffuse;        // xyz diffuse reflectance kd
-    vec4 specular;       // xyz specular colour ks (Phong), Fresnel F0 (GGX)
+    vec4 diffuse;        // xyz diffuse reflectance kd (diffuse transmission: its reflectance)
+    vec4 specular;       // xyz specular colour ks (Phong), Fresnel F0 (GGX), transmittance (diffuse transmission)
     vec4 emission;       // xyz emitted radiance
     vec4 eta;            // dielectric, thin dielectric: x index of refraction (inside over outside); conductor: xyz per channel
     vec4 k;              // xyz conductor absorption
     vec4 roughness;      // x Phong exponent, y GGX alpha (u), z GGX alpha (v)
-    uvec4 info;          // x kind (BSDF_*), y flags (MATERIAL_*), z diffuse texture, w roughness texture (NO_TEXTURE: none)
+    uvec4 info;          // x kind (BSDF_*), y flags (MATERIAL_*), z diffuse texture, w roughness texture (diffuse transmission: transmittance texture; NO_TEXTURE: none)
 };
 
 // An emitter. Triangles: p0,p1,p2 the vertices. Spheres: info.y the sphere. Point:

@@ -61,6 +61,11 @@ struct BsdfParams {
     vec3 coat;         // coated diffuse: layer thickness, walk's maximum depth, samples
 };
 
+// Diffuse transmission's code is in kernels only for scenes that have it.
+bool bsdf_is_diffuse_transmission(BsdfParams b) {
+    return has_feature(FEATURE_DIFFUSE_TRANSMISSION) && b.kind == BSDF_DIFFUSE_TRANSMISSION;
+}
+
 // The BSDF of material m at a surface point with texture coordinates uv whose normal, as
 // the caller will pass it, points to the material's outside (front) or inside (!front).
 BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv) {
@@ -78,7 +83,9 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv) {
     // Textures replace the diffuse reflectance and the roughness (first channel).
     if (!has_feature(FEATURE_MATERIAL_TEXTURES)) return b;
     if (m.info.z != NO_TEXTURE) b.kd = texture_value(m.info.z, uv);
-    if (m.info.w != NO_TEXTURE) {
+    if (m.info.w != NO_TEXTURE && bsdf_is_diffuse_transmission(b)) {
+        b.ks = texture_value(m.info.w, uv);
+    } else if (m.info.w != NO_TEXTURE) {
         float a = texture_value(m.info.w, uv).x;
         b.roughness = a;
         b.alpha = vec2(a);
@@ -404,6 +411,39 @@ bool conductor_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, out BsdfSamp
     return s.pdf > 0.0 && !isinf(s.pdf) && s.f != vec3(0.0);
 }
 
+// Diffuse transmission (pbrt-v4's DiffuseTransmissionBxDF), in the local frame of wo
+// (wo.z > 0): R/pi toward wo's side, T/pi through to the other; sampled as cosine lobes
+// on either side, chosen in proportion to max(R) and max(T).
+vec2 diffuse_transmission_weights(BsdfParams b) {
+    float pr = max(b.kd.x, max(b.kd.y, b.kd.z));
+    float pt = max(b.ks.x, max(b.ks.y, b.ks.z));
+    return vec2(max(pr, 0.0), max(pt, 0.0));
+}
+
+vec3 diffuse_transmission_f(BsdfParams b, vec3 wo, vec3 wi) {
+    if (wi.z == 0.0) return vec3(0.0);
+    return (wi.z > 0.0 ? b.kd : b.ks) * INV_PI;
+}
+
+float diffuse_transmission_pdf(BsdfParams b, vec3 wo, vec3 wi) {
+    vec2 p = diffuse_transmission_weights(b);
+    if (wi.z == 0.0 || !(p.x + p.y > 0.0)) return 0.0;
+    return abs(wi.z) * INV_PI * (wi.z > 0.0 ? p.x : p.y) / (p.x + p.y);
+}
+
+bool diffuse_transmission_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, out BsdfSample s) {
+    vec2 p = diffuse_transmission_weights(b);
+    if (!(p.x + p.y > 0.0)) return false;
+    vec3 wi = sample_cosine_hemisphere(u.yz);
+    bool reflect = u.x < p.x / (p.x + p.y);
+    if (!reflect) wi.z = -wi.z;
+    s.f = diffuse_transmission_f(b, wo, wi);
+    s.pdf = diffuse_transmission_pdf(b, wo, wi);
+    s.flags = reflect ? BSDF_LOBE_REFLECTION : BSDF_LOBE_TRANSMISSION;
+    s.wi = from_local(fr, wi);
+    return s.pdf > 0.0 && !isinf(s.pdf) && s.f != vec3(0.0);
+}
+
 #include "layered.glsl"
 
 vec3 interface_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
@@ -412,6 +452,7 @@ vec3 interface_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
     vec3 lo = to_local(fr, wo);
     vec3 li = to_local(fr, wi);
     if (b.kind == BSDF_DIELECTRIC) return dielectric_f(b.alpha, local_eta(b, fr), lo, li, transport);
+    if (bsdf_is_diffuse_transmission(b)) return diffuse_transmission_f(b, lo, li);
     return conductor_f(b, lo, li);
 }
 
@@ -421,6 +462,7 @@ float interface_pdf(BsdfParams b, vec3 n, vec3 wo, vec3 wi) {
     vec3 lo = to_local(fr, wo);
     vec3 li = to_local(fr, wi);
     if (b.kind == BSDF_DIELECTRIC) return dielectric_pdf(b.alpha, local_eta(b, fr), lo, li);
+    if (bsdf_is_diffuse_transmission(b)) return diffuse_transmission_pdf(b, lo, li);
     return conductor_pdf(b, lo, li);
 }
 
@@ -434,6 +476,7 @@ bool interface_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, uint transport, out
     if (!(lo.z > 0.0)) return false;
     if (b.kind == BSDF_DIELECTRIC) return dielectric_sample(b, fr, lo, u, transport, s);
     if (b.kind == BSDF_THIN_DIELECTRIC) return thin_dielectric_sample(b, fr, lo, u, s);
+    if (bsdf_is_diffuse_transmission(b)) return diffuse_transmission_sample(b, fr, lo, u, s);
     return conductor_sample(b, fr, lo, u, s);
 }
 

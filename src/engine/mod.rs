@@ -472,8 +472,8 @@ impl Engine {
 /// (glsl/lib/features.glsl), so a bit left out here would render that feature wrongly.
 pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
-        FEATURE_COATED_DIFFUSE, FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES,
-        FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_UNBOUNDED,
+        FEATURE_COATED_DIFFUSE, FEATURE_DIFFUSE_TRANSMISSION, FEATURE_ENVIRONMENT_MAP,
+        FEATURE_INTERFACES, FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
@@ -482,9 +482,14 @@ pub fn scene_features(scene: &Scene) -> u32 {
             BsdfKind::Dielectric | BsdfKind::ThinDielectric | BsdfKind::Conductor => {
                 FEATURE_INTERFACES
             }
+            // (A case of the interface class's kernels.)
+            BsdfKind::DiffuseTransmission => FEATURE_INTERFACES | FEATURE_DIFFUSE_TRANSMISSION,
             BsdfKind::Phong | BsdfKind::Ggx => 0,
         };
-        if m.diffuse_texture.is_some() || m.roughness_texture.is_some() {
+        if m.diffuse_texture.is_some()
+            || m.roughness_texture.is_some()
+            || m.transmittance_texture.is_some()
+        {
             features |= FEATURE_MATERIAL_TEXTURES;
         }
         if m.mix.is_some() {
@@ -528,6 +533,10 @@ mod tests {
             scene_features(&scene("brdf coateddiffuse")),
             FEATURE_COATED_DIFFUSE
         );
+        assert_eq!(
+            scene_features(&scene("brdf diffusetransmission")),
+            FEATURE_INTERFACES | FEATURE_DIFFUSE_TRANSMISSION
+        );
         // A constant environment needs no code of its own; a map does.
         assert_eq!(scene_features(&scene("envlight 1 1 1")), 0);
         let mut s = scene("brdf ggx");
@@ -568,7 +577,8 @@ mod tests {
             | FEATURE_MATERIAL_TEXTURES
             | FEATURE_ENVIRONMENT_MAP
             | FEATURE_MIX
-            | FEATURE_UNBOUNDED;
+            | FEATURE_UNBOUNDED
+            | FEATURE_DIFFUSE_TRANSMISSION;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -9,7 +9,7 @@ use crate::engine::{band_rows, Dispatch, Engine, PassStage, Passes, RunOptions, 
 use crate::gpu::buffer::Buffer;
 use crate::gpu::kernels::Kernel;
 use crate::io::Image;
-use crate::scene::{BsdfKind, Scene};
+use crate::scene::Scene;
 use crate::trace::Trace;
 use anyhow::Result;
 use ash::vk;
@@ -213,13 +213,7 @@ pub(crate) fn material_classes(scene: &Scene) -> Vec<u32> {
         if m.mix.is_some() {
             continue;
         }
-        let class = match m.bsdf {
-            BsdfKind::Phong | BsdfKind::Ggx => MATERIAL_CLASS_BASIC,
-            BsdfKind::Dielectric | BsdfKind::ThinDielectric | BsdfKind::Conductor => {
-                MATERIAL_CLASS_INTERFACE
-            }
-            BsdfKind::CoatedDiffuse => MATERIAL_CLASS_COATED,
-        };
+        let class = m.bsdf.class();
         if !classes.contains(&class) {
             classes.push(class);
         }

@@ -60,6 +60,8 @@ pub struct Material {
     pub thickness: f32,
     pub layer_max_depth: u32,
     pub layer_samples: u32,
+    /// Diffuse transmission: the transmittance T (its reflectance R is `diffuse`).
+    pub transmittance: Vec3,
     pub emission: Vec3,
     /// `emission` emits from both sides; a `quadLight` only from its front
     /// (the side its geometric normal points to).
@@ -69,6 +71,8 @@ pub struct Material {
     /// The float texture (its first channel) that replaces the microfacet alpha
     /// (`roughness` and `roughness_v` alike).
     pub roughness_texture: Option<u32>,
+    /// Diffuse transmission: the texture that replaces `transmittance`.
+    pub transmittance_texture: Option<u32>,
     /// pbrt-v4's `mix`: not a surface but a choice between two materials at each point
     /// (the BSDF fields are unused; `emission` is the emitter's, and both materials
     /// carry it too).
@@ -110,10 +114,12 @@ impl Default for Material {
             thickness: 0.01,
             layer_max_depth: 10,
             layer_samples: 1,
+            transmittance: Vec3::ZERO,
             emission: Vec3::ZERO,
             two_sided_emission: true,
             diffuse_texture: None,
             roughness_texture: None,
+            transmittance_texture: None,
             mix: None,
         }
     }
@@ -152,9 +158,16 @@ impl Material {
                 ..GpuMaterial::default()
             };
         }
+        let transmits = self.bsdf == BsdfKind::DiffuseTransmission;
         GpuMaterial {
             diffuse: self.diffuse.extend(0.0).to_array(),
-            specular: self.specular.extend(0.0).to_array(),
+            specular: if transmits {
+                self.transmittance
+            } else {
+                self.specular
+            }
+            .extend(0.0)
+            .to_array(),
             emission: self.emission.extend(0.0).to_array(),
             // Only the fields of the material's own kind, so that materials differing
             // only in another kind's parameters are one material.
@@ -163,7 +176,7 @@ impl Material {
                     [self.ior, self.ior, self.ior, 0.0]
                 }
                 BsdfKind::Conductor => self.eta.extend(0.0).to_array(),
-                BsdfKind::Phong | BsdfKind::Ggx => [0.0; 4],
+                BsdfKind::Phong | BsdfKind::Ggx | BsdfKind::DiffuseTransmission => [0.0; 4],
             },
             k: match self.bsdf {
                 BsdfKind::Conductor => self.k.extend(0.0).to_array(),
@@ -184,7 +197,12 @@ impl Material {
                     0
                 },
                 self.diffuse_texture.unwrap_or(NO_TEXTURE),
-                self.roughness_texture.unwrap_or(NO_TEXTURE),
+                if transmits {
+                    self.transmittance_texture
+                } else {
+                    self.roughness_texture
+                }
+                .unwrap_or(NO_TEXTURE),
             ],
         }
     }

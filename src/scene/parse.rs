@@ -229,8 +229,9 @@ const COMMANDS: &[(&str, &str)] = &[
     ("roughness", "a [av]"),
     (
         "brdf",
-        "phong|ggx|dielectric|thindielectric|conductor|coateddiffuse",
+        "phong|ggx|dielectric|thindielectric|conductor|coateddiffuse|diffusetransmission",
     ),
+    ("transmittance", "r g b"),
     ("thickness", "T"),
     ("layerdepth", "N"),
     ("layersamples", "N"),
@@ -632,8 +633,13 @@ impl Parser {
                     ("thindielectric", BsdfKind::ThinDielectric),
                     ("conductor", BsdfKind::Conductor),
                     ("coateddiffuse", BsdfKind::CoatedDiffuse),
+                    ("diffusetransmission", BsdfKind::DiffuseTransmission),
                 ])?;
                 self.set_material(|m| m.bsdf = brdf);
+            }
+            "transmittance" => {
+                let t = cmd.color(0, "the transmittance")?;
+                self.set_material(|m| m.transmittance = t);
             }
             "thickness" => {
                 let t = cmd.non_negative(0, "the thickness")?;
@@ -2156,7 +2162,7 @@ mod tests {
             "brdf blinn",
             1,
             "brdf",
-            "expected 'phong' or 'ggx' or 'dielectric' or 'thindielectric' or 'conductor' or 'coateddiffuse', got 'blinn'",
+            "expected 'phong' or 'ggx' or 'dielectric' or 'thindielectric' or 'conductor' or 'coateddiffuse' or 'diffusetransmission', got 'blinn'",
         );
         check_err("brdf GGX", 1, "brdf", "got 'GGX'");
         let e = check_err(

@@ -1703,6 +1703,49 @@ impl Parser {
                     return Err(self.err_at(file, line, d, "thickness must not be negative"));
                 }
             }
+            "diffusetransmission" => {
+                // pbrt-v4: R and T (0.25 each) times `scale`, each clamped to [0, 1].
+                m.bsdf = BsdfKind::DiffuseTransmission;
+                let scale = params
+                    .find("scale")
+                    .and_then(|p| p.nums.first().copied())
+                    .unwrap_or(1.0) as f32;
+                if !(scale >= 0.0 && scale.is_finite()) {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!("scale must be non-negative and finite, got {scale}"),
+                    ));
+                }
+                for name in ["reflectance", "transmittance"] {
+                    let c = match self.value(params, name, false, d)? {
+                        Some(Value::Const(c)) => c,
+                        Some(Value::Texture(t)) => {
+                            if scale != 1.0 {
+                                self.unsupported(
+                                    file,
+                                    line,
+                                    format!("diffusetransmission: scale with a textured {name}"),
+                                );
+                            }
+                            if name == "reflectance" {
+                                m.diffuse_texture = Some(t);
+                            } else {
+                                m.transmittance_texture = Some(t);
+                            }
+                            Vec3::splat(0.25)
+                        }
+                        None => Vec3::splat(0.25),
+                    };
+                    let c = (c * scale).clamp(Vec3::ZERO, Vec3::ONE);
+                    if name == "reflectance" {
+                        m.diffuse = c;
+                    } else {
+                        m.transmittance = c;
+                    }
+                }
+            }
             "dielectric" | "thindielectric" => {
                 m.bsdf = if ty == "dielectric" {
                     BsdfKind::Dielectric
@@ -2924,6 +2967,34 @@ mod tests {
                 "no names recorded for {d} {ty}"
             );
         }
+    }
+
+    /// pbrt-v4's diffusetransmission: R and T default to 0.25, `scale` multiplies both and
+    /// each is clamped to [0, 1]; a texture replaces either.
+    #[test]
+    fn diffuse_transmission_reads_reflectance_transmittance_and_scale() {
+        let s = parse(&format!(
+            r#"WorldBegin
+            Material "diffusetransmission"
+            {QUAD}
+            Material "diffusetransmission" "rgb reflectance" [ 0.2 0.3 0.6 ] "rgb transmittance" [ 0.1 0.5 0.4 ] "float scale" 2
+            {QUAD}
+            Texture "t" "spectrum" "checkerboard" "rgb tex1" [ 0.1 0.1 0.1 ] "rgb tex2" [ 0.9 0.9 0.9 ]
+            Material "diffusetransmission" "texture transmittance" "t"
+            {QUAD}
+            "#
+        ));
+        let m = |i: usize| s.materials[s.triangles[2 * i].material as usize];
+        assert!((0..3).all(|i| m(i).bsdf == BsdfKind::DiffuseTransmission));
+        assert_eq!(m(0).diffuse, Vec3::splat(0.25));
+        assert_eq!(m(0).transmittance, Vec3::splat(0.25));
+        assert_eq!(m(1).diffuse, Vec3::new(0.4, 0.6, 1.0));
+        assert_eq!(m(1).transmittance, Vec3::new(0.2, 1.0, 0.8));
+        assert!(m(2).transmittance_texture.is_some() && m(2).diffuse_texture.is_none());
+        // The record carries T in `specular` and its texture in info.w.
+        let r = m(1).record();
+        assert_eq!(r.specular[..3], [0.2, 1.0, 0.8]);
+        assert_eq!(m(2).record().info[3], m(2).transmittance_texture.unwrap());
     }
 
     #[test]
