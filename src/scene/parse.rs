@@ -1723,6 +1723,7 @@ mod tests {
         "checkerboard 1 1 1  0 0 0  4 4",
         "reflectance 0.9 0.6 0.3",
         "thickness 0.02",
+        "transmittance 0.4 0.5 0.6",
         "layerdepth 12",
         "layersamples 2",
         "envmap tests/data/sky.pfm 2",

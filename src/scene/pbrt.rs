@@ -1147,6 +1147,8 @@ impl Parser {
         Ok(())
     }
 
+    /// `Include` and `Import` (which lightpath reads alike): the file's tokens in place of
+    /// the directive. A name ending in `.gz` is a gzip-compressed file, as pbrt-v4 reads it.
     fn include(&mut self, name: &str, file: u32, line: u32, d: &str) -> Result<(), ParseError> {
         if self.dirs.len() >= MAX_FILES {
             return Err(self.err_at(
@@ -1158,7 +1160,7 @@ impl Parser {
         }
         let base = self.dirs[file as usize].clone();
         let path = base.join(name);
-        let text = std::fs::read_to_string(&path).map_err(|e| {
+        let text = read_scene_text(&path).map_err(|e| {
             self.err_at(
                 file,
                 line,
@@ -2809,6 +2811,23 @@ fn describe(t: &Tok) -> String {
     }
 }
 
+/// A scene file's text; gzip-compressed when its name ends in `.gz`.
+fn read_scene_text(path: &Path) -> std::io::Result<String> {
+    let raw = std::fs::read(path)?;
+    let bytes = if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gz"))
+    {
+        let mut out = Vec::new();
+        std::io::Read::read_to_end(&mut flate2::read::GzDecoder::new(&raw[..]), &mut out)?;
+        out
+    } else {
+        raw
+    };
+    String::from_utf8(bytes)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -3403,6 +3422,29 @@ mod tests {
         let s = parse_pbrt_file(&d.join("main.pbrt")).unwrap();
         assert_eq!(s.triangles.len(), 2);
         assert_eq!(s.materials[0].diffuse, Vec3::new(0.1, 0.2, 0.3));
+        // A gzip-compressed include (pbrt-v4's `.pbrt.gz`); a corrupt one is an error
+        // naming the file.
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        std::io::Write::write_all(&mut gz, format!("{QUAD}\n").as_bytes()).unwrap();
+        std::fs::write(d.join("sub/c.pbrt.gz"), gz.finish().unwrap()).unwrap();
+        std::fs::write(
+            d.join("gz.pbrt"),
+            "WorldBegin\nInclude \"sub/c.pbrt.gz\"\nImport \"sub/c.pbrt.gz\"\n",
+        )
+        .unwrap();
+        let s = parse_pbrt_file(&d.join("gz.pbrt")).unwrap();
+        assert_eq!(s.triangles.len(), 4);
+        std::fs::write(d.join("sub/bad.pbrt.gz"), "not gzip").unwrap();
+        std::fs::write(
+            d.join("bad.pbrt"),
+            "WorldBegin\nInclude \"sub/bad.pbrt.gz\"\n",
+        )
+        .unwrap();
+        let e = parse_pbrt_file(&d.join("bad.pbrt")).expect_err("not gzip");
+        assert!(
+            e.to_string().contains("bad.pbrt:2") && e.message.contains("bad.pbrt.gz"),
+            "{e}"
+        );
         std::fs::write(d.join("loop.pbrt"), "Include \"loop.pbrt\"\n").unwrap();
         let e = parse_pbrt_file(&d.join("loop.pbrt")).expect_err("a loop");
         assert!(e.message.contains("include itself"), "{e}");
