@@ -116,6 +116,9 @@
 // pbrt's mix, not a surface: specular.xy (uint bits) the two materials, specular.z the
 // second's probability, info.z its float texture; resolved by surface_at.
 #define MATERIAL_MIX 2
+// The roughness texture (info.w) holds pbrt's roughness r, not alpha: alpha = sqrt(r) at
+// lookup (pbrt-v4's `remaproughness`, RoughnessToAlpha).
+#define MATERIAL_REMAP_ROUGHNESS 4
 // The deepest nesting of mixes.
 #define MAX_MATERIAL_MIX_DEPTH 8
 

@@ -87,6 +87,7 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv) {
         b.ks = texture_value(m.info.w, uv);
     } else if (m.info.w != NO_TEXTURE) {
         float a = texture_value(m.info.w, uv).x;
+        if ((m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(max(a, 0.0));
         b.roughness = a;
         b.alpha = vec2(a);
     }

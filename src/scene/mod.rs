@@ -32,7 +32,8 @@ use std::path::PathBuf;
 
 pub use crate::abi::{BsdfKind, SampleMode};
 use crate::abi::{
-    GpuMaterial, MATERIAL_MIX, MATERIAL_TWO_SIDED_EMISSION, MAX_MATERIAL_MIX_DEPTH, NO_TEXTURE,
+    GpuMaterial, MATERIAL_MIX, MATERIAL_REMAP_ROUGHNESS, MATERIAL_TWO_SIDED_EMISSION,
+    MAX_MATERIAL_MIX_DEPTH, NO_TEXTURE,
 };
 pub use crate::texture::{Environment, EnvironmentMap, Texture, UV_MAPPING};
 
@@ -71,6 +72,9 @@ pub struct Material {
     /// The float texture (its first channel) that replaces the microfacet alpha
     /// (`roughness` and `roughness_v` alike).
     pub roughness_texture: Option<u32>,
+    /// The roughness texture holds pbrt's roughness r rather than alpha: alpha = √r at
+    /// each lookup (pbrt-v4's `remaproughness` with a texture).
+    pub remap_roughness_texture: bool,
     /// Diffuse transmission: the texture that replaces `transmittance`.
     pub transmittance_texture: Option<u32>,
     /// pbrt-v4's `mix`: not a surface but a choice between two materials at each point
@@ -119,6 +123,7 @@ impl Default for Material {
             two_sided_emission: true,
             diffuse_texture: None,
             roughness_texture: None,
+            remap_roughness_texture: false,
             transmittance_texture: None,
             mix: None,
         }
@@ -193,6 +198,13 @@ impl Material {
                 self.bsdf as u32,
                 if self.two_sided_emission {
                     MATERIAL_TWO_SIDED_EMISSION
+                } else {
+                    0
+                } | if self.remap_roughness_texture
+                    && !transmits
+                    && self.roughness_texture.is_some()
+                {
+                    MATERIAL_REMAP_ROUGHNESS
                 } else {
                     0
                 },

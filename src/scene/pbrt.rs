@@ -1620,10 +1620,8 @@ impl Parser {
             let remap_f = |x: f32| if remap { x.max(0.0).sqrt() } else { x };
             match (u, v) {
                 (Some(Value::Texture(t)), _) | (_, Some(Value::Texture(t))) => {
-                    if remap {
-                        this.unsupported(file, line, "a roughness texture with remaproughness (lightpath reads textures as alpha: set remaproughness false)");
-                    }
                     m.roughness_texture = Some(t);
+                    m.remap_roughness_texture = remap;
                 }
                 (u, v) => {
                     let get = |x: Option<Value>| match x {
