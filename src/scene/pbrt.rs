@@ -272,6 +272,10 @@ enum MaterialRef {
 #[derive(Clone, Debug)]
 struct GraphicsState {
     ctm: Mat4,
+    /// `ActiveTransform`: whether transform directives change the shutter-open transform,
+    /// the one lightpath renders at (false after `ActiveTransform EndTime`: they change
+    /// only the shutter-close one, which motion blur alone would use).
+    start_active: bool,
     reverse: bool,
     material: MaterialRef,
     area: Option<AreaLight>,
@@ -367,6 +371,7 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
         dirs: vec![dir],
         gs: GraphicsState {
             ctm: Mat4::IDENTITY,
+            start_active: true,
             reverse: false,
             material: MaterialRef::Material(diffuse(Vec3::splat(0.5))),
             area: None,
@@ -796,6 +801,17 @@ impl Parser {
         #[cfg(test)]
         ASKED.with(|a| a.borrow_mut().clear());
         let ctm = self.gs.ctm;
+        let transform = matches!(
+            d,
+            "Identity"
+                | "Translate"
+                | "Scale"
+                | "Rotate"
+                | "LookAt"
+                | "Transform"
+                | "ConcatTransform"
+                | "CoordSysTransform"
+        );
         match d {
             "Identity" => self.gs.ctm = Mat4::IDENTITY,
             "Translate" => {
@@ -1123,11 +1139,8 @@ impl Parser {
                     match self.next_token() {
                         Some(Token {
                             tok: Tok::Word(w), ..
-                        }) if w == "All" => {}
-                        Some(Token {
-                            tok: Tok::Word(w), ..
-                        }) if w == "StartTime" || w == "EndTime" => {
-                            self.unsupported(file, line, "ActiveTransform (an animated transform)");
+                        }) if w == "All" || w == "StartTime" || w == "EndTime" => {
+                            self.gs.start_active = w != "EndTime";
                         }
                         _ => {
                             return Err(self.err_at(
@@ -1143,6 +1156,18 @@ impl Parser {
             other => {
                 return Err(self.err_at(file, line, other, format!("unknown directive '{other}'")));
             }
+        }
+        // Motion blur is not rendered: a transform of the shutter-close time alone leaves
+        // the shutter-open transform, the one rendered, as it was.
+        if transform && !self.gs.start_active {
+            self.gs.ctm = ctm;
+            self.warn(
+                "motion",
+                format!(
+                    "{}:{line}: an animated transform (ActiveTransform EndTime): rendered at the shutter-open transform, without motion blur",
+                    self.files[file as usize]
+                ),
+            );
         }
         Ok(())
     }
@@ -1199,6 +1224,25 @@ impl Parser {
                 "Camera",
                 format!("fov must be between 0 and 180 degrees, got {fov}"),
             ));
+        }
+        // The shutter interval: lightpath renders the shutter-open instant (no motion blur).
+        for name in ["shutteropen", "shutterclose"] {
+            if let Some(p) = params.find(name) {
+                let x = p.nums.first().copied().unwrap_or(f64::NAN);
+                if !x.is_finite() {
+                    return Err(self.err_at(
+                        p.file,
+                        p.line,
+                        "Camera",
+                        format!("{name} must be a finite number, got {x}"),
+                    ));
+                }
+                let at = format!("{}:{}", self.files[p.file as usize], p.line);
+                self.warn(
+                    name,
+                    format!("{at}: Camera {name}: rendered at the shutter-open transform, without motion blur"),
+                );
+            }
         }
         let positive = |name: &str, default: f64, zero_ok: bool| -> Result<f32, ParseError> {
             let Some(p) = params.find(name) else {
@@ -2984,6 +3028,49 @@ mod tests {
                 "no names recorded for {d} {ty}"
             );
         }
+    }
+
+    /// Animated transforms render at the shutter-open time: transforms after
+    /// `ActiveTransform EndTime` leave the rendered (start) transform as it was, `StartTime`
+    /// and `All` change it, and an attribute block restores which is active; the camera's
+    /// shutter interval is read (a warning), a bad one an error.
+    #[test]
+    fn animated_transforms_render_at_the_shutter_open_time() {
+        let s = parse(
+            r#"Camera "perspective" "float shutteropen" 0 "float shutterclose" 0.5
+            WorldBegin
+            AttributeBegin
+            ActiveTransform EndTime
+            Translate 10 0 0
+            ActiveTransform StartTime
+            Translate 0 1 0
+            Shape "sphere"
+            AttributeEnd
+            AttributeBegin
+            ActiveTransform EndTime
+            AttributeBegin
+            ActiveTransform All
+            Translate 0 0 2
+            Shape "sphere"
+            AttributeEnd
+            Scale 5 5 5
+            Shape "sphere"
+            AttributeEnd
+            "#,
+        );
+        let to_world: Vec<Mat4> = s.spheres.iter().map(|sp| sp.object_to_world).collect();
+        assert_eq!(
+            to_world,
+            vec![
+                Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0)),
+                Mat4::from_translation(Vec3::new(0.0, 0.0, 2.0)),
+                Mat4::IDENTITY
+            ]
+        );
+        let e = parse_err("Camera \"perspective\" \"float shutteropen\" [ ]\n");
+        assert!(e.message.contains("shutteropen"), "{e}");
+        let e = parse_err("WorldBegin\nActiveTransform Later\n");
+        assert!(e.message.contains("StartTime"), "{e}");
     }
 
     /// pbrt-v4's diffusetransmission: R and T default to 0.25, `scale` multiplies both and
