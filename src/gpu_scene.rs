@@ -10,7 +10,7 @@ use crate::gpu::rayquery::RayQueryScene;
 use crate::gpu::{other_error, Device};
 use crate::io::Image;
 use crate::scene::{DeltaLight, NextEventEstimation, Scene, Texture, UV_MAPPING};
-use crate::texture::{environment_mean, environment_weights, Distribution2D, EnvMapping};
+use crate::texture::{environment_mean, environment_weights, Distribution2D, EnvMapping, Wrap};
 use anyhow::Result;
 use ash::vk;
 use glam::{Mat3, Vec2, Vec3};
@@ -269,6 +269,7 @@ pub fn texture_data(scene: &Scene) -> TextureData {
                 image,
                 scale,
                 mapping,
+                wrap,
             } => GpuTexture {
                 info: [
                     TEXTURE_IMAGE,
@@ -276,7 +277,16 @@ pub fn texture_data(scene: &Scene) -> TextureData {
                     image.width,
                     image.height,
                 ],
-                flags: [TEXTURE_WRAP_REPEAT, 0, 0, 0],
+                flags: [
+                    match wrap {
+                        Wrap::Repeat => TEXTURE_WRAP_REPEAT,
+                        Wrap::Clamp => TEXTURE_WRAP_CLAMP,
+                        Wrap::Black => TEXTURE_WRAP_BLACK,
+                    },
+                    0,
+                    0,
+                    0,
+                ],
                 scale: scale.extend(0.0).to_array(),
                 other: [0.0; 4],
                 mapping: *mapping,

@@ -20,6 +20,8 @@ pub enum Texture {
         image: Arc<Image>,
         scale: Vec3,
         mapping: [f32; 4],
+        /// Beyond the image's sides (both axes alike).
+        wrap: Wrap,
     },
     /// pbrt's 2D checkerboard: `even` where floor(s) + floor(t) is even, else `odd`.
     Checkerboard {
@@ -200,25 +202,39 @@ pub fn read_pfm(bytes: &[u8]) -> Result<Image, String> {
     })
 }
 
+/// What an image lookup finds beyond a side of the image (pbrt-v4's wrap modes; abi.h
+/// `TEXTURE_WRAP_*`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    Repeat,
+    Clamp,
+    /// Texels outside the image are black.
+    Black,
+}
+
 /// Bilinear lookup of `image` at (x, y) in [0,1]² from its top-left corner (texel
-/// centres at half-integers of x·width, y·height), repeating or clamping at each side.
-pub fn bilinear(image: &Image, p: Vec2, repeat_x: bool, repeat_y: bool) -> Vec3 {
+/// centres at half-integers of x·width, y·height), each side wrapped as `wrap_x`,
+/// `wrap_y` say.
+pub fn bilinear(image: &Image, p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
     let (w, h) = (image.width as i64, image.height as i64);
-    let wrap = |i: f32, n: i64, repeat: bool| -> usize {
-        let i = if repeat {
+    let wrap = |i: f32, n: i64, wrap: Wrap| -> Option<usize> {
+        if wrap == Wrap::Black && (i < 0.0 || i >= n as f32) {
+            return None;
+        }
+        let i = if wrap == Wrap::Repeat {
             i - n as f32 * (i / n as f32).floor()
         } else {
             i
         };
-        (i as i64).clamp(0, n - 1) as usize
+        Some((i as i64).clamp(0, n - 1) as usize)
     };
     let x = p.x * w as f32 - 0.5;
     let y = p.y * h as f32 - 0.5;
     let (fx, fy) = (x.floor(), y.floor());
     let (ax, ay) = (x - fx, y - fy);
-    let at = |i: f32, j: f32| {
-        let c = image.pixels[wrap(j, h, repeat_y) * w as usize + wrap(i, w, repeat_x)];
-        Vec3::from_array(c)
+    let at = |i: f32, j: f32| match (wrap(i, w, wrap_x), wrap(j, h, wrap_y)) {
+        (Some(x), Some(y)) => Vec3::from_array(image.pixels[y * w as usize + x]),
+        _ => Vec3::ZERO,
     };
     let top = at(fx, fy).lerp(at(fx + 1.0, fy), ax);
     let bottom = at(fx, fy + 1.0).lerp(at(fx + 1.0, fy + 1.0), ax);
@@ -241,9 +257,10 @@ pub fn texture_value(t: &Texture, uv: Vec2) -> Vec3 {
             image,
             scale,
             mapping,
+            wrap,
         } => {
             let st = st(mapping);
-            *scale * bilinear(image, Vec2::new(st.x, 1.0 - st.y), true, true)
+            *scale * bilinear(image, Vec2::new(st.x, 1.0 - st.y), *wrap, *wrap)
         }
     }
 }
@@ -255,8 +272,12 @@ pub fn environment_radiance(env: &Environment, dir: Vec3) -> Vec3 {
     };
     let local = map.to_world.transpose() * dir;
     let uv = map.mapping.uv(local);
-    let repeat_x = map.mapping == EnvMapping::LatLong;
-    env.radiance * bilinear(&map.image, uv, repeat_x, false)
+    let wrap_x = if map.mapping == EnvMapping::LatLong {
+        Wrap::Repeat
+    } else {
+        Wrap::Clamp
+    };
+    env.radiance * bilinear(&map.image, uv, wrap_x, Wrap::Clamp)
 }
 
 /// How an environment map's (u, v) in [0,1]² (u to the right, v down from the top row)
@@ -690,10 +711,34 @@ mod tests {
             image: std::sync::Arc::new(img),
             scale: Vec3::ONE,
             mapping: UV_MAPPING,
+            wrap: Wrap::Repeat,
         };
         assert_eq!(texture_value(&t, Vec2::new(0.25, 0.25)), Vec3::splat(3.0));
         assert_eq!(texture_value(&t, Vec2::new(1.75, 0.75)), Vec3::splat(2.0));
         assert_eq!(texture_value(&t, Vec2::new(0.5, 0.25)), Vec3::splat(3.5));
+        // Between the last and the first column: repeating mixes them, clamping keeps
+        // the last, black fades to 0 beyond the side; outside entirely, black is 0.
+        let with = |wrap| match &t {
+            Texture::Image { image, .. } => Texture::Image {
+                image: image.clone(),
+                scale: Vec3::ONE,
+                mapping: UV_MAPPING,
+                wrap,
+            },
+            _ => unreachable!(),
+        };
+        let at = Vec2::new(1.0, 0.25);
+        assert_eq!(texture_value(&with(Wrap::Repeat), at), Vec3::splat(3.5));
+        assert_eq!(texture_value(&with(Wrap::Clamp), at), Vec3::splat(4.0));
+        assert_eq!(texture_value(&with(Wrap::Black), at), Vec3::splat(2.0));
+        assert_eq!(
+            texture_value(&with(Wrap::Black), Vec2::new(1.6, 0.25)),
+            Vec3::ZERO
+        );
+        assert_eq!(
+            texture_value(&with(Wrap::Clamp), Vec2::new(-3.0, 0.25)),
+            Vec3::splat(3.0)
+        );
     }
 
     #[test]

@@ -10,8 +10,8 @@ use glam::{Vec2, Vec3};
 use lightpath::gpu_scene::scene_params;
 use lightpath::io::Image;
 use lightpath::render::AccelChoice::Bvh;
-use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene};
-use lightpath::texture::{environment_radiance, texture_value};
+use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene, Texture};
+use lightpath::texture::{environment_radiance, texture_value, Wrap};
 use std::path::PathBuf;
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -112,23 +112,30 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
         png.display(),
         obj.display()
     ));
-    let texture = s.textures[0].clone();
-    let expected = expected_image(&s, |o, d| {
-        let t = -o.z / d.z;
-        let p = o + t * d;
-        if p.x.abs() > 1.0 || p.y.abs() > 1.0 {
-            return Vec3::ONE;
+    // Each of pbrt-v4's wrap modes (u passes the image's side at 1).
+    for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Black] {
+        let mut s = s.clone();
+        if let Texture::Image { wrap: w, .. } = &mut s.textures[0] {
+            *w = wrap;
         }
-        // Bilinear in the square's corners: u = 1.5 (1 - y') , v = x' with x', y' in [0,1].
-        let (x, y) = ((p.x + 1.0) / 2.0, (p.y + 1.0) / 2.0);
-        texture_value(&texture, Vec2::new(1.5 * (1.0 - y), x))
-    });
-    let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 1, Bvh);
-    let (mean, max) = differences(&img, &expected);
-    assert!(
-        mean < 0.01 && max < 0.1,
-        "mean difference {mean}, largest {max}"
-    );
+        let texture = s.textures[0].clone();
+        let expected = expected_image(&s, |o, d| {
+            let t = -o.z / d.z;
+            let p = o + t * d;
+            if p.x.abs() > 1.0 || p.y.abs() > 1.0 {
+                return Vec3::ONE;
+            }
+            // Bilinear in the square's corners: u = 1.5 (1 - y') , v = x' with x', y' in [0,1].
+            let (x, y) = ((p.x + 1.0) / 2.0, (p.y + 1.0) / 2.0);
+            texture_value(&texture, Vec2::new(1.5 * (1.0 - y), x))
+        });
+        let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 1, Bvh);
+        let (mean, max) = differences(&img, &expected);
+        assert!(
+            mean < 0.01 && max < 0.1,
+            "{wrap:?}: mean difference {mean}, largest {max}"
+        );
+    }
 }
 
 #[test]

@@ -133,6 +133,8 @@
 // u repeats, v clamps (latitude-longitude environment maps).
 #define TEXTURE_WRAP_REPEAT_U 1
 #define TEXTURE_WRAP_CLAMP 2
+// Texels outside the image are black (pbrt-v4's `black`).
+#define TEXTURE_WRAP_BLACK 3
 
 // How an environment map covers the sphere (SceneParams.env_mapping); src/texture.rs
 // (EnvMapping) says which pixel is which direction.

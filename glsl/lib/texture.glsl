@@ -4,14 +4,18 @@
 #define TEXTURE_GLSL
 #include "bindings.glsl"
 
+// The texel (x, y); black outside the image (x or y negative: wrap_texel's `black`).
 vec3 texel(GpuTexture t, int x, int y) {
+    if (x < 0 || y < 0) return vec3(0.0);
     uint i = t.info.y + 3u * (uint(y) * t.info.z + uint(x));
     return vec3(texels[i], texels[i + 1u], texels[i + 2u]);
 }
 
-// The texel index of the (floored) coordinate i along a side of n texels.
-int wrap_texel(float i, int n, bool repeat) {
+// The texel index of the (floored) coordinate i along a side of n texels: repeating,
+// clamped, or (black) -1 outside the side.
+int wrap_texel(float i, int n, bool repeat, bool black) {
     float fn = float(n);
+    if (black && (i < 0.0 || i >= fn)) return -1;
     if (repeat) i -= fn * floor(i / fn);
     return clamp(int(i), 0, n - 1);
 }
@@ -34,12 +38,13 @@ vec3 texture_value(uint index, vec2 uv) {
     float fy = floor(y);
     float ax = x - fx;
     float ay = y - fy;
-    bool repeat_u = t.flags.x != TEXTURE_WRAP_CLAMP;
+    bool repeat_u = t.flags.x == TEXTURE_WRAP_REPEAT || t.flags.x == TEXTURE_WRAP_REPEAT_U;
     bool repeat_v = t.flags.x == TEXTURE_WRAP_REPEAT;
-    int x0 = wrap_texel(fx, w, repeat_u);
-    int x1 = wrap_texel(fx + 1.0, w, repeat_u);
-    int y0 = wrap_texel(fy, h, repeat_v);
-    int y1 = wrap_texel(fy + 1.0, h, repeat_v);
+    bool black = t.flags.x == TEXTURE_WRAP_BLACK;
+    int x0 = wrap_texel(fx, w, repeat_u, black);
+    int x1 = wrap_texel(fx + 1.0, w, repeat_u, black);
+    int y0 = wrap_texel(fy, h, repeat_v, black);
+    int y1 = wrap_texel(fy + 1.0, h, repeat_v, black);
     vec3 top = mix(texel(t, x0, y0), texel(t, x1, y0), ax);
     vec3 bottom = mix(texel(t, x0, y1), texel(t, x1, y1), ax);
     return t.scale.xyz * mix(top, bottom, ay);

@@ -964,6 +964,7 @@ impl Parser {
             image: Arc::new(image),
             scale: Vec3::ONE,
             mapping: UV_MAPPING,
+            wrap: crate::texture::Wrap::Repeat,
         });
         let index = (self.scene.textures.len() - 1) as u32;
         self.image_textures.insert((path, encoding), index);

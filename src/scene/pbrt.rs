@@ -18,7 +18,7 @@ use super::{
     MaterialMix, NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture, Triangle,
     MAX_MIX_DEPTH,
 };
-use crate::texture::{load_image, Encoding, EnvMapping};
+use crate::texture::{load_image, Encoding, EnvMapping, Wrap};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -2074,16 +2074,25 @@ impl Parser {
                         Encoding::Linear
                     }
                 };
-                if let Some(p) = params.find("invert") {
-                    if p.bools.first() == Some(&true) {
-                        self.unsupported(p.file, p.line, "imagemap: invert");
-                    }
-                }
-                if let Some(p) = params.find("wrap") {
-                    if p.strs.first().map(String::as_str) != Some("repeat") {
-                        self.unsupported(p.file, p.line, "imagemap: a wrap mode other than repeat");
-                    }
-                }
+                let invert = params
+                    .find("invert")
+                    .is_some_and(|p| p.bools.first() == Some(&true));
+                let wrap = match params.find("wrap") {
+                    None => Wrap::Repeat,
+                    Some(p) => match p.strs.first().map(String::as_str) {
+                        Some("repeat") => Wrap::Repeat,
+                        Some("clamp") => Wrap::Clamp,
+                        Some("black") => Wrap::Black,
+                        other => {
+                            self.unsupported(
+                                p.file,
+                                p.line,
+                                format!("imagemap: wrap {other:?} (lightpath reads repeat, clamp and black)"),
+                            );
+                            Wrap::Repeat
+                        }
+                    },
+                };
                 params.find("filter");
                 params.find("maxanisotropy");
                 let scale = num("scale", 1.0);
@@ -2099,10 +2108,22 @@ impl Parser {
                         image
                     }
                 };
+                // pbrt-v4's invert: max(0, 1 - scale · v), made once on the texels (the
+                // same as after the lookup wherever scale · v <= 1, as in [0, 1] images).
+                let (image, scale) = if invert {
+                    let mut inverted = (*image).clone();
+                    for p in &mut inverted.pixels {
+                        *p = p.map(|v| (1.0 - scale * v).max(0.0));
+                    }
+                    (Arc::new(inverted), 1.0)
+                } else {
+                    (image, scale)
+                };
                 self.scene.textures.push(Texture::Image {
                     image,
                     scale: Vec3::splat(scale),
                     mapping,
+                    wrap,
                 });
                 Value::Texture(self.scene.textures.len() as u32 - 1)
             }
@@ -3028,6 +3049,53 @@ mod tests {
                 "no names recorded for {d} {ty}"
             );
         }
+    }
+
+    /// imagemap's `wrap` (repeat, clamp, black) and `invert` (max(0, 1 - scale v), made on
+    /// the texels); octahedralsphere is refused.
+    #[test]
+    fn imagemap_wrap_modes_and_invert() {
+        let d = std::env::temp_dir().join(format!("lightpath-wrap-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let mut pfm = b"PF\n2 1\n-1.0\n".to_vec();
+        for v in [0.2f32, 0.2, 0.2, 3.0, 3.0, 3.0] {
+            pfm.extend(v.to_le_bytes());
+        }
+        std::fs::write(d.join("t.pfm"), pfm).unwrap();
+        let text = |extra: &str| {
+            format!(
+                "WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"t.pfm\" {extra}\n\
+                 Material \"diffuse\" \"texture reflectance\" \"t\"\n{QUAD}\n"
+            )
+        };
+        let image = |extra: &str| {
+            std::fs::write(d.join("s.pbrt"), text(extra)).unwrap();
+            let s = parse_pbrt_file(&d.join("s.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+            match &s.textures[0] {
+                Texture::Image {
+                    image, scale, wrap, ..
+                } => (image.pixels.clone(), *scale, *wrap),
+                other => panic!("{other:?}"),
+            }
+        };
+        let (pixels, scale, wrap) = image("");
+        assert_eq!(
+            (pixels[1], scale, wrap),
+            ([3.0; 3], Vec3::ONE, Wrap::Repeat)
+        );
+        assert_eq!(image("\"string wrap\" \"clamp\"").2, Wrap::Clamp);
+        assert_eq!(image("\"string wrap\" \"black\"").2, Wrap::Black);
+        let (pixels, scale, _) = image("\"bool invert\" true \"float scale\" 0.5");
+        assert_eq!(scale, Vec3::ONE);
+        assert_eq!(pixels, vec![[0.9; 3], [0.0; 3]]);
+        std::fs::write(
+            d.join("s.pbrt"),
+            text("\"string wrap\" \"octahedralsphere\""),
+        )
+        .unwrap();
+        let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("octahedralsphere");
+        assert!(e.message.contains("octahedralsphere"), "{e}");
+        std::fs::remove_dir_all(&d).ok();
     }
 
     /// Animated transforms render at the shutter-open time: transforms after
