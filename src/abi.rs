@@ -34,6 +34,9 @@ pub struct GpuTexture {
     pub scale: [f32; 4],
     pub other: [f32; 4],
     pub mapping: [f32; 4],
+    pub proj0: [f32; 4],
+    pub proj1: [f32; 4],
+    pub proj2: [f32; 4],
 }
 
 #[repr(C)]
@@ -417,7 +420,7 @@ pub fn layouts() -> Vec<StructLayout> {
         layout!(GpuPathVertex, p, n, wi, beta, ns),
         layout!(GpuPtPath, o, d, beta, radiance, prev_p, hit, p, n, ns, ls_wi, ls_le, ls_p, ls_n),
         layout!(GpuTriangleAttributes, uv01, uv2, n0, n1, n2),
-        layout!(GpuTexture, info, flags, scale, other, mapping),
+        layout!(GpuTexture, info, flags, scale, other, mapping, proj0, proj1, proj2),
         layout!(PassParams, first_sample, samples, row_begin, row_end),
         layout!(
             BdptParams,

@@ -270,6 +270,7 @@ pub fn texture_data(scene: &Scene) -> TextureData {
                 scale,
                 mapping,
                 wrap,
+                projection,
             } => GpuTexture {
                 info: [
                     TEXTURE_IMAGE,
@@ -284,19 +285,30 @@ pub fn texture_data(scene: &Scene) -> TextureData {
                         Wrap::Black => TEXTURE_WRAP_BLACK,
                     },
                     0,
-                    0,
+                    projection.record().0,
                     0,
                 ],
                 scale: scale.extend(0.0).to_array(),
                 other: [0.0; 4],
                 mapping: *mapping,
+                proj0: projection.record().1[0],
+                proj1: projection.record().1[1],
+                proj2: projection.record().1[2],
             },
-            Texture::Checkerboard { even, odd, mapping } => GpuTexture {
+            Texture::Checkerboard {
+                even,
+                odd,
+                mapping,
+                projection,
+            } => GpuTexture {
                 info: [TEXTURE_CHECKERBOARD, 0, 0, 0],
-                flags: [0; 4],
+                flags: [0, 0, projection.record().0, 0],
                 scale: even.extend(0.0).to_array(),
                 other: odd.extend(0.0).to_array(),
                 mapping: *mapping,
+                proj0: projection.record().1[0],
+                proj1: projection.record().1[1],
+                proj2: projection.record().1[2],
             },
         });
     }
@@ -323,6 +335,7 @@ pub fn texture_data(scene: &Scene) -> TextureData {
             scale: [1.0; 4],
             other: [0.0; 4],
             mapping: UV_MAPPING,
+            ..GpuTexture::default()
         });
         let weights = environment_weights(image, map.mapping);
         let d = Distribution2D::new(&weights, image.width as usize, image.height as usize);

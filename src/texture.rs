@@ -4,8 +4,11 @@
 //! glsl/lib/lights.glsl; these are their CPU mirrors and what the host builds.
 //! The scene's texture and environment types are defined here (and re-exported by
 //! `crate::scene`), so this module depends on nothing of the scene's.
+use crate::abi::{
+    TEXTURE_MAP_CYLINDRICAL, TEXTURE_MAP_PLANAR, TEXTURE_MAP_SPHERICAL, TEXTURE_MAP_UV,
+};
 use crate::io::Image;
-use glam::{Mat3, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use std::f32::consts::PI;
 use std::path::Path;
 use std::sync::Arc;
@@ -22,13 +25,93 @@ pub enum Texture {
         mapping: [f32; 4],
         /// Beyond the image's sides (both axes alike).
         wrap: Wrap,
+        projection: Projection,
     },
     /// pbrt's 2D checkerboard: `even` where floor(s) + floor(t) is even, else `odd`.
     Checkerboard {
         even: Vec3,
         odd: Vec3,
         mapping: [f32; 4],
+        projection: Projection,
     },
+}
+
+/// How a texture finds its (s, t) (pbrt-v4's TextureMapping2D; abi.h `TEXTURE_MAP_*`):
+/// from the surface's (u, v) (`Uv`, with the texture's `mapping` scales and offsets), or
+/// from the world point taken to texture space (the inverse of the transform in force
+/// where the texture was declared).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    Uv,
+    /// s = θ/π, t = φ/2π of the direction from texture space's origin.
+    Spherical {
+        texture_from_world: Mat4,
+    },
+    /// s = (π + atan2(y, x))/2π, t = z.
+    Cylindrical {
+        texture_from_world: Mat4,
+    },
+    /// s = ds + vs·q, t = dt + vt·q for the texture-space point q: the two rows s, t of
+    /// (p, 1) here, with the texture space folded in.
+    Planar {
+        rows: [Vec4; 2],
+    },
+}
+
+impl Projection {
+    /// The three rows a kernel applies to the world point (homogeneous), and the kind.
+    pub fn record(&self) -> (u32, [[f32; 4]; 3]) {
+        let rows = |m: &Mat4| {
+            [
+                m.row(0).to_array(),
+                m.row(1).to_array(),
+                m.row(2).to_array(),
+            ]
+        };
+        match self {
+            Projection::Uv => (TEXTURE_MAP_UV, [[0.0; 4]; 3]),
+            Projection::Spherical { texture_from_world } => {
+                (TEXTURE_MAP_SPHERICAL, rows(texture_from_world))
+            }
+            Projection::Cylindrical { texture_from_world } => {
+                (TEXTURE_MAP_CYLINDRICAL, rows(texture_from_world))
+            }
+            Projection::Planar { rows } => (
+                TEXTURE_MAP_PLANAR,
+                [rows[0].to_array(), rows[1].to_array(), [0.0; 4]],
+            ),
+        }
+    }
+
+    /// (s, t) at surface coordinates uv and world point p (texture.glsl's `texture_st`).
+    pub fn st(&self, mapping: &[f32; 4], uv: Vec2, p: Vec3) -> Vec2 {
+        let h = p.extend(1.0);
+        match self {
+            Projection::Uv => Vec2::new(
+                mapping[0] * uv.x + mapping[2],
+                mapping[1] * uv.y + mapping[3],
+            ),
+            Projection::Planar { rows } => Vec2::new(rows[0].dot(h), rows[1].dot(h)),
+            Projection::Cylindrical { texture_from_world } => {
+                let q = *texture_from_world * h;
+                Vec2::new(
+                    (std::f32::consts::PI + q.y.atan2(q.x)) / std::f32::consts::TAU,
+                    q.z,
+                )
+            }
+            Projection::Spherical { texture_from_world } => {
+                let d = (*texture_from_world * h).truncate().normalize();
+                let mut phi = d.y.atan2(d.x);
+                if phi < 0.0 {
+                    phi += std::f32::consts::TAU;
+                }
+                Vec2::new(
+                    d.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
+                    phi / std::f32::consts::TAU,
+                )
+            }
+        }
+    }
 }
 
 /// The identity texture mapping.
@@ -241,12 +324,17 @@ pub fn bilinear(image: &Image, p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
     top.lerp(bottom, ay)
 }
 
-/// CPU mirror of texture.glsl's `texture_value`: the texture at surface coordinates uv.
-pub fn texture_value(t: &Texture, uv: Vec2) -> Vec3 {
-    let st = |m: &[f32; 4]| Vec2::new(m[0] * uv.x + m[2], m[1] * uv.y + m[3]);
+/// CPU mirror of texture.glsl's `texture_value`: the texture at surface coordinates uv
+/// and world point p.
+pub fn texture_value(t: &Texture, uv: Vec2, p: Vec3) -> Vec3 {
     match t {
-        Texture::Checkerboard { even, odd, mapping } => {
-            let st = st(mapping);
+        Texture::Checkerboard {
+            even,
+            odd,
+            mapping,
+            projection,
+        } => {
+            let st = projection.st(mapping, uv, p);
             if (st.x.floor() + st.y.floor()).rem_euclid(2.0) == 0.0 {
                 *even
             } else {
@@ -258,8 +346,9 @@ pub fn texture_value(t: &Texture, uv: Vec2) -> Vec3 {
             scale,
             mapping,
             wrap,
+            projection,
         } => {
-            let st = st(mapping);
+            let st = projection.st(mapping, uv, p);
             *scale * bilinear(image, Vec2::new(st.x, 1.0 - st.y), *wrap, *wrap)
         }
     }
@@ -712,10 +801,20 @@ mod tests {
             scale: Vec3::ONE,
             mapping: UV_MAPPING,
             wrap: Wrap::Repeat,
+            projection: Projection::Uv,
         };
-        assert_eq!(texture_value(&t, Vec2::new(0.25, 0.25)), Vec3::splat(3.0));
-        assert_eq!(texture_value(&t, Vec2::new(1.75, 0.75)), Vec3::splat(2.0));
-        assert_eq!(texture_value(&t, Vec2::new(0.5, 0.25)), Vec3::splat(3.5));
+        assert_eq!(
+            texture_value(&t, Vec2::new(0.25, 0.25), Vec3::ZERO),
+            Vec3::splat(3.0)
+        );
+        assert_eq!(
+            texture_value(&t, Vec2::new(1.75, 0.75), Vec3::ZERO),
+            Vec3::splat(2.0)
+        );
+        assert_eq!(
+            texture_value(&t, Vec2::new(0.5, 0.25), Vec3::ZERO),
+            Vec3::splat(3.5)
+        );
         // Between the last and the first column: repeating mixes them, clamping keeps
         // the last, black fades to 0 beyond the side; outside entirely, black is 0.
         let with = |wrap| match &t {
@@ -724,19 +823,29 @@ mod tests {
                 scale: Vec3::ONE,
                 mapping: UV_MAPPING,
                 wrap,
+                projection: Projection::Uv,
             },
             _ => unreachable!(),
         };
         let at = Vec2::new(1.0, 0.25);
-        assert_eq!(texture_value(&with(Wrap::Repeat), at), Vec3::splat(3.5));
-        assert_eq!(texture_value(&with(Wrap::Clamp), at), Vec3::splat(4.0));
-        assert_eq!(texture_value(&with(Wrap::Black), at), Vec3::splat(2.0));
         assert_eq!(
-            texture_value(&with(Wrap::Black), Vec2::new(1.6, 0.25)),
+            texture_value(&with(Wrap::Repeat), at, Vec3::ZERO),
+            Vec3::splat(3.5)
+        );
+        assert_eq!(
+            texture_value(&with(Wrap::Clamp), at, Vec3::ZERO),
+            Vec3::splat(4.0)
+        );
+        assert_eq!(
+            texture_value(&with(Wrap::Black), at, Vec3::ZERO),
+            Vec3::splat(2.0)
+        );
+        assert_eq!(
+            texture_value(&with(Wrap::Black), Vec2::new(1.6, 0.25), Vec3::ZERO),
             Vec3::ZERO
         );
         assert_eq!(
-            texture_value(&with(Wrap::Clamp), Vec2::new(-3.0, 0.25)),
+            texture_value(&with(Wrap::Clamp), Vec2::new(-3.0, 0.25), Vec3::ZERO),
             Vec3::splat(3.0)
         );
     }

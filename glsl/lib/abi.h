@@ -108,8 +108,10 @@
 #define FEATURE_UNBOUNDED 32
 // Diffuse transmission materials (a case of the interface class's kernels).
 #define FEATURE_DIFFUSE_TRANSMISSION 64
+// Textures mapped other than by uv (spherical, cylindrical, planar).
+#define FEATURE_TEXTURE_PROJECTIONS 128
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 127
+#define FEATURE_ALL 255
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
@@ -135,6 +137,13 @@
 #define TEXTURE_WRAP_CLAMP 2
 // Texels outside the image are black (pbrt-v4's `black`).
 #define TEXTURE_WRAP_BLACK 3
+// How a texture finds its (s, t) (GpuTexture.flags.z; pbrt-v4's TextureMapping2D): the
+// surface's uv; or the point in texture space (proj rows applied to the world point) by
+// its spherical angles, its cylinder angle and height, or a plane's two axes.
+#define TEXTURE_MAP_UV 0
+#define TEXTURE_MAP_SPHERICAL 1
+#define TEXTURE_MAP_CYLINDRICAL 2
+#define TEXTURE_MAP_PLANAR 3
 
 // How an environment map covers the sphere (SceneParams.env_mapping); src/texture.rs
 // (EnvMapping) says which pixel is which direction.
@@ -257,10 +266,13 @@ struct GpuTriangleAttributes {
 // (s, t) = (mapping.x u + mapping.z, mapping.y v + mapping.w).
 struct GpuTexture {
     uvec4 info;         // x kind (TEXTURE_*), y first float, z width, w height
-    uvec4 flags;        // x wrap (TEXTURE_WRAP_*), y 1: rows top-down in v
+    uvec4 flags;        // x wrap (TEXTURE_WRAP_*), y 1: rows top-down in v, z mapping (TEXTURE_MAP_*)
     vec4 scale;
     vec4 other;
-    vec4 mapping;
+    vec4 mapping;       // uv mapping: s = x u + z, t = y v + w
+    vec4 proj0;         // the other mappings: rows of texture space from world (planar: the s and t rows)
+    vec4 proj1;
+    vec4 proj2;
 };
 
 // The unit sphere under an affine transform: rows of object-to-world and

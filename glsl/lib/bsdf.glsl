@@ -68,7 +68,7 @@ bool bsdf_is_diffuse_transmission(BsdfParams b) {
 
 // The BSDF of material m at a surface point with texture coordinates uv whose normal, as
 // the caller will pass it, points to the material's outside (front) or inside (!front).
-BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv) {
+BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p) {
     BsdfParams b;
     b.kind = m.info.x;
     b.kd = m.diffuse.xyz;
@@ -82,11 +82,11 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv) {
     b.coat = m.k.xyz;
     // Textures replace the diffuse reflectance and the roughness (first channel).
     if (!has_feature(FEATURE_MATERIAL_TEXTURES)) return b;
-    if (m.info.z != NO_TEXTURE) b.kd = texture_value(m.info.z, uv);
+    if (m.info.z != NO_TEXTURE) b.kd = texture_value(m.info.z, uv, p);
     if (m.info.w != NO_TEXTURE && bsdf_is_diffuse_transmission(b)) {
-        b.ks = texture_value(m.info.w, uv);
+        b.ks = texture_value(m.info.w, uv, p);
     } else if (m.info.w != NO_TEXTURE) {
-        float a = texture_value(m.info.w, uv).x;
+        float a = texture_value(m.info.w, uv, p).x;
         if ((m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(max(a, 0.0));
         b.roughness = a;
         b.alpha = vec2(a);

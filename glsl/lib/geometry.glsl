@@ -110,7 +110,7 @@ uint material_resolve(uint m, vec3 p, vec2 uv) {
         uvec4 info = materials[m].info;
         if ((info.y & MATERIAL_MIX) == 0u) break;
         vec4 mix_params = materials[m].specular;
-        float amount = info.z == NO_TEXTURE ? mix_params.z : texture_value(info.z, uv).x;
+        float amount = info.z == NO_TEXTURE ? mix_params.z : texture_value(info.z, uv, p).x;
         uvec3 b = floatBitsToUint(p);
         uint h = hash_pcg(hash_pcg(hash_pcg(hash_pcg(m) ^ b.x) ^ b.y) ^ b.z);
         float u = (float(h >> 8u) + 0.5) * (1.0 / 16777216.0);

@@ -132,7 +132,7 @@ float env_map_pdf(vec2 uv) {
 vec3 environment_radiance(vec3 dir) {
     vec3 L = emitters[scene.environment].radiance.xyz;
     if (!has_feature(FEATURE_ENVIRONMENT_MAP) || scene.env_texture == NO_TEXTURE) return L;
-    return L * texture_value(scene.env_texture, env_uv(env_to_local(dir)));
+    return L * texture_value(scene.env_texture, env_uv(env_to_local(dir)), vec3(0.0));
 }
 
 // The solid-angle density with which light sampling draws the direction dir (no pick).

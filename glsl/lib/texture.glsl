@@ -3,6 +3,8 @@
 #ifndef TEXTURE_GLSL
 #define TEXTURE_GLSL
 #include "bindings.glsl"
+#include "features.glsl"
+#include "sampling.glsl"
 
 // The texel (x, y); black outside the image (x or y negative: wrap_texel's `black`).
 vec3 texel(GpuTexture t, int x, int y) {
@@ -20,10 +22,24 @@ int wrap_texel(float i, int n, bool repeat, bool black) {
     return clamp(int(i), 0, n - 1);
 }
 
-// The value of texture `index` at the surface coordinates uv.
-vec3 texture_value(uint index, vec2 uv) {
+// A texture's (s, t) at the surface coordinates uv and world point p (pbrt-v4's
+// TextureMapping2D: uv, spherical, cylindrical, planar).
+vec2 texture_st(GpuTexture t, vec2 uv, vec3 p) {
+    if (!has_feature(FEATURE_TEXTURE_PROJECTIONS) || t.flags.z == TEXTURE_MAP_UV) return t.mapping.xy * uv + t.mapping.zw;
+    vec4 h = vec4(p, 1.0);
+    vec3 q = vec3(dot(t.proj0, h), dot(t.proj1, h), dot(t.proj2, h));
+    if (t.flags.z == TEXTURE_MAP_PLANAR) return q.xy;
+    if (t.flags.z == TEXTURE_MAP_CYLINDRICAL) return vec2((PI + atan(q.y, q.x)) * INV_TWO_PI, q.z);
+    vec3 d = normalize(q);
+    float phi = atan(d.y, d.x);
+    if (phi < 0.0) phi += 2.0 * PI;
+    return vec2(acos(clamp(d.z, -1.0, 1.0)) * INV_PI, phi * INV_TWO_PI);
+}
+
+// The value of texture `index` at the surface coordinates uv and world point p.
+vec3 texture_value(uint index, vec2 uv, vec3 p) {
     GpuTexture t = textures[index];
-    vec2 st = t.mapping.xy * uv + t.mapping.zw;
+    vec2 st = texture_st(t, uv, p);
     if (t.info.x == TEXTURE_CHECKERBOARD) {
         float parity = mod(floor(st.x) + floor(st.y), 2.0);
         return parity == 0.0 ? t.scale.xyz : t.other.xyz;

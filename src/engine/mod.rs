@@ -473,7 +473,8 @@ impl Engine {
 pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
         FEATURE_COATED_DIFFUSE, FEATURE_DIFFUSE_TRANSMISSION, FEATURE_ENVIRONMENT_MAP,
-        FEATURE_INTERFACES, FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_UNBOUNDED,
+        FEATURE_INTERFACES, FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_TEXTURE_PROJECTIONS,
+        FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
@@ -498,6 +499,13 @@ pub fn scene_features(scene: &Scene) -> u32 {
     }
     if scene.environment.as_ref().is_some_and(|e| e.map.is_some()) {
         features |= FEATURE_ENVIRONMENT_MAP;
+    }
+    let projected = |p: &crate::texture::Projection| *p != crate::texture::Projection::Uv;
+    if scene.textures.iter().any(|t| match t {
+        crate::texture::Texture::Image { projection, .. }
+        | crate::texture::Texture::Checkerboard { projection, .. } => projected(projection),
+    }) {
+        features |= FEATURE_TEXTURE_PROJECTIONS;
     }
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
@@ -568,6 +576,20 @@ mod tests {
         });
         assert_eq!(scene_features(&s), FEATURE_ENVIRONMENT_MAP);
         s.environment = None;
+        // A texture mapped from the world point (spherical, cylindrical, planar).
+        let checks = |projection| crate::texture::Texture::Checkerboard {
+            even: glam::Vec3::ONE,
+            odd: glam::Vec3::ZERO,
+            mapping: crate::texture::UV_MAPPING,
+            projection,
+        };
+        s.textures = vec![checks(crate::texture::Projection::Uv)];
+        assert_eq!(scene_features(&s), 0);
+        s.textures = vec![checks(crate::texture::Projection::Cylindrical {
+            texture_from_world: glam::Mat4::IDENTITY,
+        })];
+        assert_eq!(scene_features(&s), FEATURE_TEXTURE_PROJECTIONS);
+        s.textures.clear();
         // maxdepth -1: BDPT's camera walks beyond the strategies' cap.
         s.settings.max_depth = -1;
         assert_eq!(scene_features(&s), FEATURE_UNBOUNDED);
@@ -578,7 +600,8 @@ mod tests {
             | FEATURE_ENVIRONMENT_MAP
             | FEATURE_MIX
             | FEATURE_UNBOUNDED
-            | FEATURE_DIFFUSE_TRANSMISSION;
+            | FEATURE_DIFFUSE_TRANSMISSION
+            | FEATURE_TEXTURE_PROJECTIONS;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -760,6 +760,7 @@ impl Parser {
                     even,
                     odd,
                     mapping: [su, sv, 0.0, 0.0],
+                    projection: crate::texture::Projection::Uv,
                 });
                 let index = (self.scene.textures.len() - 1) as u32;
                 self.set_material(|m| m.diffuse_texture = Some(index));
@@ -965,6 +966,7 @@ impl Parser {
             scale: Vec3::ONE,
             mapping: UV_MAPPING,
             wrap: crate::texture::Wrap::Repeat,
+            projection: crate::texture::Projection::Uv,
         });
         let index = (self.scene.textures.len() - 1) as u32;
         self.image_textures.insert((path, encoding), index);

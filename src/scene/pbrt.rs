@@ -18,8 +18,8 @@ use super::{
     MaterialMix, NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture, Triangle,
     MAX_MIX_DEPTH,
 };
-use crate::texture::{load_image, Encoding, EnvMapping, Wrap};
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use crate::texture::{load_image, Encoding, EnvMapping, Projection, Wrap};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -43,6 +43,8 @@ const PARAM_TYPES: &[(&str, &[&str])] = &[
     ("encoding", &["string"]),
     ("wrap", &["string"]),
     ("mapping", &["string"]),
+    ("v1", &["vector3"]),
+    ("v2", &["vector3"]),
     ("sensor", &["string"]),
     ("twosided", &["bool"]),
     ("remaproughness", &["bool"]),
@@ -1999,10 +2001,49 @@ impl Parser {
         } else {
             [1.0, 1.0, 0.0, 0.0]
         };
+        // pbrt-v4's TextureMapping2D: uv, or the point in texture space (the inverse of
+        // the transform in force here).
+        let texture_from_world = self.gs.ctm.inverse();
+        let mut projection = Projection::Uv;
         if let Some(p) = mapped.then(|| params.find("mapping")).flatten() {
-            if p.strs.first().map(String::as_str) != Some("uv") {
-                self.unsupported(p.file, p.line, "Texture: a mapping other than uv");
+            match p.strs.first().map(String::as_str) {
+                Some("uv") => {}
+                Some("spherical") => projection = Projection::Spherical { texture_from_world },
+                Some("cylindrical") => projection = Projection::Cylindrical { texture_from_world },
+                Some("planar") => {
+                    let axis = |name: &str, default: Vec3| {
+                        params
+                            .find(name)
+                            .filter(|p| p.nums.len() == 3)
+                            .map(|p| {
+                                Vec3::new(p.nums[0] as f32, p.nums[1] as f32, p.nums[2] as f32)
+                            })
+                            .unwrap_or(default)
+                    };
+                    let (vs, vt) = (axis("v1", Vec3::X), axis("v2", Vec3::Y));
+                    let row = |v: Vec3, delta: f32| {
+                        // delta + v · (texture_from_world p), as a row on (p, 1).
+                        let r = texture_from_world.transpose() * v.extend(0.0);
+                        r + Vec4::new(0.0, 0.0, 0.0, delta)
+                    };
+                    projection = Projection::Planar {
+                        rows: [row(vs, num("udelta", 0.0)), row(vt, num("vdelta", 0.0))],
+                    };
+                }
+                other => {
+                    return Err(self.err_at(
+                        p.file,
+                        p.line,
+                        d,
+                        format!(
+                        "expected a mapping uv, spherical, cylindrical or planar, got {other:?}"
+                    ),
+                    ))
+                }
             }
+        }
+        if !texture_from_world.is_finite() && projection != Projection::Uv {
+            return Err(self.err_at(file, line, d, "the texture's transform is singular"));
         }
         let value = match class {
             "constant" => match self.value(params, "value", float, d)? {
@@ -2124,6 +2165,7 @@ impl Parser {
                     scale: Vec3::splat(scale),
                     mapping,
                     wrap,
+                    projection,
                 });
                 Value::Texture(self.scene.textures.len() as u32 - 1)
             }
@@ -2143,9 +2185,12 @@ impl Parser {
                     .unwrap_or(Value::Const(Vec3::ZERO));
                 match (even, odd) {
                     (Value::Const(even), Value::Const(odd)) => {
-                        self.scene
-                            .textures
-                            .push(Texture::Checkerboard { even, odd, mapping });
+                        self.scene.textures.push(Texture::Checkerboard {
+                            even,
+                            odd,
+                            mapping,
+                            projection,
+                        });
                         Value::Texture(self.scene.textures.len() as u32 - 1)
                     }
                     _ => {
@@ -3051,10 +3096,10 @@ mod tests {
         }
     }
 
-    /// imagemap's `wrap` (repeat, clamp, black) and `invert` (max(0, 1 - scale v), made on
-    /// the texels); octahedralsphere is refused.
+    /// imagemap's `wrap` (repeat, clamp, black), `invert` (max(0, 1 - scale v), made on the
+    /// texels) and `mapping`; octahedralsphere is refused.
     #[test]
-    fn imagemap_wrap_modes_and_invert() {
+    fn imagemap_wrap_modes_invert_and_mappings() {
         let d = std::env::temp_dir().join(format!("lightpath-wrap-{}", std::process::id()));
         std::fs::create_dir_all(&d).unwrap();
         let mut pfm = b"PF\n2 1\n-1.0\n".to_vec();
@@ -3088,6 +3133,45 @@ mod tests {
         let (pixels, scale, _) = image("\"bool invert\" true \"float scale\" 0.5");
         assert_eq!(scale, Vec3::ONE);
         assert_eq!(pixels, vec![[0.9; 3], [0.0; 3]]);
+        // Mappings: spherical and cylindrical about the texture's own space (the inverse
+        // of the transform in force), planar with v1, v2, udelta, vdelta; another, an error.
+        let projection = |extra: &str, transform: &str| {
+            let t = text(extra).replacen("WorldBegin\n", &format!("WorldBegin\n{transform}\n"), 1);
+            std::fs::write(d.join("s.pbrt"), t).unwrap();
+            let s = parse_pbrt_file(&d.join("s.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+            match &s.textures[0] {
+                Texture::Image { projection, .. } => *projection,
+                other => panic!("{other:?}"),
+            }
+        };
+        assert_eq!(projection("", ""), Projection::Uv);
+        let moved = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0)).inverse();
+        assert_eq!(
+            projection("\"string mapping\" \"spherical\"", "Translate 1 2 3"),
+            Projection::Spherical {
+                texture_from_world: moved
+            }
+        );
+        assert_eq!(
+            projection("\"string mapping\" \"cylindrical\"", "Translate 1 2 3"),
+            Projection::Cylindrical {
+                texture_from_world: moved
+            }
+        );
+        let planar = projection(
+            "\"string mapping\" \"planar\" \"vector3 v1\" [ 0 0 2 ] \"float udelta\" 0.5 \"float vdelta\" -1",
+            "Translate 1 2 3",
+        );
+        let p = Vec3::new(0.3, -0.4, 5.0);
+        // s = 0.5 + (0, 0, 2) . (p - (1, 2, 3)), t = -1 + (0, 1, 0) . (p - (1, 2, 3)).
+        assert!(
+            (planar.st(&[1.0, 1.0, 0.0, 0.0], Vec2::ZERO, p) - Vec2::new(4.5, -3.4)).length()
+                < 1e-5,
+            "{planar:?}"
+        );
+        std::fs::write(d.join("s.pbrt"), text("\"string mapping\" \"conical\"")).unwrap();
+        let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("conical");
+        assert!(e.message.contains("expected a mapping"), "{e}");
         std::fs::write(
             d.join("s.pbrt"),
             text("\"string wrap\" \"octahedralsphere\""),
