@@ -709,7 +709,25 @@ impl Parser {
             }
             out.push(p);
         }
-        Ok(Params(out))
+        // A parameter given twice takes its last value, as in pbrt-v4 (whose dictionary
+        // looks parameters up from the last).
+        let mut kept: Vec<Param> = Vec::with_capacity(out.len());
+        for p in out.into_iter().rev() {
+            if kept.iter().any(|q| q.name == p.name) {
+                let at = format!("{}:{}", self.files[p.file as usize], p.line);
+                self.warn(
+                    &format!("twice {at} {}", p.name),
+                    format!(
+                        "{at}: {directive}: parameter \"{}\" given twice; the last value is used",
+                        p.name
+                    ),
+                );
+                continue;
+            }
+            kept.push(p);
+        }
+        kept.reverse();
+        Ok(Params(kept))
     }
 
     /// `params` with the `Attribute` defaults of `target` that it does not set itself.
@@ -3180,6 +3198,23 @@ mod tests {
         let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("octahedralsphere");
         assert!(e.message.contains("octahedralsphere"), "{e}");
         std::fs::remove_dir_all(&d).ok();
+    }
+
+    /// A parameter given twice takes its last value (pbrt-v4's lookup order), with a
+    /// warning; a parameter given once is read as before.
+    #[test]
+    fn a_parameter_given_twice_takes_its_last_value() {
+        let s = parse(&format!(
+            r#"WorldBegin
+            Material "diffuse" "rgb reflectance" [ 0.1 0.2 0.3 ] "rgb reflectance" [ 0.4 0.5 0.6 ]
+            {QUAD}
+            LightSource "point" "rgb I" [ 1 1 1 ] "point3 from" [ 0 1 0 ] "rgb I" [ 2 3 4 ]
+            "#
+        ));
+        assert_eq!(s.materials[0].diffuse, Vec3::new(0.4, 0.5, 0.6));
+        assert!(
+            matches!(s.delta_lights[0], DeltaLight::Point { intensity, .. } if intensity == Vec3::new(2.0, 3.0, 4.0))
+        );
     }
 
     /// Animated transforms render at the shutter-open time: transforms after
