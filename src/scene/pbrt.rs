@@ -2400,10 +2400,21 @@ impl Parser {
                         })
                     }
                 };
-                if self.scene.environment.is_some() {
-                    self.unsupported(file, line, "a second infinite light");
-                }
-                self.scene.environment = Some(Environment { radiance: l, map });
+                let light = Environment { radiance: l, map };
+                self.scene.environment = Some(match self.scene.environment.take() {
+                    None => light,
+                    Some(before) => match add_environments(before, light) {
+                        Ok(sum) => sum,
+                        Err(before) => {
+                            self.unsupported(
+                                file,
+                                line,
+                                "a second infinite light with an image map (one map and any number of constant ones are read)",
+                            );
+                            before
+                        }
+                    },
+                });
             }
             other => {
                 self.unsupported(file, line, format!("LightSource \"{other}\""));
@@ -2937,6 +2948,34 @@ fn describe(t: &Tok) -> String {
     }
 }
 
+/// Two infinite lights as one: constants add; a constant adds to each texel of a map
+/// (scaled by the map's radiance), which is exact for the bilinear lookup and leaves the
+/// map's sampling proportional to what it emits. Two maps cannot be one (Err: the first).
+fn add_environments(a: Environment, b: Environment) -> Result<Environment, Environment> {
+    match (&a.map, &b.map) {
+        (None, None) => Ok(Environment {
+            radiance: a.radiance + b.radiance,
+            map: None,
+        }),
+        (Some(_), Some(_)) => Err(a),
+        _ => {
+            let (lit, constant) = if a.map.is_some() { (a, b) } else { (b, a) };
+            let map = lit.map.expect("a map");
+            let mut image = (*map.image).clone();
+            for p in &mut image.pixels {
+                *p = (Vec3::from_array(*p) * lit.radiance + constant.radiance).to_array();
+            }
+            Ok(Environment {
+                radiance: Vec3::ONE,
+                map: Some(EnvironmentMap {
+                    image: Arc::new(image),
+                    ..map
+                }),
+            })
+        }
+    }
+}
+
 /// A scene file's text; gzip-compressed when its name ends in `.gz`.
 fn read_scene_text(path: &Path) -> std::io::Result<String> {
     let raw = std::fs::read(path)?;
@@ -3197,6 +3236,41 @@ mod tests {
         .unwrap();
         let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("octahedralsphere");
         assert!(e.message.contains("octahedralsphere"), "{e}");
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    /// Several infinite lights: constants add, a constant adds to a map's texels (times
+    /// the map's scale), and a second map is refused.
+    #[test]
+    fn several_infinite_lights_add() {
+        let s = parse(
+            "WorldBegin\nLightSource \"infinite\" \"rgb L\" [ 0.1 0.2 0.3 ]\n\
+             LightSource \"infinite\" \"rgb L\" [ 1 1 2 ]\n",
+        );
+        let e = s.environment.expect("an environment");
+        assert!(e.map.is_none() && (e.radiance - Vec3::new(1.1, 1.2, 2.3)).length() < 1e-6);
+        let d = std::env::temp_dir().join(format!("lightpath-envs-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let mut pfm = b"PF\n2 2\n-1.0\n".to_vec();
+        for v in [1.0f32, 2.0, 3.0, 4.0].iter().flat_map(|&x| [x, x, x]) {
+            pfm.extend(v.to_le_bytes());
+        }
+        std::fs::write(d.join("sky.pfm"), pfm).unwrap();
+        let map = "LightSource \"infinite\" \"string filename\" \"sky.pfm\" \"float scale\" 2\n";
+        let constant = "LightSource \"infinite\" \"rgb L\" [ 0.5 0.5 0.5 ]\n";
+        for order in [format!("{map}{constant}"), format!("{constant}{map}")] {
+            std::fs::write(d.join("s.pbrt"), format!("WorldBegin\n{order}")).unwrap();
+            let s = parse_pbrt_file(&d.join("s.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+            let e = s.environment.expect("an environment");
+            let m = e.map.expect("the map");
+            assert_eq!(e.radiance, Vec3::ONE);
+            let mut values: Vec<f32> = m.image.pixels.iter().map(|p| p[0]).collect();
+            values.sort_by(f32::total_cmp);
+            assert_eq!(values, vec![2.5, 4.5, 6.5, 8.5]);
+        }
+        std::fs::write(d.join("s.pbrt"), format!("WorldBegin\n{map}{map}")).unwrap();
+        let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("two maps");
+        assert!(e.message.contains("second infinite light"), "{e}");
         std::fs::remove_dir_all(&d).ok();
     }
 
