@@ -264,13 +264,13 @@ pub fn texture_data(scene: &Scene) -> TextureData {
     let mut textures = Vec::new();
     let mut texels = Vec::new();
     for t in &scene.textures {
-        textures.push(match t {
+        let mut record = match t {
             Texture::Image {
                 image,
                 scale,
                 mapping,
                 wrap,
-                projection,
+                ..
             } => GpuTexture {
                 info: [
                     TEXTURE_IMAGE,
@@ -285,32 +285,28 @@ pub fn texture_data(scene: &Scene) -> TextureData {
                         Wrap::Black => TEXTURE_WRAP_BLACK,
                     },
                     0,
-                    projection.record().0,
+                    0,
                     0,
                 ],
                 scale: scale.extend(0.0).to_array(),
                 other: [0.0; 4],
                 mapping: *mapping,
-                proj0: projection.record().1[0],
-                proj1: projection.record().1[1],
-                proj2: projection.record().1[2],
+                ..GpuTexture::default()
             },
             Texture::Checkerboard {
-                even,
-                odd,
-                mapping,
-                projection,
+                even, odd, mapping, ..
             } => GpuTexture {
                 info: [TEXTURE_CHECKERBOARD, 0, 0, 0],
-                flags: [0, 0, projection.record().0, 0],
                 scale: even.extend(0.0).to_array(),
                 other: odd.extend(0.0).to_array(),
                 mapping: *mapping,
-                proj0: projection.record().1[0],
-                proj1: projection.record().1[1],
-                proj2: projection.record().1[2],
+                ..GpuTexture::default()
             },
-        });
+        };
+        let (kind, [proj0, proj1, proj2]) = t.projection().record();
+        record.flags[2] = kind;
+        (record.proj0, record.proj1, record.proj2) = (proj0, proj1, proj2);
+        textures.push(record);
     }
     let mut environment = None;
     if let Some(map) = scene.environment.as_ref().and_then(|e| e.map.as_ref()) {

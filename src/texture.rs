@@ -36,6 +36,17 @@ pub enum Texture {
     },
 }
 
+impl Texture {
+    /// How the texture finds its (s, t).
+    pub fn projection(&self) -> Projection {
+        match self {
+            Texture::Image { projection, .. } | Texture::Checkerboard { projection, .. } => {
+                *projection
+            }
+        }
+    }
+}
+
 /// How a texture finds its (s, t) (pbrt-v4's TextureMapping2D; abi.h `TEXTURE_MAP_*`):
 /// from the surface's (u, v) (`Uv`, with the texture's `mapping` scales and offsets), or
 /// from the world point taken to texture space (the inverse of the transform in force

@@ -138,6 +138,13 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
     }
 }
 
+/// Where the ray (o, d) first meets the unit sphere at the origin.
+fn unit_sphere_hit(o: Vec3, d: Vec3) -> Option<Vec3> {
+    let b = o.dot(d);
+    let disc = b * b - (o.dot(o) - 1.0);
+    (disc >= 0.0).then(|| o + (-b - disc.sqrt()) * d)
+}
+
 #[test]
 fn a_checkerboard_on_a_sphere_follows_pbrts_sphere_coordinates() {
     // 3 checks around, 2 from pole to pole; the sphere turned so both poles show.
@@ -147,13 +154,10 @@ fn a_checkerboard_on_a_sphere_follows_pbrts_sphere_coordinates() {
     ));
     let texture = s.textures[0].clone();
     let expected = expected_image(&s, |o, d| {
-        // Unit sphere at the origin.
-        let b = o.dot(d);
-        let disc = b * b - (o.dot(o) - 1.0);
-        if disc < 0.0 {
+        let Some(q) = unit_sphere_hit(o, d) else {
             return Vec3::ONE;
-        }
-        let q = (o + (-b - disc.sqrt()) * d).normalize();
+        };
+        let q = q.normalize();
         let mut phi = q.y.atan2(q.x);
         if phi < 0.0 {
             phi += 2.0 * std::f32::consts::PI;
@@ -216,14 +220,9 @@ fn projected_texture_mappings_render_their_lookup() {
             other => panic!("{other:?}"),
         }
         let texture = s.textures[0].clone();
-        let expected = expected_image(&s, |o, d| {
-            let b = o.dot(d);
-            let disc = b * b - (o.dot(o) - 1.0);
-            if disc < 0.0 {
-                return Vec3::ONE;
-            }
-            let q = o + (-b - disc.sqrt()) * d;
-            texture_value(&texture, Vec2::ZERO, q)
+        let expected = expected_image(&s, |o, d| match unit_sphere_hit(o, d) {
+            Some(q) => texture_value(&texture, Vec2::ZERO, q),
+            None => Vec3::ONE,
         });
         let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 2, Bvh);
         let (mean, max) = differences(&img, &expected);

@@ -500,11 +500,11 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if scene.environment.as_ref().is_some_and(|e| e.map.is_some()) {
         features |= FEATURE_ENVIRONMENT_MAP;
     }
-    let projected = |p: &crate::texture::Projection| *p != crate::texture::Projection::Uv;
-    if scene.textures.iter().any(|t| match t {
-        crate::texture::Texture::Image { projection, .. }
-        | crate::texture::Texture::Checkerboard { projection, .. } => projected(projection),
-    }) {
+    if scene
+        .textures
+        .iter()
+        .any(|t| t.projection() != crate::texture::Projection::Uv)
+    {
         features |= FEATURE_TEXTURE_PROJECTIONS;
     }
     if scene.settings.max_depth < 0 {

@@ -406,13 +406,7 @@ pub(crate) fn bdpt_wave(
             engine.stage(name, variant, prepared, &all, span)
         };
         trace.cpu("pipeline creation", || -> Result<_> {
-            let shade = super::pt::material_classes(scene)
-                .into_iter()
-                .map(|c| {
-                    let (k, s) = shade_kernel(c);
-                    stage(k, s)
-                })
-                .collect::<Result<Vec<_>>>()?;
+            let shade = super::pt::class_stages(scene, shade_kernel, &mut stage)?;
             Ok((
                 stage("bdpt_start", "bdpt start")?,
                 stage("bdpt_trace", "bdpt trace")?,

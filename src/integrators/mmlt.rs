@@ -500,13 +500,7 @@ fn mmlt_wave(
         engine.stage(name, None, prepared, &all, span)
     };
     let wave = trace.cpu("pipeline creation", || -> Result<_> {
-        let shade = super::pt::material_classes(scene)
-            .into_iter()
-            .map(|c| {
-                let (k, s) = shade_kernel(c);
-                stage(k, s)
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let shade = super::pt::class_stages(scene, shade_kernel, &mut stage)?;
         Ok(MmltWave {
             start: stage("mmlt_start", "mmlt start")?,
             trace: stage("mmlt_trace", "mmlt trace")?,

@@ -222,6 +222,22 @@ pub(crate) fn material_classes(scene: &Scene) -> Vec<u32> {
     classes
 }
 
+/// One stage per material class of the scene (`material_classes`), made by `stage` from the
+/// class's (kernel, span): BDPT's and MMLT's shade stages.
+pub(crate) fn class_stages(
+    scene: &Scene,
+    kernel: impl Fn(u32) -> (&'static str, &'static str),
+    mut stage: impl FnMut(&'static str, &'static str) -> Result<PassStage>,
+) -> Result<Vec<PassStage>> {
+    material_classes(scene)
+        .into_iter()
+        .map(|c| {
+            let (k, s) = kernel(c);
+            stage(k, s)
+        })
+        .collect()
+}
+
 fn shade_kernel(class: u32) -> &'static str {
     match class {
         MATERIAL_CLASS_BASIC => "pt_shade_basic",
