@@ -4,18 +4,22 @@
 //   bdpt_start.comp         a subpath's first ray (the light's emission, with the
 //                           s = 1, t = 1 strategy; or the camera's ray);
 //   bdpt_trace.comp         the pending shadow ray (its contribution added when nothing
-//                           blocks it), then the walk's closest hit: the only kernel that
-//                           holds the visibility backend besides bdpt_finish;
+//                           blocks it) and the s, t >= 2 connections of the newest camera
+//                           vertex (joined from the shade stages' answers, their shadow
+//                           rays traced), then the walk's closest hit: the only kernel
+//                           that holds the visibility backend;
 //   bdpt_hit.comp           the vertex at the hit, stored for connections, and what the
 //                           emitters give there (s = 0, the s = 1 light sample's point):
 //                           every emitter's code;
 //   bdpt_shade_CLASS.comp   one per material class (bsdf.glsl's SHADE_CLASS): the BSDF
 //                           toward the camera (t = 1) or toward the light sample (s = 1),
-//                           their shadow rays queued for the trace stage, and the BSDF
-//                           sample that continues the walk; a vertex of another class is
-//                           left to its own kernel;
+//                           their shadow rays queued for the trace stage, the BSDF
+//                           sample that continues the walk, and the connections'
+//                           questions to the ends of its class (answers[]); a vertex of
+//                           another class is left to its own kernel;
 //   bdpt_finish.comp        per pixel, each sample's camera strategies and then its
-//                           s, t >= 2 connections added to the film, in sample order.
+//                           connections' sum (kept in the walk) added to the film, in
+//                           sample order.
 // A pixel's draws, contributions and their order are the same as when one invocation
 // walked both subpaths (the three stages that preceded this wavefront), so the images
 // are theirs (to the last bits where the compiler fuses multiply-adds differently). The host records
