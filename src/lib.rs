@@ -14,5 +14,6 @@ pub mod probe;
 pub mod profile;
 pub mod render;
 pub mod scene;
+pub mod shading_map;
 pub mod texture;
 pub mod trace;

@@ -19,6 +19,8 @@ pub struct ProbeHit {
     pub closest: Option<(u32, f32)>,
     /// What `trace_occluded` answered.
     pub occluded: bool,
+    /// surface_at's shading normal at the closest hit (zero without one).
+    pub shading_normal: Vec3,
 }
 
 /// Traces each ray `(origin, direction, tmax)` (from t = 0) through `scene` with the
@@ -35,9 +37,15 @@ pub fn trace_rays(
         .flat_map(|(o, d, tmax)| [o.extend(*tmax).to_array(), d.extend(0.0).to_array()])
         .collect();
     let rays_buffer = engine.buffer_with("probe rays", bytemuck::cast_slice(&input))?;
-    let out_bytes = (16 * rays.len() as u64).max(16);
+    let out_bytes = (32 * rays.len() as u64).max(32);
     let out = engine.storage_buffer("probe hits", out_bytes)?;
-    let kernel = engine.kernel("trace_probe", None, Specialization::default())?;
+    let kernel = engine.kernel(
+        "trace_probe",
+        None,
+        Specialization {
+            features: crate::engine::scene_features(scene),
+        },
+    )?;
     let set = engine.bind(
         &kernel,
         Some(&prepared),
@@ -66,9 +74,10 @@ pub fn trace_rays(
     let words: &[[u32; 4]] = bytemuck::cast_slice(&data);
     let order = &prepared.triangle_order;
     let ntri = order.len() as u32;
-    Ok(words[..rays.len()]
-        .iter()
-        .map(|w| ProbeHit {
+    Ok(words[..2 * rays.len()]
+        .chunks(2)
+        .map(|w| (w[0], w[1]))
+        .map(|(w, s)| ProbeHit {
             closest: (w[0] != u32::MAX).then(|| {
                 let prim = if w[0] < ntri {
                     order[w[0] as usize]
@@ -78,6 +87,11 @@ pub fn trace_rays(
                 (prim, f32::from_bits(w[1]))
             }),
             occluded: w[2] != 0,
+            shading_normal: Vec3::new(
+                f32::from_bits(s[0]),
+                f32::from_bits(s[1]),
+                f32::from_bits(s[2]),
+            ),
         })
         .collect())
 }

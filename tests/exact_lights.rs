@@ -348,6 +348,54 @@ fn light_through_a_diffuse_transmitter_renders_alike_in_every_strategy_and_integ
     assert_integrators_agree_over("diffuser", &s, STRATEGY_SEEDS, 4096);
 }
 
+/// Bump and normal maps (pbrt-v4's `displacement` and `normalmap`): a bumped panel over
+/// the floor, a bumped sphere on it and a normal-mapped panel before the back wall, under
+/// the quad light. Every BDPT strategy alone matches the path tracer's image of its depth
+/// (light subpaths scatter off the maps' shading normals with the adjoint correction),
+/// and PT, BDPT and MMLT agree (maxdepth 1, 2 and 5).
+#[test]
+fn bump_and_normal_maps_render_alike_in_every_strategy_and_integrator() {
+    let dir = temp_dir("mapped-room");
+    let bumps = dir.join("bumps.pfm");
+    write_pfm(&bumps, 8, 8, |x, y| {
+        let v = 0.5 + 0.4 * ((x as f32 * 1.3).sin() * (y as f32 * 0.7 + 0.5).cos());
+        [v, v, v]
+    });
+    let normals = dir.join("normals.pfm");
+    write_pfm(&normals, 4, 4, |x, y| {
+        let a = (x * 4 + y) as f32;
+        [
+            0.5 + 0.3 * (a * 1.7).sin(),
+            0.5 + 0.3 * (a * 2.3).cos(),
+            0.8 + 0.15 * (a * 0.9).sin(),
+        ]
+    });
+    let (_, kind, quad) = lights().into_iter().next().expect("the quad light");
+    let light = format!(
+        "{quad}\nAttributeEnd\nAttributeBegin\n\
+         Texture \"bumps\" \"float\" \"imagemap\" \"string filename\" \"{bumps}\" \"float scale\" [ 0.3 ]\n\
+         Material \"diffuse\" \"rgb reflectance\" [ 0.6 0.5 0.4 ] \"texture displacement\" \"bumps\"\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -3 0.02 3  3 0.02 3  3 0.02 -2.5  -3 0.02 -2.5 ] \"point2 uv\" [ 0 0  3 0  3 3  0 3 ]\n\
+         AttributeBegin\nTranslate 1.5 0.6 0.5\nShape \"sphere\" \"float radius\" [ 0.6 ]\nAttributeEnd\n\
+         Material \"diffuse\" \"rgb reflectance\" [ 0.4 0.5 0.6 ] \"string normalmap\" \"{normals}\"\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -3 0 -2.98  3 0 -2.98  3 4 -2.98  -3 4 -2.98 ] \"point2 uv\" [ 0 0  2 0  2 2  0 2 ]",
+        bumps = bumps.display(),
+        normals = normals.display(),
+    );
+    let s = room(&light, false, 3);
+    assert_eq!(
+        s.materials
+            .iter()
+            .filter(|m| m.shading_map.is_some())
+            .count(),
+        2
+    );
+    assert_each_strategy_alone_matches_pt("maps", kind, &s, 3);
+    assert_integrators_agree("maps", &s);
+}
+
 #[test]
 fn every_bdpt_strategy_alone_matches_the_path_tracer_for_every_light() {
     for (name, kind, light) in lights() {

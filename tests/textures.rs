@@ -14,24 +14,6 @@ use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene, Texture};
 use lightpath::texture::{environment_radiance, texture_value, Wrap};
 use std::path::PathBuf;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lightpath-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write_pfm(path: &std::path::Path, w: u32, h: u32, f: impl Fn(u32, u32) -> [f32; 3]) {
-    let mut bytes = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
-    for y in (0..h).rev() {
-        for x in 0..w {
-            for c in f(x, y) {
-                bytes.extend(c.to_le_bytes());
-            }
-        }
-    }
-    std::fs::write(path, bytes).unwrap();
-}
-
 /// The camera ray direction through film point (fx, fy) ∈ [0,1)² (camera.glsl's).
 fn camera_ray(s: &Scene, fx: f32, fy: f32) -> (Vec3, Vec3) {
     lightpath::gpu_scene::camera_ray(&scene_params(s, 0), Vec2::new(fx, fy), Vec2::ZERO)

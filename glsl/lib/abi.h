@@ -110,8 +110,10 @@
 #define FEATURE_DIFFUSE_TRANSMISSION 64
 // Textures mapped other than by uv (spherical, cylindrical, planar).
 #define FEATURE_TEXTURE_PROJECTIONS 128
+// Bump and normal maps (surface_at's shading normal, lib/shading_map.glsl).
+#define FEATURE_SHADING_MAPS 256
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 255
+#define FEATURE_ALL 511
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
@@ -121,6 +123,14 @@
 // The roughness texture (info.w) holds pbrt's roughness r, not alpha: alpha = sqrt(r) at
 // lookup (pbrt-v4's `remaproughness`, RoughnessToAlpha).
 #define MATERIAL_REMAP_ROUGHNESS 4
+// pbrt-v4's BumpMap: roughness.w (uint bits) is the float texture of the displacement.
+#define MATERIAL_BUMP_MAP 8
+// pbrt-v4's NormalMap: roughness.w (uint bits) is the texture of the tangent-space normal
+// (RGB in [0, 1], linear, repeating).
+#define MATERIAL_NORMAL_MAP 16
+// The step in u and in v of the bump map's finite differences (pbrt-v4's du when a
+// point has no differentials).
+#define BUMP_DELTA 0.0005
 // The deepest nesting of mixes.
 #define MAX_MATERIAL_MIX_DEPTH 8
 
@@ -297,7 +307,7 @@ struct GpuMaterial {
     vec4 emission;       // xyz emitted radiance
     vec4 eta;            // dielectric, thin dielectric: x index of refraction (inside over outside); conductor: xyz per channel
     vec4 k;              // xyz conductor absorption
-    vec4 roughness;      // x Phong exponent, y GGX alpha (u), z GGX alpha (v)
+    vec4 roughness;      // x Phong exponent, y GGX alpha (u), z GGX alpha (v), w (uint bits) bump or normal map texture (MATERIAL_BUMP_MAP, MATERIAL_NORMAL_MAP)
     uvec4 info;          // x kind (BSDF_*), y flags (MATERIAL_*), z diffuse texture, w roughness texture (diffuse transmission: transmittance texture; NO_TEXTURE: none)
 };
 

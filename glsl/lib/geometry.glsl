@@ -6,6 +6,7 @@
 #include "sampling.glsl"
 #include "texture.glsl"
 #include "features.glsl"
+#include "shading_map.glsl"
 
 const float TRIANGLE_DET_REL_EPS_SQ = 1e-10;
 
@@ -119,6 +120,45 @@ uint material_resolve(uint m, vec3 p, vec2 uv) {
     return m;
 }
 
+// The shading normal of s's material's bump or normal map, if it has one (s.ns and s.ng
+// as the primitive gives them).
+void apply_shading_map(Hit hit, inout Surface s) {
+    uvec4 info = materials[s.material].info;
+    if ((info.y & (MATERIAL_BUMP_MAP | MATERIAL_NORMAL_MAP)) == 0u) return;
+    uint tex = floatBitsToUint(materials[s.material].roughness.w);
+    ShadingGeometry g;
+    uint ntri = scene.triangle_count;
+    if (hit.prim < ntri) {
+        GpuTriangle tri = triangles[hit.prim];
+        uint a = floatBitsToUint(tri.v2.w);
+        vec2 uv0 = vec2(0.0);
+        vec2 uv1 = vec2(1.0, 0.0);
+        vec2 uv2 = vec2(1.0);
+        bool normals = false;
+        vec3 n0 = vec3(0.0);
+        vec3 n1 = vec3(0.0);
+        vec3 n2 = vec3(0.0);
+        if (a != NO_ATTRIBUTES) {
+            GpuTriangleAttributes at = triangle_attributes[a];
+            uv0 = at.uv01.xy;
+            uv1 = at.uv01.zw;
+            uv2 = at.uv2.xy;
+            normals = at.uv2.z != 0.0;
+            n0 = at.n0.xyz;
+            n1 = at.n1.xyz;
+            n2 = at.n2.xyz;
+        }
+        g = triangle_shading_geometry(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, uv0, uv1, uv2,
+                                      normals, n0, n1, n2, s.ns);
+    } else {
+        GpuSphere sp = spheres[hit.prim - ntri];
+        g = sphere_shading_geometry(sp.o2w0.xyz, sp.o2w1.xyz, sp.o2w2.xyz, sp.w2o0.xyz,
+                                    sp.w2o1.xyz, sp.w2o2.xyz, sphere_to_object_point(sp, s.p),
+                                    s.ns);
+    }
+    s.ns = mapped_normal(g, info.y, tex, s.uv, s.p, s.ng);
+}
+
 Surface surface_at(Hit hit, vec3 o, vec3 d) {
     Surface s;
     s.prim = hit.prim;
@@ -157,6 +197,7 @@ Surface surface_at(Hit hit, vec3 o, vec3 d) {
         s.ns = s.ng;
     }
     s.material = material_resolve(s.material, s.p, s.uv);
+    if (has_feature(FEATURE_SHADING_MAPS)) apply_shading_map(hit, s);
     return s;
 }
 

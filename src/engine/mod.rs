@@ -473,8 +473,8 @@ impl Engine {
 pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
         FEATURE_COATED_DIFFUSE, FEATURE_DIFFUSE_TRANSMISSION, FEATURE_ENVIRONMENT_MAP,
-        FEATURE_INTERFACES, FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_TEXTURE_PROJECTIONS,
-        FEATURE_UNBOUNDED,
+        FEATURE_INTERFACES, FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_SHADING_MAPS,
+        FEATURE_TEXTURE_PROJECTIONS, FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
@@ -495,6 +495,9 @@ pub fn scene_features(scene: &Scene) -> u32 {
         }
         if m.mix.is_some() {
             features |= FEATURE_MIX;
+        }
+        if m.shading_map.is_some() {
+            features |= FEATURE_SHADING_MAPS;
         }
     }
     if scene.environment.as_ref().is_some_and(|e| e.map.is_some()) {
@@ -601,7 +604,8 @@ mod tests {
             | FEATURE_MIX
             | FEATURE_UNBOUNDED
             | FEATURE_DIFFUSE_TRANSMISSION
-            | FEATURE_TEXTURE_PROJECTIONS;
+            | FEATURE_TEXTURE_PROJECTIONS
+            | FEATURE_SHADING_MAPS;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -32,8 +32,8 @@ use std::path::PathBuf;
 
 pub use crate::abi::{BsdfKind, SampleMode};
 use crate::abi::{
-    GpuMaterial, MATERIAL_MIX, MATERIAL_REMAP_ROUGHNESS, MATERIAL_TWO_SIDED_EMISSION,
-    MAX_MATERIAL_MIX_DEPTH, NO_TEXTURE,
+    GpuMaterial, MATERIAL_BUMP_MAP, MATERIAL_MIX, MATERIAL_NORMAL_MAP, MATERIAL_REMAP_ROUGHNESS,
+    MATERIAL_TWO_SIDED_EMISSION, MAX_MATERIAL_MIX_DEPTH, NO_TEXTURE,
 };
 pub use crate::texture::{Environment, EnvironmentMap, Texture, UV_MAPPING};
 
@@ -77,10 +77,25 @@ pub struct Material {
     pub remap_roughness_texture: bool,
     /// Diffuse transmission: the texture that replaces `transmittance`.
     pub transmittance_texture: Option<u32>,
+    /// A bump or normal map: the shading normal it gives replaces the surface's
+    /// (src/shading_map.rs).
+    pub shading_map: Option<ShadingMap>,
     /// pbrt-v4's `mix`: not a surface but a choice between two materials at each point
     /// (the BSDF fields are unused; `emission` is the emitter's, and both materials
     /// carry it too).
     pub mix: Option<MaterialMix>,
+}
+
+/// What perturbs a material's shading normal (textures are indices into
+/// `Scene::textures`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadingMap {
+    /// pbrt-v4's `displacement`: a float texture (its first channel), the height of the
+    /// surface along its shading normal.
+    Bump(u32),
+    /// pbrt-v4's `normalmap`: an RGB texture (linear, repeating) whose 2c - 1 is the
+    /// normal in the tangent frame (dp/du, n x dp/du, n).
+    Normal(u32),
 }
 
 /// A choice between two materials (indices into `Scene::materials`), made at each
@@ -125,6 +140,7 @@ impl Default for Material {
             roughness_texture: None,
             remap_roughness_texture: false,
             transmittance_texture: None,
+            shading_map: None,
             mix: None,
         }
     }
@@ -193,7 +209,15 @@ impl Material {
                 ],
                 _ => [0.0; 4],
             },
-            roughness: [self.shininess, self.roughness, self.roughness_v, 0.0],
+            roughness: [
+                self.shininess,
+                self.roughness,
+                self.roughness_v,
+                match self.shading_map {
+                    Some(ShadingMap::Bump(t) | ShadingMap::Normal(t)) => f32::from_bits(t),
+                    None => 0.0,
+                },
+            ],
             info: [
                 self.bsdf as u32,
                 if self.two_sided_emission {
@@ -207,6 +231,10 @@ impl Material {
                     MATERIAL_REMAP_ROUGHNESS
                 } else {
                     0
+                } | match self.shading_map {
+                    Some(ShadingMap::Bump(_)) => MATERIAL_BUMP_MAP,
+                    Some(ShadingMap::Normal(_)) => MATERIAL_NORMAL_MAP,
+                    None => 0,
                 },
                 self.diffuse_texture.unwrap_or(NO_TEXTURE),
                 if transmits {

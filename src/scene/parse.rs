@@ -260,6 +260,8 @@ const COMMANDS: &[(&str, &str)] = &[
     ("obj", "FILE"),
     ("texture", "FILE|none [srgb|linear]"),
     ("roughnesstexture", "FILE|none [srgb|linear]"),
+    ("bumpmap", "FILE|none [srgb|linear]"),
+    ("normalmap", "FILE|none"),
     ("checkerboard", "r g b r g b su sv"),
     ("reflectance", "r g b"),
     ("envmap", "FILE SCALE"),
@@ -751,6 +753,19 @@ impl Parser {
                 let texture = self.image_texture_argument(cmd)?;
                 self.set_material(|m| m.roughness_texture = texture);
             }
+            "bumpmap" => {
+                let texture = self.image_texture_argument(cmd)?;
+                self.set_material(|m| m.shading_map = texture.map(super::ShadingMap::Bump));
+            }
+            "normalmap" => {
+                let texture = if cmd.args[0] == "none" {
+                    None
+                } else {
+                    let path = self.base.join(cmd.args[0]);
+                    Some(self.image_texture(path, Encoding::Linear, cmd)?)
+                };
+                self.set_material(|m| m.shading_map = texture.map(super::ShadingMap::Normal));
+            }
             "checkerboard" => {
                 let even = cmd.color(0, "the first colour")?;
                 let odd = cmd.color(3, "the second colour")?;
@@ -957,8 +972,18 @@ impl Parser {
             }
         };
         let path = self.base.join(cmd.args[0]);
+        self.image_texture(path, encoding, cmd).map(Some)
+    }
+
+    /// The texture index of the image at `path` (read once per file and encoding).
+    fn image_texture(
+        &mut self,
+        path: PathBuf,
+        encoding: Encoding,
+        cmd: &Command,
+    ) -> Result<u32, ParseError> {
         if let Some(&index) = self.image_textures.get(&(path.clone(), encoding)) {
-            return Ok(Some(index));
+            return Ok(index);
         }
         let image = load_image(&path, encoding).map_err(|e| cmd.error(e))?;
         self.scene.textures.push(Texture::Image {
@@ -970,7 +995,7 @@ impl Parser {
         });
         let index = (self.scene.textures.len() - 1) as u32;
         self.image_textures.insert((path, encoding), index);
-        Ok(Some(index))
+        Ok(index)
     }
 
     /// `envmap FILE SCALE` (latitude-longitude, 2:1) and `envmapsquare FILE SCALE`
@@ -1723,6 +1748,8 @@ mod tests {
         "obj tests/data/tetrahedron.obj",
         "texture tests/data/checker.png srgb",
         "roughnesstexture tests/data/checker.png linear",
+        "bumpmap tests/data/checker.png linear",
+        "normalmap tests/data/checker.png",
         "checkerboard 1 1 1  0 0 0  4 4",
         "reflectance 0.9 0.6 0.3",
         "thickness 0.02",

@@ -1878,17 +1878,63 @@ impl Parser {
                 return Ok(MaterialRef::Material(diffuse(Vec3::splat(0.5))));
             }
         }
-        for name in ["displacement", "normalmap"] {
-            if let Some(p) = params.find(name) {
-                self.unsupported(
-                    p.file,
-                    p.line,
-                    format!("Material \"{ty}\": {name} (bump and normal maps)"),
-                );
-            }
-        }
+        m.shading_map = self.shading_map(params, d)?;
         self.check_used(d, &format!("\"{ty}\""), params);
         Ok(MaterialRef::Material(m))
+    }
+
+    /// A material's `normalmap` (an image file, read as linear RGB, repeating) or else its
+    /// `displacement` (a float texture), as pbrt-v4 prefers them.
+    fn shading_map(
+        &mut self,
+        params: &Params,
+        d: &str,
+    ) -> Result<Option<crate::scene::ShadingMap>, ParseError> {
+        use crate::scene::ShadingMap;
+        let displacement = self.value(params, "displacement", true, d)?;
+        if let Some(p) = params.find("normalmap").cloned() {
+            let Some(name) = p.strs.first().filter(|s| !s.is_empty()) else {
+                return Ok(None);
+            };
+            let path = self.dirs[p.file as usize].join(name);
+            let key = (path.clone(), Encoding::Linear);
+            let image = match self.image_textures.get(&key) {
+                Some(i) => i.clone(),
+                None => {
+                    let image =
+                        Arc::new(load_image(&path, Encoding::Linear).map_err(|e| {
+                            self.err_at(p.file, p.line, d, format!("normalmap: {e}"))
+                        })?);
+                    self.image_textures.insert(key, image.clone());
+                    image
+                }
+            };
+            self.scene.textures.push(Texture::Image {
+                image,
+                scale: Vec3::ONE,
+                mapping: crate::texture::UV_MAPPING,
+                wrap: Wrap::Repeat,
+                projection: Projection::Uv,
+            });
+            return Ok(Some(ShadingMap::Normal(
+                self.scene.textures.len() as u32 - 1,
+            )));
+        }
+        Ok(match displacement {
+            Some(Value::Texture(t)) => Some(ShadingMap::Bump(t)),
+            Some(Value::Const(c)) => {
+                if c.x != 0.0 {
+                    self.warn(
+                        "constant displacement",
+                        "a constant \"displacement\" is ignored (it tilts no normal of flat \
+                         geometry; on curved geometry lightpath leaves the normal as it is)"
+                            .into(),
+                    );
+                }
+                None
+            }
+            None => None,
+        })
     }
 
     /// pbrt-v4's `mix`: `string materials` names two materials made before, `amount`

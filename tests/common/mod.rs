@@ -213,3 +213,23 @@ pub fn light_tracing_image(scene: &Scene, seed: u32) -> (Image, Image) {
     }
     (t1, out.image)
 }
+
+/// A fresh directory for a test's files (per process).
+pub fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lightpath-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes a PFM image of `w` × `h` texels, `f(x, y)` with y = 0 the top row.
+pub fn write_pfm(path: &std::path::Path, w: u32, h: u32, f: impl Fn(u32, u32) -> [f32; 3]) {
+    let mut bytes = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
+    for y in (0..h).rev() {
+        for x in 0..w {
+            for c in f(x, y) {
+                bytes.extend(c.to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
+}
