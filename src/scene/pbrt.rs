@@ -340,8 +340,10 @@ struct Parser {
     frame_aspect: Option<f32>,
     /// The film's `cropwindow` or `pixelbounds`, with the file and line that gave it.
     crop: Option<(Crop, u32, u32)>,
-    /// The sensor's imaging ratio (ISO / 100 × exposure time), folded into every emitter.
-    imaging_ratio: f32,
+    /// The film's share of the imaging ratio: ISO / 100 times the film's `scale`.
+    film_ratio: f32,
+    /// pbrt-v4's exposure time: the camera's shutterclose − shutteropen (1 by default).
+    exposure: f32,
     in_world: bool,
 }
 
@@ -397,7 +399,8 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
         screen_window: None,
         frame_aspect: None,
         crop: None,
-        imaging_ratio: 1.0,
+        film_ratio: 1.0,
+        exposure: 1.0,
         in_world: false,
     };
     // pbrt-v4's defaults: a volumetric path tracer of depth 5, 16 samples per pixel.
@@ -741,6 +744,12 @@ impl Parser {
             }
         }
         params
+    }
+
+    /// The sensor's imaging ratio folded into every emitter: pbrt-v4's exposure time ×
+    /// ISO / 100 (cie1931 sensor), times the film's `scale`.
+    fn imaging_ratio(&self) -> f32 {
+        self.film_ratio * self.exposure
     }
 
     fn unsupported(&mut self, file: u32, line: u32, what: impl Into<String>) {
@@ -1245,8 +1254,10 @@ impl Parser {
                 format!("fov must be between 0 and 180 degrees, got {fov}"),
             ));
         }
-        // The shutter interval: lightpath renders the shutter-open instant (no motion blur).
-        for name in ["shutteropen", "shutterclose"] {
+        // The shutter interval: lightpath renders the shutter-open instant (no motion blur);
+        // its length is pbrt-v4's exposure time, which scales the image.
+        let mut shutter = [0.0, 1.0];
+        for (i, name) in ["shutteropen", "shutterclose"].into_iter().enumerate() {
             if let Some(p) = params.find(name) {
                 let x = p.nums.first().copied().unwrap_or(f64::NAN);
                 if !x.is_finite() {
@@ -1257,6 +1268,7 @@ impl Parser {
                         format!("{name} must be a finite number, got {x}"),
                     ));
                 }
+                shutter[i] = x;
                 let at = format!("{}:{}", self.files[p.file as usize], p.line);
                 self.warn(
                     name,
@@ -1264,6 +1276,18 @@ impl Parser {
                 );
             }
         }
+        if shutter[1] - shutter[0] <= 0.0 {
+            return Err(self.err_at(
+                file,
+                line,
+                "Camera",
+                format!(
+                    "shutterclose ({}) must be after shutteropen ({}): the shutter never opens",
+                    shutter[1], shutter[0]
+                ),
+            ));
+        }
+        self.exposure = (shutter[1] - shutter[0]) as f32;
         let positive = |name: &str, default: f64, zero_ok: bool| -> Result<f32, ParseError> {
             let Some(p) = params.find(name) else {
                 return Ok(default as f32);
@@ -1365,7 +1389,25 @@ impl Parser {
         if !(iso > 0.0) {
             return Err(self.err_at(file, line, "Film", "iso must be positive"));
         }
-        self.imaging_ratio = (iso / 100.0) as f32;
+        // Film "scale" (read by the pbrt-v4 of the published scenes, which multiplied the
+        // image by it): folded into the imaging ratio like ISO, the same for linear light
+        // transport.
+        let scale = match params.find("scale") {
+            None => 1.0,
+            Some(p) => {
+                let x = p.nums.first().copied().unwrap_or(f64::NAN);
+                if !(x.is_finite() && x >= 0.0) {
+                    return Err(self.err_at(
+                        p.file,
+                        p.line,
+                        "Film",
+                        format!("scale must be a finite number >= 0, got {x}"),
+                    ));
+                }
+                x
+            }
+        };
+        self.film_ratio = (iso / 100.0 * scale) as f32;
         if let Some(p) = params.find("sensor") {
             if p.strs.first().map(String::as_str) != Some("cie1931") {
                 self.unsupported(p.file, p.line, "Film: a sensor other than cie1931");
@@ -2836,7 +2878,7 @@ impl Parser {
                 let emission = s
                     .area
                     .as_ref()
-                    .map(|a| (a.radiance * self.imaging_ratio, a.two_sided));
+                    .map(|a| (a.radiance * self.imaging_ratio(), a.two_sided));
                 let power = s.area.as_ref().and_then(|a| {
                     a.power
                         .map(|phi| (phi, if a.two_sided { 2.0 } else { 1.0 }))
@@ -2858,7 +2900,7 @@ impl Parser {
             }
             ShapeKind::Sphere { radius } => {
                 let emission = s.area.as_ref().map(|a| {
-                    let mut e = a.radiance * self.imaging_ratio;
+                    let mut e = a.radiance * self.imaging_ratio();
                     if let Some(phi) = a.power {
                         let scale = Mat3::from_mat4(ctm);
                         let r = radius * scale.determinant().abs().cbrt();
@@ -2918,16 +2960,17 @@ impl Parser {
             };
         }
         self.film_window()?;
+        let ratio = self.imaging_ratio();
         for l in &mut self.scene.delta_lights {
             match l {
                 DeltaLight::Point { intensity, .. } | DeltaLight::Spot { intensity, .. } => {
-                    *intensity *= self.imaging_ratio
+                    *intensity *= ratio
                 }
-                DeltaLight::Directional { radiance, .. } => *radiance *= self.imaging_ratio,
+                DeltaLight::Directional { radiance, .. } => *radiance *= ratio,
             }
         }
         if let Some(e) = &mut self.scene.environment {
-            e.radiance *= self.imaging_ratio;
+            e.radiance *= ratio;
         }
         Ok(self.scene)
     }
@@ -3172,10 +3215,14 @@ mod tests {
         }
         let read = NAMES_READ.with(|r| r.borrow().clone());
         let mut foreign = Vec::new();
+        // Names the published scenes use that an earlier pbrt-v4 read (Film "scale", which
+        // multiplied the image).
+        let earlier = [("Film", "scale")];
         for (d, ty, name) in &read {
             let known = names
                 .get(&(d.clone(), ty.clone()))
-                .is_some_and(|set| set.contains(name));
+                .is_some_and(|set| set.contains(name))
+                || earlier.contains(&(d.as_str(), name.as_str()));
             if !known {
                 foreign.push(format!("{d} \"{ty}\": \"{name}\""));
             }
@@ -3335,6 +3382,36 @@ mod tests {
         assert!(
             matches!(s.delta_lights[0], DeltaLight::Point { intensity, .. } if intensity == Vec3::new(2.0, 3.0, 4.0))
         );
+    }
+
+    /// pbrt-v4's imaging ratio: the exposure time (shutterclose − shutteropen) × ISO / 100,
+    /// and the film's `scale` (the published scenes' pbrt-v4), multiply every emitter; a
+    /// shutter that never opens is an error.
+    #[test]
+    fn exposure_iso_and_film_scale_scale_every_emitter() {
+        let light = "LightSource \"point\" \"rgb I\" [ 1 2 3 ]\nLightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n";
+        for (options, want) in [
+            ("", 1.0),
+            ("Camera \"perspective\" \"float shutteropen\" 0.25 \"float shutterclose\" 0.75\n", 0.5),
+            ("Film \"rgb\" \"float iso\" 400 \"float scale\" 1.5\n", 6.0),
+            (
+                "Film \"rgb\" \"float scale\" 2\nCamera \"perspective\" \"float shutterclose\" 0.5\n",
+                1.0,
+            ),
+        ] {
+            let s = parse(&format!("{options}WorldBegin\n{light}{QUAD}"));
+            let DeltaLight::Point { intensity, .. } = s.delta_lights[0] else {
+                panic!("a point light")
+            };
+            assert!((intensity - want * Vec3::new(1.0, 2.0, 3.0)).length() < 1e-6, "{options}: {intensity}");
+            let env = s.environment.as_ref().expect("the infinite light");
+            assert!((env.radiance - Vec3::splat(want)).length() < 1e-6, "{options}");
+        }
+        let e =
+            parse_err("Camera \"perspective\" \"float shutteropen\" 1 \"float shutterclose\" 1\n");
+        assert!(e.message.contains("never opens"), "{e}");
+        let e = parse_err("Film \"rgb\" \"float scale\" -1\n");
+        assert!(e.message.contains("scale"), "{e}");
     }
 
     /// Animated transforms render at the shutter-open time: transforms after
