@@ -1552,8 +1552,15 @@ impl Parser {
         }
         // (Each of pbrt-v4's integrators reads its own switches.)
         let switches: &[&str] = match ty {
-            "path" | "volpath" => &["regularize", "lightsampler"],
-            "bdpt" => &["regularize", "visualizestrategies", "visualizeweights"],
+            // (rrthreshold: the published scenes' earlier pbrt-v4 read it, a Russian
+            // roulette threshold.)
+            "path" | "volpath" => &["regularize", "lightsampler", "rrthreshold"],
+            "bdpt" => &[
+                "regularize",
+                "visualizestrategies",
+                "visualizeweights",
+                "rrthreshold",
+            ],
             "mlt" => &["regularize"],
             _ => &[],
         };
@@ -3216,8 +3223,8 @@ mod tests {
         let read = NAMES_READ.with(|r| r.borrow().clone());
         let mut foreign = Vec::new();
         // Names the published scenes use that an earlier pbrt-v4 read (Film "scale", which
-        // multiplied the image).
-        let earlier = [("Film", "scale")];
+        // multiplied the image; the path integrator's Russian roulette "rrthreshold").
+        let earlier = [("Film", "scale"), ("Integrator", "rrthreshold")];
         for (d, ty, name) in &read {
             let known = names
                 .get(&(d.clone(), ty.clone()))
@@ -3382,6 +3389,17 @@ mod tests {
         assert!(
             matches!(s.delta_lights[0], DeltaLight::Point { intensity, .. } if intensity == Vec3::new(2.0, 3.0, 4.0))
         );
+    }
+
+    /// The published scenes' `rrthreshold` (an earlier pbrt-v4's) is read and ignored: it
+    /// changes noise only.
+    #[test]
+    fn rrthreshold_is_accepted() {
+        for ty in ["path", "volpath", "bdpt"] {
+            parse(&format!(
+                "Integrator \"{ty}\" \"float rrthreshold\" 0.5\nWorldBegin\n{QUAD}"
+            ));
+        }
     }
 
     /// pbrt-v4's imaging ratio: the exposure time (shutterclose − shutteropen) × ISO / 100,
