@@ -354,7 +354,7 @@ pub fn triangle_attributes(scene: &Scene) -> (Vec<GpuTriangleAttributes>, Vec<u3
     let mut records = Vec::new();
     let mut index = Vec::with_capacity(scene.triangles.len());
     for t in &scene.triangles {
-        if t.uv.is_none() && t.normals.is_none() {
+        if t.uv.is_none() && t.normals.is_none() && t.alpha.is_none() {
             index.push(NO_ATTRIBUTES);
             continue;
         }
@@ -364,12 +364,17 @@ pub fn triangle_attributes(scene: &Scene) -> (Vec<GpuTriangleAttributes>, Vec<u3
             glam::Vec2::new(1.0, 1.0),
         ]);
         let n = t.normals.unwrap_or([Vec3::ZERO; 3]);
+        let (alpha_kind, alpha_value) = match t.alpha {
+            None => (crate::abi::ALPHA_NONE, 0.0),
+            Some(crate::scene::Alpha::Constant(a)) => (crate::abi::ALPHA_CONSTANT, a),
+            Some(crate::scene::Alpha::Texture(i)) => (crate::abi::ALPHA_TEXTURE, f32::from_bits(i)),
+        };
         index.push(records.len() as u32);
         records.push(GpuTriangleAttributes {
             uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
             uv2: [uv[2].x, uv[2].y, t.normals.is_some() as u32 as f32, 0.0],
-            n0: n[0].extend(0.0).to_array(),
-            n1: n[1].extend(0.0).to_array(),
+            n0: n[0].extend(alpha_kind as f32).to_array(),
+            n1: n[1].extend(alpha_value).to_array(),
             n2: n[2].extend(0.0).to_array(),
         });
     }

@@ -2,6 +2,7 @@
 //! and multiplexed Metropolis light transport, converging to the same image.
 pub mod abi;
 pub mod accel;
+pub mod alpha;
 pub mod bench;
 pub mod bsdf;
 pub mod cli;

@@ -112,8 +112,10 @@
 #define FEATURE_TEXTURE_PROJECTIONS 128
 // Bump and normal maps (surface_at's shading normal, lib/shading_map.glsl).
 #define FEATURE_SHADING_MAPS 256
+// Alpha cut-outs on triangles (every visibility backend's alpha test, geometry.glsl).
+#define FEATURE_ALPHA 512
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 511
+#define FEATURE_ALL 1023
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
@@ -261,11 +263,17 @@ struct GpuTriangle {
 
 // A triangle's texture coordinates and shading normals at its corners. Without
 // attributes a triangle has pbrt's (0,0), (1,0), (1,1) and its geometric normal.
+// A triangle's alpha (pbrt-v4's `alpha`, GpuTriangleAttributes.n0.w as a float): none
+// (opaque), a constant (n1.w) or a float texture (n1.w, uint bits).
+#define ALPHA_NONE 0
+#define ALPHA_CONSTANT 1
+#define ALPHA_TEXTURE 2
+
 struct GpuTriangleAttributes {
     vec4 uv01;          // (u0, v0, u1, v1)
     vec4 uv2;           // xy: (u2, v2), z: 1 when n0..n2 hold shading normals
-    vec4 n0;
-    vec4 n1;
+    vec4 n0;            // w: the alpha's kind (ALPHA_*)
+    vec4 n1;            // w: the alpha constant, or its texture (uint bits)
     vec4 n2;
 };
 

@@ -81,6 +81,50 @@ bool intersect_sphere(GpuSphere s, vec3 o, vec3 d, float tmin, float tmax, out f
     return false;
 }
 
+// pbrt-v4's stochastic alpha test. A uniform number in [0, 1) that is a fixed function of
+// the ray (o, d) and the triangle (its first corner v0, the same under every backend's
+// numbering): a cut-out is decided once per ray and triangle. CPU mirror: src/alpha.rs.
+float alpha_hash(vec3 o, vec3 d, vec3 v0) {
+    uvec3 a = floatBitsToUint(o);
+    uvec3 b = floatBitsToUint(d);
+    uvec3 c = floatBitsToUint(v0);
+    uint h = hash_pcg(a.x);
+    h = hash_pcg(h ^ a.y);
+    h = hash_pcg(h ^ a.z);
+    h = hash_pcg(h ^ b.x);
+    h = hash_pcg(h ^ b.y);
+    h = hash_pcg(h ^ b.z);
+    h = hash_pcg(h ^ c.x);
+    h = hash_pcg(h ^ c.y);
+    h = hash_pcg(h ^ c.z);
+    return float(h >> 8u) * (1.0 / 16777216.0);
+}
+
+// Whether the ray (o, d) that hits the triangle `tri` at barycentrics bary passes through
+// it: its alpha a there (a constant or a float texture at the hit's uv and point) keeps
+// the hit where a >= 1, cuts it where a <= 0, and otherwise cuts it when alpha_hash > a
+// (pbrt-v4's GeometricPrimitive test). Every visibility backend asks here, for closest
+// hits and shadow rays alike.
+bool alpha_cut(GpuTriangle tri, vec2 bary, vec3 o, vec3 d) {
+    if (!has_feature(FEATURE_ALPHA)) return false;
+    uint ai = floatBitsToUint(tri.v2.w);
+    if (ai == NO_ATTRIBUTES) return false;
+    float kind = triangle_attributes[ai].n0.w;
+    if (kind == float(ALPHA_NONE)) return false;
+    float alpha = triangle_attributes[ai].n1.w;
+    if (kind == float(ALPHA_TEXTURE)) {
+        vec4 uv01 = triangle_attributes[ai].uv01;
+        vec2 uv2 = triangle_attributes[ai].uv2.xy;
+        float b0 = 1.0 - bary.x - bary.y;
+        vec2 uv = b0 * uv01.xy + bary.x * uv01.zw + bary.y * uv2;
+        vec3 p = tri.v0.xyz + bary.x * (tri.v1.xyz - tri.v0.xyz) + bary.y * (tri.v2.xyz - tri.v0.xyz);
+        alpha = texture_value(floatBitsToUint(alpha), uv, p).x;
+    }
+    if (alpha >= 1.0) return false;
+    if (alpha <= 0.0) return true;
+    return alpha_hash(o, d, tri.v0.xyz) > alpha;
+}
+
 struct Surface {
     vec3 p;       // position
     vec3 ng;      // unit geometric normal (not flipped)

@@ -18,7 +18,8 @@ bool bvh_intersect_prim_once(uint prim, vec3 o, vec3 d, float tmax, out float t,
     bary = vec2(0.0);
     if (prim < ntri) {
         GpuTriangle tri = triangles[prim];
-        return intersect_triangle(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, o, d, 0.0, tmax, t, bary);
+        return intersect_triangle(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, o, d, 0.0, tmax, t, bary)
+            && !alpha_cut(tri, bary, o, d);
     }
     return intersect_sphere(spheres[prim - ntri], o, d, 0.0, tmax, t);
 }

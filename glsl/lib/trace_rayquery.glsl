@@ -1,14 +1,22 @@
 // Visibility by VK_KHR_ray_query. Triangles are one BLAS instance (identity transform);
 // each sphere is an instance of a unit-cube AABB BLAS under the sphere's transform,
 // whose custom index is the sphere's index, intersected exactly here in world space.
+// With alpha cut-outs (FEATURE_ALPHA) the triangles are not opaque: each candidate is
+// confirmed here unless alpha_cut cuts it.
 #extension GL_EXT_ray_query : require
 
 layout(set = 0, binding = BINDING_TLAS) uniform accelerationStructureEXT tlas;
 
+uint rq_flags() { return has_feature(FEATURE_ALPHA) ? gl_RayFlagsNoneEXT : gl_RayFlagsOpaqueEXT; }
+
 bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
     rayQueryEXT rq;
-    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT, 0xFF, o, 0.0, d, tmax);
+    rayQueryInitializeEXT(rq, tlas, rq_flags(), 0xFF, o, 0.0, d, tmax);
     while (rayQueryProceedEXT(rq)) {
+        if (has_feature(FEATURE_ALPHA) && rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionTriangleEXT) {
+            if (!alpha_cut(triangles[rayQueryGetIntersectionPrimitiveIndexEXT(rq, false)], rayQueryGetIntersectionBarycentricsEXT(rq, false), o, d)) rayQueryConfirmIntersectionEXT(rq);
+            continue;
+        }
         if (rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionAABBEXT) {
             // Generated hits skip the driver's distance check: test against the
             // closest hit committed so far (opaque triangles commit without asking).
@@ -42,8 +50,15 @@ bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
 
 bool trace_occluded(vec3 o, vec3 d, float tmax) {
     rayQueryEXT rq;
-    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xFF, o, 0.0, d, tmax);
+    rayQueryInitializeEXT(rq, tlas, rq_flags() | gl_RayFlagsTerminateOnFirstHitEXT, 0xFF, o, 0.0, d, tmax);
     while (rayQueryProceedEXT(rq)) {
+        if (has_feature(FEATURE_ALPHA) && rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionTriangleEXT) {
+            if (!alpha_cut(triangles[rayQueryGetIntersectionPrimitiveIndexEXT(rq, false)], rayQueryGetIntersectionBarycentricsEXT(rq, false), o, d)) {
+                rayQueryConfirmIntersectionEXT(rq);
+                rayQueryTerminateEXT(rq);
+            }
+            continue;
+        }
         if (rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionAABBEXT) {
             uint si = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));
             float t;

@@ -198,6 +198,7 @@ impl Engine {
                     &gpu_scene.triangles,
                     scene.triangles.len() as u32,
                     &spheres,
+                    scene.triangles.iter().any(|t| t.alpha.is_some()),
                 )
             })?)
         } else {
@@ -472,9 +473,9 @@ impl Engine {
 /// (glsl/lib/features.glsl), so a bit left out here would render that feature wrongly.
 pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
-        FEATURE_COATED_DIFFUSE, FEATURE_DIFFUSE_TRANSMISSION, FEATURE_ENVIRONMENT_MAP,
-        FEATURE_INTERFACES, FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_SHADING_MAPS,
-        FEATURE_TEXTURE_PROJECTIONS, FEATURE_UNBOUNDED,
+        FEATURE_ALPHA, FEATURE_COATED_DIFFUSE, FEATURE_DIFFUSE_TRANSMISSION,
+        FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES, FEATURE_MATERIAL_TEXTURES, FEATURE_MIX,
+        FEATURE_SHADING_MAPS, FEATURE_TEXTURE_PROJECTIONS, FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
@@ -512,6 +513,9 @@ pub fn scene_features(scene: &Scene) -> u32 {
     }
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
+    }
+    if scene.triangles.iter().any(|t| t.alpha.is_some()) {
+        features |= FEATURE_ALPHA;
     }
     features
 }
@@ -605,7 +609,8 @@ mod tests {
             | FEATURE_UNBOUNDED
             | FEATURE_DIFFUSE_TRANSMISSION
             | FEATURE_TEXTURE_PROJECTIONS
-            | FEATURE_SHADING_MAPS;
+            | FEATURE_SHADING_MAPS
+            | FEATURE_ALPHA;
         assert_eq!(FEATURE_ALL, every);
     }
 }

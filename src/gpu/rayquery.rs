@@ -125,19 +125,31 @@ fn address_of(device: &Device, a: &AccelStructure) -> u64 {
 
 /// `triangles` is the GPU triangle buffer (three vec4 vertices per triangle, used as a
 /// vertex buffer of stride 16), `sphere_transforms` the spheres' object-to-world maps.
+/// `alpha`: some triangles have alpha cut-outs, so the triangles are not opaque (the
+/// shaders test each candidate, trace_rayquery.glsl); otherwise everything is opaque.
 pub fn build_scene(
     device: &Arc<Device>,
     triangles: &Buffer,
     triangle_count: u32,
     sphere_transforms: &[Mat4],
+    alpha: bool,
 ) -> GpuResult<RayQueryScene> {
     let mut blas = Vec::new();
     let mut inputs = Vec::new();
     let mut instances: Vec<vk::AccelerationStructureInstanceKHR> = Vec::new();
-    let flags = vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE
+    let opaque = vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE
         | vk::GeometryInstanceFlagsKHR::FORCE_OPAQUE;
-    let instance =
-        |transform: [f32; 12], custom: u32, reference: u64| vk::AccelerationStructureInstanceKHR {
+    let triangle_flags = if alpha {
+        vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE
+    } else {
+        opaque
+    };
+    let instance = |transform: [f32; 12],
+                    custom: u32,
+                    reference: u64,
+                    flags: vk::GeometryInstanceFlagsKHR|
+     -> vk::AccelerationStructureInstanceKHR {
+        vk::AccelerationStructureInstanceKHR {
             transform: vk::TransformMatrixKHR { matrix: transform },
             instance_custom_index_and_mask: vk::Packed24_8::new(custom, 0xff),
             instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
@@ -147,7 +159,8 @@ pub fn build_scene(
             acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
                 device_handle: reference,
             },
-        };
+        }
+    };
     if triangle_count > 0 {
         let triangles_data = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
             .vertex_format(vk::Format::R32G32B32_SFLOAT)
@@ -162,7 +175,11 @@ pub fn build_scene(
             .geometry(vk::AccelerationStructureGeometryDataKHR {
                 triangles: triangles_data,
             })
-            .flags(vk::GeometryFlagsKHR::OPAQUE);
+            .flags(if alpha {
+                vk::GeometryFlagsKHR::empty()
+            } else {
+                vk::GeometryFlagsKHR::OPAQUE
+            });
         let b = build(
             device,
             "triangle BLAS",
@@ -171,7 +188,12 @@ pub fn build_scene(
             triangle_count,
         )?;
         let identity = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
-        instances.push(instance(identity, 0, address_of(device, &b)));
+        instances.push(instance(
+            identity,
+            0,
+            address_of(device, &b),
+            triangle_flags,
+        ));
         blas.push(b);
     }
     if !sphere_transforms.is_empty() {
@@ -207,6 +229,7 @@ pub fn build_scene(
                 ],
                 i as u32,
                 reference,
+                opaque,
             ));
         }
         blas.push(b);

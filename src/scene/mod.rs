@@ -258,6 +258,17 @@ pub struct Triangle {
     /// Unit shading normals at the corners (world space), interpolated across the
     /// triangle; `None`: the geometric normal.
     pub normals: Option<[Vec3; 3]>,
+    /// pbrt-v4's `alpha` cut-out (src/alpha.rs); `None`: opaque.
+    pub alpha: Option<Alpha>,
+}
+
+/// A shape's alpha (pbrt-v4's `alpha`): where it is below 1 a hit is cut out (ignored by
+/// every ray) with probability 1 − alpha, decided by a hash of the ray and the triangle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Alpha {
+    Constant(f32),
+    /// A float texture (its first channel; an index into `Scene::textures`).
+    Texture(u32),
 }
 
 impl Triangle {
@@ -267,6 +278,7 @@ impl Triangle {
             material,
             uv: None,
             normals: None,
+            alpha: None,
         }
     }
 

@@ -293,6 +293,7 @@ struct ShapeDecl {
     reverse: bool,
     material: MaterialRef,
     area: Option<AreaLight>,
+    alpha: Option<super::Alpha>,
 }
 
 #[derive(Clone, Debug)]
@@ -2789,10 +2790,33 @@ impl Parser {
                 return Ok(());
             }
         };
+        // pbrt-v4's alpha: a float or a float texture; 1 (opaque) by default.
+        let alpha = match self.value(params, "alpha", true, d)? {
+            None => None,
+            Some(Value::Const(c)) if c.x >= 1.0 => None,
+            Some(Value::Const(c)) => Some(super::Alpha::Constant(c.x)),
+            Some(Value::Texture(t)) => Some(super::Alpha::Texture(t)),
+        };
+        if alpha.is_some() {
+            if matches!(kind, ShapeKind::Sphere { .. }) {
+                self.unsupported(
+                    file,
+                    line,
+                    "Shape \"sphere\": alpha (lightpath cuts out triangles only)",
+                );
+            }
+            if self.gs.area.is_some() {
+                self.unsupported(
+                    file,
+                    line,
+                    format!("Shape \"{ty}\": alpha on an area light"),
+                );
+            }
+        }
         let refused: &[&str] = match ty {
-            "plymesh" => &["alpha", "displacement"],
-            "bilinearmesh" => &["alpha", "emissionfilename"],
-            _ => &["alpha"],
+            "plymesh" => &["displacement"],
+            "bilinearmesh" => &["emissionfilename"],
+            _ => &[],
         };
         for &name in refused {
             if let Some(p) = params.find(name) {
@@ -2806,6 +2830,7 @@ impl Parser {
             reverse: self.gs.reverse,
             material: self.gs.material.clone(),
             area: self.gs.area.clone(),
+            alpha,
         };
         if self.defining.is_some() {
             if decl.area.is_some() {
@@ -2867,6 +2892,7 @@ impl Parser {
                         Some(uv) => [uv[a], uv[b], uv[cc]],
                         None => [Vec2::ZERO, Vec2::X, Vec2::ONE],
                     });
+                    t.alpha = s.alpha;
                     if (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length_squared() == 0.0 {
                         continue;
                     }
