@@ -30,7 +30,7 @@ void main() {
         Hit hit;
         rays++;
         if (!trace_closest(o, d, INF, hit)) {
-            if (scene.environment != NO_EMITTER) sum += environment_radiance(d);
+            if (scene.environment != NO_EMITTER) sum += environment_radiance(o, d);
             continue;
         }
         Surface s = surface_at(hit, o, d);

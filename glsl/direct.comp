@@ -40,7 +40,7 @@ vec3 direct_sample(uvec2 pixel, inout Rng rng) {
     vec3 o, d;
     camera_sample(pixel, rng, o, d);
     Hit hit;
-    if (!closest(o, d, hit)) return scene.environment != NO_EMITTER ? environment_radiance(d) : vec3(0.0);
+    if (!closest(o, d, hit)) return scene.environment != NO_EMITTER ? environment_radiance(o, d) : vec3(0.0);
     Surface s = surface_at(hit, o, d);
     vec3 wo = -d;
     vec3 L = vec3(0.0);

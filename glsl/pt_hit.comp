@@ -31,7 +31,7 @@ void main() {
     if (prim == NO_HIT) {
         // The environment, found by the path itself.
         if (scene.environment != NO_EMITTER) {
-            vec3 Le = environment_radiance(d);
+            vec3 Le = environment_radiance(o, d);
             if (depth == 0u || nee == NEE_OFF || prev_delta) {
                 L += beta * Le;
             } else if (nee == NEE_MIS) {

@@ -115,6 +115,9 @@ pub struct SceneParams {
     pub focal_distance: f32,
     pub reserved2: u32,
     pub reserved3: u32,
+    pub portal_p0: [f32; 4],
+    pub portal_e1: [f32; 4],
+    pub portal_e3: [f32; 4],
 }
 
 #[repr(C)]
@@ -415,7 +418,10 @@ pub fn layouts() -> Vec<StructLayout> {
             lens_radius,
             focal_distance,
             reserved2,
-            reserved3
+            reserved3,
+            portal_p0,
+            portal_e1,
+            portal_e3
         ),
         layout!(GpuPathVertex, p, n, wi, beta, ns),
         layout!(GpuPtPath, o, d, beta, radiance, prev_p, hit, p, n, ns, ls_wi, ls_le, ls_p, ls_n),
@@ -513,7 +519,7 @@ const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuEmitter>() == 80);
-const _: () = assert!(std::mem::size_of::<SceneParams>() == 256);
+const _: () = assert!(std::mem::size_of::<SceneParams>() == 304);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuPtPath>() == 208);

@@ -432,6 +432,7 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
     let s = &scene.settings;
     let (center, radius) = scene_bounds(scene);
     let env_map = scene.environment.as_ref().and_then(|e| e.map.as_ref());
+    let portal = scene.environment.as_ref().and_then(|e| e.portal);
     let env_to_world = env_map.map_or(Mat3::IDENTITY, |m| m.to_world);
     SceneParams {
         cam_eye: c.eye.extend(0.0).to_array(),
@@ -475,6 +476,9 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
         env_x: env_to_world.col(0).extend(0.0).to_array(),
         env_y: env_to_world.col(1).extend(0.0).to_array(),
         env_z: env_to_world.col(2).extend(0.0).to_array(),
+        portal_p0: portal.map_or([0.0; 4], |q| q[0].extend(1.0).to_array()),
+        portal_e1: portal.map_or([0.0; 4], |q| (q[1] - q[0]).extend(0.0).to_array()),
+        portal_e3: portal.map_or([0.0; 4], |q| (q[3] - q[0]).extend(0.0).to_array()),
     }
 }
 

@@ -143,6 +143,11 @@ pub struct EnvironmentMap {
 pub struct Environment {
     pub radiance: Vec3,
     pub map: Option<EnvironmentMap>,
+    /// pbrt-v4's `portal`: a rectangle (corners p0..p3, world space) that the light is
+    /// seen through and only through: radiance arrives at a point p from the direction w
+    /// when the ray from p along w crosses the rectangle, with w on the side of
+    /// (p3 − p0) × (p1 − p0).
+    pub portal: Option<[Vec3; 4]>,
 }
 
 /// How the integers of an 8- or 16-bit image become linear values (float images are

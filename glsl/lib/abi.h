@@ -374,6 +374,9 @@ struct SceneParams {
     float focal_distance;// .. and the distance of its plane of focus
     uint reserved2;
     uint reserved3;
+    vec4 portal_p0;      // the environment's portal (pbrt-v4's): corner p0, w 1 when there is one ..
+    vec4 portal_e1;      // .. its edges p1 - p0 ..
+    vec4 portal_e3;      // .. and p3 - p0 (the light comes through along (p3 - p0) x (p1 - p0))
 };
 
 // A vertex of a BDPT light subpath (stored per pixel, read back by the camera subpath).

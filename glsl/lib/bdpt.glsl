@@ -326,7 +326,7 @@ bool emission_found(Walk w, PathVertex z, bool environment, out vec3 value, out 
     if (environment) {
         if (scene.environment == NO_EMITTER || !w.escaped) return false;
         q.e = scene.environment;
-        Le = environment_radiance(w.d);
+        Le = environment_radiance(w.o, w.d);
         q.p = w.o;
         q.ng = vec3(0.0);
         q.dir = -w.d;

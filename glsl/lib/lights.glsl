@@ -128,11 +128,54 @@ float env_map_pdf(vec2 uv) {
     return marginal * (texels[row + x + 1u] - texels[row + x]) * float(w * h);
 }
 
-// Radiance arriving along -dir (dir the unit direction of an escaping ray).
-vec3 environment_radiance(vec3 dir) {
+// Whether the point q of the portal's plane lies in the portal.
+bool portal_contains(vec3 q) {
+    vec3 e1 = scene.portal_e1.xyz;
+    vec3 e3 = scene.portal_e3.xyz;
+    q -= scene.portal_p0.xyz;
+    float a = dot(q, e1) / dot(e1, e1);
+    float b = dot(q, e3) / dot(e3, e3);
+    return a >= 0.0 && a <= 1.0 && b >= 0.0 && b <= 1.0;
+}
+
+// pbrt-v4's portal: whether the ray from p along dir crosses the portal rectangle, going
+// out through it (always true without a portal).
+bool portal_passes(vec3 p, vec3 dir) {
+    if (scene.portal_p0.w == 0.0) return true;
+    vec3 n = cross(scene.portal_e3.xyz, scene.portal_e1.xyz);
+    float dn = dot(dir, n);
+    if (!(dn > 0.0)) return false;
+    float t = dot(scene.portal_p0.xyz - p, n) / dn;
+    return t > 0.0 && portal_contains(p + t * dir);
+}
+
+// The environment's radiance arriving along -dir (dir the unit direction of an escaping
+// ray), portal aside.
+vec3 environment_value(vec3 dir) {
     vec3 L = emitters[scene.environment].radiance.xyz;
     if (!has_feature(FEATURE_ENVIRONMENT_MAP) || scene.env_texture == NO_TEXTURE) return L;
     return L * texture_value(scene.env_texture, env_uv(env_to_local(dir)), vec3(0.0));
+}
+
+// The environment's radiance arriving at p from the direction dir (zero where a portal
+// hides it).
+vec3 environment_radiance(vec3 p, vec3 dir) {
+    return portal_passes(p, dir) ? environment_value(dir) : vec3(0.0);
+}
+
+// A light subpath's emission ray from the disk point o along -dir: with a portal it
+// lights only what lies behind the portal, so it starts on the portal (the same line:
+// its density is the disk's) or, missing the portal, carries nothing.
+vec3 environment_emission(inout vec3 o, vec3 dir) {
+    if (scene.portal_p0.w != 0.0) {
+        vec3 n = cross(scene.portal_e3.xyz, scene.portal_e1.xyz);
+        float dn = dot(dir, n);
+        if (!(dn > 0.0)) return vec3(0.0);
+        vec3 q = o + (dot(scene.portal_p0.xyz - o, n) / dn) * dir;
+        if (!portal_contains(q)) return vec3(0.0);
+        o = q;
+    }
+    return environment_value(dir);
 }
 
 // The solid-angle density with which light sampling draws the direction dir (no pick).
@@ -285,7 +328,7 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
         float pdf_dir;
         ls.wi = sample_environment_direction(u, pdf_dir);
         ls.dist = INF;
-        ls.L = environment_radiance(ls.wi);
+        ls.L = environment_radiance(ref, ls.wi);
         ls.pdf = pick * pdf_dir;
         return ls.pdf > 0.0 && ls.L != vec3(0.0);
     }
@@ -496,7 +539,7 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
         float phi = TWO_PI * u_pos.y;
         le.dir = -toward;
         le.p = scene.bounds.xyz + r * toward + rad * (cos(phi) * t + sin(phi) * b);
-        le.Le = environment_radiance(toward);
+        le.Le = environment_emission(le.p, toward);
         le.pdf_pos = pick * pdf_dir;
         le.pdf_emit = le.pdf_pos / (PI * r * r);
         return le.pdf_pos > 0.0 && le.Le != vec3(0.0);
@@ -588,7 +631,16 @@ vec3 emitter_unoccluded_irradiance(uint e, vec3 p, vec3 n, uint prim) {
         float d2 = dot(to, to);
         return em.radiance.xyz * max(0.0, dot(n, to) / sqrt(d2)) / d2;
     } else if (em.info.x == EMITTER_INFINITE) {
-        // The whole hemisphere, unoccluded: E = pi L.
+        // The whole hemisphere, unoccluded: E = pi L; through a portal, the portal's
+        // polygon (lighting only the points behind it).
+        if (scene.portal_p0.w != 0.0) {
+            vec3 p0 = scene.portal_p0.xyz;
+            vec3 e1 = scene.portal_e1.xyz;
+            vec3 e3 = scene.portal_e3.xyz;
+            if (!(dot(p0 - p, cross(e3, e1)) > 0.0)) return vec3(0.0);
+            return em.radiance.xyz * (polygon_irradiance_factor(p, n, p0, p0 + e1, p0 + e1 + e3)
+                                      + polygon_irradiance_factor(p, n, p0, p0 + e1 + e3, p0 + e3));
+        }
         return PI * em.radiance.xyz;
     } else if (em.info.x == EMITTER_SPOT) {
         vec3 to = em.p0.xyz - p;

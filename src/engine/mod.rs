@@ -580,6 +580,7 @@ mod tests {
                 mapping: crate::texture::EnvMapping::LatLong,
                 to_world: glam::Mat3::IDENTITY,
             }),
+            portal: None,
         });
         assert_eq!(scene_features(&s), FEATURE_ENVIRONMENT_MAP);
         s.environment = None;

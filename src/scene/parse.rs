@@ -741,6 +741,7 @@ impl Parser {
                 self.scene.environment = Some(Environment {
                     radiance,
                     map: None,
+                    portal: None,
                 });
             }
             "envmap" => self.envmap(cmd, EnvMapping::LatLong)?,
@@ -1049,6 +1050,7 @@ impl Parser {
                 mapping,
                 to_world: rotation,
             }),
+            portal: None,
         });
         Ok(())
     }
@@ -2181,7 +2183,8 @@ mod tests {
             s.environment,
             Some(Environment {
                 radiance: Vec3::new(0.5, 0.6, 0.7),
-                map: None
+                map: None,
+                portal: None,
             })
         );
         check_err("envlight 1 -1 1", 1, "envlight", "must not be negative");

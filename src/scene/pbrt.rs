@@ -2453,9 +2453,44 @@ impl Parser {
                         l *= e / std::f32::consts::PI;
                     }
                 }
-                if let Some(p) = params.find("portal") {
-                    self.unsupported(p.file, p.line, "infinite: portal");
-                }
+                let portal = match params.find("portal").cloned() {
+                    None => None,
+                    Some(p) => {
+                        if p.nums.len() != 12 {
+                            return Err(self.err_at(
+                                p.file,
+                                p.line,
+                                d,
+                                format!(
+                                    "infinite: \"portal\" takes 4 points (12 numbers), got {}",
+                                    p.nums.len()
+                                ),
+                            ));
+                        }
+                        let q: Vec<Vec3> = p
+                            .nums
+                            .chunks(3)
+                            .map(|c| {
+                                ctm.transform_point3(Vec3::new(
+                                    c[0] as f32,
+                                    c[1] as f32,
+                                    c[2] as f32,
+                                ))
+                            })
+                            .collect();
+                        // A rectangle, as pbrt-v4 requires.
+                        let (e1, e3) = (q[1] - q[0], q[3] - q[0]);
+                        let scale = e1.length() * e3.length();
+                        let square = e1.normalize_or_zero().dot(e3.normalize_or_zero()).abs()
+                            < 1e-3
+                            && (q[0] + e1 + e3 - q[2]).length() <= 1e-3 * scale.sqrt()
+                            && scale > 0.0;
+                        if !square {
+                            return Err(self.err_at(p.file, p.line, d, "infinite: the \"portal\" is not a rectangle (p0 p1 p2 p3 in order)"));
+                        }
+                        Some([q[0], q[1], q[2], q[3]])
+                    }
+                };
                 let map = match file_param {
                     None => None,
                     Some(p) => {
@@ -2496,9 +2531,21 @@ impl Parser {
                         })
                     }
                 };
-                let light = Environment { radiance: l, map };
+                let light = Environment {
+                    radiance: l,
+                    map,
+                    portal,
+                };
                 self.scene.environment = Some(match self.scene.environment.take() {
                     None => light,
+                    Some(before) if before.portal.is_some() || light.portal.is_some() => {
+                        self.unsupported(
+                            file,
+                            line,
+                            "a portal light and another infinite light (a portal light is read alone)",
+                        );
+                        before
+                    }
                     Some(before) => match add_environments(before, light) {
                         Ok(sum) => sum,
                         Err(before) => {
@@ -3078,6 +3125,7 @@ fn add_environments(a: Environment, b: Environment) -> Result<Environment, Envir
         (None, None) => Ok(Environment {
             radiance: a.radiance + b.radiance,
             map: None,
+            portal: None,
         }),
         (Some(_), Some(_)) => Err(a),
         _ => {
@@ -3093,6 +3141,7 @@ fn add_environments(a: Environment, b: Environment) -> Result<Environment, Envir
                     image: Arc::new(image),
                     ..map
                 }),
+                portal: None,
             })
         }
     }
@@ -3415,6 +3464,34 @@ mod tests {
         assert!(
             matches!(s.delta_lights[0], DeltaLight::Point { intensity, .. } if intensity == Vec3::new(2.0, 3.0, 4.0))
         );
+    }
+
+    /// An infinite light's `portal`: four points of a rectangle, under the transform; not
+    /// a rectangle, too few points, or beside another infinite light: errors.
+    #[test]
+    fn a_portal_is_a_transformed_rectangle() {
+        let s = parse(&format!(
+            "WorldBegin\nTranslate 0 1 0\nLightSource \"infinite\" \"point3 portal\" [ 0 0 0  1 0 0  1 0 1  0 0 1 ]\n{QUAD}"
+        ));
+        let q = s
+            .environment
+            .as_ref()
+            .and_then(|e| e.portal)
+            .expect("a portal");
+        assert_eq!(q[2], Vec3::new(1.0, 1.0, 1.0));
+        for bad in [
+            "\"point3 portal\" [ 0 0 0  1 0 0  1.5 0 1  0 0 1 ]",
+            "\"point3 portal\" [ 0 0 0  1 0 0  1 0 1 ]",
+        ] {
+            let e = parse_err(&format!(
+                "WorldBegin\nLightSource \"infinite\" {bad}\n{QUAD}"
+            ));
+            assert!(e.message.contains("portal"), "{e}");
+        }
+        let e = parse_err(&format!(
+            "WorldBegin\nLightSource \"infinite\" \"point3 portal\" [ 0 0 0  1 0 0  1 0 1  0 0 1 ]\nLightSource \"infinite\"\n{QUAD}"
+        ));
+        assert!(e.to_string().contains("portal"), "{e}");
     }
 
     /// The published scenes' `rrthreshold` (an earlier pbrt-v4's) is read and ignored: it
@@ -3864,7 +3941,7 @@ mod tests {
             MakeNamedMedium "fog" "string type" "homogeneous"
             Shape "curve" "point3 P" [0 0 0 1 1 1 2 2 2 3 3 3]
             Material "hair"
-            {QUAD} "float alpha" 0.5
+            Shape "sphere" "float alpha" 0.5
             LightSource "goniometric"
             "#
         ));
@@ -3874,7 +3951,7 @@ mod tests {
             "t.pbrt:3: Shape \"curve\"",
             "t.pbrt:4: Material \"hair\"",
             "alpha",
-            "t.pbrt:7: LightSource \"goniometric\"",
+            "t.pbrt:6: LightSource \"goniometric\"",
         ] {
             assert!(text.contains(what), "{what} missing from:\n{text}");
         }
