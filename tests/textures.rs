@@ -12,7 +12,6 @@ use lightpath::io::Image;
 use lightpath::render::AccelChoice::Bvh;
 use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene, Texture};
 use lightpath::texture::{environment_radiance, texture_value, Wrap};
-use std::path::PathBuf;
 
 /// The camera ray direction through film point (fx, fy) ∈ [0,1)² (camera.glsl's).
 fn camera_ray(s: &Scene, fx: f32, fy: f32) -> (Vec3, Vec3) {
@@ -242,6 +241,9 @@ fn environment_maps_seen_directly_are_their_lookup() {
         ("envmap", &latlong, "rotate 0 1 0 30"),
         ("envmap", &latlong, "rotate 1 0 0 -20"),
         ("envmapsquare", &square, "rotate 1 0 0 -90"),
+        // A mirror (pbrt-v4's scenes put some maps under one).
+        ("envmapsquare", &square, "scale -1 1 1\nrotate 1 0 0 -90"),
+        ("envmap", &latlong, "rotate 0 1 0 30\nscale 1 1 -1"),
     ] {
         // Looking up and to the side, so the view crosses the map's seam or pole.
         let s = parse(&format!(

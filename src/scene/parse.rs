@@ -1037,10 +1037,12 @@ impl Parser {
             .to_cols_array()
             .iter()
             .all(|x| x.abs() < 1e-4);
-        if !orthonormal || rotation.determinant() < 0.0 {
+        // (A mirror is a rotation's orthonormal twin: lookups and sampling go through the
+        // frame's axes alike, and solid angle is kept.)
+        if !orthonormal {
             return Err(cmd.error(
                 "the current transform turns the environment map by more than a rotation \
-                 (a shear, a non-uniform scale or a mirror)",
+                 and a mirror (a shear or a non-uniform scale)",
             ));
         }
         self.scene.environment = Some(Environment {

@@ -2507,12 +2507,14 @@ impl Parser {
                             .to_cols_array()
                             .iter()
                             .all(|x| x.abs() < 1e-4);
-                        if !orthonormal || rotation.determinant() < 0.0 {
+                        // A mirror is read as pbrt-v4 reads it: directions go through the
+                        // light's (orthonormal) frame either way.
+                        if !orthonormal {
                             return Err(self.err_at(
                                 file,
                                 line,
                                 d,
-                                "the transform turns the environment map by more than a rotation",
+                                "the transform turns the environment map by more than a rotation and a mirror",
                             ));
                         }
                         if let Some(e) = illuminance {
