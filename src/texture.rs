@@ -5,7 +5,8 @@
 //! The scene's texture and environment types are defined here (and re-exported by
 //! `crate::scene`), so this module depends on nothing of the scene's.
 use crate::abi::{
-    TEXTURE_MAP_CYLINDRICAL, TEXTURE_MAP_PLANAR, TEXTURE_MAP_SPHERICAL, TEXTURE_MAP_UV,
+    TEXTURE_MAP_CYLINDRICAL, TEXTURE_MAP_PLANAR, TEXTURE_MAP_SOLID, TEXTURE_MAP_SPHERICAL,
+    TEXTURE_MAP_UV,
 };
 use crate::io::Image;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -67,6 +68,11 @@ pub enum Projection {
     Planar {
         rows: [Vec4; 2],
     },
+    /// pbrt-v4's TextureMapping3D: the texture-space point q itself (the 3D checkerboard
+    /// looks at floor(q.x) + floor(q.y) + floor(q.z)); (s, t) = (q.x, q.y).
+    Solid {
+        texture_from_world: Mat4,
+    },
 }
 
 impl Projection {
@@ -91,6 +97,9 @@ impl Projection {
                 TEXTURE_MAP_PLANAR,
                 [rows[0].to_array(), rows[1].to_array(), [0.0; 4]],
             ),
+            Projection::Solid { texture_from_world } => {
+                (TEXTURE_MAP_SOLID, rows(texture_from_world))
+            }
         }
     }
 
@@ -103,6 +112,9 @@ impl Projection {
                 mapping[1] * uv.y + mapping[3],
             ),
             Projection::Planar { rows } => Vec2::new(rows[0].dot(h), rows[1].dot(h)),
+            Projection::Solid { texture_from_world } => {
+                (*texture_from_world * h).truncate().truncate()
+            }
             Projection::Cylindrical { texture_from_world } => {
                 let q = *texture_from_world * h;
                 Vec2::new(
@@ -350,8 +362,17 @@ pub fn texture_value(t: &Texture, uv: Vec2, p: Vec3) -> Vec3 {
             mapping,
             projection,
         } => {
-            let st = projection.st(mapping, uv, p);
-            if (st.x.floor() + st.y.floor()).rem_euclid(2.0) == 0.0 {
+            let parity = match projection {
+                Projection::Solid { texture_from_world } => {
+                    let q = (*texture_from_world * p.extend(1.0)).truncate();
+                    q.x.floor() + q.y.floor() + q.z.floor()
+                }
+                _ => {
+                    let st = projection.st(mapping, uv, p);
+                    st.x.floor() + st.y.floor()
+                }
+            };
+            if parity.rem_euclid(2.0) == 0.0 {
                 *even
             } else {
                 *odd

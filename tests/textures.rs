@@ -158,6 +158,42 @@ fn a_checkerboard_on_a_sphere_follows_pbrts_sphere_coordinates() {
     );
 }
 
+/// pbrt-v4's 3D checkerboard (`"integer dimension" 3`): checks of the texture-space
+/// point (the transform in force at the Texture directive, here turned and moved),
+/// read from a pbrt file, render the CPU mirror's lookup on a sphere.
+#[test]
+fn a_solid_checkerboard_renders_its_lookup() {
+    let text = format!(
+        "LookAt 0 2.2 2.2  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 45 ]\n\
+         Film \"rgb\" \"integer xresolution\" [ 24 ] \"integer yresolution\" [ 24 ]\n\
+         WorldBegin\nLightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n\
+         AttributeBegin\nTranslate 0.2 -0.1 0.3\nRotate 40 1 2 0.5\nScale 0.45 0.45 0.45\n\
+         Texture \"checks\" \"spectrum\" \"checkerboard\" \"integer dimension\" 3 \
+         \"rgb tex1\" [ 0.9 0.2 0.1 ] \"rgb tex2\" [ 0.1 0.3 0.8 ]\nAttributeEnd\n\
+         Material \"diffuse\" \"texture reflectance\" \"checks\"\nShape \"sphere\"\n"
+    );
+    let s = lightpath::scene::parse_pbrt_str(&text, "solid.pbrt").expect("the scene parses");
+    let texture = s.textures[0].clone();
+    assert!(matches!(
+        texture.projection(),
+        lightpath::texture::Projection::Solid { .. }
+    ));
+    let expected = expected_image(&s, |o, d| match unit_sphere_hit(o, d) {
+        Some(q) => texture_value(&texture, Vec2::ZERO, q),
+        None => Vec3::ONE,
+    });
+    let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 2, Bvh);
+    let (mean, max) = differences(&img, &expected);
+    // Pixels on a check's edge see a fraction of each colour.
+    assert!(
+        mean < 0.03 && max < 0.3,
+        "mean difference {mean}, largest {max}"
+    );
+    // Both colours show, and the checks are not those of the 2D (x, y) alone.
+    let reds: Vec<f32> = expected.pixels.iter().map(|p| p[0]).collect();
+    assert!(reds.iter().any(|&r| r > 0.5) && reds.iter().any(|&r| r < 0.3));
+}
+
 /// pbrt-v4's spherical, cylindrical and planar texture mappings: an image of distinct
 /// texels on a sphere, found from the world point in a texture space turned and moved
 /// from the world's, renders the CPU mirror's lookup at each point (under a white

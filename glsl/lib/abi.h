@@ -156,6 +156,8 @@
 #define TEXTURE_MAP_SPHERICAL 1
 #define TEXTURE_MAP_CYLINDRICAL 2
 #define TEXTURE_MAP_PLANAR 3
+// pbrt-v4's TextureMapping3D (the 3D checkerboard): the texture-space point itself (proj0..2).
+#define TEXTURE_MAP_SOLID 4
 
 // How an environment map covers the sphere (SceneParams.env_mapping); src/texture.rs
 // (EnvMapping) says which pixel is which direction.

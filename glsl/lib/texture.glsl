@@ -28,7 +28,7 @@ vec2 texture_st(GpuTexture t, vec2 uv, vec3 p) {
     if (!has_feature(FEATURE_TEXTURE_PROJECTIONS) || t.flags.z == TEXTURE_MAP_UV) return t.mapping.xy * uv + t.mapping.zw;
     vec4 h = vec4(p, 1.0);
     vec3 q = vec3(dot(t.proj0, h), dot(t.proj1, h), dot(t.proj2, h));
-    if (t.flags.z == TEXTURE_MAP_PLANAR) return q.xy;
+    if (t.flags.z == TEXTURE_MAP_PLANAR || t.flags.z == TEXTURE_MAP_SOLID) return q.xy;
     if (t.flags.z == TEXTURE_MAP_CYLINDRICAL) return vec2((PI + atan(q.y, q.x)) * INV_TWO_PI, q.z);
     vec3 d = normalize(q);
     float phi = atan(d.y, d.x);
@@ -41,7 +41,11 @@ vec3 texture_value(uint index, vec2 uv, vec3 p) {
     GpuTexture t = textures[index];
     vec2 st = texture_st(t, uv, p);
     if (t.info.x == TEXTURE_CHECKERBOARD) {
-        float parity = mod(floor(st.x) + floor(st.y), 2.0);
+        float sum = floor(st.x) + floor(st.y);
+        if (has_feature(FEATURE_TEXTURE_PROJECTIONS) && t.flags.z == TEXTURE_MAP_SOLID) {
+            sum += floor(dot(t.proj2, vec4(p, 1.0)));
+        }
+        float parity = mod(sum, 2.0);
         return parity == 0.0 ? t.scale.xyz : t.other.xyz;
     }
     int w = int(t.info.z);

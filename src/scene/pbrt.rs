@@ -2288,9 +2288,29 @@ impl Parser {
                     .find("dimension")
                     .and_then(|p| p.nums.first().copied())
                     .unwrap_or(2.0);
-                if dim != 2.0 {
-                    self.unsupported(file, line, "checkerboard: 3D");
-                }
+                // The 3D checkerboard: pbrt-v4's TextureMapping3D, the point in the space
+                // of the transform in force here (the 2D mapping parameters unused).
+                let projection = if dim == 3.0 {
+                    if !texture_from_world.is_finite() {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            "the texture's transform is singular",
+                        ));
+                    }
+                    Projection::Solid { texture_from_world }
+                } else {
+                    if dim != 2.0 {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!("checkerboard: dimension must be 2 or 3, got {dim}"),
+                        ));
+                    }
+                    projection
+                };
                 let even = self
                     .value(params, "tex1", float, d)?
                     .unwrap_or(Value::Const(Vec3::ONE));
