@@ -62,6 +62,7 @@ pub struct GpuMaterial {
     pub k: [f32; 4],
     pub roughness: [f32; 4],
     pub info: [u32; 4],
+    pub base: [f32; 4],
 }
 
 #[repr(C)]
@@ -296,10 +297,11 @@ pub enum BsdfKind {
     Conductor = BSDF_CONDUCTOR,
     CoatedDiffuse = BSDF_COATED_DIFFUSE,
     DiffuseTransmission = BSDF_DIFFUSE_TRANSMISSION,
+    CoatedConductor = BSDF_COATED_CONDUCTOR,
 }
 
 impl BsdfKind {
-    pub const ALL: [BsdfKind; 7] = [
+    pub const ALL: [BsdfKind; 8] = [
         BsdfKind::Phong,
         BsdfKind::Ggx,
         BsdfKind::Dielectric,
@@ -307,6 +309,7 @@ impl BsdfKind {
         BsdfKind::Conductor,
         BsdfKind::CoatedDiffuse,
         BsdfKind::DiffuseTransmission,
+        BsdfKind::CoatedConductor,
     ];
 
     /// The material class (abi.h `MATERIAL_CLASS_*`) whose shade kernels hold this kind:
@@ -318,7 +321,7 @@ impl BsdfKind {
             | BsdfKind::ThinDielectric
             | BsdfKind::Conductor
             | BsdfKind::DiffuseTransmission => MATERIAL_CLASS_INTERFACE,
-            BsdfKind::CoatedDiffuse => MATERIAL_CLASS_COATED,
+            BsdfKind::CoatedDiffuse | BsdfKind::CoatedConductor => MATERIAL_CLASS_COATED,
         }
     }
 
@@ -377,7 +380,8 @@ pub fn layouts() -> Vec<StructLayout> {
             eta,
             k,
             roughness,
-            info
+            info,
+            base
         ),
         layout!(GpuEmitter, p0, p1, p2, radiance, info),
         layout!(
@@ -517,7 +521,7 @@ pub fn layouts() -> Vec<StructLayout> {
 
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 112);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 112);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 128);
 const _: () = assert!(std::mem::size_of::<GpuEmitter>() == 80);
 const _: () = assert!(std::mem::size_of::<SceneParams>() == 304);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);

@@ -286,8 +286,13 @@ pub struct BsdfParams {
     pub eta: Vec3,
     /// Conductor absorption.
     pub k: Vec3,
-    /// Coated diffuse: the layer's thickness, the walk's maximum depth and its samples.
+    /// Coated: the layer's thickness, the walk's maximum depth and its samples.
     pub coat: Vec3,
+    /// Coated conductor: the conductor's eta and k relative to the coating, and its
+    /// microfacet alphas.
+    pub base_eta: Vec3,
+    pub base_k: Vec3,
+    pub base_alpha: Vec2,
 }
 
 impl Default for BsdfParams {
@@ -302,6 +307,9 @@ impl Default for BsdfParams {
             eta: Vec3::ONE,
             k: Vec3::ZERO,
             coat: Vec3::ZERO,
+            base_eta: Vec3::ONE,
+            base_k: Vec3::ZERO,
+            base_alpha: Vec2::ZERO,
         }
     }
 }
@@ -443,6 +451,9 @@ impl BsdfParams {
             eta,
             k: Vec3::from_slice(&m.k[..3]),
             coat: Vec3::from_slice(&m.k[..3]),
+            base_eta: Vec3::from_slice(&m.specular[..3]),
+            base_k: Vec3::from_slice(&m.diffuse[..3]),
+            base_alpha: Vec2::new(m.base[0], m.base[1]),
         })
     }
 
@@ -456,11 +467,24 @@ impl BsdfParams {
             BsdfKind::ThinDielectric => true,
             BsdfKind::Dielectric => self.is_smooth() || self.eta.x == 1.0,
             BsdfKind::Conductor => self.is_smooth(),
+            // A smooth coating over a smooth conductor (pbrt-v4's LayeredBxDF: specular).
+            BsdfKind::CoatedConductor => {
+                self.is_smooth()
+                    && self.base_alpha.x.max(self.base_alpha.y) < MICROFACET_SMOOTH_ALPHA
+            }
             BsdfKind::Phong
             | BsdfKind::Ggx
             | BsdfKind::CoatedDiffuse
             | BsdfKind::DiffuseTransmission => false,
         }
+    }
+
+    /// The coated class (its BSDFs are random-walk estimates: src/bsdf/coated.rs).
+    pub fn is_coated(&self) -> bool {
+        matches!(
+            self.kind,
+            BsdfKind::CoatedDiffuse | BsdfKind::CoatedConductor
+        )
     }
 
     /// The course's two-sided reflectors (n flipped toward wo).
@@ -688,7 +712,10 @@ fn dielectric_pdf(a: Vec2, eta: f32, wo: Vec3, wi: Vec3) -> f32 {
     tr_d_visible(wo, wm, a) * dwm_dwi * t / (r + t)
 }
 
-fn conductor_f(b: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
+/// pbrt-v4's ConductorBxDF of complex index eta + i k and alphas a in the local frame
+/// (wo.z > 0): GLSL `conductor_local_f`. The conductor and a coated conductor's base
+/// call it.
+pub(crate) fn conductor_local_f(a: Vec2, eta: Vec3, k: Vec3, wo: Vec3, wi: Vec3) -> Vec3 {
     if !(wo.z > 0.0) || !(wi.z > 0.0) {
         return Vec3::ZERO;
     }
@@ -697,11 +724,11 @@ fn conductor_f(b: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
         return Vec3::ZERO;
     }
     let wm = wm.normalize();
-    let f = fr_conductor(wo.dot(wm).abs(), b.eta, b.k);
-    tr_d(wm, b.alpha) * f * tr_g(wo, wi, b.alpha) / (4.0 * wi.z * wo.z)
+    let f = fr_conductor(wo.dot(wm).abs(), eta, k);
+    tr_d(wm, a) * f * tr_g(wo, wi, a) / (4.0 * wi.z * wo.z)
 }
 
-fn conductor_pdf(b: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
+pub(crate) fn conductor_local_pdf(a: Vec2, wo: Vec3, wi: Vec3) -> f32 {
     if !(wo.z > 0.0) || !(wi.z > 0.0) {
         return 0.0;
     }
@@ -713,7 +740,50 @@ fn conductor_pdf(b: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
     if wm.z < 0.0 {
         wm = -wm;
     }
-    tr_d_visible(wo, wm, b.alpha) / (4.0 * wo.dot(wm).abs())
+    tr_d_visible(wo, wm, a) / (4.0 * wo.dot(wm).abs())
+}
+
+/// A sample from wo (wo.z > 0): (wi, f, pdf, flags); GLSL `conductor_local_sample`.
+pub(crate) fn conductor_local_sample(
+    a: Vec2,
+    eta: Vec3,
+    k: Vec3,
+    wo: Vec3,
+    u: Vec2,
+) -> Option<(Vec3, Vec3, f32, u32)> {
+    if !(wo.z > 0.0) {
+        return None;
+    }
+    let (wi, f, pdf, flags) = if a.x.max(a.y) < MICROFACET_SMOOTH_ALPHA {
+        let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+        (
+            wi,
+            fr_conductor(wi.z, eta, k) / wi.z,
+            1.0,
+            BSDF_LOBE_REFLECTION | BSDF_LOBE_DELTA,
+        )
+    } else {
+        let wm = tr_sample_wm(wo, u, a);
+        let wi = reflect_about(wo, wm);
+        if !(wi.z > 0.0) {
+            return None;
+        }
+        (
+            wi,
+            conductor_local_f(a, eta, k, wo, wi),
+            conductor_local_pdf(a, wo, wi),
+            BSDF_LOBE_REFLECTION,
+        )
+    };
+    (pdf > 0.0 && !pdf.is_infinite() && f != Vec3::ZERO).then_some((wi, f, pdf, flags))
+}
+
+fn conductor_f(b: &BsdfParams, wo: Vec3, wi: Vec3) -> Vec3 {
+    conductor_local_f(b.alpha, b.eta, b.k, wo, wi)
+}
+
+fn conductor_pdf(b: &BsdfParams, wo: Vec3, wi: Vec3) -> f32 {
+    conductor_local_pdf(b.alpha, wo, wi)
 }
 
 /// Diffuse transmission's lobe weights: max(R) and max(T) (pbrt-v4's).
@@ -748,7 +818,7 @@ fn interface_eval(b: &BsdfParams, n: Vec3, wo: Vec3, wi: Vec3, transport: Transp
     }
     let fr = LocalFrame::new(n, wo);
     let (lo, li) = (fr.to_local(wo), fr.to_local(wi));
-    if b.kind == BsdfKind::CoatedDiffuse {
+    if b.is_coated() {
         return coated::coated_f(b, lo, li, transport);
     }
     if b.kind == BsdfKind::Dielectric {
@@ -766,7 +836,7 @@ fn interface_pdf(b: &BsdfParams, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
     }
     let fr = LocalFrame::new(n, wo);
     let (lo, li) = (fr.to_local(wo), fr.to_local(wi));
-    if b.kind == BsdfKind::CoatedDiffuse {
+    if b.is_coated() {
         return coated::coated_pdf(b, lo, li);
     }
     if b.kind == BsdfKind::Dielectric {
@@ -790,7 +860,7 @@ fn interface_sample(
     if !(lo.z > 0.0) {
         return None;
     }
-    if b.kind == BsdfKind::CoatedDiffuse {
+    if b.is_coated() {
         let s = coated::coated_sample(b, lo, u, transport)?;
         return Some(BsdfSample {
             wi: fr.world(s.wi),
@@ -900,29 +970,7 @@ fn interface_sample(
                 )
             }
         }
-        _ => {
-            if b.is_smooth() {
-                let wi = mirror;
-                (
-                    wi,
-                    fr_conductor(wi.z, b.eta, b.k) / wi.z,
-                    1.0,
-                    BSDF_LOBE_REFLECTION | BSDF_LOBE_DELTA,
-                )
-            } else {
-                let wm = tr_sample_wm(lo, uv, b.alpha);
-                let wi = reflect_about(lo, wm);
-                if !(wi.z > 0.0) {
-                    return None;
-                }
-                (
-                    wi,
-                    conductor_f(b, lo, wi),
-                    conductor_pdf(b, lo, wi),
-                    BSDF_LOBE_REFLECTION,
-                )
-            }
-        }
+        _ => conductor_local_sample(b.alpha, b.eta, b.k, lo, uv)?,
     };
     let valid = pdf > 0.0 && !pdf.is_infinite() && f != Vec3::ZERO;
     valid.then(|| BsdfSample {

@@ -393,6 +393,45 @@ fn light_through_a_diffuse_transmitter_renders_alike_in_every_strategy_and_integ
     assert_integrators_agree_over("diffuser", &s, STRATEGY_SEEDS, 4096);
 }
 
+/// Coated conductors (pbrt-v4's `coatedconductor`, a case of the coated class): a
+/// rough coat over rough gold on a sphere, a smooth coat over rough aluminium on a panel
+/// before the back wall and a rough coat over a smooth copper mirror on a sphere, under
+/// the quad light. Every BDPT strategy alone matches the path tracer's image of its
+/// depth (light subpaths and connections evaluate the layered walks in both transport
+/// modes), and PT, BDPT and MMLT agree (maxdepth 1, 2 and 5).
+#[test]
+fn coated_conductors_render_alike_in_every_strategy_and_integrator() {
+    let (_, kind, quad) = lights().into_iter().next().expect("the quad light");
+    let light = format!(
+        "{quad}\nAttributeEnd\n\
+         AttributeBegin\nTranslate -0.9 0.5 -0.6\n\
+         Material \"coatedconductor\" \"float interface.roughness\" [ 0.1 ] \
+         \"spectrum conductor.eta\" \"metal-Au-eta\" \"spectrum conductor.k\" \"metal-Au-k\" \
+         \"float conductor.roughness\" [ 0.15 ] \"float thickness\" [ 0.05 ]\n\
+         Shape \"sphere\" \"float radius\" [ 0.5 ]\nAttributeEnd\n\
+         AttributeBegin\nTranslate 0.9 0.45 -0.3\n\
+         Material \"coatedconductor\" \"float interface.roughness\" [ 0.2 ] \
+         \"float conductor.roughness\" [ 0 ]\n\
+         Shape \"sphere\" \"float radius\" [ 0.45 ]\nAttributeEnd\n\
+         AttributeBegin\n\
+         Material \"coatedconductor\" \"float interface.roughness\" [ 0 ] \
+         \"spectrum conductor.eta\" \"metal-Al-eta\" \"spectrum conductor.k\" \"metal-Al-k\" \
+         \"float conductor.uroughness\" [ 0.1 ] \"float conductor.vroughness\" [ 0.3 ]\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -1.5 0.2 -2.8  1.5 0.2 -2.8  1.5 1.8 -2.4  -1.5 1.8 -2.4 ]"
+    );
+    let s = room(&light, false, 3);
+    assert_eq!(
+        s.materials
+            .iter()
+            .filter(|m| m.bsdf == scene::BsdfKind::CoatedConductor)
+            .count(),
+        3
+    );
+    assert_each_strategy_alone_matches_pt("coated conductors", kind, &s, 3);
+    assert_integrators_agree("coated conductors", &s);
+}
+
 /// Bump and normal maps (pbrt-v4's `displacement` and `normalmap`): a bumped panel over
 /// the floor, a bumped sphere on it and a normal-mapped panel before the back wall, under
 /// the quad light. Every BDPT strategy alone matches the path tracer's image of its depth

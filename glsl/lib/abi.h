@@ -88,13 +88,17 @@
 // pbrt-v4's diffusetransmission: Lambertian reflection (kd) on wo's side, Lambertian
 // transmission (ks) through to the other.
 #define BSDF_DIFFUSE_TRANSMISSION 6
+// pbrt-v4's coatedconductor: a dielectric coating (eta.x, roughness.yz) over a conductor
+// (specular.xyz its eta, diffuse.xyz its k, both relative to the coating; base.xy its
+// alphas), the layer between them as coated diffuse's (k.xyz).
+#define BSDF_COATED_CONDUCTOR 7
 
 // Specialization constants (set per scene when a pipeline is created): code for what
 // the scene lacks is removed before the driver compiles the kernel (lib/features.glsl).
 // SPEC_FEATURES: a uint, the FEATURE_* bits of what the scene has.
 #define SPEC_FEATURES 0
-// Coated diffuse materials (their walk engine, layered.glsl).
-#define FEATURE_COATED_DIFFUSE 1
+// Coated materials, the coated class (their walk engine, layered.glsl).
+#define FEATURE_COATED 1
 // Dielectric, thin dielectric and conductor materials.
 #define FEATURE_INTERFACES 2
 // Materials with a diffuse or roughness texture.
@@ -114,8 +118,10 @@
 #define FEATURE_SHADING_MAPS 256
 // Alpha cut-outs on triangles (every visibility backend's alpha test, geometry.glsl).
 #define FEATURE_ALPHA 512
+// Coated conductors (a case of the coated class: the walk engine's conductor base).
+#define FEATURE_COATED_CONDUCTOR 1024
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 1023
+#define FEATURE_ALL 2047
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
@@ -318,7 +324,8 @@ struct GpuMaterial {
     vec4 eta;            // dielectric, thin dielectric: x index of refraction (inside over outside); conductor: xyz per channel
     vec4 k;              // xyz conductor absorption
     vec4 roughness;      // x Phong exponent, y GGX alpha (u), z GGX alpha (v), w (uint bits) bump or normal map texture (MATERIAL_BUMP_MAP, MATERIAL_NORMAL_MAP)
-    uvec4 info;          // x kind (BSDF_*), y flags (MATERIAL_*), z diffuse texture, w roughness texture (diffuse transmission: transmittance texture; NO_TEXTURE: none)
+    uvec4 info;          // x kind (BSDF_*), y flags (MATERIAL_*), z diffuse texture (coated conductor: the conductor's reflectance), w roughness texture (diffuse transmission: transmittance texture; coated conductor: the coating's; NO_TEXTURE: none)
+    vec4 base;           // coated conductor: xy the conductor's alphas, z (uint bits) its roughness texture (NO_TEXTURE: none), w unused
 };
 
 // An emitter. Triangles: p0,p1,p2 the vertices. Spheres: info.y the sphere. Point:

@@ -58,8 +58,16 @@ struct BsdfParams {
     vec2 alpha;        // dielectric, conductor: microfacet alphas along the tangent and bitangent
     vec3 eta;          // dielectric: x, relative to n's orientation; thin: x; conductor: per channel
     vec3 k;            // conductor absorption
-    vec3 coat;         // coated diffuse: layer thickness, walk's maximum depth, samples
+    vec3 coat;         // coated: layer thickness, walk's maximum depth, samples
+    vec3 base_eta;     // coated conductor: the conductor's eta and k relative to the coating,
+    vec3 base_k;       //   and its microfacet alphas
+    vec2 base_alpha;
 };
+
+// Coated conductors' code is in kernels only for scenes that have them.
+bool bsdf_is_coated_conductor(BsdfParams b) {
+    return has_feature(FEATURE_COATED_CONDUCTOR) && b.kind == BSDF_COATED_CONDUCTOR;
+}
 
 // Diffuse transmission's code is in kernels only for scenes that have it.
 bool bsdf_is_diffuse_transmission(BsdfParams b) {
@@ -80,9 +88,25 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p) {
     if (b.kind == BSDF_DIELECTRIC && !front) b.eta.x = 1.0 / b.eta.x;
     b.k = m.k.xyz;
     b.coat = m.k.xyz;
+    b.base_eta = m.specular.xyz;
+    b.base_k = m.diffuse.xyz;
+    b.base_alpha = m.base.xy;
     // Textures replace the diffuse reflectance and the roughness (first channel).
     if (!has_feature(FEATURE_MATERIAL_TEXTURES)) return b;
-    if (m.info.z != NO_TEXTURE) b.kd = texture_value(m.info.z, uv, p);
+    if (m.info.z != NO_TEXTURE && bsdf_is_coated_conductor(b)) {
+        // pbrt-v4's artist-friendly conductor (eta 1, k from the reflectance r) in the
+        // coating (both over its index).
+        vec3 r = clamp(texture_value(m.info.z, uv, p), vec3(0.0), vec3(0.9999));
+        b.base_eta = vec3(1.0 / b.eta.x);
+        b.base_k = 2.0 * sqrt(r) / sqrt(vec3(1.0) - r) / b.eta.x;
+    } else if (m.info.z != NO_TEXTURE) {
+        b.kd = texture_value(m.info.z, uv, p);
+    }
+    if (floatBitsToUint(m.base.z) != NO_TEXTURE && bsdf_is_coated_conductor(b)) {
+        float a = texture_value(floatBitsToUint(m.base.z), uv, p).x;
+        if ((m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(max(a, 0.0));
+        b.base_alpha = vec2(a);
+    }
     if (m.info.w != NO_TEXTURE && bsdf_is_diffuse_transmission(b)) {
         b.ks = texture_value(m.info.w, uv, p);
     } else if (m.info.w != NO_TEXTURE) {
@@ -118,6 +142,8 @@ bool bsdf_is_delta(BsdfParams b) {
     if (b.kind == BSDF_THIN_DIELECTRIC) return true;
     if (b.kind == BSDF_DIELECTRIC) return bsdf_is_smooth(b) || b.eta.x == 1.0;
     if (b.kind == BSDF_CONDUCTOR) return bsdf_is_smooth(b);
+    // A smooth coating over a smooth conductor (pbrt-v4's LayeredBxDF flags it specular).
+    if (bsdf_is_coated_conductor(b)) return bsdf_is_smooth(b) && max(b.base_alpha.x, b.base_alpha.y) < MICROFACET_SMOOTH_ALPHA;
     return false;
 }
 
@@ -373,43 +399,59 @@ bool thin_dielectric_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, out Bs
     return s.pdf > 0.0 && s.f != vec3(0.0);
 }
 
-// Conductor (pbrt-v4's ConductorBxDF): a mirror, or Trowbridge-Reitz reflection.
-vec3 conductor_f(BsdfParams b, vec3 wo, vec3 wi) {
+// Conductor (pbrt-v4's ConductorBxDF): a mirror, or Trowbridge-Reitz reflection, of
+// complex index eta + i k and alphas a, in the local frame (wo.z > 0). The conductor
+// material and a coated conductor's base (layered.glsl) call these.
+vec3 conductor_local_f(vec2 a, vec3 eta, vec3 k, vec3 wo, vec3 wi) {
     if (!(wo.z > 0.0) || !(wi.z > 0.0)) return vec3(0.0);
     vec3 wm = wi + wo;
     if (dot(wm, wm) == 0.0) return vec3(0.0);
     wm = normalize(wm);
-    vec3 F = fr_conductor(abs(dot(wo, wm)), b.eta, b.k);
-    return tr_d(wm, b.alpha) * F * tr_g(wo, wi, b.alpha) / (4.0 * wi.z * wo.z);
+    vec3 F = fr_conductor(abs(dot(wo, wm)), eta, k);
+    return tr_d(wm, a) * F * tr_g(wo, wi, a) / (4.0 * wi.z * wo.z);
 }
 
-float conductor_pdf(BsdfParams b, vec3 wo, vec3 wi) {
+float conductor_local_pdf(vec2 a, vec3 wo, vec3 wi) {
     if (!(wo.z > 0.0) || !(wi.z > 0.0)) return 0.0;
     vec3 wm = wi + wo;
     if (dot(wm, wm) == 0.0) return 0.0;
     wm = normalize(wm);
     if (wm.z < 0.0) wm = -wm;
-    return tr_d_visible(wo, wm, b.alpha) / (4.0 * abs(dot(wo, wm)));
+    return tr_d_visible(wo, wm, a) / (4.0 * abs(dot(wo, wm)));
 }
 
-bool conductor_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, out BsdfSample s) {
+// A sample from wo (wo.z > 0) with u: wi, f, pdf and flags. False when there is none.
+bool conductor_local_sample(vec2 a, vec3 eta, vec3 k, vec3 wo, vec2 u, out vec3 wi, out vec3 f, out float pdf,
+                            out uint flags) {
+    wi = vec3(0.0, 0.0, 1.0);
+    f = vec3(0.0);
+    pdf = 0.0;
+    flags = 0u;
     if (!(wo.z > 0.0)) return false;
-    vec3 wi;
-    if (bsdf_is_smooth(b)) {
+    if (max(a.x, a.y) < MICROFACET_SMOOTH_ALPHA) {
         wi = vec3(-wo.x, -wo.y, wo.z);
-        s.f = fr_conductor(wi.z, b.eta, b.k) / wi.z;
-        s.pdf = 1.0;
-        s.flags = BSDF_LOBE_REFLECTION | BSDF_LOBE_DELTA;
+        f = fr_conductor(wi.z, eta, k) / wi.z;
+        pdf = 1.0;
+        flags = BSDF_LOBE_REFLECTION | BSDF_LOBE_DELTA;
     } else {
-        vec3 wm = tr_sample_wm(wo, u.yz, b.alpha);
+        vec3 wm = tr_sample_wm(wo, u, a);
         wi = reflect(-wo, wm);
         if (!(wi.z > 0.0)) return false;
-        s.f = conductor_f(b, wo, wi);
-        s.pdf = conductor_pdf(b, wo, wi);
-        s.flags = BSDF_LOBE_REFLECTION;
+        f = conductor_local_f(a, eta, k, wo, wi);
+        pdf = conductor_local_pdf(a, wo, wi);
+        flags = BSDF_LOBE_REFLECTION;
     }
+    return pdf > 0.0 && !isinf(pdf) && f != vec3(0.0);
+}
+
+vec3 conductor_f(BsdfParams b, vec3 wo, vec3 wi) { return conductor_local_f(b.alpha, b.eta, b.k, wo, wi); }
+float conductor_pdf(BsdfParams b, vec3 wo, vec3 wi) { return conductor_local_pdf(b.alpha, wo, wi); }
+
+bool conductor_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, out BsdfSample s) {
+    vec3 wi;
+    bool ok = conductor_local_sample(b.alpha, b.eta, b.k, wo, u.yz, wi, s.f, s.pdf, s.flags);
     s.wi = from_local(fr, wi);
-    return s.pdf > 0.0 && !isinf(s.pdf) && s.f != vec3(0.0);
+    return ok;
 }
 
 // Diffuse transmission (pbrt-v4's DiffuseTransmissionBxDF), in the local frame of wo
@@ -484,7 +526,7 @@ bool interface_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, uint transport, out
 // The material class of a BSDF kind (MATERIAL_CLASS_*): the wavefront path tracer
 // shades each class in a kernel of its own.
 uint material_class(uint kind) {
-    if (kind == BSDF_COATED_DIFFUSE) return MATERIAL_CLASS_COATED;
+    if (kind == BSDF_COATED_DIFFUSE || kind == BSDF_COATED_CONDUCTOR) return MATERIAL_CLASS_COATED;
     if (kind == BSDF_PHONG || kind == BSDF_GGX) return MATERIAL_CLASS_BASIC;
     return MATERIAL_CLASS_INTERFACE;
 }
@@ -608,7 +650,7 @@ bool bsdf_is_coated(BsdfParams b) {
 #if defined(SHADE_CLASS)
     return SHADE_CLASS == MATERIAL_CLASS_COATED;
 #else
-    return has_feature(FEATURE_COATED_DIFFUSE) && b.kind == BSDF_COATED_DIFFUSE;
+    return has_feature(FEATURE_COATED) && (b.kind == BSDF_COATED_DIFFUSE || bsdf_is_coated_conductor(b));
 #endif
 }
 

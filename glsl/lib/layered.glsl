@@ -1,5 +1,6 @@
-// Coated diffuse: pbrt-v4's CoatedDiffuseBxDF (a LayeredBxDF of a dielectric interface
-// over a Lambertian base, two-sided, an absorbing layer of unit extinction and thickness
+// Coated diffuse and coated conductor: pbrt-v4's CoatedDiffuseBxDF and
+// CoatedConductorBxDF (a LayeredBxDF of a dielectric interface over a Lambertian or a
+// conductor base, two-sided, an absorbing layer of unit extinction and thickness
 // b.coat.x between them; no scattering medium). f, its pdf and sampling are stochastic
 // estimates by random walks between the interfaces, with random numbers a deterministic
 // function of the directions (as pbrt's are), so that MMLT's paths are functions of
@@ -145,6 +146,39 @@ bool coat_diffuse_sample(vec3 kd, vec3 wo, vec2 u, out LocalSample s) {
     return s.pdf > 0.0;
 }
 
+// The base: Lambertian (coated diffuse) or a conductor (coated conductor: its eta and k
+// relative to the coating), for wo on either side.
+bool coat_base_smooth(BsdfParams b) { return bsdf_is_coated_conductor(b) && coat_smooth(b.base_alpha); }
+
+vec3 coat_base_f(BsdfParams b, vec3 wo, vec3 wi) {
+    if (!bsdf_is_coated_conductor(b)) return coat_diffuse_f(b.kd, wo, wi);
+    if (coat_base_smooth(b)) return vec3(0.0);
+    if (wo.z < 0.0) {
+        wo = coat_flip_z(wo);
+        wi = coat_flip_z(wi);
+    }
+    return conductor_local_f(b.base_alpha, b.base_eta, b.base_k, wo, wi);
+}
+
+float coat_base_pdf(BsdfParams b, vec3 wo, vec3 wi) {
+    if (!bsdf_is_coated_conductor(b)) return coat_diffuse_pdf(wo, wi);
+    if (coat_base_smooth(b)) return 0.0;
+    if (wo.z < 0.0) {
+        wo = coat_flip_z(wo);
+        wi = coat_flip_z(wi);
+    }
+    return conductor_local_pdf(b.base_alpha, wo, wi);
+}
+
+bool coat_base_sample(BsdfParams b, vec3 wo, vec2 u, out LocalSample s) {
+    if (!bsdf_is_coated_conductor(b)) return coat_diffuse_sample(b.kd, wo, u, s);
+    bool flip = wo.z < 0.0;
+    bool ok = conductor_local_sample(b.base_alpha, b.base_eta, b.base_k, flip ? coat_flip_z(wo) : wo, u, s.wi, s.f,
+                                     s.pdf, s.flags);
+    if (flip) s.wi = coat_flip_z(s.wi);
+    return ok;
+}
+
 float coat_tr(float thickness, vec3 w) {
     return abs(thickness) <= 1.17549435e-38 ? 1.0 : exp(-abs(thickness / w.z));
 }
@@ -189,7 +223,7 @@ uint coat_other(uint t) { return t == TRANSPORT_RADIANCE ? TRANSPORT_IMPORTANCE 
 #define COAT_OP_NONE 0u
 #define COAT_OP_SAMPLE 1u
 #define COAT_OP_EVAL 2u
-#define COAT_OP_BASE 3u       // sampling the diffuse base
+#define COAT_OP_BASE 3u       // sampling the base
 
 // Queries of coated_engine, answered in this order.
 #define COAT_Q_F 1u          // f(wo, wi)
@@ -210,6 +244,7 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
     uint max_depth = uint(max(b.coat.y, 0.0));
     uint samples = uint(max(b.coat.z, 1.0));
     bool top_smooth = coat_smooth(a);
+    bool base_smooth = coat_base_smooth(b);
     f_out = vec3(0.0);
     pdf_out = 0.0;
     pdf_rev_out = 0.0;
@@ -253,7 +288,7 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                 op_uc = coat_next(rng);
                 op_u = coat_next2(rng);
             }
-            if (op == COAT_OP_BASE) r_ok = coat_diffuse_sample(b.kd, op_wo, op_u, r);
+            if (op == COAT_OP_BASE) r_ok = coat_base_sample(b, op_wo, op_u, r);
             else r_ok = coat_iface(a, eta, op_wo, op_wi, op == COAT_OP_SAMPLE, op_uc, op_u, op_t, op_lobes, r);
         }
         op = COAT_OP_NONE;
@@ -365,8 +400,8 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                     op_lobes = COAT_LOBE_R;
                     stage = CS_F_TOP;
                 } else {
-                    float wt = top_smooth ? 1.0 : power_heuristic(wis.pdf, coat_diffuse_pdf(-w, -wis.wi));
-                    f += beta * coat_diffuse_f(b.kd, -w, -wis.wi) * abs(wis.wi.z) * wt
+                    float wt = top_smooth ? 1.0 : power_heuristic(wis.pdf, coat_base_pdf(b, -w, -wis.wi));
+                    f += beta * coat_base_f(b, -w, -wis.wi) * abs(wis.wi.z) * wt
                          * coat_tr(thick, wis.wi) * wis.f / wis.pdf;
                     op = COAT_OP_BASE;
                     op_wo = -w;
@@ -415,7 +450,7 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                 stage = CS_F_EXIT_PDF;
             }
         } else if (stage == CS_F_EXIT_PDF) {
-            f += beta * coat_tr(thick, w) * f_exit * power_heuristic(base_pdf, r.pdf);
+            f += beta * coat_tr(thick, w) * f_exit * (base_smooth ? 1.0 : power_heuristic(base_pdf, r.pdf));
             ++depth;
             stage = CS_F_STEP;
 
@@ -469,7 +504,7 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
             if (ok_o && r_ok) {
                 wis = r;
                 if (top_smooth) {
-                    sum += coat_diffuse_pdf(-wos.wi, -wis.wi);
+                    sum += coat_base_pdf(b, -wos.wi, -wis.wi);
                 } else {
                     op = COAT_OP_BASE;
                     op_wo = -wos.wi;
@@ -479,7 +514,7 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
         } else if (stage == CS_P_BASE) {
             stage = CS_P_BEGIN;
             if (r_ok) {
-                float r_pdf = coat_diffuse_pdf(-wos.wi, -wis.wi);
+                float r_pdf = coat_base_pdf(b, -wos.wi, -wis.wi);
                 sum += power_heuristic(wis.pdf, r_pdf) * r_pdf;
                 base_pdf = r.pdf;
                 op = COAT_OP_EVAL;
@@ -488,7 +523,7 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                 stage = CS_P_EXIT;
             }
         } else if (stage == CS_P_EXIT) {
-            sum += power_heuristic(base_pdf, r.pdf) * r.pdf;
+            sum += (base_smooth ? 1.0 : power_heuristic(base_pdf, r.pdf)) * r.pdf;
             stage = CS_P_BEGIN;
 
         // Sampling: the interface from above; a reflection is the sample, a transmission

@@ -473,14 +473,16 @@ impl Engine {
 /// (glsl/lib/features.glsl), so a bit left out here would render that feature wrongly.
 pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
-        FEATURE_ALPHA, FEATURE_COATED_DIFFUSE, FEATURE_DIFFUSE_TRANSMISSION,
+        FEATURE_ALPHA, FEATURE_COATED, FEATURE_COATED_CONDUCTOR, FEATURE_DIFFUSE_TRANSMISSION,
         FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES, FEATURE_MATERIAL_TEXTURES, FEATURE_MIX,
         FEATURE_SHADING_MAPS, FEATURE_TEXTURE_PROJECTIONS, FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
         features |= match m.bsdf {
-            BsdfKind::CoatedDiffuse => FEATURE_COATED_DIFFUSE,
+            BsdfKind::CoatedDiffuse => FEATURE_COATED,
+            // (A case of the coated class's kernels.)
+            BsdfKind::CoatedConductor => FEATURE_COATED | FEATURE_COATED_CONDUCTOR,
             BsdfKind::Dielectric | BsdfKind::ThinDielectric | BsdfKind::Conductor => {
                 FEATURE_INTERFACES
             }
@@ -491,6 +493,7 @@ pub fn scene_features(scene: &Scene) -> u32 {
         if m.diffuse_texture.is_some()
             || m.roughness_texture.is_some()
             || m.transmittance_texture.is_some()
+            || m.base_roughness_texture.is_some()
         {
             features |= FEATURE_MATERIAL_TEXTURES;
         }
@@ -544,9 +547,10 @@ mod tests {
                 "{interface}"
             );
         }
+        assert_eq!(scene_features(&scene("brdf coateddiffuse")), FEATURE_COATED);
         assert_eq!(
-            scene_features(&scene("brdf coateddiffuse")),
-            FEATURE_COATED_DIFFUSE
+            scene_features(&scene("brdf coatedconductor")),
+            FEATURE_COATED | FEATURE_COATED_CONDUCTOR
         );
         assert_eq!(
             scene_features(&scene("brdf diffusetransmission")),
@@ -602,7 +606,7 @@ mod tests {
         s.settings.max_depth = -1;
         assert_eq!(scene_features(&s), FEATURE_UNBOUNDED);
         // FEATURE_ALL (the BSDF probe's) holds every bit.
-        let every = FEATURE_COATED_DIFFUSE
+        let every = FEATURE_COATED
             | FEATURE_INTERFACES
             | FEATURE_MATERIAL_TEXTURES
             | FEATURE_ENVIRONMENT_MAP
@@ -611,7 +615,8 @@ mod tests {
             | FEATURE_DIFFUSE_TRANSMISSION
             | FEATURE_TEXTURE_PROJECTIONS
             | FEATURE_SHADING_MAPS
-            | FEATURE_ALPHA;
+            | FEATURE_ALPHA
+            | FEATURE_COATED_CONDUCTOR;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -52,10 +52,17 @@ pub struct Material {
     pub roughness_v: f32,
     /// Dielectric, thin dielectric: the index of refraction inside over outside.
     pub ior: f32,
-    /// Conductor: the complex index of refraction eta + i k per channel.
+    /// Conductor, and the conductor under a coated conductor's coating: the complex index
+    /// of refraction eta + i k per channel (absolute; the record makes a coated one's
+    /// relative to the coating).
     pub eta: Vec3,
     pub k: Vec3,
-    /// Coated diffuse: the thickness of the absorbing layer under the coating (unit
+    /// Coated conductor: the conductor's microfacet alphas (tangent, bitangent) and the
+    /// float texture that replaces both (`roughness` and `ior` are the coating's).
+    pub base_roughness: f32,
+    pub base_roughness_v: f32,
+    pub base_roughness_texture: Option<u32>,
+    /// Coated diffuse and coated conductor: the thickness of the absorbing layer under the coating (unit
     /// extinction), and the random walk's maximum depth and samples per evaluation
     /// (pbrt-v4's `thickness`, `maxdepth`, `nsamples`).
     pub thickness: f32,
@@ -130,6 +137,9 @@ impl Default for Material {
             ior: DEFAULT_IOR,
             eta: COPPER_ETA,
             k: COPPER_K,
+            base_roughness: 0.0,
+            base_roughness_v: 0.0,
+            base_roughness_texture: None,
             thickness: 0.01,
             layer_max_depth: 10,
             layer_samples: 1,
@@ -180,10 +190,19 @@ impl Material {
             };
         }
         let transmits = self.bsdf == BsdfKind::DiffuseTransmission;
+        let coated_conductor = self.bsdf == BsdfKind::CoatedConductor;
         GpuMaterial {
-            diffuse: self.diffuse.extend(0.0).to_array(),
+            diffuse: if coated_conductor {
+                self.k / self.ior
+            } else {
+                self.diffuse
+            }
+            .extend(0.0)
+            .to_array(),
             specular: if transmits {
                 self.transmittance
+            } else if coated_conductor {
+                self.eta / self.ior
             } else {
                 self.specular
             }
@@ -193,15 +212,16 @@ impl Material {
             // Only the fields of the material's own kind, so that materials differing
             // only in another kind's parameters are one material.
             eta: match self.bsdf {
-                BsdfKind::Dielectric | BsdfKind::ThinDielectric | BsdfKind::CoatedDiffuse => {
-                    [self.ior, self.ior, self.ior, 0.0]
-                }
+                BsdfKind::Dielectric
+                | BsdfKind::ThinDielectric
+                | BsdfKind::CoatedDiffuse
+                | BsdfKind::CoatedConductor => [self.ior, self.ior, self.ior, 0.0],
                 BsdfKind::Conductor => self.eta.extend(0.0).to_array(),
                 BsdfKind::Phong | BsdfKind::Ggx | BsdfKind::DiffuseTransmission => [0.0; 4],
             },
             k: match self.bsdf {
                 BsdfKind::Conductor => self.k.extend(0.0).to_array(),
-                BsdfKind::CoatedDiffuse => [
+                BsdfKind::CoatedDiffuse | BsdfKind::CoatedConductor => [
                     self.thickness,
                     self.layer_max_depth as f32,
                     self.layer_samples as f32,
@@ -226,7 +246,8 @@ impl Material {
                     0
                 } | if self.remap_roughness_texture
                     && !transmits
-                    && self.roughness_texture.is_some()
+                    && (self.roughness_texture.is_some()
+                        || coated_conductor && self.base_roughness_texture.is_some())
                 {
                     MATERIAL_REMAP_ROUGHNESS
                 } else {
@@ -244,6 +265,16 @@ impl Material {
                 }
                 .unwrap_or(NO_TEXTURE),
             ],
+            base: if coated_conductor {
+                [
+                    self.base_roughness,
+                    self.base_roughness_v,
+                    f32::from_bits(self.base_roughness_texture.unwrap_or(NO_TEXTURE)),
+                    0.0,
+                ]
+            } else {
+                [0.0; 4]
+            },
         }
     }
 }

@@ -227,9 +227,10 @@ const COMMANDS: &[(&str, &str)] = &[
     ("specular", "r g b"),
     ("shininess", "s"),
     ("roughness", "a [av]"),
+    ("baseroughness", "a [av]"),
     (
         "brdf",
-        "phong|ggx|dielectric|thindielectric|conductor|coateddiffuse|diffusetransmission",
+        "phong|ggx|dielectric|thindielectric|conductor|coateddiffuse|diffusetransmission|coatedconductor",
     ),
     ("transmittance", "r g b"),
     ("thickness", "T"),
@@ -636,12 +637,25 @@ impl Parser {
                     ("conductor", BsdfKind::Conductor),
                     ("coateddiffuse", BsdfKind::CoatedDiffuse),
                     ("diffusetransmission", BsdfKind::DiffuseTransmission),
+                    ("coatedconductor", BsdfKind::CoatedConductor),
                 ])?;
                 self.set_material(|m| m.bsdf = brdf);
             }
             "transmittance" => {
                 let t = cmd.color(0, "the transmittance")?;
                 self.set_material(|m| m.transmittance = t);
+            }
+            "baseroughness" => {
+                let a = cmd.non_negative(0, "the roughness")?;
+                let av = if cmd.count > 1 {
+                    cmd.non_negative(1, "the roughness")?
+                } else {
+                    a
+                };
+                self.set_material(|m| {
+                    m.base_roughness = a;
+                    m.base_roughness_v = av;
+                });
             }
             "thickness" => {
                 let t = cmd.non_negative(0, "the thickness")?;
@@ -1726,6 +1740,7 @@ mod tests {
         "specular 0.5 0.5 0.5",
         "shininess 20",
         "roughness 0.3",
+        "baseroughness 0.1 0.2",
         "brdf ggx",
         "emission 1 1 1",
         "ambient 0.1 0.1 0.1",
@@ -2198,7 +2213,7 @@ mod tests {
             "brdf blinn",
             1,
             "brdf",
-            "expected 'phong' or 'ggx' or 'dielectric' or 'thindielectric' or 'conductor' or 'coateddiffuse' or 'diffusetransmission', got 'blinn'",
+            "expected 'phong' or 'ggx' or 'dielectric' or 'thindielectric' or 'conductor' or 'coateddiffuse' or 'diffusetransmission' or 'coatedconductor', got 'blinn'",
         );
         check_err("brdf GGX", 1, "brdf", "got 'GGX'");
         let e = check_err(

@@ -69,7 +69,7 @@ const PARAM_TYPES: &[(&str, &[&str])] = &[
     ("power", &["float", "integer"]),
     ("illuminance", &["float", "integer"]),
     ("iso", &["float", "integer"]),
-    ("thickness", &["float", "integer"]),
+    ("thickness", &["float", "integer", "texture"]),
     ("uscale", &["float", "integer"]),
     ("vscale", &["float", "integer"]),
     ("udelta", &["float", "integer"]),
@@ -1723,36 +1723,50 @@ impl Parser {
         let d = "Material";
         params.find("type");
         let mut m = Material::default();
-        let roughness = |this: &mut Self, m: &mut Material| -> Result<(), ParseError> {
+        // A microfacet roughness (`{prefix}roughness`, `uroughness`, `vroughness`): the
+        // alphas, or a texture (remapped at lookup when `remaproughness`).
+        let roughness_of = |this: &mut Self,
+                            prefix: &str|
+         -> Result<(f32, f32, Option<u32>, bool), ParseError> {
             let remap = params
                 .find("remaproughness")
                 .and_then(|p| p.bools.first().copied())
                 .unwrap_or(true);
-            let r = this.value(params, "roughness", true, d)?;
-            let u = this.value(params, "uroughness", true, d)?.or(r);
-            let v = this.value(params, "vroughness", true, d)?.or(r);
+            let r = this.value(params, &format!("{prefix}roughness"), true, d)?;
+            let u = this
+                .value(params, &format!("{prefix}uroughness"), true, d)?
+                .or(r);
+            let v = this
+                .value(params, &format!("{prefix}vroughness"), true, d)?
+                .or(r);
             let remap_f = |x: f32| if remap { x.max(0.0).sqrt() } else { x };
             match (u, v) {
                 (Some(Value::Texture(t)), _) | (_, Some(Value::Texture(t))) => {
-                    m.roughness_texture = Some(t);
-                    m.remap_roughness_texture = remap;
+                    Ok((0.0, 0.0, Some(t), remap))
                 }
                 (u, v) => {
                     let get = |x: Option<Value>| match x {
                         Some(Value::Const(c)) => c.x,
                         _ => 0.0,
                     };
-                    m.roughness = remap_f(get(u));
-                    m.roughness_v = remap_f(get(v));
-                    if m.roughness < 0.0 || m.roughness_v < 0.0 {
+                    let (au, av) = (remap_f(get(u)), remap_f(get(v)));
+                    if au < 0.0 || av < 0.0 {
                         return Err(this.err_at(file, line, d, "roughness must not be negative"));
                     }
+                    Ok((au, av, None, false))
                 }
             }
+        };
+        let roughness = |this: &mut Self, m: &mut Material| -> Result<(), ParseError> {
+            let (au, av, texture, remap) = roughness_of(this, "")?;
+            m.roughness = au;
+            m.roughness_v = av;
+            m.roughness_texture = texture;
+            m.remap_roughness_texture = remap;
             Ok(())
         };
-        let eta = |this: &mut Self| -> Result<f32, ParseError> {
-            let eta = match this.value(params, "eta", true, d)? {
+        let eta_named = |this: &mut Self, name: &str| -> Result<f32, ParseError> {
+            let eta = match this.value(params, name, true, d)? {
                 Some(Value::Const(c)) => c.x,
                 Some(Value::Texture(_)) => {
                     this.unsupported(file, line, "a textured index of refraction");
@@ -1769,6 +1783,93 @@ impl Parser {
                 ));
             }
             Ok(eta)
+        };
+        let eta = |this: &mut Self| eta_named(this, "eta");
+        // A coating's layer: pbrt-v4's `thickness`, `maxdepth`, `nsamples` (and `albedo`
+        // and `g` of a scattering layer, which lightpath does not have).
+        let layer = |this: &mut Self, m: &mut Material, what: &str| -> Result<(), ParseError> {
+            let num = |name: &str, default: f64| {
+                params
+                    .find(name)
+                    .and_then(|p| p.nums.first().copied())
+                    .unwrap_or(default)
+            };
+            if let Some(p) = params.find("thickness").filter(|p| p.ty == "texture") {
+                this.unsupported(p.file, p.line, format!("{what}: a textured thickness"));
+            } else {
+                m.thickness = num("thickness", 0.01) as f32;
+            }
+            m.layer_max_depth = num("maxdepth", 10.0).clamp(1.0, 1000.0) as u32;
+            m.layer_samples = num("nsamples", 1.0).clamp(1.0, 64.0) as u32;
+            if let Some(p) = params.find("albedo") {
+                if p.nums.iter().any(|&x| x != 0.0) || p.ty == "texture" {
+                    this.unsupported(
+                        p.file,
+                        p.line,
+                        format!("{what}: a scattering layer (albedo > 0)"),
+                    );
+                }
+            }
+            params.find("g");
+            if m.thickness < 0.0 {
+                return Err(this.err_at(file, line, d, "thickness must not be negative"));
+            }
+            Ok(())
+        };
+        // A conductor's eta and k (`{prefix}eta`, `{prefix}k`), or pbrt-v4's
+        // artist-friendly `reflectance` r (eta 1, k = 2 sqrt(r) / sqrt(1 - r)); a textured
+        // reflectance where `textured` allows it (its texture becomes the diffuse one).
+        let conductor = |this: &mut Self,
+                         m: &mut Material,
+                         prefix: &str,
+                         textured: bool|
+         -> Result<(), ParseError> {
+            if let Some(r) = this.value(params, "reflectance", false, d)? {
+                match r {
+                    Value::Const(r) => {
+                        if r.max_element() >= 1.0 || r.min_element() < 0.0 {
+                            return Err(this.err_at(
+                                file,
+                                line,
+                                d,
+                                "a conductor's reflectance must lie in [0, 1)",
+                            ));
+                        }
+                        m.eta = Vec3::ONE;
+                        m.k = 2.0 * r.map(f32::sqrt) / (Vec3::ONE - r).map(f32::sqrt);
+                    }
+                    Value::Texture(t) if textured => m.diffuse_texture = Some(t),
+                    Value::Texture(_) => {
+                        this.unsupported(file, line, "conductor: a textured reflectance")
+                    }
+                }
+                return Ok(());
+            }
+            for (name, slot) in [("eta", 0), ("k", 1)] {
+                let name = format!("{prefix}{name}");
+                match this.value(params, &name, false, d)? {
+                    Some(Value::Const(c)) => {
+                        if c.min_element() < 0.0 {
+                            return Err(this.err_at(
+                                file,
+                                line,
+                                d,
+                                format!("{name} must not be negative"),
+                            ));
+                        }
+                        if slot == 0 {
+                            m.eta = c
+                        } else {
+                            m.k = c
+                        }
+                    }
+                    Some(Value::Texture(_)) => {
+                        this.unsupported(file, line, format!("a textured {name}"))
+                    }
+                    None => {}
+                }
+            }
+            Ok(())
         };
         match ty {
             "interface" => {
@@ -1794,28 +1895,24 @@ impl Parser {
                 }
                 roughness(self, &mut m)?;
                 m.ior = eta(self)?;
-                let num = |name: &str, default: f64| {
-                    params
-                        .find(name)
-                        .and_then(|p| p.nums.first().copied())
-                        .unwrap_or(default)
-                };
-                m.thickness = num("thickness", 0.01) as f32;
-                m.layer_max_depth = num("maxdepth", 10.0).clamp(1.0, 1000.0) as u32;
-                m.layer_samples = num("nsamples", 1.0).clamp(1.0, 64.0) as u32;
-                if let Some(p) = params.find("albedo") {
-                    if p.nums.iter().any(|&x| x != 0.0) || p.ty == "texture" {
-                        self.unsupported(
-                            p.file,
-                            p.line,
-                            "coateddiffuse: a scattering layer (albedo > 0)",
-                        );
-                    }
-                }
-                params.find("g");
-                if m.thickness < 0.0 {
-                    return Err(self.err_at(file, line, d, "thickness must not be negative"));
-                }
+                layer(self, &mut m, "coateddiffuse")?;
+            }
+            "coatedconductor" => {
+                // pbrt-v4's CoatedConductorMaterial: a dielectric coating (`interface.*`)
+                // over a conductor (`conductor.*`, or `reflectance`), copper by default.
+                m.bsdf = BsdfKind::CoatedConductor;
+                let (au, av, texture, remap) = roughness_of(self, "interface.")?;
+                m.roughness = au;
+                m.roughness_v = av;
+                m.roughness_texture = texture;
+                let (bu, bv, base_texture, base_remap) = roughness_of(self, "conductor.")?;
+                m.base_roughness = bu;
+                m.base_roughness_v = bv;
+                m.base_roughness_texture = base_texture;
+                m.remap_roughness_texture = remap || base_remap;
+                m.ior = eta_named(self, "interface.eta")?;
+                conductor(self, &mut m, "conductor.", true)?;
+                layer(self, &mut m, "coatedconductor")?;
             }
             "diffusetransmission" => {
                 // pbrt-v4: R and T (0.25 each) times `scale`, each clamped to [0, 1].
@@ -1874,51 +1971,7 @@ impl Parser {
             "conductor" => {
                 m.bsdf = BsdfKind::Conductor;
                 roughness(self, &mut m)?;
-                if let Some(r) = self.value(params, "reflectance", false, d)? {
-                    match r {
-                        Value::Const(r) => {
-                            if r.max_element() >= 1.0 || r.min_element() < 0.0 {
-                                return Err(self.err_at(
-                                    file,
-                                    line,
-                                    d,
-                                    "a conductor's reflectance must lie in [0, 1)",
-                                ));
-                            }
-                            m.eta = Vec3::ONE;
-                            m.k = 2.0 * r.map(f32::sqrt) / (Vec3::ONE - r).map(f32::sqrt);
-                        }
-                        Value::Texture(_) => {
-                            self.unsupported(file, line, "conductor: a textured reflectance")
-                        }
-                    }
-                } else {
-                    for (name, slot) in [("eta", 0), ("k", 1)] {
-                        match self.value(params, name, false, d)? {
-                            Some(Value::Const(c)) => {
-                                if c.min_element() < 0.0 {
-                                    return Err(self.err_at(
-                                        file,
-                                        line,
-                                        d,
-                                        format!("{name} must not be negative"),
-                                    ));
-                                }
-                                if slot == 0 {
-                                    m.eta = c
-                                } else {
-                                    m.k = c
-                                }
-                            }
-                            Some(Value::Texture(_)) => self.unsupported(
-                                file,
-                                line,
-                                format!("conductor: a textured {name}"),
-                            ),
-                            None => {}
-                        }
-                    }
-                }
+                conductor(self, &mut m, "", false)?;
             }
             other => {
                 self.unsupported(file, line, format!("Material \"{other}\""));
@@ -3626,6 +3679,81 @@ mod tests {
         let r = m(1).record();
         assert_eq!(r.specular[..3], [0.2, 1.0, 0.8]);
         assert_eq!(m(2).record().info[3], m(2).transmittance_texture.unwrap());
+    }
+
+    /// pbrt-v4's coatedconductor: the coating's `interface.*` and the conductor's
+    /// `conductor.*` (copper by default, named spectra, or a constant or textured
+    /// `reflectance`), each roughness remapped; the record holds the conductor's eta and k
+    /// over the coating's index (pbrt-v4 divides them so), its alphas in `base`. A
+    /// scattering layer or a textured thickness is refused.
+    #[test]
+    fn coated_conductor_reads_its_coating_and_its_conductor() {
+        let s = parse(&format!(
+            r#"WorldBegin
+            Material "coatedconductor"
+            {QUAD}
+            Material "coatedconductor" "float interface.roughness" 0.04 "spectrum conductor.eta" "metal-Al-eta" "spectrum conductor.k" "metal-Al-k" "float conductor.uroughness" 0.09 "float conductor.vroughness" 0.16 "float interface.eta" 1.33 "float thickness" 0.2 "integer maxdepth" 5 "integer nsamples" 2
+            {QUAD}
+            Texture "r" "spectrum" "checkerboard" "rgb tex1" [ 0.1 0.1 0.1 ] "rgb tex2" [ 0.9 0.9 0.9 ]
+            Texture "ir" "float" "checkerboard" "float tex1" 0.01 "float tex2" 0.2
+            Material "coatedconductor" "texture reflectance" "r" "texture interface.roughness" "ir" "float conductor.roughness" 0.01 "bool remaproughness" false
+            {QUAD}
+            Material "coatedconductor" "rgb reflectance" [ 0.5 0.5 0.5 ]
+            {QUAD}
+            "#
+        ));
+        let m = |i: usize| s.materials[s.triangles[2 * i].material as usize];
+        assert!((0..4).all(|i| m(i).bsdf == BsdfKind::CoatedConductor));
+        let d = m(0);
+        assert_eq!(
+            (d.eta, d.k),
+            (crate::scene::COPPER_ETA, crate::scene::COPPER_K)
+        );
+        assert_eq!((d.ior, d.roughness, d.base_roughness), (1.5, 0.0, 0.0));
+        assert_eq!(
+            (d.thickness, d.layer_max_depth, d.layer_samples),
+            (0.01, 10, 1)
+        );
+        let a = m(1);
+        assert!((a.roughness - 0.2).abs() < 1e-6 && (a.roughness_v - 0.2).abs() < 1e-6);
+        assert!((a.base_roughness - 0.3).abs() < 1e-6 && (a.base_roughness_v - 0.4).abs() < 1e-6);
+        assert_eq!(
+            (a.ior, a.thickness, a.layer_max_depth, a.layer_samples),
+            (1.33, 0.2, 5, 2)
+        );
+        // Aluminium (RGB of pbrt-v4's spectra): eta 1.66-0.52, k 9.2-4.8.
+        assert!(
+            a.eta.max_element() < 2.0 && a.k.min_element() > 4.0,
+            "{} {}",
+            a.eta,
+            a.k
+        );
+        let r = a.record();
+        for c in 0..3 {
+            assert!((r.specular[c] - a.eta[c] / 1.33).abs() < 1e-6);
+            assert!((r.diffuse[c] - a.k[c] / 1.33).abs() < 1e-6);
+        }
+        assert_eq!(r.eta[0], 1.33);
+        assert_eq!(r.base[..2], [a.base_roughness, a.base_roughness_v]);
+        assert_eq!(r.base[2].to_bits(), crate::abi::NO_TEXTURE);
+        let t = m(2);
+        assert!(t.diffuse_texture.is_some() && t.roughness_texture.is_some());
+        assert!(!t.remap_roughness_texture && t.base_roughness == 0.01);
+        assert_eq!(t.record().info[2], t.diffuse_texture.unwrap());
+        assert_eq!(t.record().info[1] & crate::abi::MATERIAL_REMAP_ROUGHNESS, 0);
+        // A reflectance r: eta 1, k = 2 sqrt(r) / sqrt(1 - r) = 2.
+        let c = m(3);
+        assert_eq!(c.eta, Vec3::ONE);
+        assert!((c.k - Vec3::splat(2.0)).abs().max_element() < 1e-6);
+        for (bad, what) in [
+            (r#""rgb albedo" [ 0.5 0.5 0.5 ]"#, "scattering layer"),
+            (r#""texture thickness" "ir""#, "textured thickness"),
+        ] {
+            let e = parse_err(&format!(
+                "WorldBegin\nTexture \"ir\" \"float\" \"checkerboard\"\nMaterial \"coatedconductor\" {bad}\n{QUAD}"
+            ));
+            assert!(e.to_string().contains(what), "{e}");
+        }
     }
 
     #[test]
