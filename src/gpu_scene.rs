@@ -10,7 +10,9 @@ use crate::gpu::rayquery::RayQueryScene;
 use crate::gpu::{other_error, Device};
 use crate::io::Image;
 use crate::scene::{DeltaLight, NextEventEstimation, Scene, Texture, UV_MAPPING};
-use crate::texture::{environment_mean, environment_weights, Distribution2D, EnvMapping, Wrap};
+use crate::texture::{
+    environment_mean, environment_weights, Distribution2D, EnvMapping, Operand, Wrap,
+};
 use anyhow::Result;
 use ash::vk;
 use glam::{Mat3, Vec2, Vec3};
@@ -260,53 +262,136 @@ fn push_image(texels: &mut Vec<f32>, image: &Image) -> u32 {
     first
 }
 
+/// The record of an image or checkerboard texture (its texels appended to `texels`).
+/// Texels: the floats and, per image already in them, its first float (an image
+/// that several textures read is stored once).
+#[derive(Default)]
+struct Texels {
+    floats: Vec<f32>,
+    first: std::collections::HashMap<*const Image, u32>,
+}
+
+impl Texels {
+    fn image(&mut self, image: &Arc<Image>) -> u32 {
+        if let Some(&first) = self.first.get(&Arc::as_ptr(image)) {
+            return first;
+        }
+        let first = push_image(&mut self.floats, image);
+        self.first.insert(Arc::as_ptr(image), first);
+        first
+    }
+}
+
+fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
+    let mut record = match t {
+        Texture::Image {
+            image,
+            scale,
+            mapping,
+            wrap,
+            ..
+        } => GpuTexture {
+            info: [
+                TEXTURE_IMAGE,
+                texels.image(image),
+                image.width,
+                image.height,
+            ],
+            flags: [
+                match wrap {
+                    Wrap::Repeat => TEXTURE_WRAP_REPEAT,
+                    Wrap::Clamp => TEXTURE_WRAP_CLAMP,
+                    Wrap::Black => TEXTURE_WRAP_BLACK,
+                },
+                0,
+                0,
+                0,
+            ],
+            scale: scale.extend(0.0).to_array(),
+            other: [0.0; 4],
+            mapping: *mapping,
+            ..GpuTexture::default()
+        },
+        Texture::Checkerboard {
+            even, odd, mapping, ..
+        } => GpuTexture {
+            info: [TEXTURE_CHECKERBOARD, 0, 0, 0],
+            scale: even.extend(0.0).to_array(),
+            other: odd.extend(0.0).to_array(),
+            mapping: *mapping,
+            ..GpuTexture::default()
+        },
+        Texture::Scale { .. } | Texture::Mix { .. } => unreachable!("not a leaf"),
+    };
+    let (kind, [proj0, proj1, proj2]) = t.projection().record();
+    record.flags[2] = kind;
+    (record.proj0, record.proj1, record.proj2) = (proj0, proj1, proj2);
+    record
+}
+
+/// Appends the program of `t` (texture.glsl: its tree in post-order, each record into
+/// the next register) to `program`; returns the register of its value.
+fn push_program(t: &Texture, program: &mut Vec<GpuTexture>, texels: &mut Texels) -> u32 {
+    if !t.is_graph() {
+        program.push(leaf_record(t, texels));
+        return program.len() as u32 - 1;
+    }
+    let mut record = GpuTexture {
+        info: [
+            if matches!(t, Texture::Scale { .. }) {
+                TEXTURE_SCALE
+            } else {
+                TEXTURE_MIX
+            },
+            0,
+            0,
+            0,
+        ],
+        flags: [NO_TEXTURE; 4],
+        ..GpuTexture::default()
+    };
+    record.flags[3] = 0;
+    for (slot, o) in t.operands().into_iter().enumerate() {
+        match o {
+            Operand::Texture(c) => record.flags[slot] = push_program(c, program, texels),
+            Operand::Const(c) => match slot {
+                0 => record.scale = c.extend(0.0).to_array(),
+                1 => record.other = c.extend(0.0).to_array(),
+                _ => record.mapping[0] = c.x,
+            },
+        }
+    }
+    program.push(record);
+    program.len() as u32 - 1
+}
+
 pub fn texture_data(scene: &Scene) -> TextureData {
     let mut textures = Vec::new();
-    let mut texels = Vec::new();
+    let mut texels = Texels::default();
+    // Textures made of textures get their programs after every scene texture.
+    let mut programs = Vec::new();
     for t in &scene.textures {
-        let mut record = match t {
-            Texture::Image {
-                image,
-                scale,
-                mapping,
-                wrap,
-                ..
-            } => GpuTexture {
-                info: [
-                    TEXTURE_IMAGE,
-                    push_image(&mut texels, image),
-                    image.width,
-                    image.height,
-                ],
-                flags: [
-                    match wrap {
-                        Wrap::Repeat => TEXTURE_WRAP_REPEAT,
-                        Wrap::Clamp => TEXTURE_WRAP_CLAMP,
-                        Wrap::Black => TEXTURE_WRAP_BLACK,
-                    },
-                    0,
-                    0,
-                    0,
-                ],
-                scale: scale.extend(0.0).to_array(),
-                other: [0.0; 4],
-                mapping: *mapping,
-                ..GpuTexture::default()
-            },
-            Texture::Checkerboard {
-                even, odd, mapping, ..
-            } => GpuTexture {
-                info: [TEXTURE_CHECKERBOARD, 0, 0, 0],
-                scale: even.extend(0.0).to_array(),
-                other: odd.extend(0.0).to_array(),
-                mapping: *mapping,
-                ..GpuTexture::default()
-            },
+        if t.is_graph() {
+            programs.push((textures.len(), t));
+            textures.push(GpuTexture::default());
+        } else {
+            textures.push(leaf_record(t, &mut texels));
+        }
+    }
+    for (index, t) in programs {
+        let mut program = Vec::new();
+        push_program(t, &mut program, &mut texels);
+        assert!(program.len() <= MAX_TEXTURE_PROGRAM as usize);
+        textures[index] = GpuTexture {
+            info: [
+                TEXTURE_GRAPH,
+                textures.len() as u32,
+                program.len() as u32,
+                0,
+            ],
+            ..GpuTexture::default()
         };
-        let (kind, [proj0, proj1, proj2]) = t.projection().record();
-        record.flags[2] = kind;
-        (record.proj0, record.proj1, record.proj2) = (proj0, proj1, proj2);
-        textures.push(record);
+        textures.extend(program);
     }
     let mut environment = None;
     if let Some(map) = scene.environment.as_ref().and_then(|e| e.map.as_ref()) {
@@ -315,7 +400,7 @@ pub fn texture_data(scene: &Scene) -> TextureData {
         textures.push(GpuTexture {
             info: [
                 TEXTURE_IMAGE,
-                push_image(&mut texels, image),
+                push_image(&mut texels.floats, image),
                 image.width,
                 image.height,
             ],
@@ -335,15 +420,15 @@ pub fn texture_data(scene: &Scene) -> TextureData {
         });
         let weights = environment_weights(image, map.mapping);
         let d = Distribution2D::new(&weights, image.width as usize, image.height as usize);
-        let marginal = texels.len() as u32;
-        texels.extend(&d.marginal);
-        let conditional = texels.len() as u32;
-        texels.extend(&d.conditional);
+        let marginal = texels.floats.len() as u32;
+        texels.floats.extend(&d.marginal);
+        let conditional = texels.floats.len() as u32;
+        texels.floats.extend(&d.conditional);
         environment = Some((index, marginal, conditional));
     }
     TextureData {
         textures,
-        texels,
+        texels: texels.floats,
         environment,
     }
 }

@@ -35,16 +35,88 @@ pub enum Texture {
         mapping: [f32; 4],
         projection: Projection,
     },
+    /// pbrt-v4's `scale` texture: `tex` times the first channel of `scale` (a float
+    /// texture).
+    Scale { tex: Operand, scale: Operand },
+    /// pbrt-v4's `mix` texture: (1 - a) `tex1` + a `tex2`, a the first channel of
+    /// `amount` (a float texture).
+    Mix {
+        tex1: Operand,
+        tex2: Operand,
+        amount: Operand,
+    },
+}
+
+/// An input of a texture made of textures: a constant or a texture (its own tree).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Operand {
+    Const(Vec3),
+    Texture(Box<Texture>),
+}
+
+impl Operand {
+    fn value(&self, uv: Vec2, p: Vec3) -> Vec3 {
+        match self {
+            Operand::Const(c) => *c,
+            Operand::Texture(t) => texture_value(t, uv, p),
+        }
+    }
 }
 
 impl Texture {
-    /// How the texture finds its (s, t).
+    /// How the texture finds its (s, t) (a texture made of textures: none of its own).
     pub fn projection(&self) -> Projection {
         match self {
             Texture::Image { projection, .. } | Texture::Checkerboard { projection, .. } => {
                 *projection
             }
+            Texture::Scale { .. } | Texture::Mix { .. } => Projection::Uv,
         }
+    }
+
+    /// The texture's operands, if it is made of textures.
+    pub fn operands(&self) -> Vec<&Operand> {
+        match self {
+            Texture::Image { .. } | Texture::Checkerboard { .. } => Vec::new(),
+            Texture::Scale { tex, scale } => vec![tex, scale],
+            Texture::Mix { tex1, tex2, amount } => vec![tex1, tex2, amount],
+        }
+    }
+
+    /// The image and checkerboard textures it is made of (itself, if it is one).
+    pub fn leaves(&self) -> Vec<&Texture> {
+        let mut out = Vec::new();
+        let mut stack = vec![self];
+        while let Some(t) = stack.pop() {
+            let ops = t.operands();
+            if ops.is_empty() {
+                out.push(t);
+            }
+            for o in ops {
+                if let Operand::Texture(c) = o {
+                    stack.push(c);
+                }
+            }
+        }
+        out
+    }
+
+    /// Whether it is made of textures (a program on the device).
+    pub fn is_graph(&self) -> bool {
+        !self.operands().is_empty()
+    }
+
+    /// The records of its program on the device (texture.glsl's `texture_value`): one
+    /// per texture of its tree, itself included.
+    pub fn program_length(&self) -> usize {
+        1 + self
+            .operands()
+            .iter()
+            .map(|o| match o {
+                Operand::Const(_) => 0,
+                Operand::Texture(t) => t.program_length(),
+            })
+            .sum::<usize>()
     }
 }
 
@@ -356,6 +428,11 @@ pub fn bilinear(image: &Image, p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
 /// and world point p.
 pub fn texture_value(t: &Texture, uv: Vec2, p: Vec3) -> Vec3 {
     match t {
+        Texture::Scale { tex, scale } => tex.value(uv, p) * scale.value(uv, p).x,
+        Texture::Mix { tex1, tex2, amount } => {
+            let a = amount.value(uv, p).x;
+            (1.0 - a) * tex1.value(uv, p) + a * tex2.value(uv, p)
+        }
         Texture::Checkerboard {
             even,
             odd,

@@ -11,7 +11,7 @@ use lightpath::gpu_scene::scene_params;
 use lightpath::io::Image;
 use lightpath::render::AccelChoice::Bvh;
 use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene, Texture};
-use lightpath::texture::{environment_radiance, texture_value, Wrap};
+use lightpath::texture::{environment_radiance, texture_value, Operand, Wrap};
 
 /// The camera ray direction through film point (fx, fy) ∈ [0,1)² (camera.glsl's).
 fn camera_ray(s: &Scene, fx: f32, fy: f32) -> (Vec3, Vec3) {
@@ -126,6 +126,139 @@ fn unit_sphere_hit(o: Vec3, d: Vec3) -> Option<Vec3> {
     (disc >= 0.0).then(|| o + (-b - disc.sqrt()) * d)
 }
 
+/// pbrt's (u, v) of the unit sphere's point q (z the pole).
+fn pbrt_sphere_uv(q: Vec3) -> Vec2 {
+    let mut phi = q.y.atan2(q.x);
+    if phi < 0.0 {
+        phi += 2.0 * std::f32::consts::PI;
+    }
+    Vec2::new(
+        phi / (2.0 * std::f32::consts::PI),
+        1.0 - q.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
+    )
+}
+
+/// Textures made of textures (pbrt-v4's `scale` and `mix` of textures): a sphere's
+/// reflectance is an image mixed with a colour by a 3D checkerboard's amount, scaled by
+/// a grey image, and a colour scaled by a float image: each renders the CPU mirror's
+/// value at every point (the device runs the tree as a program of five records).
+#[test]
+fn textures_made_of_textures_render_their_value() {
+    let dir = temp_dir("graphs");
+    let colours = dir.join("colours.pfm");
+    write_pfm(&colours, 4, 3, |x, y| {
+        let i = (y * 4 + x) as f32;
+        [
+            0.2 + 0.06 * i,
+            0.9 - 0.05 * i,
+            if (x + y) % 2 == 0 { 0.7 } else { 0.3 },
+        ]
+    });
+    let grey = dir.join("grey.pfm");
+    write_pfm(&grey, 2, 2, |x, y| {
+        let v = [0.5, 1.0, 0.8, 0.6][(y * 2 + x) as usize];
+        [v, v, v]
+    });
+    for (reflectance, records) in [("s", 5), ("tinted", 2)] {
+        let text = format!(
+            "LookAt 0 2.2 2.2  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 45 ]\n\
+             Film \"rgb\" \"integer xresolution\" [ 24 ] \"integer yresolution\" [ 24 ]\n\
+             WorldBegin\nLightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n\
+             Texture \"img\" \"spectrum\" \"imagemap\" \"string filename\" \"{}\" \"float uscale\" 3\n\
+             AttributeBegin\nRotate 30 1 1 0\nScale 0.6 0.6 0.6\n\
+             Texture \"amt\" \"float\" \"checkerboard\" \"integer dimension\" 3 \
+             \"float tex1\" 0.15 \"float tex2\" 0.85\nAttributeEnd\n\
+             Texture \"m\" \"spectrum\" \"mix\" \"texture tex1\" \"img\" \"rgb tex2\" [ 0.1 0.8 0.3 ] \
+             \"texture amount\" \"amt\"\n\
+             Texture \"g\" \"float\" \"imagemap\" \"string filename\" \"{}\" \"float vscale\" 2\n\
+             Texture \"s\" \"spectrum\" \"scale\" \"texture tex\" \"m\" \"texture scale\" \"g\"\n\
+             Texture \"tinted\" \"spectrum\" \"scale\" \"rgb tex\" [ 0.9 0.5 0.2 ] \"texture scale\" \"g\"\n\
+             Material \"diffuse\" \"texture reflectance\" \"{reflectance}\"\nShape \"sphere\"\n",
+            colours.display(),
+            grey.display()
+        );
+        let s = lightpath::scene::parse_pbrt_str(&text, "graphs.pbrt").expect("the scene parses");
+        let texture =
+            s.textures[s.materials[0].diffuse_texture.expect("a texture") as usize].clone();
+        assert!(texture.is_graph());
+        assert_eq!(texture.program_length(), records);
+        let expected = expected_image(&s, |o, d| match unit_sphere_hit(o, d) {
+            Some(q) => texture_value(&texture, pbrt_sphere_uv(q.normalize()), q),
+            None => Vec3::ONE,
+        });
+        let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 2, Bvh);
+        let (mean, max) = differences(&img, &expected);
+        // (Pixels on a check's edge see a fraction of each amount.)
+        assert!(
+            mean < 0.02 && max < 0.3,
+            "{reflectance}: mean difference {mean}, largest {max}"
+        );
+        let reds: Vec<f32> = expected.pixels.iter().map(|p| p[0]).collect();
+        let spread =
+            reds.iter().fold(0.0f32, |m, &x| m.max(x)) - reds.iter().fold(1.0f32, |m, &x| m.min(x));
+        assert!(spread > 0.2, "{reflectance}: {spread}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A coated layer's `thickness` as a float texture (pbrt-v4's; two published scenes):
+/// a uniform image of 0.3 renders as the constant 0.3 does (and not as the default
+/// 0.01), for coated diffuse and coated conductor alike.
+#[test]
+fn a_thickness_texture_renders_as_its_constant() {
+    let dir = temp_dir("thickness");
+    let flat = dir.join("flat.pfm");
+    write_pfm(&flat, 2, 2, |_, _| [0.3; 3]);
+    let render_with = |material: &str, thickness: &str| {
+        let text = format!(
+            "LookAt 0 0.5 3  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 40 ]\n\
+             Film \"rgb\" \"integer xresolution\" [ 16 ] \"integer yresolution\" [ 16 ]\n\
+             Integrator \"path\" \"integer maxdepth\" [ 3 ]\n\
+             WorldBegin\nLightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n\
+             Texture \"flat\" \"float\" \"imagemap\" \"string filename\" \"{}\"\n\
+             Material \"{material}\" \"float roughness\" 0.1 \"float interface.roughness\" 0.1 {thickness}\n\
+             Shape \"sphere\"\n",
+            flat.display()
+        );
+        // (Each material reads only its own roughness name; the other is unused.)
+        let text = text.replace(
+            if material == "coateddiffuse" {
+                " \"float interface.roughness\" 0.1"
+            } else {
+                " \"float roughness\" 0.1"
+            },
+            "",
+        );
+        let s =
+            lightpath::scene::parse_pbrt_str(&text, "thickness.pbrt").expect("the scene parses");
+        region_means(
+            &render(&with_integrator(s, IntegratorKind::PathTracer, 64), 5, Bvh),
+            4,
+        )
+    };
+    for material in ["coateddiffuse", "coatedconductor"] {
+        let textured = render_with(material, "\"texture thickness\" \"flat\"");
+        let constant = render_with(material, "\"float thickness\" 0.3");
+        let default = render_with(material, "");
+        let (mut same, mut apart) = (0.0f64, 0.0f64);
+        for ((t, c), d) in textured.iter().zip(&constant).zip(&default) {
+            for k in 0..3 {
+                same = same.max(((t[k] - c[k]) / c[k].max(1e-3)).abs());
+                apart = apart.max(((d[k] - c[k]) / c[k].max(1e-3)).abs());
+            }
+        }
+        assert!(
+            same < 1e-3,
+            "{material}: textured vs constant differ by {same}"
+        );
+        assert!(
+            apart > 0.05,
+            "{material}: the thickness changes nothing ({apart})"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn a_checkerboard_on_a_sphere_follows_pbrts_sphere_coordinates() {
     // 3 checks around, 2 from pole to pole; the sphere turned so both poles show.
@@ -139,15 +272,7 @@ fn a_checkerboard_on_a_sphere_follows_pbrts_sphere_coordinates() {
             return Vec3::ONE;
         };
         let q = q.normalize();
-        let mut phi = q.y.atan2(q.x);
-        if phi < 0.0 {
-            phi += 2.0 * std::f32::consts::PI;
-        }
-        let uv = Vec2::new(
-            phi / (2.0 * std::f32::consts::PI),
-            1.0 - q.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
-        );
-        texture_value(&texture, uv, q)
+        texture_value(&texture, pbrt_sphere_uv(q), q)
     });
     let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 2, Bvh);
     let (mean, max) = differences(&img, &expected);
@@ -298,7 +423,8 @@ fn environment_maps_seen_directly_are_their_lookup() {
     }
 }
 
-/// A checkerboard floor and a sphere of rough copper whose roughness is an image, under
+/// A checkerboard floor (mixed with a colour by an image: a texture made of textures)
+/// and a sphere of rough copper whose roughness is an image, under
 /// a map with a small bright sun: light sampling of the map alone agrees with BSDF
 /// sampling alone, and BDPT and MMLT (whose light vertices carry texture coordinates)
 /// with both.
@@ -328,6 +454,14 @@ fn a_textured_scene_under_an_environment_map_agrees_across_integrators() {
         map.display(),
         roughness.display()
     ));
+    // The floor's reflectance made of textures: the checks mixed with orange by the
+    // roughness image's amount (a program on the device, in every integrator).
+    let mut s = s;
+    s.textures[0] = Texture::Mix {
+        tex1: Operand::Texture(Box::new(s.textures[0].clone())),
+        tex2: Operand::Const(Vec3::new(0.9, 0.6, 0.2)),
+        amount: Operand::Texture(Box::new(s.textures[1].clone())),
+    };
     let mut mis = with_integrator(s.clone(), IntegratorKind::PathTracer, 64);
     mis.settings.nee = NextEventEstimation::Mis;
     let reference = estimate(&mis, 4, 3, Bvh);

@@ -120,8 +120,11 @@
 #define FEATURE_ALPHA 512
 // Coated conductors (a case of the coated class: the walk engine's conductor base).
 #define FEATURE_COATED_CONDUCTOR 1024
+// Textures made of textures (pbrt-v4's scale and mix of textures: texture.glsl's
+// programs).
+#define FEATURE_TEXTURE_GRAPHS 2048
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 2047
+#define FEATURE_ALL 4095
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
@@ -148,6 +151,18 @@
 // Texture kinds (GpuTexture.info.x).
 #define TEXTURE_IMAGE 0
 #define TEXTURE_CHECKERBOARD 1
+// A texture made of textures: info.y the first record of its program, info.z the
+// program's length (records evaluated in order, each into a register; the last is the
+// value). A program's records are leaves (image, checkerboard) and these nodes, whose
+// operands flags.x (a), flags.y (b) and flags.z (amount) are earlier registers, or
+// NO_TEXTURE for the constants scale.xyz, other.xyz and mapping.x:
+#define TEXTURE_GRAPH 2
+// pbrt-v4's scale: a times the first channel of b.
+#define TEXTURE_SCALE 3
+// pbrt-v4's mix: (1 - amount) a + amount b, amount's first channel.
+#define TEXTURE_MIX 4
+// The most records of a texture's program.
+#define MAX_TEXTURE_PROGRAM 8
 // How an image texture wraps (GpuTexture.flags.x).
 #define TEXTURE_WRAP_REPEAT 0
 // u repeats, v clamps (latitude-longitude environment maps).
@@ -325,7 +340,7 @@ struct GpuMaterial {
     vec4 k;              // xyz conductor absorption
     vec4 roughness;      // x Phong exponent, y GGX alpha (u), z GGX alpha (v), w (uint bits) bump or normal map texture (MATERIAL_BUMP_MAP, MATERIAL_NORMAL_MAP)
     uvec4 info;          // x kind (BSDF_*), y flags (MATERIAL_*), z diffuse texture (coated conductor: the conductor's reflectance), w roughness texture (diffuse transmission: transmittance texture; coated conductor: the coating's; NO_TEXTURE: none)
-    vec4 base;           // coated conductor: xy the conductor's alphas, z (uint bits) its roughness texture (NO_TEXTURE: none), w unused
+    vec4 base;           // coated conductor: xy the conductor's alphas, z (uint bits) its roughness texture; coated (both kinds): w (uint bits) the layer's thickness texture (NO_TEXTURE: none); other kinds: zero
 };
 
 // An emitter. Triangles: p0,p1,p2 the vertices. Spheres: info.y the sphere. Point:

@@ -91,29 +91,39 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p) {
     b.base_eta = m.specular.xyz;
     b.base_k = m.diffuse.xyz;
     b.base_alpha = m.base.xy;
-    // Textures replace the diffuse reflectance and the roughness (first channel).
+    // Textures replace parameters, each slot looked up at the one call site of the loop:
+    // 0 the diffuse reflectance (a coated conductor's: its conductor's reflectance), 1
+    // the roughness (first channel; diffuse transmission: the transmittance), 2 a coated
+    // conductor's conductor roughness, 3 a coated layer's thickness.
     if (!has_feature(FEATURE_MATERIAL_TEXTURES)) return b;
-    if (m.info.z != NO_TEXTURE && bsdf_is_coated_conductor(b)) {
-        // pbrt-v4's artist-friendly conductor (eta 1, k from the reflectance r) in the
-        // coating (both over its index).
-        vec3 r = clamp(texture_value(m.info.z, uv, p), vec3(0.0), vec3(0.9999));
-        b.base_eta = vec3(1.0 / b.eta.x);
-        b.base_k = 2.0 * sqrt(r) / sqrt(vec3(1.0) - r) / b.eta.x;
-    } else if (m.info.z != NO_TEXTURE) {
-        b.kd = texture_value(m.info.z, uv, p);
-    }
-    if (floatBitsToUint(m.base.z) != NO_TEXTURE && bsdf_is_coated_conductor(b)) {
-        float a = texture_value(floatBitsToUint(m.base.z), uv, p).x;
-        if ((m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(max(a, 0.0));
-        b.base_alpha = vec2(a);
-    }
-    if (m.info.w != NO_TEXTURE && bsdf_is_diffuse_transmission(b)) {
-        b.ks = texture_value(m.info.w, uv, p);
-    } else if (m.info.w != NO_TEXTURE) {
-        float a = texture_value(m.info.w, uv, p).x;
-        if ((m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(max(a, 0.0));
-        b.roughness = a;
-        b.alpha = vec2(a);
+    bool coated = has_feature(FEATURE_COATED) && (b.kind == BSDF_COATED_DIFFUSE || b.kind == BSDF_COATED_CONDUCTOR);
+    for (uint slot = 0u; slot < 4u; ++slot) {
+        uint index = slot == 0u ? m.info.z
+                   : slot == 1u ? m.info.w
+                   : slot == 2u ? (bsdf_is_coated_conductor(b) ? floatBitsToUint(m.base.z) : NO_TEXTURE)
+                   : (coated ? floatBitsToUint(m.base.w) : NO_TEXTURE);
+        if (index == NO_TEXTURE) continue;
+        vec3 v = texture_value(index, uv, p);
+        float a = v.x;
+        if (slot != 0u && slot != 3u && (m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(max(a, 0.0));
+        if (slot == 0u && bsdf_is_coated_conductor(b)) {
+            // pbrt-v4's artist-friendly conductor (eta 1, k from the reflectance r) in
+            // the coating (both over its index).
+            vec3 r = clamp(v, vec3(0.0), vec3(0.9999));
+            b.base_eta = vec3(1.0 / b.eta.x);
+            b.base_k = 2.0 * sqrt(r) / sqrt(vec3(1.0) - r) / b.eta.x;
+        } else if (slot == 0u) {
+            b.kd = v;
+        } else if (slot == 1u && bsdf_is_diffuse_transmission(b)) {
+            b.ks = v;
+        } else if (slot == 1u) {
+            b.roughness = a;
+            b.alpha = vec2(a);
+        } else if (slot == 2u) {
+            b.base_alpha = vec2(a);
+        } else {
+            b.coat.x = v.x;
+        }
     }
     return b;
 }

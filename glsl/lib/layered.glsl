@@ -219,11 +219,14 @@ uint coat_other(uint t) { return t == TRANSPORT_RADIANCE ? TRANSPORT_IMPORTANCE 
 #define CS_F_BASE 21u      // result: the base's sample
 #define CS_P_BASE 22u      // result: the base's sample
 #define CS_FAIL 23u
+#define CS_F_BASE_NEE 24u  // result: the base's f and pdf toward wis
+#define CS_P_BASE_PDF 25u  // result: the base's pdf between wos and wis
 
 #define COAT_OP_NONE 0u
 #define COAT_OP_SAMPLE 1u
 #define COAT_OP_EVAL 2u
 #define COAT_OP_BASE 3u       // sampling the base
+#define COAT_OP_BASE_EVAL 4u  // the base's f and pdf (r.f, r.pdf)
 
 // Queries of coated_engine, answered in this order.
 #define COAT_Q_F 1u          // f(wo, wi)
@@ -284,12 +287,19 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
         // A sampling operation draws its three numbers here (but the first of a sampling
         // query, which has the caller's).
         if (op != COAT_OP_NONE) {
-            if (op != COAT_OP_EVAL && op_draw) {
+            if (op != COAT_OP_EVAL && op != COAT_OP_BASE_EVAL && op_draw) {
                 op_uc = coat_next(rng);
                 op_u = coat_next2(rng);
             }
-            if (op == COAT_OP_BASE) r_ok = coat_base_sample(b, op_wo, op_u, r);
-            else r_ok = coat_iface(a, eta, op_wo, op_wi, op == COAT_OP_SAMPLE, op_uc, op_u, op_t, op_lobes, r);
+            if (op == COAT_OP_BASE) {
+                r_ok = coat_base_sample(b, op_wo, op_u, r);
+            } else if (op == COAT_OP_BASE_EVAL) {
+                r.f = coat_base_f(b, op_wo, op_wi);
+                r.pdf = coat_base_pdf(b, op_wo, op_wi);
+                r_ok = true;
+            } else {
+                r_ok = coat_iface(a, eta, op_wo, op_wi, op == COAT_OP_SAMPLE, op_uc, op_u, op_t, op_lobes, r);
+            }
         }
         op = COAT_OP_NONE;
         op_draw = true;
@@ -400,14 +410,18 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                     op_lobes = COAT_LOBE_R;
                     stage = CS_F_TOP;
                 } else {
-                    float wt = top_smooth ? 1.0 : power_heuristic(wis.pdf, coat_base_pdf(b, -w, -wis.wi));
-                    f += beta * coat_base_f(b, -w, -wis.wi) * abs(wis.wi.z) * wt
-                         * coat_tr(thick, wis.wi) * wis.f / wis.pdf;
-                    op = COAT_OP_BASE;
+                    op = COAT_OP_BASE_EVAL;
                     op_wo = -w;
-                    stage = CS_F_BASE;
+                    op_wi = -wis.wi;
+                    stage = CS_F_BASE_NEE;
                 }
             }
+        } else if (stage == CS_F_BASE_NEE) {
+            float wt = top_smooth ? 1.0 : power_heuristic(wis.pdf, r.pdf);
+            f += beta * r.f * abs(wis.wi.z) * wt * coat_tr(thick, wis.wi) * wis.f / wis.pdf;
+            op = COAT_OP_BASE;
+            op_wo = -w;
+            stage = CS_F_BASE;
         } else if (stage == CS_F_BASE) {
             if (!r_ok) {
                 ++s;
@@ -503,18 +517,25 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
             stage = CS_P_BEGIN;
             if (ok_o && r_ok) {
                 wis = r;
-                if (top_smooth) {
-                    sum += coat_base_pdf(b, -wos.wi, -wis.wi);
-                } else {
-                    op = COAT_OP_BASE;
-                    op_wo = -wos.wi;
-                    stage = CS_P_BASE;
-                }
+                op = COAT_OP_BASE_EVAL;
+                op_wo = -wos.wi;
+                op_wi = -wis.wi;
+                stage = CS_P_BASE_PDF;
+            }
+        } else if (stage == CS_P_BASE_PDF) {
+            stage = CS_P_BEGIN;
+            base_pdf = r.pdf;   // (the base's density between wos and wis)
+            if (top_smooth) {
+                sum += base_pdf;
+            } else {
+                op = COAT_OP_BASE;
+                op_wo = -wos.wi;
+                stage = CS_P_BASE;
             }
         } else if (stage == CS_P_BASE) {
             stage = CS_P_BEGIN;
             if (r_ok) {
-                float r_pdf = coat_base_pdf(b, -wos.wi, -wis.wi);
+                float r_pdf = base_pdf;
                 sum += power_heuristic(wis.pdf, r_pdf) * r_pdf;
                 base_pdf = r.pdf;
                 op = COAT_OP_EVAL;

@@ -1,4 +1,5 @@
-// Textures: image lookup (bilinear, wrapped) and pbrt's 2D checkerboard. CPU mirror:
+// Textures: image lookup (bilinear, wrapped), pbrt's 2D and 3D checkerboard, and
+// textures made of textures (pbrt-v4's scale and mix, as programs). CPU mirror:
 // src/texture.rs (`texture_value`).
 #ifndef TEXTURE_GLSL
 #define TEXTURE_GLSL
@@ -36,9 +37,9 @@ vec2 texture_st(GpuTexture t, vec2 uv, vec3 p) {
     return vec2(acos(clamp(d.z, -1.0, 1.0)) * INV_PI, phi * INV_TWO_PI);
 }
 
-// The value of texture `index` at the surface coordinates uv and world point p.
-vec3 texture_value(uint index, vec2 uv, vec3 p) {
-    GpuTexture t = textures[index];
+// The value of an image or checkerboard texture at the surface coordinates uv and
+// world point p.
+vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p) {
     vec2 st = texture_st(t, uv, p);
     if (t.info.x == TEXTURE_CHECKERBOARD) {
         float sum = floor(st.x) + floor(st.y);
@@ -68,5 +69,32 @@ vec3 texture_value(uint index, vec2 uv, vec3 p) {
     vec3 top = mix(texel(t, x0, y0), texel(t, x1, y0), ax);
     vec3 bottom = mix(texel(t, x0, y1), texel(t, x1, y1), ax);
     return t.scale.xyz * mix(top, bottom, ay);
+}
+// The value of texture `index` at the surface coordinates uv and world point p. A
+// texture made of textures runs its program (abi.h TEXTURE_GRAPH): its records in
+// order, each into a register, leaves looked up here at one call site.
+vec3 texture_value(uint index, vec2 uv, vec3 p) {
+    if (!has_feature(FEATURE_TEXTURE_GRAPHS)) return texture_leaf(textures[index], uv, p);
+    GpuTexture t = textures[index];
+    uint first = index, count = 1u;
+    if (t.info.x == TEXTURE_GRAPH) {
+        first = t.info.y;
+        count = min(t.info.z, uint(MAX_TEXTURE_PROGRAM));
+    }
+    vec3 regs[MAX_TEXTURE_PROGRAM];
+    vec3 v = vec3(0.0);
+    for (uint i = 0u; i < count; ++i) {
+        GpuTexture n = textures[first + i];
+        if (n.info.x == TEXTURE_SCALE || n.info.x == TEXTURE_MIX) {
+            vec3 a = n.flags.x == NO_TEXTURE ? n.scale.xyz : regs[n.flags.x];
+            vec3 b = n.flags.y == NO_TEXTURE ? n.other.xyz : regs[n.flags.y];
+            float amount = n.flags.z == NO_TEXTURE ? n.mapping.x : regs[n.flags.z].x;
+            v = n.info.x == TEXTURE_SCALE ? a * b.x : (1.0 - amount) * a + amount * b;
+        } else {
+            v = texture_leaf(n, uv, p);
+        }
+        regs[i] = v;
+    }
+    return v;
 }
 #endif

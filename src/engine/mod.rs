@@ -475,7 +475,8 @@ pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
         FEATURE_ALPHA, FEATURE_COATED, FEATURE_COATED_CONDUCTOR, FEATURE_DIFFUSE_TRANSMISSION,
         FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES, FEATURE_MATERIAL_TEXTURES, FEATURE_MIX,
-        FEATURE_SHADING_MAPS, FEATURE_TEXTURE_PROJECTIONS, FEATURE_UNBOUNDED,
+        FEATURE_SHADING_MAPS, FEATURE_TEXTURE_GRAPHS, FEATURE_TEXTURE_PROJECTIONS,
+        FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
@@ -494,6 +495,7 @@ pub fn scene_features(scene: &Scene) -> u32 {
             || m.roughness_texture.is_some()
             || m.transmittance_texture.is_some()
             || m.base_roughness_texture.is_some()
+            || m.thickness_texture.is_some()
         {
             features |= FEATURE_MATERIAL_TEXTURES;
         }
@@ -507,12 +509,15 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if scene.environment.as_ref().is_some_and(|e| e.map.is_some()) {
         features |= FEATURE_ENVIRONMENT_MAP;
     }
-    if scene
-        .textures
-        .iter()
-        .any(|t| t.projection() != crate::texture::Projection::Uv)
-    {
+    if scene.textures.iter().any(|t| {
+        t.leaves()
+            .iter()
+            .any(|l| l.projection() != crate::texture::Projection::Uv)
+    }) {
         features |= FEATURE_TEXTURE_PROJECTIONS;
+    }
+    if scene.textures.iter().any(|t| t.is_graph()) {
+        features |= FEATURE_TEXTURE_GRAPHS;
     }
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
@@ -616,7 +621,8 @@ mod tests {
             | FEATURE_TEXTURE_PROJECTIONS
             | FEATURE_SHADING_MAPS
             | FEATURE_ALPHA
-            | FEATURE_COATED_CONDUCTOR;
+            | FEATURE_COATED_CONDUCTOR
+            | FEATURE_TEXTURE_GRAPHS;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -66,6 +66,8 @@ pub struct Material {
     /// extinction), and the random walk's maximum depth and samples per evaluation
     /// (pbrt-v4's `thickness`, `maxdepth`, `nsamples`).
     pub thickness: f32,
+    /// The float texture that replaces `thickness` (its first channel).
+    pub thickness_texture: Option<u32>,
     pub layer_max_depth: u32,
     pub layer_samples: u32,
     /// Diffuse transmission: the transmittance T (its reflectance R is `diffuse`).
@@ -141,6 +143,7 @@ impl Default for Material {
             base_roughness_v: 0.0,
             base_roughness_texture: None,
             thickness: 0.01,
+            thickness_texture: None,
             layer_max_depth: 10,
             layer_samples: 1,
             transmittance: Vec3::ZERO,
@@ -265,15 +268,20 @@ impl Material {
                 }
                 .unwrap_or(NO_TEXTURE),
             ],
-            base: if coated_conductor {
-                [
+            base: match self.bsdf {
+                BsdfKind::CoatedConductor => [
                     self.base_roughness,
                     self.base_roughness_v,
                     f32::from_bits(self.base_roughness_texture.unwrap_or(NO_TEXTURE)),
+                    f32::from_bits(self.thickness_texture.unwrap_or(NO_TEXTURE)),
+                ],
+                BsdfKind::CoatedDiffuse => [
                     0.0,
-                ]
-            } else {
-                [0.0; 4]
+                    0.0,
+                    0.0,
+                    f32::from_bits(self.thickness_texture.unwrap_or(NO_TEXTURE)),
+                ],
+                _ => [0.0; 4],
             },
         }
     }

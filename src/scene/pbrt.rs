@@ -1713,6 +1713,34 @@ impl Parser {
         Ok(self.rgb(&p, directive, false)?.map(Value::Const))
     }
 
+    /// A texture's input as a texture made of textures holds it.
+    fn operand(&self, v: Value) -> crate::texture::Operand {
+        match v {
+            Value::Const(c) => crate::texture::Operand::Const(c),
+            Value::Texture(i) => {
+                crate::texture::Operand::Texture(Box::new(self.scene.textures[i as usize].clone()))
+            }
+        }
+    }
+
+    /// Adds a texture made of textures, if its program fits the kernels'.
+    fn graph_texture(&mut self, tex: Texture, file: u32, line: u32) -> Result<Value, ParseError> {
+        let n = tex.program_length();
+        if n > crate::abi::MAX_TEXTURE_PROGRAM as usize {
+            return Err(self.err_at(
+                file,
+                line,
+                "Texture",
+                format!(
+                    "a texture made of {n} textures (at most {} in one tree)",
+                    crate::abi::MAX_TEXTURE_PROGRAM
+                ),
+            ));
+        }
+        self.scene.textures.push(tex);
+        Ok(Value::Texture(self.scene.textures.len() as u32 - 1))
+    }
+
     fn material(
         &mut self,
         ty: &str,
@@ -1794,10 +1822,9 @@ impl Parser {
                     .and_then(|p| p.nums.first().copied())
                     .unwrap_or(default)
             };
-            if let Some(p) = params.find("thickness").filter(|p| p.ty == "texture") {
-                this.unsupported(p.file, p.line, format!("{what}: a textured thickness"));
-            } else {
-                m.thickness = num("thickness", 0.01) as f32;
+            match this.value(params, "thickness", true, d)? {
+                Some(Value::Texture(t)) => m.thickness_texture = Some(t),
+                _ => m.thickness = num("thickness", 0.01) as f32,
             }
             m.layer_max_depth = num("maxdepth", 10.0).clamp(1.0, 1000.0) as u32;
             m.layer_samples = num("nsamples", 1.0).clamp(1.0, 64.0) as u32;
@@ -2224,34 +2251,61 @@ impl Parser {
                 let s = self
                     .value(params, "scale", true, d)?
                     .unwrap_or(Value::Const(Vec3::ONE));
-                match (t, s) {
-                    (Value::Const(a), Value::Const(b)) => Value::Const(a * b.x),
-                    (Value::Texture(i), Value::Const(b)) | (Value::Const(b), Value::Texture(i)) => {
-                        // A scaled copy of the texture.
+                // A leaf texture times a constant (or a grey constant times a float leaf)
+                // is a scaled copy of the leaf; anything else is made of textures.
+                let copy = match (t, s) {
+                    (Value::Const(a), Value::Const(b)) => Some(Err(Value::Const(a * b.x))),
+                    (Value::Texture(i), Value::Const(b)) => Some(Ok((i, b.x))),
+                    (Value::Const(c), Value::Texture(i)) if c.x == c.y && c.y == c.z => {
+                        Some(Ok((i, c.x)))
+                    }
+                    _ => None,
+                };
+                match copy {
+                    Some(Err(v)) => v,
+                    Some(Ok((i, k))) if !self.scene.textures[i as usize].is_graph() => {
                         let mut tex = self.scene.textures[i as usize].clone();
                         match &mut tex {
-                            Texture::Image { scale, .. } => *scale *= b.x,
+                            Texture::Image { scale, .. } => *scale *= k,
                             Texture::Checkerboard { even, odd, .. } => {
-                                *even *= b.x;
-                                *odd *= b.x;
+                                *even *= k;
+                                *odd *= k;
                             }
-                        }
-                        if let (Value::Const(c), Value::Texture(_)) = (t, s) {
-                            // A constant colour scaled by a float texture: only grey works.
-                            if c.x != c.y || c.y != c.z {
-                                self.unsupported(
-                                    file,
-                                    line,
-                                    "Texture \"scale\": a colour scaled by a texture",
-                                );
-                            }
+                            Texture::Scale { .. } | Texture::Mix { .. } => unreachable!(),
                         }
                         self.scene.textures.push(tex);
                         Value::Texture(self.scene.textures.len() as u32 - 1)
                     }
                     _ => {
-                        self.unsupported(file, line, "Texture \"scale\" of two textures");
-                        Value::Const(Vec3::ONE)
+                        let tex = Texture::Scale {
+                            tex: self.operand(t),
+                            scale: self.operand(s),
+                        };
+                        self.graph_texture(tex, file, line)?
+                    }
+                }
+            }
+            "mix" => {
+                let t1 = self
+                    .value(params, "tex1", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ZERO));
+                let t2 = self
+                    .value(params, "tex2", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ONE));
+                let amount = self
+                    .value(params, "amount", true, d)?
+                    .unwrap_or(Value::Const(Vec3::splat(0.5)));
+                match (t1, t2, amount) {
+                    (Value::Const(a), Value::Const(b), Value::Const(k)) => {
+                        Value::Const((1.0 - k.x) * a + k.x * b)
+                    }
+                    _ => {
+                        let tex = Texture::Mix {
+                            tex1: self.operand(t1),
+                            tex2: self.operand(t2),
+                            amount: self.operand(amount),
+                        };
+                        self.graph_texture(tex, file, line)?
                     }
                 }
             }
@@ -3684,8 +3738,8 @@ mod tests {
     /// pbrt-v4's coatedconductor: the coating's `interface.*` and the conductor's
     /// `conductor.*` (copper by default, named spectra, or a constant or textured
     /// `reflectance`), each roughness remapped; the record holds the conductor's eta and k
-    /// over the coating's index (pbrt-v4 divides them so), its alphas in `base`. A
-    /// scattering layer or a textured thickness is refused.
+    /// over the coating's index (pbrt-v4 divides them so), its alphas in `base`, a
+    /// textured thickness in base.w. A scattering layer is refused.
     #[test]
     fn coated_conductor_reads_its_coating_and_its_conductor() {
         let s = parse(&format!(
@@ -3699,6 +3753,8 @@ mod tests {
             Material "coatedconductor" "texture reflectance" "r" "texture interface.roughness" "ir" "float conductor.roughness" 0.01 "bool remaproughness" false
             {QUAD}
             Material "coatedconductor" "rgb reflectance" [ 0.5 0.5 0.5 ]
+            {QUAD}
+            Material "coateddiffuse" "texture thickness" "ir"
             {QUAD}
             "#
         ));
@@ -3745,15 +3801,92 @@ mod tests {
         let c = m(3);
         assert_eq!(c.eta, Vec3::ONE);
         assert!((c.k - Vec3::splat(2.0)).abs().max_element() < 1e-6);
-        for (bad, what) in [
-            (r#""rgb albedo" [ 0.5 0.5 0.5 ]"#, "scattering layer"),
-            (r#""texture thickness" "ir""#, "textured thickness"),
-        ] {
+        // A textured thickness (either coated kind): base.w.
+        let th = m(4);
+        assert_eq!(th.thickness_texture, t.roughness_texture);
+        assert_eq!(th.record().base[3].to_bits(), th.thickness_texture.unwrap());
+        assert_eq!(c.record().base[3].to_bits(), crate::abi::NO_TEXTURE);
+        for (bad, what) in [(r#""rgb albedo" [ 0.5 0.5 0.5 ]"#, "scattering layer")] {
             let e = parse_err(&format!(
                 "WorldBegin\nTexture \"ir\" \"float\" \"checkerboard\"\nMaterial \"coatedconductor\" {bad}\n{QUAD}"
             ));
             assert!(e.to_string().contains(what), "{e}");
         }
+    }
+
+    /// pbrt-v4's `scale` and `mix` textures: constants fold into constants, a leaf
+    /// texture times a constant is a scaled copy of the leaf, and anything else (a texture
+    /// of textures, a colour times a float texture, a mix with a textured amount) is a
+    /// texture made of textures; a tree larger than the kernels' programs is an error.
+    #[test]
+    fn scale_and_mix_textures_fold_copy_or_make_a_tree() {
+        use crate::texture::Operand;
+        let s = parse(&format!(
+            r#"WorldBegin
+            Texture "c" "spectrum" "checkerboard" "rgb tex1" [ 0.1 0.1 0.1 ] "rgb tex2" [ 0.9 0.9 0.9 ]
+            Texture "f" "float" "checkerboard" "float tex1" 0.2 "float tex2" 0.6
+            Texture "k" "spectrum" "scale" "rgb tex" [ 0.5 0.5 0.5 ] "float scale" 0.5
+            Texture "cs" "spectrum" "scale" "texture tex" "c" "float scale" 2
+            Texture "tint" "spectrum" "scale" "rgb tex" [ 0.9 0.5 0.2 ] "texture scale" "f"
+            Texture "m" "spectrum" "mix" "texture tex1" "c" "texture amount" "f"
+            Texture "mc" "spectrum" "mix" "rgb tex1" [ 1 0 0 ] "rgb tex2" [ 0 0 1 ] "float amount" 0.25
+            Texture "sm" "spectrum" "scale" "texture tex" "m" "texture scale" "f"
+            Material "diffuse" "texture reflectance" "k"
+            {QUAD}
+            Material "diffuse" "texture reflectance" "cs"
+            {QUAD}
+            Material "diffuse" "texture reflectance" "tint"
+            {QUAD}
+            Material "diffuse" "texture reflectance" "m"
+            {QUAD}
+            Material "diffuse" "texture reflectance" "mc"
+            {QUAD}
+            Material "diffuse" "texture reflectance" "sm"
+            {QUAD}
+            "#
+        ));
+        let m = |i: usize| s.materials[s.triangles[2 * i].material as usize];
+        let tex = |i: usize| &s.textures[m(i).diffuse_texture.unwrap() as usize];
+        assert!(m(0).diffuse_texture.is_none() && m(0).diffuse == Vec3::splat(0.25));
+        assert!(
+            matches!(tex(1), Texture::Checkerboard { even, odd, .. } if *even == Vec3::splat(0.2) && *odd == Vec3::splat(1.8))
+        );
+        match tex(2) {
+            Texture::Scale {
+                tex: Operand::Const(c),
+                scale: Operand::Texture(f),
+            } => {
+                assert_eq!(*c, Vec3::new(0.9, 0.5, 0.2));
+                assert!(matches!(**f, Texture::Checkerboard { .. }));
+            }
+            other => panic!("{other:?}"),
+        }
+        match tex(3) {
+            Texture::Mix {
+                tex1: Operand::Texture(_),
+                tex2: Operand::Const(c),
+                amount: Operand::Texture(_),
+            } => assert_eq!(*c, Vec3::ONE),
+            other => panic!("{other:?}"),
+        }
+        assert!(m(4).diffuse_texture.is_none());
+        assert!(
+            (m(4).diffuse - Vec3::new(0.75, 0.0, 0.25))
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+        assert_eq!(tex(5).program_length(), 5);
+        // A tree of nine textures.
+        let mut text = String::from("WorldBegin\nTexture \"t0\" \"float\" \"checkerboard\"\n");
+        for i in 1..5 {
+            text += &format!(
+                "Texture \"t{i}\" \"float\" \"scale\" \"texture tex\" \"t{}\" \"texture scale\" \"t0\"\n",
+                i - 1
+            );
+        }
+        let e = parse_err(&text);
+        assert!(e.to_string().contains("at most 8"), "{e}");
     }
 
     #[test]
