@@ -293,6 +293,10 @@ pub struct BsdfParams {
     pub base_eta: Vec3,
     pub base_k: Vec3,
     pub base_alpha: Vec2,
+    /// Coated: the layer's single-scattering albedo (0: no scattering) and the
+    /// Henyey–Greenstein g of its phase function.
+    pub albedo: Vec3,
+    pub g: f32,
 }
 
 impl Default for BsdfParams {
@@ -310,6 +314,8 @@ impl Default for BsdfParams {
             base_eta: Vec3::ONE,
             base_k: Vec3::ZERO,
             base_alpha: Vec2::ZERO,
+            albedo: Vec3::ZERO,
+            g: 0.0,
         }
     }
 }
@@ -454,6 +460,12 @@ impl BsdfParams {
             base_eta: Vec3::from_slice(&m.specular[..3]),
             base_k: Vec3::from_slice(&m.diffuse[..3]),
             base_alpha: Vec2::new(m.base[0], m.base[1]),
+            albedo: if matches!(kind, BsdfKind::CoatedDiffuse | BsdfKind::CoatedConductor) {
+                Vec3::new(m.eta[1], m.eta[2], m.eta[3])
+            } else {
+                Vec3::ZERO
+            },
+            g: m.k[3],
         })
     }
 
@@ -471,6 +483,7 @@ impl BsdfParams {
             BsdfKind::CoatedConductor => {
                 self.is_smooth()
                     && self.base_alpha.x.max(self.base_alpha.y) < MICROFACET_SMOOTH_ALPHA
+                    && self.albedo.max_element() <= 0.0
             }
             BsdfKind::Phong
             | BsdfKind::Ggx

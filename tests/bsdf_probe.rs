@@ -289,6 +289,13 @@ fn coated_diffuse_on_the_device_matches_its_cpu_mirror() {
             roughness_v: [0.0, 0.05, 0.3, 0.8][i % 4],
             ior: [1.5, 1.33][i / 4],
             thickness: [0.01, 0.2][i % 2],
+            // The last two: a scattering layer.
+            layer_albedo: if i >= 6 {
+                Vec3::new(0.9, 0.6, 0.3)
+            } else {
+                Vec3::ZERO
+            },
+            layer_g: 0.4,
             ..Material::default()
         };
         materials.push(m.record());
@@ -297,8 +304,9 @@ fn coated_diffuse_on_the_device_matches_its_cpu_mirror() {
 }
 
 /// Coated conductor (the coated class's conductor base) likewise: smooth and rough
-/// coats over smooth, rough and anisotropic conductors (none both smooth: that one is a
-/// delta BSDF, sampled by the closed-form test in src/bsdf/coated.rs).
+/// coats over smooth, rough and anisotropic conductors, some with a scattering layer
+/// (both smooth only with one: without, that is a delta BSDF, sampled by the
+/// closed-form test in src/bsdf/coated.rs).
 #[test]
 fn coated_conductor_on_the_device_matches_its_cpu_mirror() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
@@ -310,10 +318,26 @@ fn coated_conductor_on_the_device_matches_its_cpu_mirror() {
             k: Vec3::new(3.9, 2.4, 2.1) * (0.5 + rng.colour()),
             roughness: [0.0, 0.05, 0.3, 0.6][i % 4],
             roughness_v: [0.0, 0.05, 0.3, 0.6][i % 4],
-            base_roughness: [0.2, 0.0, 0.5, 0.05][i % 4],
-            base_roughness_v: [0.2, 0.0, 0.1, 0.3][i % 4],
+            base_roughness: if i == 4 {
+                0.0
+            } else {
+                [0.2, 0.0, 0.5, 0.05][i % 4]
+            },
+            base_roughness_v: if i == 4 {
+                0.0
+            } else {
+                [0.2, 0.0, 0.1, 0.3][i % 4]
+            },
             ior: [1.5, 1.33][i / 4],
-            thickness: [0.01, 0.2][i % 2],
+            thickness: [0.01, 0.2, 0.3, 0.05, 0.5, 0.01, 0.3, 0.2][i],
+            // Three with a scattering layer (one between a smooth coat and a smooth
+            // conductor: its mirror chains).
+            layer_albedo: if i % 3 == 1 {
+                Vec3::new(0.8, 0.7, 0.5)
+            } else {
+                Vec3::ZERO
+            },
+            layer_g: -0.3,
             ..Material::default()
         };
         materials.push(m.record());

@@ -432,6 +432,38 @@ fn coated_conductors_render_alike_in_every_strategy_and_integrator() {
     assert_integrators_agree("coated conductors", &s);
 }
 
+/// Coated layers that scatter (pbrt-v4's `albedo` and `g`): a coated diffuse sphere and
+/// a coated gold sphere whose layers (thickness 0.3) scatter light by a
+/// Henyey–Greenstein phase function, under the quad light. Every BDPT strategy alone
+/// matches the path tracer's image of its depth, and PT, BDPT and MMLT agree.
+#[test]
+fn scattering_coated_layers_render_alike_in_every_strategy_and_integrator() {
+    let (_, kind, quad) = lights().into_iter().next().expect("the quad light");
+    let light = format!(
+        "{quad}\nAttributeEnd\n\
+         AttributeBegin\nTranslate -0.9 0.5 -0.6\n\
+         Material \"coatedconductor\" \"float interface.roughness\" [ 0.1 ] \
+         \"spectrum conductor.eta\" \"metal-Au-eta\" \"spectrum conductor.k\" \"metal-Au-k\" \
+         \"float conductor.roughness\" [ 0.15 ] \"float thickness\" [ 0.3 ] \
+         \"rgb albedo\" [ 0.7 0.6 0.5 ] \"float g\" [ 0.3 ]\n\
+         Shape \"sphere\" \"float radius\" [ 0.5 ]\nAttributeEnd\n\
+         AttributeBegin\nTranslate 0.9 0.45 -0.3\n\
+         Material \"coateddiffuse\" \"float roughness\" [ 0 ] \"rgb reflectance\" [ 0.2 0.5 0.8 ] \
+         \"float thickness\" [ 0.3 ] \"rgb albedo\" [ 0.9 0.8 0.6 ] \"float g\" [ -0.4 ]\n\
+         Shape \"sphere\" \"float radius\" [ 0.45 ]\nAttributeEnd\nAttributeBegin"
+    );
+    let s = room(&light, false, 3);
+    assert_eq!(
+        s.materials
+            .iter()
+            .filter(|m| m.layer_albedo.max_element() > 0.0)
+            .count(),
+        2
+    );
+    assert_each_strategy_alone_matches_pt("scattering layers", kind, &s, 3);
+    assert_integrators_agree("scattering layers", &s);
+}
+
 /// Bump and normal maps (pbrt-v4's `displacement` and `normalmap`): a bumped panel over
 /// the floor, a bumped sphere on it and a normal-mapped panel before the back wall, under
 /// the quad light. Every BDPT strategy alone matches the path tracer's image of its depth

@@ -90,7 +90,8 @@
 #define BSDF_DIFFUSE_TRANSMISSION 6
 // pbrt-v4's coatedconductor: a dielectric coating (eta.x, roughness.yz) over a conductor
 // (specular.xyz its eta, diffuse.xyz its k, both relative to the coating; base.xy its
-// alphas), the layer between them as coated diffuse's (k.xyz).
+// alphas), the layer between them as coated diffuse's (k.xyz; coated kinds: eta.yzw the
+// layer's scattering albedo, k.w its Henyey-Greenstein g).
 #define BSDF_COATED_CONDUCTOR 7
 
 // Specialization constants (set per scene when a pipeline is created): code for what
@@ -123,8 +124,11 @@
 // Textures made of textures (pbrt-v4's scale and mix of textures: texture.glsl's
 // programs).
 #define FEATURE_TEXTURE_GRAPHS 2048
+// Coated materials whose layer scatters (pbrt-v4's albedo > 0: the walk's free flights
+// and phase function, layered.glsl).
+#define FEATURE_LAYER_MEDIUM 4096
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 4095
+#define FEATURE_ALL 8191
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1

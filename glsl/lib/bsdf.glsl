@@ -62,6 +62,8 @@ struct BsdfParams {
     vec3 base_eta;     // coated conductor: the conductor's eta and k relative to the coating,
     vec3 base_k;       //   and its microfacet alphas
     vec2 base_alpha;
+    vec3 albedo;       // coated: the layer's single-scattering albedo (0: it only absorbs)
+    float g;           //   and its Henyey-Greenstein g
 };
 
 // Coated conductors' code is in kernels only for scenes that have them.
@@ -91,6 +93,9 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p) {
     b.base_eta = m.specular.xyz;
     b.base_k = m.diffuse.xyz;
     b.base_alpha = m.base.xy;
+    bool layered = b.kind == BSDF_COATED_DIFFUSE || b.kind == BSDF_COATED_CONDUCTOR;
+    b.albedo = has_feature(FEATURE_LAYER_MEDIUM) && layered ? m.eta.yzw : vec3(0.0);
+    b.g = m.k.w;
     // Textures replace parameters, each slot looked up at the one call site of the loop:
     // 0 the diffuse reflectance (a coated conductor's: its conductor's reflectance), 1
     // the roughness (first channel; diffuse transmission: the transmittance), 2 a coated
@@ -153,7 +158,10 @@ bool bsdf_is_delta(BsdfParams b) {
     if (b.kind == BSDF_DIELECTRIC) return bsdf_is_smooth(b) || b.eta.x == 1.0;
     if (b.kind == BSDF_CONDUCTOR) return bsdf_is_smooth(b);
     // A smooth coating over a smooth conductor (pbrt-v4's LayeredBxDF flags it specular).
-    if (bsdf_is_coated_conductor(b)) return bsdf_is_smooth(b) && max(b.base_alpha.x, b.base_alpha.y) < MICROFACET_SMOOTH_ALPHA;
+    if (bsdf_is_coated_conductor(b)) {
+        return bsdf_is_smooth(b) && max(b.base_alpha.x, b.base_alpha.y) < MICROFACET_SMOOTH_ALPHA
+            && !(max(b.albedo.x, max(b.albedo.y, b.albedo.z)) > 0.0);
+    }
     return false;
 }
 

@@ -179,6 +179,29 @@ bool coat_base_sample(BsdfParams b, vec3 wo, vec2 u, out LocalSample s) {
     return ok;
 }
 
+// The Henyey-Greenstein phase function between wo and wi, both pointing away from the
+// scattering point (pbrt-v4's convention: for g > 0 light goes on forwards, wi near
+// -wo); it is also the density of coat_hg_sample. CPU mirror: coated.rs `hg`.
+float coat_hg(vec3 wo, vec3 wi, float g) {
+    float d = 1.0 + g * g + 2.0 * g * dot(wo, wi);
+    return (1.0 - g * g) / (4.0 * PI * d * sqrt(max(d, 0.0)));
+}
+
+// A direction from the phase function around wo: the cosine by inverting the
+// distribution's CDF, the azimuth uniform.
+vec3 coat_hg_sample(vec3 wo, float g, vec2 u) {
+    float c;
+    if (abs(g) < 1e-3) {
+        c = 1.0 - 2.0 * u.x;
+    } else {
+        float q = (1.0 - g * g) / (1.0 + g - 2.0 * g * u.x);
+        c = -(1.0 + g * g - q * q) / (2.0 * g);
+    }
+    float sn = sqrt(max(1.0 - c * c, 0.0));
+    float phi = 2.0 * PI * u.y;
+    return to_world(vec3(sn * cos(phi), sn * sin(phi), c), wo);
+}
+
 float coat_tr(float thickness, vec3 w) {
     return abs(thickness) <= 1.17549435e-38 ? 1.0 : exp(-abs(thickness / w.z));
 }
@@ -248,6 +271,11 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
     uint samples = uint(max(b.coat.z, 1.0));
     bool top_smooth = coat_smooth(a);
     bool base_smooth = coat_base_smooth(b);
+    bool medium = has_feature(FEATURE_LAYER_MEDIUM) && max(b.albedo.x, max(b.albedo.y, b.albedo.z)) > 0.0;
+    // The exit towards wi after a base bounce or a scattering event: the layer's length
+    // still to cross, the density of the strategy that made w, and whether it was delta.
+    float exit_len = thick, exit_own = 0.0;
+    bool exit_one = false;
     f_out = vec3(0.0);
     pdf_out = 0.0;
     pdf_rev_out = 0.0;
@@ -398,12 +426,60 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                 if (coat_next(rng) < q) stop = true;
                 else beta /= 1.0 - q;
             }
+            bool at_interface = !stop;
             if (stop) {
                 ++s;
                 stage = CS_F_BEGIN;
+            } else if (medium) {
+                // The scattering layer: a free flight of unit extinction along w.
+                float dz = -log(1.0 - coat_next(rng)) * abs(w.z);
+                float zp = w.z > 0.0 ? z + dz : z - dz;
+                if (0.0 < zp && zp < thick) {
+                    // A scattering event: light arriving along the presampled exit
+                    // direction, then the phase function's new direction (and light
+                    // leaving along it through the interface towards wi).
+                    at_interface = false;
+                    float ph = coat_hg(-w, -wis.wi, b.g);
+                    float wt = top_smooth ? 1.0 : power_heuristic(wis.pdf, ph);
+                    vec3 nee = vec3(ph * wt * coat_tr(zp - thick, wis.wi));
+                    if (top_smooth && base_smooth) {
+                        // Between a smooth coat and a smooth conductor light also reaches
+                        // the exit along -wis.wi by mirror reflections (see coated.rs).
+                        vec3 up = -wis.wi;
+                        vec3 v = vec3(up.xy, -up.z);
+                        vec3 fb = fr_conductor(abs(up.z), b.base_eta, b.base_k);
+                        float rr = fr_dielectric(abs(up.z), 1.0 / eta);
+                        float tl = coat_tr(thick, up);
+                        nee = (vec3(ph * coat_tr(zp - thick, up)) + coat_hg(-w, v, b.g) * coat_tr(zp, v) * fb * tl)
+                            / (vec3(1.0) - rr * fb * tl * tl);
+                    }
+                    f += beta * b.albedo * nee * wis.f / wis.pdf;
+                    vec3 wp = coat_hg_sample(-w, b.g, coat_next2(rng));
+                    float p = coat_hg(-w, wp, b.g);
+                    if (p > 0.0 && wp.z != 0.0) {
+                        beta *= b.albedo;
+                        w = wp;
+                        z = zp;
+                    }
+                    if (p > 0.0 && wp.z > 0.0 && !top_smooth) {
+                        exit_len = thick - zp;
+                        exit_own = p;
+                        exit_one = false;
+                        op = COAT_OP_EVAL;
+                        op_wo = -w;
+                        op_wi = wi;
+                        stage = CS_F_EXIT_F;
+                    } else {
+                        ++depth;
+                    }
+                } else {
+                    z = clamp(zp, 0.0, thick);
+                }
             } else {
                 z = z == thick ? 0.0 : thick;
                 beta *= coat_tr(thick, w);
+            }
+            if (at_interface) {
                 if (z == thick) {
                     op = COAT_OP_SAMPLE;
                     op_wo = -w;
@@ -434,6 +510,9 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                     ++depth;
                     stage = CS_F_STEP;
                 } else {
+                    exit_len = thick;
+                    exit_own = base_pdf;
+                    exit_one = base_smooth;
                     op = COAT_OP_EVAL;
                     op_wo = -w;
                     op_wi = wi;
@@ -464,7 +543,9 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                 stage = CS_F_EXIT_PDF;
             }
         } else if (stage == CS_F_EXIT_PDF) {
-            f += beta * coat_tr(thick, w) * f_exit * (base_smooth ? 1.0 : power_heuristic(base_pdf, r.pdf));
+            // (exit_own: the density of the base's or the phase function's strategy that
+            // made w; a smooth base's delta sample is the only strategy.)
+            f += beta * coat_tr(exit_len, w) * f_exit * (exit_one ? 1.0 : power_heuristic(exit_own, r.pdf));
             ++depth;
             stage = CS_F_STEP;
 
@@ -573,11 +654,36 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                 if (coat_next(rng) < q) stop = true;
                 else pdf *= 1.0 - q;
             }
-            if (stop || w.z == 0.0) {
+            bool at_interface = !(stop || w.z == 0.0);
+            if (!at_interface) {
                 stage = CS_FAIL;
+            } else if (medium) {
+                float dz = -log(1.0 - coat_next(rng)) * abs(w.z);
+                float zp = w.z > 0.0 ? z + dz : z - dz;
+                if (zp == z) {
+                    at_interface = false;
+                    stage = CS_FAIL;
+                } else if (0.0 < zp && zp < thick) {
+                    at_interface = false;
+                    vec3 wp = coat_hg_sample(-w, b.g, coat_next2(rng));
+                    float p = coat_hg(-w, wp, b.g);
+                    if (!(p > 0.0) || wp.z == 0.0) {
+                        stage = CS_FAIL;
+                    } else {
+                        f *= b.albedo;   // (and p in f and pdf alike: left out, see coated.rs)
+                        specular = false;
+                        w = wp;
+                        z = zp;
+                        ++depth;
+                    }
+                } else {
+                    z = clamp(zp, 0.0, thick);
+                }
             } else {
                 z = z == thick ? 0.0 : thick;
                 f *= coat_tr(thick, w);
+            }
+            if (at_interface) {
                 op = z == 0.0 ? COAT_OP_BASE : COAT_OP_SAMPLE;
                 op_wo = -w;
                 stage = CS_S_NEXT;

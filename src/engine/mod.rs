@@ -474,9 +474,9 @@ impl Engine {
 pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
         FEATURE_ALPHA, FEATURE_COATED, FEATURE_COATED_CONDUCTOR, FEATURE_DIFFUSE_TRANSMISSION,
-        FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES, FEATURE_MATERIAL_TEXTURES, FEATURE_MIX,
-        FEATURE_SHADING_MAPS, FEATURE_TEXTURE_GRAPHS, FEATURE_TEXTURE_PROJECTIONS,
-        FEATURE_UNBOUNDED,
+        FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES, FEATURE_LAYER_MEDIUM,
+        FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_SHADING_MAPS, FEATURE_TEXTURE_GRAPHS,
+        FEATURE_TEXTURE_PROJECTIONS, FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
@@ -501,6 +501,11 @@ pub fn scene_features(scene: &Scene) -> u32 {
         }
         if m.mix.is_some() {
             features |= FEATURE_MIX;
+        }
+        if matches!(m.bsdf, BsdfKind::CoatedDiffuse | BsdfKind::CoatedConductor)
+            && m.layer_albedo.max_element() > 0.0
+        {
+            features |= FEATURE_LAYER_MEDIUM;
         }
         if m.shading_map.is_some() {
             features |= FEATURE_SHADING_MAPS;
@@ -622,7 +627,8 @@ mod tests {
             | FEATURE_SHADING_MAPS
             | FEATURE_ALPHA
             | FEATURE_COATED_CONDUCTOR
-            | FEATURE_TEXTURE_GRAPHS;
+            | FEATURE_TEXTURE_GRAPHS
+            | FEATURE_LAYER_MEDIUM;
         assert_eq!(FEATURE_ALL, every);
     }
 }

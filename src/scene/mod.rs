@@ -70,6 +70,10 @@ pub struct Material {
     pub thickness_texture: Option<u32>,
     pub layer_max_depth: u32,
     pub layer_samples: u32,
+    /// Coated: the single-scattering albedo of the layer's medium (0: it only absorbs)
+    /// and the Henyey–Greenstein g of its phase function (pbrt-v4's `albedo`, `g`).
+    pub layer_albedo: Vec3,
+    pub layer_g: f32,
     /// Diffuse transmission: the transmittance T (its reflectance R is `diffuse`).
     pub transmittance: Vec3,
     pub emission: Vec3,
@@ -146,6 +150,8 @@ impl Default for Material {
             thickness_texture: None,
             layer_max_depth: 10,
             layer_samples: 1,
+            layer_albedo: Vec3::ZERO,
+            layer_g: 0.0,
             transmittance: Vec3::ZERO,
             emission: Vec3::ZERO,
             two_sided_emission: true,
@@ -215,10 +221,16 @@ impl Material {
             // Only the fields of the material's own kind, so that materials differing
             // only in another kind's parameters are one material.
             eta: match self.bsdf {
-                BsdfKind::Dielectric
-                | BsdfKind::ThinDielectric
-                | BsdfKind::CoatedDiffuse
-                | BsdfKind::CoatedConductor => [self.ior, self.ior, self.ior, 0.0],
+                BsdfKind::Dielectric | BsdfKind::ThinDielectric => {
+                    [self.ior, self.ior, self.ior, 0.0]
+                }
+                // (y, z, w: the layer's albedo.)
+                BsdfKind::CoatedDiffuse | BsdfKind::CoatedConductor => [
+                    self.ior,
+                    self.layer_albedo.x,
+                    self.layer_albedo.y,
+                    self.layer_albedo.z,
+                ],
                 BsdfKind::Conductor => self.eta.extend(0.0).to_array(),
                 BsdfKind::Phong | BsdfKind::Ggx | BsdfKind::DiffuseTransmission => [0.0; 4],
             },
@@ -228,7 +240,7 @@ impl Material {
                     self.thickness,
                     self.layer_max_depth as f32,
                     self.layer_samples as f32,
-                    0.0,
+                    self.layer_g,
                 ],
                 _ => [0.0; 4],
             },

@@ -1828,16 +1828,21 @@ impl Parser {
             }
             m.layer_max_depth = num("maxdepth", 10.0).clamp(1.0, 1000.0) as u32;
             m.layer_samples = num("nsamples", 1.0).clamp(1.0, 64.0) as u32;
-            if let Some(p) = params.find("albedo") {
-                if p.nums.iter().any(|&x| x != 0.0) || p.ty == "texture" {
-                    this.unsupported(
-                        p.file,
-                        p.line,
-                        format!("{what}: a scattering layer (albedo > 0)"),
-                    );
+            // The scattering layer: albedo and g clamped as pbrt-v4 clamps them.
+            match this.value(params, "albedo", false, d)? {
+                Some(Value::Const(c)) => m.layer_albedo = c.clamp(Vec3::ZERO, Vec3::ONE),
+                Some(Value::Texture(_)) => {
+                    this.unsupported(file, line, format!("{what}: a textured albedo"))
                 }
+                None => {}
             }
-            params.find("g");
+            match this.value(params, "g", true, d)? {
+                Some(Value::Const(c)) => m.layer_g = c.x.clamp(-1.0, 1.0),
+                Some(Value::Texture(_)) => {
+                    this.unsupported(file, line, format!("{what}: a textured g"))
+                }
+                None => {}
+            }
             if m.thickness < 0.0 {
                 return Err(this.err_at(file, line, d, "thickness must not be negative"));
             }
@@ -3806,12 +3811,22 @@ mod tests {
         assert_eq!(th.thickness_texture, t.roughness_texture);
         assert_eq!(th.record().base[3].to_bits(), th.thickness_texture.unwrap());
         assert_eq!(c.record().base[3].to_bits(), crate::abi::NO_TEXTURE);
-        for (bad, what) in [(r#""rgb albedo" [ 0.5 0.5 0.5 ]"#, "scattering layer")] {
-            let e = parse_err(&format!(
-                "WorldBegin\nTexture \"ir\" \"float\" \"checkerboard\"\nMaterial \"coatedconductor\" {bad}\n{QUAD}"
-            ));
-            assert!(e.to_string().contains(what), "{e}");
-        }
+        let e = parse_err(&format!(
+            "WorldBegin\nTexture \"r\" \"spectrum\" \"checkerboard\"\n\
+             Material \"coatedconductor\" \"texture albedo\" \"r\"\n{QUAD}"
+        ));
+        assert!(e.to_string().contains("textured albedo"), "{e}");
+        // A scattering layer: albedo clamped to [0, 1] and g to [-1, 1], in eta.yzw and k.w.
+        let s = parse(&format!(
+            "WorldBegin\nMaterial \"coateddiffuse\" \"rgb albedo\" [ 0.5 1.5 0.2 ] \"float g\" -2\n{QUAD}"
+        ));
+        let m = s.materials[s.triangles[0].material as usize];
+        assert_eq!(
+            (m.layer_albedo, m.layer_g),
+            (Vec3::new(0.5, 1.0, 0.2), -1.0)
+        );
+        let r = m.record();
+        assert_eq!((r.eta[1..4].to_vec(), r.k[3]), (vec![0.5, 1.0, 0.2], -1.0));
     }
 
     /// pbrt-v4's `scale` and `mix` textures: constants fold into constants, a leaf
