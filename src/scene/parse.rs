@@ -236,6 +236,8 @@ const COMMANDS: &[(&str, &str)] = &[
     ("thickness", "T"),
     ("layerdepth", "N"),
     ("layersamples", "N"),
+    ("layeralbedo", "r g b"),
+    ("layerg", "g"),
     ("ior", "ETA"),
     ("eta", "r g b"),
     ("k", "r g b"),
@@ -674,6 +676,23 @@ impl Parser {
                     return Err(cmd.error(format!("expected at most 64, got {n}")));
                 }
                 self.set_material(|m| m.layer_samples = n);
+            }
+            "layeralbedo" => {
+                let a = cmd.color(0, "the layer's albedo")?;
+                if a.max_element() > 1.0 {
+                    return Err(cmd.error(format!(
+                        "the layer's albedo must not exceed 1, got ({}, {}, {})",
+                        a.x, a.y, a.z
+                    )));
+                }
+                self.set_material(|m| m.layer_albedo = a);
+            }
+            "layerg" => {
+                let g = cmd.float(0)?;
+                if !(-1.0..=1.0).contains(&g) {
+                    return Err(cmd.error(format!("g must lie in [-1, 1], got {g}")));
+                }
+                self.set_material(|m| m.layer_g = g);
             }
             "ior" => {
                 let eta = cmd.float(0)?;
@@ -1741,6 +1760,8 @@ mod tests {
         "shininess 20",
         "roughness 0.3",
         "baseroughness 0.1 0.2",
+        "layeralbedo 0.5 0.6 0.7",
+        "layerg -0.3",
         "brdf ggx",
         "emission 1 1 1",
         "ambient 0.1 0.1 0.1",
