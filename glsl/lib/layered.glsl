@@ -1,7 +1,7 @@
 // Coated diffuse and coated conductor: pbrt-v4's CoatedDiffuseBxDF and
 // CoatedConductorBxDF (a LayeredBxDF of a dielectric interface over a Lambertian or a
 // conductor base, two-sided, an absorbing layer of unit extinction and thickness
-// b.coat.x between them; no scattering medium). f, its pdf and sampling are stochastic
+// b.coat.x between them, scattering where b.albedo > 0). f, its pdf and sampling are stochastic
 // estimates by random walks between the interfaces, with random numbers a deterministic
 // function of the directions (as pbrt's are), so that MMLT's paths are functions of
 // their primary samples. Sampling reports the pdf estimate (which every MIS weight
@@ -183,6 +183,7 @@ bool coat_base_sample(BsdfParams b, vec3 wo, vec2 u, out LocalSample s) {
 // scattering point (pbrt-v4's convention: for g > 0 light goes on forwards, wi near
 // -wo); it is also the density of coat_hg_sample. CPU mirror: coated.rs `hg`.
 float coat_hg(vec3 wo, vec3 wi, float g) {
+    g = clamp(g, -0.99, 0.99);   // (at +-1 the function is a delta, as pbrt-v4 avoids)
     float d = 1.0 + g * g + 2.0 * g * dot(wo, wi);
     return (1.0 - g * g) / (4.0 * PI * d * sqrt(max(d, 0.0)));
 }
@@ -190,6 +191,7 @@ float coat_hg(vec3 wo, vec3 wi, float g) {
 // A direction from the phase function around wo: the cosine by inverting the
 // distribution's CDF, the azimuth uniform.
 vec3 coat_hg_sample(vec3 wo, float g, vec2 u) {
+    g = clamp(g, -0.99, 0.99);
     float c;
     if (abs(g) < 1e-3) {
         c = 1.0 - 2.0 * u.x;
@@ -434,7 +436,11 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                 // The scattering layer: a free flight of unit extinction along w.
                 float dz = -log(1.0 - coat_next(rng)) * abs(w.z);
                 float zp = w.z > 0.0 ? z + dz : z - dz;
-                if (0.0 < zp && zp < thick) {
+                if (zp == z) {
+                    // (A flight too short to leave the boundary, as pbrt-v4 skips it.)
+                    at_interface = false;
+                    ++depth;
+                } else if (0.0 < zp && zp < thick) {
                     // A scattering event: light arriving along the presampled exit
                     // direction, then the phase function's new direction (and light
                     // leaving along it through the interface towards wi).

@@ -1,8 +1,9 @@
 //! Coated diffuse and coated conductor: pbrt-v4's `CoatedDiffuseBxDF` and
 //! `CoatedConductorBxDF`, a `LayeredBxDF` of a dielectric interface (index eta,
 //! roughness alpha) over a Lambertian base (reflectance kd) or a conductor (its eta and
-//! k relative to the coating, its own alphas), two-sided, with an absorbing layer between them of unit extinction and the given
-//! thickness (no scattering medium: pbrt's albedo 0). f, its pdf and sampling are
+//! k relative to the coating, its own alphas), two-sided, with a layer between them of
+//! unit extinction and the given thickness that absorbs, or also scatters (pbrt's
+//! `albedo` and `g`: a Henyey–Greenstein medium). f, its pdf and sampling are
 //! stochastic estimates by random walks between the two interfaces, whose random
 //! numbers are a deterministic function of the directions (as pbrt's are), so that f
 //! and the pdf are functions and MMLT's paths functions of their primary samples.
@@ -300,6 +301,8 @@ fn has_medium(b: &BsdfParams) -> bool {
 /// scattering point (pbrt-v4's convention: for g > 0 light goes on forwards, wi near
 /// -wo); it is also its sampling density.
 pub fn hg(wo: Vec3, wi: Vec3, g: f32) -> f32 {
+    // (|g| kept below 1, as pbrt-v4 keeps it: at ±1 the function is a delta.)
+    let g = g.clamp(-0.99, 0.99);
     let d = 1.0 + g * g + 2.0 * g * wo.dot(wi);
     (1.0 - g * g) / (4.0 * PI * d * d.max(0.0).sqrt())
 }
@@ -307,6 +310,7 @@ pub fn hg(wo: Vec3, wi: Vec3, g: f32) -> f32 {
 /// A direction from the phase function around wo, and its density: the cosine by
 /// inverting the distribution's CDF, the azimuth uniform.
 pub fn hg_sample(wo: Vec3, g: f32, u: Vec2) -> (Vec3, f32) {
+    let g = g.clamp(-0.99, 0.99);
     let cos = if g.abs() < 1e-3 {
         1.0 - 2.0 * u.x
     } else {
@@ -384,6 +388,10 @@ pub fn coated_f(b: &BsdfParams, wo: Vec3, wi: Vec3, t: Transport) -> Vec3 {
                 // The scattering layer: a free flight of unit extinction along w.
                 let dz = -(1.0 - rng.next()).ln() * w.z.abs();
                 let zp = if w.z > 0.0 { z + dz } else { z - dz };
+                if zp == z {
+                    // (A flight too short to leave the boundary, as pbrt-v4 skips it.)
+                    continue;
+                }
                 if 0.0 < zp && zp < thick {
                     // A scattering event: light arriving along the presampled exit
                     // direction ...

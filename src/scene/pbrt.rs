@@ -1814,7 +1814,7 @@ impl Parser {
         };
         let eta = |this: &mut Self| eta_named(this, "eta");
         // A coating's layer: pbrt-v4's `thickness`, `maxdepth`, `nsamples` (and `albedo`
-        // and `g` of a scattering layer, which lightpath does not have).
+        // and `g` of a scattering layer).
         let layer = |this: &mut Self, m: &mut Material, what: &str| -> Result<(), ParseError> {
             let num = |name: &str, default: f64| {
                 params
@@ -3744,7 +3744,7 @@ mod tests {
     /// `conductor.*` (copper by default, named spectra, or a constant or textured
     /// `reflectance`), each roughness remapped; the record holds the conductor's eta and k
     /// over the coating's index (pbrt-v4 divides them so), its alphas in `base`, a
-    /// textured thickness in base.w. A scattering layer is refused.
+    /// textured thickness in base.w. A textured albedo is refused.
     #[test]
     fn coated_conductor_reads_its_coating_and_its_conductor() {
         let s = parse(&format!(
