@@ -43,6 +43,13 @@ fn expected_image(s: &Scene, f: impl Fn(Vec3, Vec3) -> Vec3) -> Image {
     }
 }
 
+/// The largest red value of an image less its smallest (in [0, 1]): a lookup that
+/// shows many texels spreads wide.
+fn red_spread(img: &Image) -> f32 {
+    let reds = img.pixels.iter().map(|p| p[0]);
+    reds.clone().fold(0.0f32, f32::max) - reds.fold(1.0f32, f32::min)
+}
+
 /// The mean and the largest absolute per-channel difference between two images.
 fn differences(a: &Image, b: &Image) -> (f32, f32) {
     let d: Vec<f32> = a
@@ -193,9 +200,7 @@ fn textures_made_of_textures_render_their_value() {
             mean < 0.02 && max < 0.3,
             "{reflectance}: mean difference {mean}, largest {max}"
         );
-        let reds: Vec<f32> = expected.pixels.iter().map(|p| p[0]).collect();
-        let spread =
-            reds.iter().fold(0.0f32, |m, &x| m.max(x)) - reds.iter().fold(1.0f32, |m, &x| m.min(x));
+        let spread = red_spread(&expected);
         assert!(spread > 0.2, "{reflectance}: {spread}");
     }
     std::fs::remove_dir_all(&dir).ok();
@@ -373,9 +378,7 @@ fn projected_texture_mappings_render_their_lookup() {
             "{projection:?}: mean difference {mean}, largest {max}"
         );
         // (Texels of many colours are seen: a wrong mapping would show.)
-        let reds: Vec<f32> = expected.pixels.iter().map(|p| p[0]).collect();
-        let spread =
-            reds.iter().fold(0.0f32, |m, &x| m.max(x)) - reds.iter().fold(1.0f32, |m, &x| m.min(x));
+        let spread = red_spread(&expected);
         assert!(spread > 0.4, "{projection:?}: {spread}");
     }
     std::fs::remove_dir_all(&dir).ok();

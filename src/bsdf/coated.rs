@@ -771,6 +771,36 @@ mod tests {
         assert!(sum / 20_000.0 < 0.5, "{}", sum / 20_000.0);
     }
 
+    /// The reflected energy per band of cos θi (red channel), by `n` sampled walks from
+    /// wo, E[f cos / pdf 1{band}] (the delta lobe left out, as f leaves it out), and by
+    /// uniform quadrature of f cos over `n` directions: (by sampling, by evaluation).
+    fn band_energies(
+        b: &BsdfParams,
+        wo: Vec3,
+        bands: usize,
+        n: u32,
+        rng: &mut Lcg,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let band = |wi: Vec3| ((wi.z * bands as f32) as usize).min(bands - 1);
+        let mut by_sampling = vec![0.0f64; bands];
+        for _ in 0..n {
+            let Some(s) = coated_sample_walk(b, wo, rng.next3(), Transport::Radiance) else {
+                continue;
+            };
+            if s.wi.z > 0.0 && s.flags & BSDF_LOBE_DELTA == 0 {
+                by_sampling[band(s.wi)] += (s.f.x * s.wi.z / s.pdf) as f64 / n as f64;
+            }
+        }
+        let mut by_eval = vec![0.0f64; bands];
+        for _ in 0..n {
+            let u = Vec2::new(rng.next(), rng.next());
+            let wi = super::super::sampling::sample_uniform_hemisphere(u);
+            let f = coated_f(b, wo, wi, Transport::Radiance);
+            by_eval[band(wi)] += (f.x * wi.z * 2.0 * PI) as f64 / n as f64;
+        }
+        (by_sampling, by_eval)
+    }
+
     /// f (its own random walk, a deterministic function of the directions) and sampling
     /// (another walk) estimate one BSDF: the reflected energy per band of cosθi by
     /// sampling, E[f cos / pdf 1{band}], equals ∫_band f cos dω by uniform quadrature.
@@ -781,25 +811,7 @@ mod tests {
             let b = coat(Vec3::new(0.7, 0.4, 0.2), alpha, 0.05, 10.0);
             let wo = wo_at(theta);
             let bands = 5;
-            let band = |wi: Vec3| ((wi.z * bands as f32) as usize).min(bands - 1);
-            let n = 200_000;
-            let mut by_sampling = vec![0.0f64; bands];
-            for _ in 0..n {
-                let Some(s) = coated_sample_walk(&b, wo, rng.next3(), Transport::Radiance) else {
-                    continue;
-                };
-                // f excludes a smooth coating's mirror reflection (a delta lobe).
-                if s.wi.z > 0.0 && s.flags & BSDF_LOBE_DELTA == 0 {
-                    by_sampling[band(s.wi)] += (s.f.x * s.wi.z / s.pdf) as f64 / n as f64;
-                }
-            }
-            let mut by_eval = vec![0.0f64; bands];
-            for _ in 0..n {
-                let u = Vec2::new(rng.next(), rng.next());
-                let wi = super::super::sampling::sample_uniform_hemisphere(u);
-                let f = coated_f(&b, wo, wi, Transport::Radiance);
-                by_eval[band(wi)] += (f.x * wi.z * 2.0 * PI) as f64 / n as f64;
-            }
+            let (by_sampling, by_eval) = band_energies(&b, wo, bands, 200_000, &mut rng);
             eprintln!("alpha {alpha} θ {theta}: sampling {by_sampling:?} evaluation {by_eval:?}");
             for k in 0..bands {
                 assert!(
@@ -943,24 +955,7 @@ mod tests {
             let b = coated_conductor(coat_alpha, base_alpha, 1.5, 0.05, eta_c / 1.5, k_c / 1.5);
             let wo = wo_at(theta);
             let bands = 5;
-            let band = |wi: Vec3| ((wi.z * bands as f32) as usize).min(bands - 1);
-            let n = 500_000;
-            let mut by_sampling = vec![0.0f64; bands];
-            for _ in 0..n {
-                let Some(s) = coated_sample_walk(&b, wo, rng.next3(), Transport::Radiance) else {
-                    continue;
-                };
-                if s.wi.z > 0.0 && s.flags & BSDF_LOBE_DELTA == 0 {
-                    by_sampling[band(s.wi)] += (s.f.x * s.wi.z / s.pdf) as f64 / n as f64;
-                }
-            }
-            let mut by_eval = vec![0.0f64; bands];
-            for _ in 0..n {
-                let u = Vec2::new(rng.next(), rng.next());
-                let wi = super::super::sampling::sample_uniform_hemisphere(u);
-                let f = coated_f(&b, wo, wi, Transport::Radiance);
-                by_eval[band(wi)] += (f.x * wi.z * 2.0 * PI) as f64 / n as f64;
-            }
+            let (by_sampling, by_eval) = band_energies(&b, wo, bands, 500_000, &mut rng);
             eprintln!(
                 "coat {coat_alpha}, base {base_alpha}, θ {theta}: sampling {by_sampling:?} evaluation {by_eval:?}"
             );
@@ -1065,26 +1060,7 @@ mod tests {
             assert!(!b.is_delta());
             let wo = wo_at(35.0);
             let bands = 5;
-            let band = |wi: Vec3| ((wi.z * bands as f32) as usize).min(bands - 1);
-            let n = 300_000;
-            let mut by_sampling = vec![0.0f64; bands];
-            for _ in 0..n {
-                let Some(s) = coated_sample_walk(b, wo, rng.next3(), Transport::Radiance) else {
-                    continue;
-                };
-                if s.wi.z > 0.0 && s.flags & BSDF_LOBE_DELTA == 0 {
-                    by_sampling[band(s.wi)] += (s.f.x * s.wi.z / s.pdf) as f64 / n as f64;
-                }
-            }
-            let mut by_eval = vec![0.0f64; bands];
-            for _ in 0..n {
-                let wi = super::super::sampling::sample_uniform_hemisphere(Vec2::new(
-                    rng.next(),
-                    rng.next(),
-                ));
-                let f = coated_f(b, wo, wi, Transport::Radiance);
-                by_eval[band(wi)] += (f.x * wi.z * 2.0 * PI) as f64 / n as f64;
-            }
+            let (by_sampling, by_eval) = band_energies(b, wo, bands, 300_000, &mut rng);
             eprintln!("case {i}: sampling {by_sampling:?} evaluation {by_eval:?}");
             for k in 0..bands {
                 assert!(
