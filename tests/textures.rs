@@ -327,7 +327,7 @@ fn a_solid_checkerboard_renders_its_lookup() {
 /// pbrt-v4's spherical, cylindrical and planar texture mappings: an image of distinct
 /// texels on a sphere, found from the world point in a texture space turned and moved
 /// from the world's, renders the CPU mirror's lookup at each point (under a white
-/// environment, as above); the pbrt reader's mappings are src/scene/pbrt.rs's tests.
+/// environment, as above); the pbrt reader's mappings are src/scene/pbrt/tests.rs's.
 #[test]
 fn projected_texture_mappings_render_their_lookup() {
     use glam::{Mat4, Vec4};

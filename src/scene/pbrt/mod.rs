@@ -1,0 +1,756 @@
+//! pbrt-v4 scene files (docs/scene-format.md, "pbrt-v4 scenes").
+//!
+//! The file is tokenized whole (`Include`d and `Import`ed files in turn) and its
+//! directives executed in order on a graphics state as pbrt-v4's parser does: the current
+//! transform, the material, the area light and reverse orientation, pushed and popped by
+//! `AttributeBegin`/`AttributeEnd`. Shapes become world-space triangles and spheres of
+//! the one scene model; object instances are flattened (each instance a copy).
+//!
+//! What lightpath cannot render and would change what is seen (media, other shapes,
+//! materials or lights, unused parameters such as alpha cut-outs) is collected and
+//! reported at once, every use with its file and line; what only changes reconstruction
+//! or sampling (`PixelFilter`, the sampler's type) is one warning each.
+//!
+//! The reader follows pbrt-v4's own seams: `params` (tokens, parameter lists and the
+//! values they give), this module (the directive state machine, includes and the
+//! scene's final assembly), and one module of `create` functions per kind of thing:
+//! `camera` (camera, film, sampler and integrator), `materials`, `textures`, `lights`
+//! and `shapes`.
+
+mod camera;
+mod lights;
+mod materials;
+mod params;
+mod shapes;
+#[cfg(test)]
+mod tests;
+mod textures;
+
+use camera::*;
+use lights::*;
+use materials::*;
+use params::*;
+use shapes::*;
+
+use super::parse::MaterialKey;
+use super::spectrum;
+use super::{
+    BsdfKind, Camera, DeltaLight, Environment, EnvironmentMap, IntegratorKind, Material,
+    MaterialMix, NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture, Triangle,
+    MAX_MIX_DEPTH,
+};
+use crate::texture::{load_image, Encoding, EnvMapping, Projection, Wrap};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The most files `Include` and `Import` may read (a file including itself stops here).
+const MAX_FILES: usize = 4096;
+/// The deepest `AttributeBegin` nesting.
+const MAX_ATTRIBUTE_NESTING: usize = 1 << 16;
+
+#[derive(Clone, Debug)]
+struct GraphicsState {
+    ctm: Mat4,
+    /// `ActiveTransform`: whether transform directives change the shutter-open transform,
+    /// the one lightpath renders at (false after `ActiveTransform EndTime`: they change
+    /// only the shutter-close one, which motion blur alone would use).
+    start_active: bool,
+    reverse: bool,
+    material: MaterialRef,
+    area: Option<AreaLight>,
+    /// `Attribute` defaults: (target, parameter), the latest of a name first.
+    attributes: Vec<(String, Param)>,
+}
+
+struct Parser {
+    scene: Scene,
+    files: Vec<String>,
+    tokens: Vec<Token>,
+    pos: usize,
+    /// The directory of the top file (Include/Import paths are relative to the
+    /// including file's directory, as pbrt's).
+    dirs: Vec<PathBuf>,
+    gs: GraphicsState,
+    stack: Vec<(GraphicsState, bool)>,
+    named_coords: HashMap<String, Mat4>,
+    named_materials: HashMap<String, MaterialRef>,
+    textures: HashMap<String, Value>,
+    float_textures: HashMap<String, Value>,
+    material_lookup: HashMap<MaterialKey, u32>,
+    image_textures: HashMap<(PathBuf, Encoding), Arc<crate::io::Image>>,
+    objects: HashMap<String, Vec<ShapeDecl>>,
+    /// The object being defined (ObjectBegin .. ObjectEnd).
+    defining: Option<(String, Vec<ShapeDecl>)>,
+    /// Everything unsupported, as "file:line: what", reported together at the end.
+    unsupported: Vec<String>,
+    warned: std::collections::HashSet<String>,
+    warnings: Vec<String>,
+    camera_seen: bool,
+    /// `Integrator "mlt"`'s mutations per pixel (they become the samples per pixel).
+    mlt_mutations: Option<u32>,
+    film_size: (u32, u32),
+    /// The camera's `screenwindow` and `frameaspectratio`, applied with the film's size.
+    screen_window: Option<[f32; 4]>,
+    frame_aspect: Option<f32>,
+    /// The film's `cropwindow` or `pixelbounds`, with the file and line that gave it.
+    crop: Option<(Crop, u32, u32)>,
+    /// The film's share of the imaging ratio: ISO / 100 times the film's `scale`.
+    film_ratio: f32,
+    /// pbrt-v4's exposure time: the camera's shutterclose − shutteropen (1 by default).
+    exposure: f32,
+    in_world: bool,
+}
+
+/// Reads and parses a pbrt-v4 scene file.
+///
+/// # Errors
+/// When a file cannot be read, does not parse, or uses what lightpath cannot render
+/// (every such use listed in the message).
+pub fn parse_pbrt_file(path: &Path) -> Result<Scene, ParseError> {
+    let (name, text, dir) = super::parse::read_scene_file(path)?;
+    let mut scene = parse_pbrt_text(&text, &name, dir)?;
+    scene.source = Some(path.to_path_buf());
+    Ok(scene)
+}
+
+/// Parses pbrt-v4 text; `name` stands for its file name, and files it names are read
+/// relative to the working directory.
+pub fn parse_pbrt_str(text: &str, name: &str) -> Result<Scene, ParseError> {
+    parse_pbrt_text(text, name, PathBuf::new())
+}
+
+fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseError> {
+    let tokens = tokenize(text, 0, name)?;
+    let mut p = Parser {
+        scene: Scene::default(),
+        files: vec![name.to_owned()],
+        tokens,
+        pos: 0,
+        dirs: vec![dir],
+        gs: GraphicsState {
+            ctm: Mat4::IDENTITY,
+            start_active: true,
+            reverse: false,
+            material: MaterialRef::Material(diffuse(Vec3::splat(0.5))),
+            area: None,
+            attributes: Vec::new(),
+        },
+        stack: Vec::new(),
+        named_coords: HashMap::new(),
+        named_materials: HashMap::new(),
+        textures: HashMap::new(),
+        float_textures: HashMap::new(),
+        material_lookup: HashMap::new(),
+        image_textures: HashMap::new(),
+        objects: HashMap::new(),
+        defining: None,
+        unsupported: Vec::new(),
+        warned: Default::default(),
+        warnings: Vec::new(),
+        camera_seen: false,
+        mlt_mutations: None,
+        film_size: (1280, 720),
+        screen_window: None,
+        frame_aspect: None,
+        crop: None,
+        film_ratio: 1.0,
+        exposure: 1.0,
+        in_world: false,
+    };
+    // pbrt-v4's defaults: a volumetric path tracer of depth 5, 16 samples per pixel.
+    let s = &mut p.scene.settings;
+    s.integrator = IntegratorKind::PathTracer;
+    s.spp = 16;
+    s.max_depth = 5;
+    s.nee = NextEventEstimation::Mis;
+    s.russian_roulette = true;
+    s.importance_sampling = SampleMode::Brdf;
+    p.run()?;
+    p.finish()
+}
+
+impl Parser {
+    fn err_at(
+        &self,
+        file: u32,
+        line: u32,
+        command: &str,
+        message: impl Into<String>,
+    ) -> ParseError {
+        ParseError {
+            file: self.files[file as usize].clone(),
+            line: line as usize,
+            command: command.to_owned(),
+            message: message.into(),
+        }
+    }
+
+    /// `params` with the `Attribute` defaults of `target` that it does not set itself.
+    /// (Defaults a directive does not read are not reported: they apply to many kinds.)
+    fn with_attributes(&self, target: &str, mut params: Params) -> Params {
+        for (t, p) in &self.gs.attributes {
+            if t == target && !params.0.iter().any(|q| q.name == p.name) {
+                let p = p.clone();
+                p.used.set(true);
+                params.0.push(p);
+            }
+        }
+        params
+    }
+
+    fn unsupported(&mut self, file: u32, line: u32, what: impl Into<String>) {
+        let what = what.into();
+        self.unsupported
+            .push(format!("{}:{line}: {what}", self.files[file as usize]));
+    }
+
+    fn warn(&mut self, key: &str, message: String) {
+        if self.warned.insert(key.to_owned()) {
+            self.warnings.push(message);
+        }
+    }
+
+    /// Reports every parameter the directive did not read as unsupported.
+    fn check_used(&mut self, directive: &str, what: &str, params: &Params) {
+        #[cfg(test)]
+        ASKED.with(|a| {
+            NAMES_READ.with(|r| {
+                for name in a.borrow_mut().drain(..) {
+                    r.borrow_mut().insert((
+                        directive.to_owned(),
+                        what.trim_matches('"').to_owned(),
+                        name,
+                    ));
+                }
+            })
+        });
+        for p in &params.0 {
+            if !p.used.get() {
+                let msg = format!(
+                    "{directive} {what}: parameter \"{} {}\" is not supported",
+                    p.ty, p.name
+                );
+                self.unsupported(p.file, p.line, msg);
+            }
+        }
+    }
+
+    fn run(&mut self) -> Result<(), ParseError> {
+        while let Some(t) = self.next_token() {
+            let (file, line) = (t.file, t.line);
+            let Tok::Word(d) = t.tok else {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    "",
+                    format!("expected a directive, got {}", describe(&t.tok)),
+                ));
+            };
+            self.directive(&d, file, line)?;
+        }
+        if !self.stack.is_empty() {
+            let (f, l) = self.here();
+            return Err(self.err_at(
+                f,
+                l,
+                "AttributeBegin",
+                format!(
+                    "{} AttributeBegin without AttributeEnd at the end of the file",
+                    self.stack.len()
+                ),
+            ));
+        }
+        if self.defining.is_some() {
+            let (f, l) = self.here();
+            return Err(self.err_at(
+                f,
+                l,
+                "ObjectBegin",
+                "ObjectBegin without ObjectEnd at the end of the file",
+            ));
+        }
+        Ok(())
+    }
+
+    fn directive(&mut self, d: &str, file: u32, line: u32) -> Result<(), ParseError> {
+        #[cfg(test)]
+        ASKED.with(|a| a.borrow_mut().clear());
+        let ctm = self.gs.ctm;
+        let transform = matches!(
+            d,
+            "Identity"
+                | "Translate"
+                | "Scale"
+                | "Rotate"
+                | "LookAt"
+                | "Transform"
+                | "ConcatTransform"
+                | "CoordSysTransform"
+        );
+        match d {
+            "Identity" => self.gs.ctm = Mat4::IDENTITY,
+            "Translate" => {
+                let v = self.numbers(d, 3)?;
+                self.gs.ctm = ctm * Mat4::from_translation(Vec3::new(v[0], v[1], v[2]));
+            }
+            "Scale" => {
+                let v = self.numbers(d, 3)?;
+                self.gs.ctm = ctm * Mat4::from_scale(Vec3::new(v[0], v[1], v[2]));
+            }
+            "Rotate" => {
+                let v = self.numbers(d, 4)?;
+                let axis = Vec3::new(v[1], v[2], v[3]);
+                if axis.length_squared() == 0.0 {
+                    return Err(self.err_at(file, line, d, "the rotation axis is zero"));
+                }
+                self.gs.ctm = ctm * Mat4::from_axis_angle(axis.normalize(), v[0].to_radians());
+            }
+            "LookAt" => {
+                let v = self.numbers(d, 9)?;
+                let eye = Vec3::new(v[0], v[1], v[2]);
+                let look = Vec3::new(v[3], v[4], v[5]);
+                let up = Vec3::new(v[6], v[7], v[8]);
+                let dir = look - eye;
+                if dir.length_squared() == 0.0
+                    || up
+                        .normalize_or_zero()
+                        .cross(dir.normalize())
+                        .length_squared()
+                        == 0.0
+                {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        "the eye and the target coincide, or up is parallel to the view direction",
+                    ));
+                }
+                // pbrt's LookAt: camera space x = up × dir, y = dir × x, z = dir.
+                let dir = dir.normalize();
+                let right = up.normalize().cross(dir).normalize();
+                let new_up = dir.cross(right);
+                let world_from_camera = Mat4::from_cols(
+                    right.extend(0.0),
+                    new_up.extend(0.0),
+                    dir.extend(0.0),
+                    eye.extend(1.0),
+                );
+                self.gs.ctm = ctm * world_from_camera.inverse();
+            }
+            "Transform" | "ConcatTransform" => {
+                let v = self.numbers(d, 16)?;
+                let m = Mat4::from_cols_array(&v.try_into().expect("16 numbers"));
+                self.gs.ctm = if d == "Transform" { m } else { ctm * m };
+            }
+            "CoordinateSystem" => {
+                let name = self.expect_string(d, "a name")?;
+                self.named_coords.insert(name, ctm);
+            }
+            "CoordSysTransform" => {
+                let name = self.expect_string(d, "a name")?;
+                match self.named_coords.get(&name) {
+                    Some(m) => self.gs.ctm = *m,
+                    None => {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!("no coordinate system named \"{name}\""),
+                        ))
+                    }
+                }
+            }
+            "ReverseOrientation" => self.gs.reverse = !self.gs.reverse,
+            "AttributeBegin" | "TransformBegin" => {
+                if self.stack.len() >= MAX_ATTRIBUTE_NESTING {
+                    return Err(self.err_at(file, line, d, "attributes nested too deeply"));
+                }
+                self.stack.push((self.gs.clone(), d == "TransformBegin"));
+            }
+            "AttributeEnd" | "TransformEnd" => match self.stack.pop() {
+                Some((gs, transform_only)) => {
+                    if transform_only != (d == "TransformEnd") {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            "does not match the Begin it closes",
+                        ));
+                    }
+                    if transform_only {
+                        self.gs.ctm = gs.ctm;
+                    } else {
+                        self.gs = gs;
+                    }
+                }
+                None => return Err(self.err_at(file, line, d, "without a matching Begin")),
+            },
+            "Attribute" => {
+                let target = self.expect_string(d, "a target")?;
+                let params = self.params(d)?;
+                match target.as_str() {
+                    "shape" | "light" | "material" | "texture" => {
+                        for p in params.0.into_iter().rev() {
+                            self.gs.attributes.insert(0, (target.clone(), p));
+                        }
+                    }
+                    "medium" => {
+                        if !params.0.is_empty() {
+                            self.unsupported(file, line, "Attribute \"medium\" (participating media)");
+                        }
+                    }
+                    other => {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!(
+                                "unknown target \"{other}\" (expected shape, light, material, medium or texture)"
+                            ),
+                        ))
+                    }
+                }
+            }
+            "Include" | "Import" => {
+                let name = self.expect_string(d, "a file name")?;
+                self.include(&name, file, line, d)?;
+            }
+            "Option" => {
+                let params = self.params(d)?;
+                for p in &params.0 {
+                    let msg = format!("Option \"{}\" ignored", p.name);
+                    self.warn(&format!("option {}", p.name), msg);
+                }
+            }
+            "ColorSpace" => {
+                let name = self.expect_string(d, "a colour space")?;
+                if name != "srgb" {
+                    self.unsupported(
+                        file,
+                        line,
+                        format!("ColorSpace \"{name}\" (RGB values are read as linear sRGB)"),
+                    );
+                }
+            }
+            "Camera" => {
+                let ty = self.expect_string(d, "a camera type")?;
+                let params = self.params(d)?;
+                if ty != "perspective" {
+                    self.unsupported(file, line, format!("Camera \"{ty}\""));
+                }
+                self.named_coords.insert("camera".into(), ctm.inverse());
+                self.camera_seen = true;
+                self.camera(ctm, &params, file, line)?;
+            }
+            "Film" => {
+                let ty = self.expect_string(d, "a film type")?;
+                let params = self.params(d)?;
+                self.film(&ty, &params, file, line)?;
+            }
+            "Sampler" => {
+                let ty = self.expect_string(d, "a sampler type")?;
+                let params = self.params(d)?;
+                if let Some(p) = params.find("pixelsamples") {
+                    let n = p.nums.first().copied().unwrap_or(0.0);
+                    if n < 1.0 {
+                        return Err(self.err_at(
+                            p.file,
+                            p.line,
+                            d,
+                            format!("pixelsamples must be at least 1, got {n}"),
+                        ));
+                    }
+                    self.scene.settings.spp = n as u32;
+                }
+                if ty != "independent" {
+                    self.warn("sampler", format!("Sampler \"{ty}\": lightpath samples independently (only the sampling pattern differs)"));
+                }
+                for p in &params.0 {
+                    p.used.set(true);
+                }
+            }
+            "PixelFilter" => {
+                let ty = self.expect_string(d, "a filter type")?;
+                self.params(d)?;
+                self.warn("filter", format!("PixelFilter \"{ty}\" ignored: lightpath averages over each pixel's square (a box filter)"));
+            }
+            "Integrator" => {
+                let ty = self.expect_string(d, "an integrator type")?;
+                let params = self.params(d)?;
+                self.integrator(&ty, &params, file, line)?;
+            }
+            "Accelerator" => {
+                self.expect_string(d, "an accelerator type")?;
+                self.params(d)?;
+            }
+            "WorldBegin" => {
+                self.in_world = true;
+                self.gs.ctm = Mat4::IDENTITY;
+                self.named_coords.insert("world".into(), Mat4::IDENTITY);
+            }
+            "WorldEnd" => {}
+            "MakeNamedMedium" => {
+                self.expect_string(d, "a name")?;
+                self.params(d)?;
+                self.unsupported(file, line, "MakeNamedMedium (participating media)");
+            }
+            "MediumInterface" => {
+                let inside = self.expect_string(d, "a medium name")?;
+                let mut outside = inside.clone();
+                if let Some(Token {
+                    tok: Tok::Str(s), ..
+                }) = self.peek().cloned()
+                {
+                    self.pos += 1;
+                    outside = s;
+                }
+                if !inside.is_empty() || !outside.is_empty() {
+                    self.unsupported(file, line, "MediumInterface (participating media)");
+                }
+            }
+            "Material" => {
+                let ty = self.expect_string(d, "a material type")?;
+                let params = self.params(d)?;
+                let params = self.with_attributes("material", params);
+                self.gs.material = self.material(&ty, &params, file, line)?;
+            }
+            "MakeNamedMaterial" => {
+                let name = self.expect_string(d, "a name")?;
+                let params = self.params(d)?;
+                let params = self.with_attributes("material", params);
+                let ty = match params.find("type") {
+                    Some(p) if p.ty == "string" && p.strs.len() == 1 => p.strs[0].clone(),
+                    _ => {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!("material \"{name}\": no \"string type\""),
+                        ))
+                    }
+                };
+                let m = self.material(&ty, &params, file, line)?;
+                self.named_materials.insert(name, m);
+            }
+            "NamedMaterial" => {
+                let name = self.expect_string(d, "a name")?;
+                match self.named_materials.get(&name) {
+                    Some(m) => self.gs.material = m.clone(),
+                    None => {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!("no material named \"{name}\""),
+                        ))
+                    }
+                }
+            }
+            "Texture" => {
+                let name = self.expect_string(d, "a name")?;
+                let ty = self.expect_string(d, "a texture type (\"spectrum\" or \"float\")")?;
+                let class = self.expect_string(d, "a texture class")?;
+                let params = self.params(d)?;
+                let params = self.with_attributes("texture", params);
+                self.texture(&name, &ty, &class, &params, file, line)?;
+            }
+            "LightSource" => {
+                let ty = self.expect_string(d, "a light type")?;
+                let params = self.params(d)?;
+                let params = self.with_attributes("light", params);
+                self.light(&ty, &params, file, line)?;
+            }
+            "AreaLightSource" => {
+                let ty = self.expect_string(d, "an area light type")?;
+                let params = self.params(d)?;
+                let params = self.with_attributes("light", params);
+                self.area_light(&ty, &params, file, line)?;
+            }
+            "Shape" => {
+                let ty = self.expect_string(d, "a shape type")?;
+                let params = self.params(d)?;
+                let params = self.with_attributes("shape", params);
+                self.shape(&ty, &params, file, line)?;
+            }
+            "ObjectBegin" => {
+                let name = self.expect_string(d, "a name")?;
+                if self.defining.is_some() {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        "ObjectBegin inside another object's definition",
+                    ));
+                }
+                self.stack.push((self.gs.clone(), false));
+                self.defining = Some((name, Vec::new()));
+            }
+            "ObjectEnd" => {
+                let Some((name, shapes)) = self.defining.take() else {
+                    return Err(self.err_at(file, line, d, "ObjectEnd without ObjectBegin"));
+                };
+                self.objects.insert(name, shapes);
+                match self.stack.pop() {
+                    Some((gs, _)) => self.gs = gs,
+                    None => {
+                        return Err(self.err_at(file, line, d, "without a matching ObjectBegin"))
+                    }
+                }
+            }
+            "ObjectInstance" => {
+                let name = self.expect_string(d, "a name")?;
+                let Some(shapes) = self.objects.get(&name).cloned() else {
+                    return Err(self.err_at(file, line, d, format!("no object named \"{name}\"")));
+                };
+                for mut s in shapes {
+                    s.ctm = ctm * s.ctm;
+                    self.emit(s)?;
+                }
+            }
+            "TransformTimes" | "ActiveTransform" => {
+                if d == "TransformTimes" {
+                    self.numbers(d, 2)?;
+                } else {
+                    match self.next_token() {
+                        Some(Token {
+                            tok: Tok::Word(w), ..
+                        }) if w == "All" || w == "StartTime" || w == "EndTime" => {
+                            self.gs.start_active = w != "EndTime";
+                        }
+                        _ => {
+                            return Err(self.err_at(
+                                file,
+                                line,
+                                d,
+                                "expected All, StartTime or EndTime",
+                            ))
+                        }
+                    }
+                }
+            }
+            other => {
+                return Err(self.err_at(file, line, other, format!("unknown directive '{other}'")));
+            }
+        }
+        // Motion blur is not rendered: a transform of the shutter-close time alone leaves
+        // the shutter-open transform, the one rendered, as it was.
+        if transform && !self.gs.start_active {
+            self.gs.ctm = ctm;
+            self.warn(
+                "motion",
+                format!(
+                    "{}:{line}: an animated transform (ActiveTransform EndTime): rendered at the shutter-open transform, without motion blur",
+                    self.files[file as usize]
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    /// `Include` and `Import` (which lightpath reads alike): the file's tokens in place of
+    /// the directive. A name ending in `.gz` is a gzip-compressed file, as pbrt-v4 reads it.
+    fn include(&mut self, name: &str, file: u32, line: u32, d: &str) -> Result<(), ParseError> {
+        if self.dirs.len() >= MAX_FILES {
+            return Err(self.err_at(
+                file,
+                line,
+                d,
+                format!("more than {MAX_FILES} files included (does a file include itself?)"),
+            ));
+        }
+        let base = self.dirs[file as usize].clone();
+        let path = base.join(name);
+        let text = read_scene_text(&path).map_err(|e| {
+            self.err_at(
+                file,
+                line,
+                d,
+                format!("cannot read {}: {e}", path.display()),
+            )
+        })?;
+        let index = self.files.len() as u32;
+        let shown = path.display().to_string();
+        self.files.push(shown.clone());
+        self.dirs
+            .push(path.parent().map(Path::to_path_buf).unwrap_or_default());
+        let tokens = tokenize(&text, index, &shown)?;
+        // Splice the file's tokens in where the directive stood.
+        let rest = self.tokens.split_off(self.pos);
+        self.tokens.extend(tokens);
+        self.tokens.extend(rest);
+        Ok(())
+    }
+
+    fn finish(mut self) -> Result<Scene, ParseError> {
+        if !self.unsupported.is_empty() {
+            let first = &self.unsupported[0];
+            let (file, line) = first
+                .split_once(": ")
+                .and_then(|(loc, _)| loc.rsplit_once(':'))
+                .map(|(f, l)| (f.to_owned(), l.parse().unwrap_or(0)))
+                .unwrap_or_default();
+            return Err(ParseError {
+                file,
+                line,
+                command: "unsupported".into(),
+                message: format!(
+                    "lightpath cannot render {} feature use(s) of this scene:\n  {}",
+                    self.unsupported.len(),
+                    self.unsupported.join("\n  ")
+                ),
+            });
+        }
+        for w in &self.warnings {
+            eprintln!("warning: {w}");
+        }
+        if let Some(n) = self.mlt_mutations {
+            self.scene.settings.spp = n;
+        }
+        let (w, h) = self.film_size;
+        self.scene.width = w;
+        self.scene.height = h;
+        if !self.camera_seen {
+            // pbrt's default camera: at the origin looking down +z, fov 90.
+            self.scene.camera = Camera {
+                eye: Vec3::ZERO,
+                look_at: Vec3::Z,
+                up: Vec3::Y,
+                fovy_degrees: 90.0,
+                ..Camera::default()
+            };
+        }
+        self.film_window()?;
+        let ratio = self.imaging_ratio();
+        for l in &mut self.scene.delta_lights {
+            match l {
+                DeltaLight::Point { intensity, .. } | DeltaLight::Spot { intensity, .. } => {
+                    *intensity *= ratio
+                }
+                DeltaLight::Directional { radiance, .. } => *radiance *= ratio,
+            }
+        }
+        if let Some(e) = &mut self.scene.environment {
+            e.radiance *= ratio;
+        }
+        Ok(self.scene)
+    }
+}
+
+/// A scene file's text; gzip-compressed when its name ends in `.gz`.
+fn read_scene_text(path: &Path) -> std::io::Result<String> {
+    let raw = std::fs::read(path)?;
+    let bytes = if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gz"))
+    {
+        let mut out = Vec::new();
+        std::io::Read::read_to_end(&mut flate2::read::GzDecoder::new(&raw[..]), &mut out)?;
+        out
+    } else {
+        raw
+    };
+    String::from_utf8(bytes)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()))
+}

@@ -1,0 +1,439 @@
+//! Shapes: triangle meshes, PLY meshes, subdivision surfaces, spheres, disks and
+//! bilinear patches, made world-space triangles and spheres of the scene.
+
+use super::*;
+
+/// The most triangles a `loopsubdiv` may make.
+pub(super) const MAX_SUBDIVIDED_TRIANGLES: f64 = 8_000_000.0;
+
+/// Segments of a triangulated disk.
+pub(super) const DISK_SEGMENTS: usize = 128;
+
+/// A shape as declared, in its object space, with what applies to it.
+#[derive(Clone, Debug)]
+pub(super) struct ShapeDecl {
+    pub(super) kind: ShapeKind,
+    pub(super) ctm: Mat4,
+    pub(super) reverse: bool,
+    pub(super) material: MaterialRef,
+    pub(super) area: Option<AreaLight>,
+    pub(super) alpha: Option<crate::scene::Alpha>,
+}
+
+#[derive(Clone, Debug)]
+pub(super) enum ShapeKind {
+    Mesh {
+        p: Vec<Vec3>,
+        indices: Vec<u32>,
+        n: Option<Vec<Vec3>>,
+        uv: Option<Vec<Vec2>>,
+    },
+    Sphere {
+        radius: f32,
+    },
+}
+
+/// The triangle with its orientation reversed (its geometric normal flipped).
+pub(super) fn flip(mut t: Triangle) -> Triangle {
+    t.v.swap(1, 2);
+    if let Some(uv) = &mut t.uv {
+        uv.swap(1, 2);
+    }
+    if let Some(n) = &mut t.normals {
+        n.swap(1, 2);
+    }
+    t
+}
+
+impl Parser {
+    pub(super) fn shape(
+        &mut self,
+        ty: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<(), ParseError> {
+        let d = "Shape";
+        let vec3s = |p: &Param| {
+            p.nums
+                .chunks(3)
+                .map(|c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))
+                .collect::<Vec<_>>()
+        };
+        let kind = match ty {
+            "trianglemesh" | "bilinearmesh" => {
+                let Some(pp) = params.find("P") else {
+                    return Err(self.err_at(file, line, d, format!("{ty}: no \"point3 P\"")));
+                };
+                let p = vec3s(pp);
+                let corners = if ty == "trianglemesh" { 3 } else { 4 };
+                let mut indices: Vec<u32> = match params.find("indices") {
+                    Some(ip) => {
+                        if let Some(bad) = ip.nums.iter().find(|&&x| x < 0.0) {
+                            return Err(self.err_at(ip.file, ip.line, d, format!("{ty}: a negative index {bad}")));
+                        }
+                        ip.nums.iter().map(|&x| x as u32).collect()
+                    }
+                    None if p.len() == corners => (0..corners as u32).collect(),
+                    None => return Err(self.err_at(file, line, d, format!("{ty}: no \"integer indices\" (needed unless there are exactly {corners} points)"))),
+                };
+                if indices.len() % corners != 0 {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!(
+                            "{ty}: {} indices, not a multiple of {corners}",
+                            indices.len()
+                        ),
+                    ));
+                }
+                if let Some(bad) = indices.iter().find(|&&i| i as usize >= p.len()) {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!("{ty}: index {bad} out of range ({} points)", p.len()),
+                    ));
+                }
+                let n = match params.find("N") {
+                    Some(np) => {
+                        let n = vec3s(np);
+                        if n.len() != p.len() {
+                            return Err(self.err_at(
+                                np.file,
+                                np.line,
+                                d,
+                                format!("{ty}: {} normals for {} points", n.len(), p.len()),
+                            ));
+                        }
+                        Some(n)
+                    }
+                    None => None,
+                };
+                let uv = match params.find("uv") {
+                    Some(up) => {
+                        let uv: Vec<Vec2> = up
+                            .nums
+                            .chunks(2)
+                            .map(|c| Vec2::new(c[0] as f32, c[1] as f32))
+                            .collect();
+                        if uv.len() != p.len() {
+                            return Err(self.err_at(
+                                up.file,
+                                up.line,
+                                d,
+                                format!("{ty}: {} uv for {} points", uv.len(), p.len()),
+                            ));
+                        }
+                        Some(uv)
+                    }
+                    None => None,
+                };
+                if corners == 4 {
+                    // A bilinear patch p00 p10 p01 p11 as two triangles (exact when planar).
+                    indices = indices
+                        .chunks(4)
+                        .flat_map(|q| [q[0], q[1], q[3], q[0], q[3], q[2]])
+                        .collect();
+                }
+                params.find("faceIndices");
+                if corners == 3 {
+                    params.find("S");
+                }
+                ShapeKind::Mesh { p, indices, n, uv }
+            }
+            "loopsubdiv" => {
+                let Some(pp) = params.find("P") else {
+                    return Err(self.err_at(file, line, d, "loopsubdiv: no \"point3 P\""));
+                };
+                let p = vec3s(pp);
+                let Some(ip) = params.find("indices") else {
+                    return Err(self.err_at(file, line, d, "loopsubdiv: no \"integer indices\""));
+                };
+                if let Some(bad) = ip.nums.iter().find(|&&x| x < 0.0) {
+                    return Err(self.err_at(
+                        ip.file,
+                        ip.line,
+                        d,
+                        format!("loopsubdiv: a negative index {bad}"),
+                    ));
+                }
+                let indices: Vec<u32> = ip.nums.iter().map(|&x| x as u32).collect();
+                let levels = params
+                    .find("levels")
+                    .and_then(|lp| lp.nums.first().copied())
+                    .unwrap_or(3.0);
+                // Each level multiplies the triangles by 4.
+                let triangles = (indices.len() / 3) as f64 * 4f64.powf(levels.max(0.0));
+                if !(0.0..=12.0).contains(&levels) || triangles > MAX_SUBDIVIDED_TRIANGLES {
+                    return Err(self.err_at(file, line, d, format!("loopsubdiv: {levels} levels would make {triangles} triangles (at most {MAX_SUBDIVIDED_TRIANGLES})")));
+                }
+                let (p, indices, n) =
+                    crate::scene::subdiv::loop_subdivide(&p, &indices, levels as u32)
+                        .map_err(|e| self.err_at(file, line, d, format!("loopsubdiv: {e}")))?;
+                ShapeKind::Mesh {
+                    p,
+                    indices,
+                    n: Some(n),
+                    uv: None,
+                }
+            }
+            "plymesh" => {
+                let Some(fp) = params.find("filename").cloned() else {
+                    return Err(self.err_at(file, line, d, "plymesh: no \"string filename\""));
+                };
+                let path = self.dirs[fp.file as usize].join(&fp.strs[0]);
+                let mesh = crate::scene::ply::read_ply(&path)
+                    .map_err(|e| self.err_at(fp.file, fp.line, d, e))?;
+                // (displacement is refused below, with every shape's; its edge length
+                // then does not matter.)
+                params.find("edgelength");
+                ShapeKind::Mesh {
+                    p: mesh.p,
+                    indices: mesh.indices,
+                    n: mesh.n,
+                    uv: mesh.uv,
+                }
+            }
+            "sphere" => {
+                let radius = params
+                    .find("radius")
+                    .and_then(|p| p.nums.first().copied())
+                    .unwrap_or(1.0) as f32;
+                if !(radius > 0.0) {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!("sphere: radius must be positive, got {radius}"),
+                    ));
+                }
+                for (name, full) in [("zmin", -radius), ("zmax", radius), ("phimax", 360.0)] {
+                    if let Some(p) = params.find(name) {
+                        let x = p.nums.first().copied().unwrap_or(full as f64) as f32;
+                        let whole = if name == "zmin" {
+                            x <= -radius
+                        } else {
+                            x >= full
+                        };
+                        if !whole {
+                            self.unsupported(
+                                p.file,
+                                p.line,
+                                format!("sphere: {name} (a partial sphere)"),
+                            );
+                        }
+                    }
+                }
+                ShapeKind::Sphere { radius }
+            }
+            "disk" => {
+                let num = |n: &str, default: f64| {
+                    params
+                        .find(n)
+                        .and_then(|p| p.nums.first().copied())
+                        .unwrap_or(default) as f32
+                };
+                let (radius, inner, height) = (
+                    num("radius", 1.0),
+                    num("innerradius", 0.0),
+                    num("height", 0.0),
+                );
+                if let Some(p) = params.find("phimax") {
+                    if p.nums.first().copied().unwrap_or(360.0) < 360.0 {
+                        self.unsupported(p.file, p.line, "disk: phimax (a partial disk)");
+                    }
+                }
+                if !(radius > 0.0 && inner >= 0.0 && inner < radius) {
+                    return Err(self.err_at(file, line, d, "disk: need 0 <= innerradius < radius"));
+                }
+                // An annulus of DISK_SEGMENTS quads (or a fan), normal +z as pbrt's.
+                let mut p = Vec::new();
+                let mut uv = Vec::new();
+                let mut indices = Vec::new();
+                for k in 0..DISK_SEGMENTS {
+                    let phi = k as f32 / DISK_SEGMENTS as f32 * std::f32::consts::TAU;
+                    let (s, c) = phi.sin_cos();
+                    p.push(Vec3::new(radius * c, radius * s, height));
+                    p.push(Vec3::new(inner * c, inner * s, height));
+                    let u = k as f32 / DISK_SEGMENTS as f32;
+                    uv.push(Vec2::new(u, 0.0));
+                    uv.push(Vec2::new(u, 1.0 - inner / radius));
+                }
+                for k in 0..DISK_SEGMENTS as u32 {
+                    let next = (k + 1) % DISK_SEGMENTS as u32;
+                    let (o0, i0, o1, i1) = (2 * k, 2 * k + 1, 2 * next, 2 * next + 1);
+                    indices.extend([o0, o1, i1]);
+                    if inner > 0.0 {
+                        indices.extend([o0, i1, i0]);
+                    }
+                }
+                ShapeKind::Mesh {
+                    p,
+                    indices,
+                    n: None,
+                    uv: Some(uv),
+                }
+            }
+            other => {
+                self.unsupported(file, line, format!("Shape \"{other}\""));
+                for p in &params.0 {
+                    p.used.set(true);
+                }
+                return Ok(());
+            }
+        };
+        // pbrt-v4's alpha: a float or a float texture; 1 (opaque) by default.
+        let alpha = match self.value(params, "alpha", true, d)? {
+            None => None,
+            Some(Value::Const(c)) if c.x >= 1.0 => None,
+            Some(Value::Const(c)) => Some(crate::scene::Alpha::Constant(c.x)),
+            Some(Value::Texture(t)) => Some(crate::scene::Alpha::Texture(t)),
+        };
+        if alpha.is_some() {
+            if matches!(kind, ShapeKind::Sphere { .. }) {
+                self.unsupported(
+                    file,
+                    line,
+                    "Shape \"sphere\": alpha (lightpath cuts out triangles only)",
+                );
+            }
+            if self.gs.area.is_some() {
+                self.unsupported(
+                    file,
+                    line,
+                    format!("Shape \"{ty}\": alpha on an area light"),
+                );
+            }
+        }
+        let refused: &[&str] = match ty {
+            "plymesh" => &["displacement"],
+            "bilinearmesh" => &["emissionfilename"],
+            _ => &[],
+        };
+        for &name in refused {
+            if let Some(p) = params.find(name) {
+                self.unsupported(p.file, p.line, format!("Shape \"{ty}\": {name}"));
+            }
+        }
+        self.check_used(d, &format!("\"{ty}\""), params);
+        let decl = ShapeDecl {
+            kind,
+            ctm: self.gs.ctm,
+            reverse: self.gs.reverse,
+            material: self.gs.material.clone(),
+            area: self.gs.area.clone(),
+            alpha,
+        };
+        if self.defining.is_some() {
+            if decl.area.is_some() {
+                self.unsupported(file, line, "an area light inside an object instance");
+            }
+            if let Some((_, shapes)) = &mut self.defining {
+                shapes.push(decl);
+            }
+            return Ok(());
+        }
+        self.emit(decl)
+    }
+
+    /// Adds a declared shape to the scene, in world space.
+    pub(super) fn emit(&mut self, s: ShapeDecl) -> Result<(), ParseError> {
+        if matches!(s.material, MaterialRef::Interface) {
+            return Ok(());
+        }
+        let ctm = s.ctm;
+        let swaps = Mat3::from_mat4(ctm).determinant() < 0.0;
+        let area = |tris: &[Triangle]| {
+            tris.iter()
+                .map(|t| 0.5 * (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length())
+                .sum::<f32>()
+        };
+        match s.kind {
+            ShapeKind::Mesh { p, indices, n, uv } => {
+                let wp: Vec<Vec3> = p.iter().map(|&x| ctm.transform_point3(x)).collect();
+                let normal_matrix = Mat3::from_mat4(ctm).inverse().transpose();
+                let wn: Option<Vec<Vec3>> = n.map(|n| {
+                    n.iter()
+                        .map(|&x| {
+                            let v = (normal_matrix * x).normalize_or_zero();
+                            if s.reverse {
+                                -v
+                            } else {
+                                v
+                            }
+                        })
+                        .collect()
+                });
+                let mut tris = Vec::with_capacity(indices.len() / 3);
+                for c in indices.chunks(3) {
+                    let (a, b, cc) = (c[0] as usize, c[1] as usize, c[2] as usize);
+                    let mut t = Triangle::new([wp[a], wp[b], wp[cc]], 0);
+                    // pbrt's default uv for a triangle without them: (0,0), (1,0), (1,1).
+                    t.uv = Some(match &uv {
+                        Some(uv) => [uv[a], uv[b], uv[cc]],
+                        None => [Vec2::ZERO, Vec2::X, Vec2::ONE],
+                    });
+                    t.alpha = s.alpha;
+                    if (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length_squared() == 0.0 {
+                        continue;
+                    }
+                    t = match &wn {
+                        Some(wn) => {
+                            t.normals = Some([wn[a], wn[b], wn[cc]]);
+                            t.facing_its_normals()
+                        }
+                        // pbrt flips the geometric normal for reverse orientation or a
+                        // transform that swaps handedness.
+                        None if s.reverse ^ swaps => flip(t),
+                        None => t,
+                    };
+                    tris.push(t);
+                }
+                let emission = s
+                    .area
+                    .as_ref()
+                    .map(|a| (a.radiance * self.imaging_ratio(), a.two_sided));
+                let power = s.area.as_ref().and_then(|a| {
+                    a.power
+                        .map(|phi| (phi, if a.two_sided { 2.0 } else { 1.0 }))
+                });
+                let index = self.intern_ref(&s.material, emission);
+                for mut t in tris {
+                    t.material = match (power, emission) {
+                        // pbrt-v4 makes one light per triangle of a mesh, each emitting
+                        // `power`: radiance power / (sides π area) per triangle.
+                        (Some((phi, sides)), Some((e, two_sided))) => {
+                            let scale = phi
+                                / (sides * area(std::slice::from_ref(&t)) * std::f32::consts::PI);
+                            self.intern_ref(&s.material, Some((e * scale, two_sided)))
+                        }
+                        _ => index,
+                    };
+                    self.scene.triangles.push(t);
+                }
+            }
+            ShapeKind::Sphere { radius } => {
+                let emission = s.area.as_ref().map(|a| {
+                    let mut e = a.radiance * self.imaging_ratio();
+                    if let Some(phi) = a.power {
+                        let scale = Mat3::from_mat4(ctm);
+                        let r = radius * scale.determinant().abs().cbrt();
+                        let sides = if a.two_sided { 2.0 } else { 1.0 };
+                        e *= phi
+                            / (sides * 4.0 * std::f32::consts::PI * r * r * std::f32::consts::PI);
+                    }
+                    (e, a.two_sided)
+                });
+                let material = self.intern_ref(&s.material, emission);
+                self.scene.spheres.push(Sphere {
+                    object_to_world: ctm * Mat4::from_scale(Vec3::splat(radius)),
+                    material,
+                    inward: s.reverse ^ swaps,
+                });
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,1221 @@
+use super::*;
+
+fn parse(text: &str) -> Scene {
+    parse_pbrt_str(text, "t.pbrt").unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn parse_err(text: &str) -> ParseError {
+    parse_pbrt_str(text, "t.pbrt").expect_err("should not parse")
+}
+
+const QUAD: &str = r#"Shape "trianglemesh" "point3 P" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]
+    "integer indices" [ 0 1 2  0 2 3 ]"#;
+
+/// Every parameter name the reader asks for, for every directive type it reads, is
+/// one of pbrt-v4's own for that type (src/scene/data/pbrt-v4-parameters.txt, from
+/// its Create functions): a name pbrt-v4 does not know would make the reader accept
+/// what pbrt-v4 rejects and refuse what it accepts (a spot light's `conedelta` for
+/// `conedeltaangle`). The names asked for are recorded whether or not the file gives
+/// them, so each directive type is parsed once, with the parameters it needs.
+#[test]
+fn every_parameter_name_read_is_pbrt_v4s_own() {
+    let table = include_str!("../data/pbrt-v4-parameters.txt");
+    let mut names: HashMap<(String, String), std::collections::HashSet<String>> = HashMap::new();
+    for line in table
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.is_empty())
+    {
+        let (head, list) = line.split_once(':').expect("Directive type: names");
+        let words: Vec<&str> = head.split_whitespace().collect();
+        // "Texture float imagemap" and "Texture imagemap" are both "Texture imagemap".
+        let key = (words[0].to_owned(), words[words.len() - 1].to_owned());
+        let set = names.entry(key).or_default();
+        for item in list.split_whitespace() {
+            set.insert(item.split(':').next().expect("name:kind").to_owned());
+        }
+    }
+    // MakeNamedMaterial's "type" is read for every material.
+    for ((d, _), set) in names.iter_mut() {
+        if d == "Material" {
+            set.insert("type".to_owned());
+        }
+    }
+    let world = |body: &str| format!("WorldBegin\n{body}\n");
+    let mut files = vec![
+        "Camera \"perspective\"\nWorldBegin\n".to_owned(),
+        "Film \"rgb\"\nWorldBegin\n".to_owned(),
+        "Film \"gbuffer\"\nWorldBegin\n".to_owned(),
+        "Film \"spectral\"\nWorldBegin\n".to_owned(),
+        world("AreaLightSource \"diffuse\"\nShape \"sphere\""),
+        world(QUAD),
+        world(
+            "Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0  1 1 0 ] \"integer indices\" [ 0 1 2 3 ]",
+        ),
+        world(
+            "Shape \"loopsubdiv\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0 ] \"integer indices\" [ 0 1 2 ]",
+        ),
+    ];
+    for ty in [
+        "path",
+        "volpath",
+        "bdpt",
+        "mlt",
+        "simplepath",
+        "lightpath",
+        "sppm",
+    ] {
+        files.push(format!("Integrator \"{ty}\"\nWorldBegin\n"));
+    }
+    for ty in [
+        "point",
+        "spot",
+        "distant",
+        "infinite",
+        "goniometric",
+        "projection",
+    ] {
+        files.push(world(&format!("LightSource \"{ty}\"")));
+    }
+    for ty in ["sphere", "disk", "cylinder", "curve", "plymesh"] {
+        files.push(world(&format!("Shape \"{ty}\"")));
+    }
+    for ty in [
+        "diffuse",
+        "dielectric",
+        "thindielectric",
+        "conductor",
+        "coateddiffuse",
+        "coatedconductor",
+        "diffusetransmission",
+        "measured",
+        "interface",
+        "hair",
+        "subsurface",
+    ] {
+        files.push(world(&format!("Material \"{ty}\"")));
+        files.push(world(&format!(
+            "MakeNamedMaterial \"m\" \"string type\" \"{ty}\""
+        )));
+    }
+    files.push(world(
+        "MakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n\
+         Material \"mix\" \"string materials\" [ \"a\" \"a\" ]",
+    ));
+    for ty in ["float", "spectrum"] {
+        for class in [
+            "constant",
+            "scale",
+            "mix",
+            "directionmix",
+            "checkerboard",
+            "dots",
+            "fbm",
+            "wrinkled",
+            "windy",
+            "marble",
+            "bilerp",
+            "ptex",
+        ] {
+            files.push(world(&format!("Texture \"t\" \"{ty}\" \"{class}\"")));
+        }
+        files.push(world(&format!(
+            "Texture \"t\" \"{ty}\" \"imagemap\" \"string filename\" \"missing.png\""
+        )));
+    }
+    NAMES_READ.with(|r| r.borrow_mut().clear());
+    for f in &files {
+        let _ = parse_pbrt_str(f, "names.pbrt");
+    }
+    let read = NAMES_READ.with(|r| r.borrow().clone());
+    let mut foreign = Vec::new();
+    // Names the published scenes use that an earlier pbrt-v4 read (Film "scale", which
+    // multiplied the image; the path integrator's Russian roulette "rrthreshold").
+    let earlier = [("Film", "scale"), ("Integrator", "rrthreshold")];
+    for (d, ty, name) in &read {
+        let known = names
+            .get(&(d.clone(), ty.clone()))
+            .is_some_and(|set| set.contains(name))
+            || earlier.contains(&(d.as_str(), name.as_str()));
+        if !known {
+            foreign.push(format!("{d} \"{ty}\": \"{name}\""));
+        }
+    }
+    assert!(
+        foreign.is_empty(),
+        "the reader asks for names pbrt-v4 does not read:\n{}",
+        foreign.join("\n")
+    );
+    // (The check has teeth: the directives it covers were read.)
+    for (d, ty) in [
+        ("LightSource", "spot"),
+        ("Shape", "sphere"),
+        ("Material", "coateddiffuse"),
+        ("Film", "rgb"),
+    ] {
+        assert!(
+            read.iter().any(|(a, b, _)| a == d && b == ty),
+            "no names recorded for {d} {ty}"
+        );
+    }
+}
+
+/// imagemap's `wrap` (repeat, clamp, black), `invert` (max(0, 1 - scale v), made on the
+/// texels) and `mapping`; octahedralsphere is refused.
+#[test]
+fn imagemap_wrap_modes_invert_and_mappings() {
+    let d = std::env::temp_dir().join(format!("lightpath-wrap-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let mut pfm = b"PF\n2 1\n-1.0\n".to_vec();
+    for v in [0.2f32, 0.2, 0.2, 3.0, 3.0, 3.0] {
+        pfm.extend(v.to_le_bytes());
+    }
+    std::fs::write(d.join("t.pfm"), pfm).unwrap();
+    let text = |extra: &str| {
+        format!(
+            "WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"t.pfm\" {extra}\n\
+             Material \"diffuse\" \"texture reflectance\" \"t\"\n{QUAD}\n"
+        )
+    };
+    let image = |extra: &str| {
+        std::fs::write(d.join("s.pbrt"), text(extra)).unwrap();
+        let s = parse_pbrt_file(&d.join("s.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+        match &s.textures[0] {
+            Texture::Image {
+                image, scale, wrap, ..
+            } => (image.pixels.clone(), *scale, *wrap),
+            other => panic!("{other:?}"),
+        }
+    };
+    let (pixels, scale, wrap) = image("");
+    assert_eq!(
+        (pixels[1], scale, wrap),
+        ([3.0; 3], Vec3::ONE, Wrap::Repeat)
+    );
+    assert_eq!(image("\"string wrap\" \"clamp\"").2, Wrap::Clamp);
+    assert_eq!(image("\"string wrap\" \"black\"").2, Wrap::Black);
+    let (pixels, scale, _) = image("\"bool invert\" true \"float scale\" 0.5");
+    assert_eq!(scale, Vec3::ONE);
+    assert_eq!(pixels, vec![[0.9; 3], [0.0; 3]]);
+    // Mappings: spherical and cylindrical about the texture's own space (the inverse
+    // of the transform in force), planar with v1, v2, udelta, vdelta; another, an error.
+    let projection = |extra: &str, transform: &str| {
+        let t = text(extra).replacen("WorldBegin\n", &format!("WorldBegin\n{transform}\n"), 1);
+        std::fs::write(d.join("s.pbrt"), t).unwrap();
+        let s = parse_pbrt_file(&d.join("s.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+        match &s.textures[0] {
+            Texture::Image { projection, .. } => *projection,
+            other => panic!("{other:?}"),
+        }
+    };
+    assert_eq!(projection("", ""), Projection::Uv);
+    let moved = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0)).inverse();
+    assert_eq!(
+        projection("\"string mapping\" \"spherical\"", "Translate 1 2 3"),
+        Projection::Spherical {
+            texture_from_world: moved
+        }
+    );
+    assert_eq!(
+        projection("\"string mapping\" \"cylindrical\"", "Translate 1 2 3"),
+        Projection::Cylindrical {
+            texture_from_world: moved
+        }
+    );
+    let planar = projection(
+        "\"string mapping\" \"planar\" \"vector3 v1\" [ 0 0 2 ] \"float udelta\" 0.5 \"float vdelta\" -1",
+        "Translate 1 2 3",
+    );
+    let p = Vec3::new(0.3, -0.4, 5.0);
+    // s = 0.5 + (0, 0, 2) . (p - (1, 2, 3)), t = -1 + (0, 1, 0) . (p - (1, 2, 3)).
+    assert!(
+        (planar.st(&[1.0, 1.0, 0.0, 0.0], Vec2::ZERO, p) - Vec2::new(4.5, -3.4)).length() < 1e-5,
+        "{planar:?}"
+    );
+    std::fs::write(d.join("s.pbrt"), text("\"string mapping\" \"conical\"")).unwrap();
+    let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("conical");
+    assert!(e.message.contains("expected a mapping"), "{e}");
+    std::fs::write(
+        d.join("s.pbrt"),
+        text("\"string wrap\" \"octahedralsphere\""),
+    )
+    .unwrap();
+    let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("octahedralsphere");
+    assert!(e.message.contains("octahedralsphere"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// Several infinite lights: constants add, a constant adds to a map's texels (times
+/// the map's scale), and a second map is refused.
+#[test]
+fn several_infinite_lights_add() {
+    let s = parse(
+        "WorldBegin\nLightSource \"infinite\" \"rgb L\" [ 0.1 0.2 0.3 ]\n\
+         LightSource \"infinite\" \"rgb L\" [ 1 1 2 ]\n",
+    );
+    let e = s.environment.expect("an environment");
+    assert!(e.map.is_none() && (e.radiance - Vec3::new(1.1, 1.2, 2.3)).length() < 1e-6);
+    let d = std::env::temp_dir().join(format!("lightpath-envs-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let mut pfm = b"PF\n2 2\n-1.0\n".to_vec();
+    for v in [1.0f32, 2.0, 3.0, 4.0].iter().flat_map(|&x| [x, x, x]) {
+        pfm.extend(v.to_le_bytes());
+    }
+    std::fs::write(d.join("sky.pfm"), pfm).unwrap();
+    let map = "LightSource \"infinite\" \"string filename\" \"sky.pfm\" \"float scale\" 2\n";
+    let constant = "LightSource \"infinite\" \"rgb L\" [ 0.5 0.5 0.5 ]\n";
+    for order in [format!("{map}{constant}"), format!("{constant}{map}")] {
+        std::fs::write(d.join("s.pbrt"), format!("WorldBegin\n{order}")).unwrap();
+        let s = parse_pbrt_file(&d.join("s.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+        let e = s.environment.expect("an environment");
+        let m = e.map.expect("the map");
+        assert_eq!(e.radiance, Vec3::ONE);
+        let mut values: Vec<f32> = m.image.pixels.iter().map(|p| p[0]).collect();
+        values.sort_by(f32::total_cmp);
+        assert_eq!(values, vec![2.5, 4.5, 6.5, 8.5]);
+    }
+    std::fs::write(d.join("s.pbrt"), format!("WorldBegin\n{map}{map}")).unwrap();
+    let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("two maps");
+    assert!(e.message.contains("second infinite light"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// A parameter given twice takes its last value (pbrt-v4's lookup order), with a
+/// warning; a parameter given once is read as before.
+#[test]
+fn a_parameter_given_twice_takes_its_last_value() {
+    let s = parse(&format!(
+        r#"WorldBegin
+        Material "diffuse" "rgb reflectance" [ 0.1 0.2 0.3 ] "rgb reflectance" [ 0.4 0.5 0.6 ]
+        {QUAD}
+        LightSource "point" "rgb I" [ 1 1 1 ] "point3 from" [ 0 1 0 ] "rgb I" [ 2 3 4 ]
+        "#
+    ));
+    assert_eq!(s.materials[0].diffuse, Vec3::new(0.4, 0.5, 0.6));
+    assert!(
+        matches!(s.delta_lights[0], DeltaLight::Point { intensity, .. } if intensity == Vec3::new(2.0, 3.0, 4.0))
+    );
+}
+
+/// An infinite light's `portal`: four points of a rectangle, under the transform; not
+/// a rectangle, too few points, or beside another infinite light: errors.
+#[test]
+fn a_portal_is_a_transformed_rectangle() {
+    let s = parse(&format!(
+        "WorldBegin\nTranslate 0 1 0\nLightSource \"infinite\" \"point3 portal\" [ 0 0 0  1 0 0  1 0 1  0 0 1 ]\n{QUAD}"
+    ));
+    let q = s
+        .environment
+        .as_ref()
+        .and_then(|e| e.portal)
+        .expect("a portal");
+    assert_eq!(q[2], Vec3::new(1.0, 1.0, 1.0));
+    for bad in [
+        "\"point3 portal\" [ 0 0 0  1 0 0  1.5 0 1  0 0 1 ]",
+        "\"point3 portal\" [ 0 0 0  1 0 0  1 0 1 ]",
+    ] {
+        let e = parse_err(&format!(
+            "WorldBegin\nLightSource \"infinite\" {bad}\n{QUAD}"
+        ));
+        assert!(e.message.contains("portal"), "{e}");
+    }
+    let e = parse_err(&format!(
+        "WorldBegin\nLightSource \"infinite\" \"point3 portal\" [ 0 0 0  1 0 0  1 0 1  0 0 1 ]\nLightSource \"infinite\"\n{QUAD}"
+    ));
+    assert!(e.to_string().contains("portal"), "{e}");
+}
+
+/// The published scenes' `rrthreshold` (an earlier pbrt-v4's) is read and ignored: it
+/// changes noise only.
+#[test]
+fn rrthreshold_is_accepted() {
+    for ty in ["path", "volpath", "bdpt"] {
+        parse(&format!(
+            "Integrator \"{ty}\" \"float rrthreshold\" 0.5\nWorldBegin\n{QUAD}"
+        ));
+    }
+}
+
+/// pbrt-v4's imaging ratio: the exposure time (shutterclose − shutteropen) × ISO / 100,
+/// and the film's `scale` (the published scenes' pbrt-v4), multiply every emitter; a
+/// shutter that never opens is an error.
+#[test]
+fn exposure_iso_and_film_scale_scale_every_emitter() {
+    let light =
+        "LightSource \"point\" \"rgb I\" [ 1 2 3 ]\nLightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n";
+    for (options, want) in [
+        ("", 1.0),
+        (
+            "Camera \"perspective\" \"float shutteropen\" 0.25 \"float shutterclose\" 0.75\n",
+            0.5,
+        ),
+        ("Film \"rgb\" \"float iso\" 400 \"float scale\" 1.5\n", 6.0),
+        (
+            "Film \"rgb\" \"float scale\" 2\nCamera \"perspective\" \"float shutterclose\" 0.5\n",
+            1.0,
+        ),
+    ] {
+        let s = parse(&format!("{options}WorldBegin\n{light}{QUAD}"));
+        let DeltaLight::Point { intensity, .. } = s.delta_lights[0] else {
+            panic!("a point light")
+        };
+        assert!(
+            (intensity - want * Vec3::new(1.0, 2.0, 3.0)).length() < 1e-6,
+            "{options}: {intensity}"
+        );
+        let env = s.environment.as_ref().expect("the infinite light");
+        assert!(
+            (env.radiance - Vec3::splat(want)).length() < 1e-6,
+            "{options}"
+        );
+    }
+    let e = parse_err("Camera \"perspective\" \"float shutteropen\" 1 \"float shutterclose\" 1\n");
+    assert!(e.message.contains("never opens"), "{e}");
+    let e = parse_err("Film \"rgb\" \"float scale\" -1\n");
+    assert!(e.message.contains("scale"), "{e}");
+}
+
+/// Animated transforms render at the shutter-open time: transforms after
+/// `ActiveTransform EndTime` leave the rendered (start) transform as it was, `StartTime`
+/// and `All` change it, and an attribute block restores which is active; the camera's
+/// shutter interval is read (a warning), a bad one an error.
+#[test]
+fn animated_transforms_render_at_the_shutter_open_time() {
+    let s = parse(
+        r#"Camera "perspective" "float shutteropen" 0 "float shutterclose" 0.5
+        WorldBegin
+        AttributeBegin
+        ActiveTransform EndTime
+        Translate 10 0 0
+        ActiveTransform StartTime
+        Translate 0 1 0
+        Shape "sphere"
+        AttributeEnd
+        AttributeBegin
+        ActiveTransform EndTime
+        AttributeBegin
+        ActiveTransform All
+        Translate 0 0 2
+        Shape "sphere"
+        AttributeEnd
+        Scale 5 5 5
+        Shape "sphere"
+        AttributeEnd
+        "#,
+    );
+    let to_world: Vec<Mat4> = s.spheres.iter().map(|sp| sp.object_to_world).collect();
+    assert_eq!(
+        to_world,
+        vec![
+            Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0)),
+            Mat4::from_translation(Vec3::new(0.0, 0.0, 2.0)),
+            Mat4::IDENTITY
+        ]
+    );
+    let e = parse_err("Camera \"perspective\" \"float shutteropen\" [ ]\n");
+    assert!(e.message.contains("shutteropen"), "{e}");
+    let e = parse_err("WorldBegin\nActiveTransform Later\n");
+    assert!(e.message.contains("StartTime"), "{e}");
+}
+
+/// pbrt-v4's diffusetransmission: R and T default to 0.25, `scale` multiplies both and
+/// each is clamped to [0, 1]; a texture replaces either.
+#[test]
+fn diffuse_transmission_reads_reflectance_transmittance_and_scale() {
+    let s = parse(&format!(
+        r#"WorldBegin
+        Material "diffusetransmission"
+        {QUAD}
+        Material "diffusetransmission" "rgb reflectance" [ 0.2 0.3 0.6 ] "rgb transmittance" [ 0.1 0.5 0.4 ] "float scale" 2
+        {QUAD}
+        Texture "t" "spectrum" "checkerboard" "rgb tex1" [ 0.1 0.1 0.1 ] "rgb tex2" [ 0.9 0.9 0.9 ]
+        Material "diffusetransmission" "texture transmittance" "t"
+        {QUAD}
+        "#
+    ));
+    let m = |i: usize| s.materials[s.triangles[2 * i].material as usize];
+    assert!((0..3).all(|i| m(i).bsdf == BsdfKind::DiffuseTransmission));
+    assert_eq!(m(0).diffuse, Vec3::splat(0.25));
+    assert_eq!(m(0).transmittance, Vec3::splat(0.25));
+    assert_eq!(m(1).diffuse, Vec3::new(0.4, 0.6, 1.0));
+    assert_eq!(m(1).transmittance, Vec3::new(0.2, 1.0, 0.8));
+    assert!(m(2).transmittance_texture.is_some() && m(2).diffuse_texture.is_none());
+    // The record carries T in `specular` and its texture in info.w.
+    let r = m(1).record();
+    assert_eq!(r.specular[..3], [0.2, 1.0, 0.8]);
+    assert_eq!(m(2).record().info[3], m(2).transmittance_texture.unwrap());
+}
+
+/// pbrt-v4's coatedconductor: the coating's `interface.*` and the conductor's
+/// `conductor.*` (copper by default, named spectra, or a constant or textured
+/// `reflectance`), each roughness remapped; the record holds the conductor's eta and k
+/// over the coating's index (pbrt-v4 divides them so), its alphas in `base`, a
+/// textured thickness in base.w. A textured albedo is refused.
+#[test]
+fn coated_conductor_reads_its_coating_and_its_conductor() {
+    let s = parse(&format!(
+        r#"WorldBegin
+        Material "coatedconductor"
+        {QUAD}
+        Material "coatedconductor" "float interface.roughness" 0.04 "spectrum conductor.eta" "metal-Al-eta" "spectrum conductor.k" "metal-Al-k" "float conductor.uroughness" 0.09 "float conductor.vroughness" 0.16 "float interface.eta" 1.33 "float thickness" 0.2 "integer maxdepth" 5 "integer nsamples" 2
+        {QUAD}
+        Texture "r" "spectrum" "checkerboard" "rgb tex1" [ 0.1 0.1 0.1 ] "rgb tex2" [ 0.9 0.9 0.9 ]
+        Texture "ir" "float" "checkerboard" "float tex1" 0.01 "float tex2" 0.2
+        Material "coatedconductor" "texture reflectance" "r" "texture interface.roughness" "ir" "float conductor.roughness" 0.01 "bool remaproughness" false
+        {QUAD}
+        Material "coatedconductor" "rgb reflectance" [ 0.5 0.5 0.5 ]
+        {QUAD}
+        Material "coateddiffuse" "texture thickness" "ir"
+        {QUAD}
+        "#
+    ));
+    let m = |i: usize| s.materials[s.triangles[2 * i].material as usize];
+    assert!((0..4).all(|i| m(i).bsdf == BsdfKind::CoatedConductor));
+    let d = m(0);
+    assert_eq!(
+        (d.eta, d.k),
+        (crate::scene::COPPER_ETA, crate::scene::COPPER_K)
+    );
+    assert_eq!((d.ior, d.roughness, d.base_roughness), (1.5, 0.0, 0.0));
+    assert_eq!(
+        (d.thickness, d.layer_max_depth, d.layer_samples),
+        (0.01, 10, 1)
+    );
+    let a = m(1);
+    assert!((a.roughness - 0.2).abs() < 1e-6 && (a.roughness_v - 0.2).abs() < 1e-6);
+    assert!((a.base_roughness - 0.3).abs() < 1e-6 && (a.base_roughness_v - 0.4).abs() < 1e-6);
+    assert_eq!(
+        (a.ior, a.thickness, a.layer_max_depth, a.layer_samples),
+        (1.33, 0.2, 5, 2)
+    );
+    // Aluminium (RGB of pbrt-v4's spectra): eta 1.66-0.52, k 9.2-4.8.
+    assert!(
+        a.eta.max_element() < 2.0 && a.k.min_element() > 4.0,
+        "{} {}",
+        a.eta,
+        a.k
+    );
+    let r = a.record();
+    for c in 0..3 {
+        assert!((r.specular[c] - a.eta[c] / 1.33).abs() < 1e-6);
+        assert!((r.diffuse[c] - a.k[c] / 1.33).abs() < 1e-6);
+    }
+    assert_eq!(r.eta[0], 1.33);
+    assert_eq!(r.base[..2], [a.base_roughness, a.base_roughness_v]);
+    assert_eq!(r.base[2].to_bits(), crate::abi::NO_TEXTURE);
+    let t = m(2);
+    assert!(t.diffuse_texture.is_some() && t.roughness_texture.is_some());
+    assert!(!t.remap_roughness_texture && t.base_roughness == 0.01);
+    assert_eq!(t.record().info[2], t.diffuse_texture.unwrap());
+    assert_eq!(t.record().info[1] & crate::abi::MATERIAL_REMAP_ROUGHNESS, 0);
+    // A reflectance r: eta 1, k = 2 sqrt(r) / sqrt(1 - r) = 2.
+    let c = m(3);
+    assert_eq!(c.eta, Vec3::ONE);
+    assert!((c.k - Vec3::splat(2.0)).abs().max_element() < 1e-6);
+    // A textured thickness (either coated kind): base.w.
+    let th = m(4);
+    assert_eq!(th.thickness_texture, t.roughness_texture);
+    assert_eq!(th.record().base[3].to_bits(), th.thickness_texture.unwrap());
+    assert_eq!(c.record().base[3].to_bits(), crate::abi::NO_TEXTURE);
+    let e = parse_err(&format!(
+        "WorldBegin\nTexture \"r\" \"spectrum\" \"checkerboard\"\n\
+         Material \"coatedconductor\" \"texture albedo\" \"r\"\n{QUAD}"
+    ));
+    assert!(e.to_string().contains("textured albedo"), "{e}");
+    // A scattering layer: albedo clamped to [0, 1] and g to [-1, 1], in eta.yzw and k.w.
+    let s = parse(&format!(
+        "WorldBegin\nMaterial \"coateddiffuse\" \"rgb albedo\" [ 0.5 1.5 0.2 ] \"float g\" -2\n{QUAD}"
+    ));
+    let m = s.materials[s.triangles[0].material as usize];
+    assert_eq!(
+        (m.layer_albedo, m.layer_g),
+        (Vec3::new(0.5, 1.0, 0.2), -1.0)
+    );
+    let r = m.record();
+    assert_eq!((r.eta[1..4].to_vec(), r.k[3]), (vec![0.5, 1.0, 0.2], -1.0));
+}
+
+/// pbrt-v4's `scale` and `mix` textures: constants fold into constants, a leaf
+/// texture times a constant is a scaled copy of the leaf, and anything else (a texture
+/// of textures, a colour times a float texture, a mix with a textured amount) is a
+/// texture made of textures; a tree larger than the kernels' programs is an error.
+#[test]
+fn scale_and_mix_textures_fold_copy_or_make_a_tree() {
+    use crate::texture::Operand;
+    let s = parse(&format!(
+        r#"WorldBegin
+        Texture "c" "spectrum" "checkerboard" "rgb tex1" [ 0.1 0.1 0.1 ] "rgb tex2" [ 0.9 0.9 0.9 ]
+        Texture "f" "float" "checkerboard" "float tex1" 0.2 "float tex2" 0.6
+        Texture "k" "spectrum" "scale" "rgb tex" [ 0.5 0.5 0.5 ] "float scale" 0.5
+        Texture "cs" "spectrum" "scale" "texture tex" "c" "float scale" 2
+        Texture "tint" "spectrum" "scale" "rgb tex" [ 0.9 0.5 0.2 ] "texture scale" "f"
+        Texture "m" "spectrum" "mix" "texture tex1" "c" "texture amount" "f"
+        Texture "mc" "spectrum" "mix" "rgb tex1" [ 1 0 0 ] "rgb tex2" [ 0 0 1 ] "float amount" 0.25
+        Texture "sm" "spectrum" "scale" "texture tex" "m" "texture scale" "f"
+        Material "diffuse" "texture reflectance" "k"
+        {QUAD}
+        Material "diffuse" "texture reflectance" "cs"
+        {QUAD}
+        Material "diffuse" "texture reflectance" "tint"
+        {QUAD}
+        Material "diffuse" "texture reflectance" "m"
+        {QUAD}
+        Material "diffuse" "texture reflectance" "mc"
+        {QUAD}
+        Material "diffuse" "texture reflectance" "sm"
+        {QUAD}
+        "#
+    ));
+    let m = |i: usize| s.materials[s.triangles[2 * i].material as usize];
+    let tex = |i: usize| &s.textures[m(i).diffuse_texture.unwrap() as usize];
+    assert!(m(0).diffuse_texture.is_none() && m(0).diffuse == Vec3::splat(0.25));
+    assert!(
+        matches!(tex(1), Texture::Checkerboard { even, odd, .. } if *even == Vec3::splat(0.2) && *odd == Vec3::splat(1.8))
+    );
+    match tex(2) {
+        Texture::Scale {
+            tex: Operand::Const(c),
+            scale: Operand::Texture(f),
+        } => {
+            assert_eq!(*c, Vec3::new(0.9, 0.5, 0.2));
+            assert!(matches!(**f, Texture::Checkerboard { .. }));
+        }
+        other => panic!("{other:?}"),
+    }
+    match tex(3) {
+        Texture::Mix {
+            tex1: Operand::Texture(_),
+            tex2: Operand::Const(c),
+            amount: Operand::Texture(_),
+        } => assert_eq!(*c, Vec3::ONE),
+        other => panic!("{other:?}"),
+    }
+    assert!(m(4).diffuse_texture.is_none());
+    assert!(
+        (m(4).diffuse - Vec3::new(0.75, 0.0, 0.25))
+            .abs()
+            .max_element()
+            < 1e-6
+    );
+    assert_eq!(tex(5).program_length(), 5);
+    // A tree of nine textures.
+    let mut text = String::from("WorldBegin\nTexture \"t0\" \"float\" \"checkerboard\"\n");
+    for i in 1..5 {
+        text += &format!(
+            "Texture \"t{i}\" \"float\" \"scale\" \"texture tex\" \"t{}\" \"texture scale\" \"t0\"\n",
+            i - 1
+        );
+    }
+    let e = parse_err(&text);
+    assert!(e.to_string().contains("at most 8"), "{e}");
+}
+
+#[test]
+fn tokens_parameters_and_defaults() {
+    let s = parse(&format!(
+        r#"# a comment
+        LookAt 0 0 5  0 0 0  0 1 0
+        Camera "perspective" "float fov" 40
+        Film "rgb" "integer xresolution" [ 64 ] "integer yresolution" 32 "string filename" "out.exr"
+        Sampler "zsobol" "integer pixelsamples" 8
+        Integrator "bdpt" "integer maxdepth" [ 7 ]
+        WorldBegin
+        Material "diffuse" "rgb reflectance" [ 0.2 0.3 0.4 ]
+        {QUAD}
+        "#
+    ));
+    assert_eq!((s.width, s.height), (64, 32));
+    assert_eq!(s.output.as_deref(), Some("out.exr"));
+    assert_eq!(s.settings.spp, 8);
+    assert_eq!(s.settings.max_depth, 7);
+    assert_eq!(s.settings.integrator, IntegratorKind::Bdpt);
+    assert_eq!(s.triangles.len(), 2);
+    assert_eq!(s.materials[0].diffuse, Vec3::new(0.2, 0.3, 0.4));
+    assert_eq!(s.materials[0].bsdf, BsdfKind::Phong);
+    assert_eq!(s.materials[0].specular, Vec3::ZERO);
+    // fov spans the shorter side (here the height): the vertical fov is 40°.
+    assert!((s.camera.fovy_degrees - 40.0).abs() < 1e-4);
+    // pbrt's LookAt camera: world +x is on the image's left.
+    assert!(s.camera.mirror);
+    assert!((s.camera.eye - Vec3::new(0.0, 0.0, 5.0)).length() < 1e-5);
+    assert!(((s.camera.look_at - s.camera.eye).normalize() - Vec3::NEG_Z).length() < 1e-5);
+    // A portrait image: fov spans the width.
+    let s = parse(
+        r#"Camera "perspective" "float fov" 90 Film "rgb" "integer xresolution" 50 "integer yresolution" 100 WorldBegin"#,
+    );
+    let expected = (2.0 * (2.0f32).atan()).to_degrees();
+    assert!(
+        (s.camera.fovy_degrees - expected).abs() < 1e-3,
+        "{}",
+        s.camera.fovy_degrees
+    );
+    // `Scale -1 1 1` before LookAt (as exporters write) makes it unmirrored.
+    let s = parse("Scale -1 1 1 LookAt 0 0 5 0 0 0 0 1 0 Camera \"perspective\" WorldBegin");
+    assert!(!s.camera.mirror);
+}
+
+#[test]
+fn mixes_name_two_materials_and_carry_the_light() {
+    use crate::abi::MATERIAL_MIX;
+    let s = parse(&format!(
+        r#"WorldBegin
+        MakeNamedMaterial "a" "string type" "diffuse" "rgb reflectance" [ 0.8 0.8 0.8 ]
+        MakeNamedMaterial "b" "string type" "conductor"
+        MakeNamedMaterial "ab" "string type" "mix" "string materials" [ "a" "b" ] "float amount" 0.3
+        Texture "t" "float" "checkerboard"
+        MakeNamedMaterial "abt" "string type" "mix" "string materials" [ "ab" "a" ] "texture amount" "t"
+        NamedMaterial "ab"
+        {QUAD}
+        AttributeBegin
+        AreaLightSource "diffuse" "rgb L" [ 2 2 2 ]
+        NamedMaterial "abt"
+        {QUAD}
+        AttributeEnd
+        "#
+    ));
+    let m = &s.materials;
+    let mix = |i: u32| m[i as usize].mix.expect("a mix");
+    let ab = mix(s.triangles[0].material);
+    assert_eq!(ab.amount, 0.3);
+    assert_eq!(m[ab.materials[0] as usize].diffuse, Vec3::splat(0.8));
+    assert_eq!(m[ab.materials[1] as usize].bsdf, BsdfKind::Conductor);
+    // The emitter's mix, and every material it can resolve to, emit.
+    let abt = mix(s.triangles[2].material);
+    assert!(abt.amount_texture.is_some());
+    assert!(m[s.triangles[2].material as usize].emission == Vec3::splat(2.0));
+    let inner = mix(abt.materials[0]);
+    for i in [abt.materials[1], inner.materials[0], inner.materials[1]] {
+        assert_eq!(m[i as usize].emission, Vec3::splat(2.0));
+        assert!(m[i as usize].mix.is_none());
+    }
+    // The record the kernels read: flag, children, amount.
+    let r = m[s.triangles[0].material as usize].record();
+    assert_eq!(r.info[1] & MATERIAL_MIX, MATERIAL_MIX);
+    assert_eq!(r.specular[0].to_bits(), ab.materials[0]);
+    assert_eq!(r.specular[2], 0.3);
+    for (text, what) in [
+        ("MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" \"a\"", "two material names"),
+        ("MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [ \"a\" \"nope\" ]", "no material named \"nope\""),
+    ] {
+        let e = parse_err(&format!("WorldBegin\nMakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n{text}\n"));
+        assert!(e.message.contains(what) && e.line == 3, "{e}");
+    }
+    let mut deep =
+        String::from("WorldBegin\nMakeNamedMaterial \"m0\" \"string type\" \"diffuse\"\n");
+    for i in 1..=9 {
+        deep += &format!("MakeNamedMaterial \"m{i}\" \"string type\" \"mix\" \"string materials\" [ \"m{}\" \"m0\" ]\n", i - 1);
+    }
+    let e = parse_err(&deep);
+    assert!(
+        e.message.contains("nest more than 8") && e.line == 11,
+        "{e}"
+    );
+}
+
+#[test]
+fn lens_screen_window_frame_and_crop() {
+    let camera = |params: &str, film: &str| {
+        parse(&format!(
+            "Camera \"perspective\" \"float fov\" 90 {params} Film \"rgb\" \"integer xresolution\" 20 \"integer yresolution\" 10 {film} WorldBegin"
+        ))
+    };
+    let s = camera("\"float lensradius\" 0.5 \"float focaldistance\" 3", "");
+    assert_eq!((s.camera.lens_radius, s.camera.focal_distance), (0.5, 3.0));
+    // No window, frame or crop: the film follows the image (so --size keeps pbrt's rule).
+    assert_eq!(s.camera.window, None);
+    assert_eq!(camera("", "").camera.focal_distance, 1e6);
+    // A screen window is scaled by tan(fov / 2) = 1.
+    let s = camera("\"float screenwindow\" [ -0.5 1 -0.25 0.75 ]", "");
+    assert_eq!(s.camera.window, Some([-0.5, 1.0, -0.25, 0.75]));
+    // frameaspectratio 1 on a 2:1 image: [-1, 1]², stretched.
+    let s = camera("\"float frameaspectratio\" 1", "");
+    assert_eq!(s.camera.window, Some([-1.0, 1.0, -1.0, 1.0]));
+    // A crop renders ceil(resolution × crop): x 2..11, y 0..3 of the [-2, 2] × [-1, 1]
+    // film, whose rows run down from y = 1.
+    let s = camera("", "\"float cropwindow\" [ 0.55 0.1 0 0.3 ]");
+    assert_eq!((s.width, s.height), (9, 3));
+    let w = s.camera.window.unwrap();
+    let expected = [
+        -2.0 + 4.0 * 2.0 / 20.0,
+        -2.0 + 4.0 * 11.0 / 20.0,
+        1.0 - 2.0 * 3.0 / 10.0,
+        1.0,
+    ];
+    for (a, b) in w.iter().zip(expected) {
+        assert!((a - b).abs() < 1e-6, "{w:?} vs {expected:?}");
+    }
+    // pixelbounds, clamped to the film, wins over cropwindow.
+    let s = camera(
+        "",
+        "\"integer pixelbounds\" [ 5 30 2 4 ] \"float cropwindow\" [ 0 0.1 0 0.1 ]",
+    );
+    assert_eq!((s.width, s.height), (15, 2));
+    for (params, film, what) in [
+        (
+            "\"float lensradius\" -1",
+            "",
+            "lensradius must be zero or positive",
+        ),
+        (
+            "\"float focaldistance\" 0",
+            "",
+            "focaldistance must be positive",
+        ),
+        (
+            "\"float screenwindow\" [ 0 1 2 ]",
+            "",
+            "screenwindow must be 4 finite numbers",
+        ),
+        (
+            "\"float screenwindow\" [ 0 0 0 1 ]",
+            "",
+            "screenwindow must be 4 finite numbers",
+        ),
+        (
+            "",
+            "\"float cropwindow\" [ 0 1.5 0 1 ]",
+            "cropwindow must be 4 numbers",
+        ),
+        (
+            "",
+            "\"float cropwindow\" [ 0.51 0.52 0 1 ]",
+            "holds no pixel",
+        ),
+        (
+            "",
+            "\"integer pixelbounds\" [ 3 3 0 1 ]",
+            "pixelbounds must be 4 integers",
+        ),
+    ] {
+        let e = parse_err(&format!(
+            "Camera \"perspective\" {params}\nFilm \"rgb\" \"integer xresolution\" 20 \"integer yresolution\" 10 {film}\nWorldBegin"
+        ));
+        assert!(e.message.contains(what), "{e}");
+        assert_eq!(e.line, if film.is_empty() { 1 } else { 2 }, "{e}");
+    }
+}
+
+#[test]
+fn mlt_renders_its_mutations_per_pixel() {
+    let s = parse("Integrator \"mlt\" \"float sigma\" 0.02 Sampler \"halton\" \"integer pixelsamples\" 4 WorldBegin");
+    assert_eq!(
+        (s.settings.integrator, s.settings.spp),
+        (IntegratorKind::Mmlt, 100)
+    );
+    assert!((s.settings.mmlt.sigma - 0.02).abs() < 1e-7);
+    let s = parse("Sampler \"halton\" \"integer pixelsamples\" 4 Integrator \"mlt\" \"integer mutationsperpixel\" 7 WorldBegin");
+    assert_eq!(s.settings.spp, 7);
+    let s = parse("Integrator \"mlt\" Integrator \"bdpt\" Sampler \"halton\" \"integer pixelsamples\" 4 WorldBegin");
+    assert_eq!(
+        (s.settings.integrator, s.settings.spp),
+        (IntegratorKind::Bdpt, 4)
+    );
+}
+
+#[test]
+fn transforms_attributes_and_instances() {
+    let s = parse(&format!(
+        r#"WorldBegin
+        AttributeBegin
+          Translate 10 0 0
+          Scale 2 2 2
+          {QUAD}
+        AttributeEnd
+        ObjectBegin "q"
+          Rotate 90 0 0 1
+          {QUAD}
+        ObjectEnd
+        Translate 0 0 -3
+        ObjectInstance "q"
+        {QUAD}
+        "#
+    ));
+    assert_eq!(s.triangles.len(), 6);
+    // Translated and scaled: corner (-1, -1, 0) at (8, -2, 0).
+    assert!((s.triangles[0].v[0] - Vec3::new(8.0, -2.0, 0.0)).length() < 1e-5);
+    // The instance: rotated 90° about z, then translated by the instance's transform.
+    assert!((s.triangles[2].v[0] - Vec3::new(1.0, -1.0, -3.0)).length() < 1e-5);
+    // After the instance, the plain quad is only translated.
+    assert!((s.triangles[4].v[0] - Vec3::new(-1.0, -1.0, -3.0)).length() < 1e-5);
+    // Transform takes the matrix column by column (translation last).
+    let s = parse(&format!(
+        "WorldBegin Transform [1 0 0 0  0 1 0 0  0 0 1 0  5 6 7 1] {QUAD}"
+    ));
+    assert!((s.triangles[0].v[0] - Vec3::new(4.0, 5.0, 7.0)).length() < 1e-5);
+}
+
+#[test]
+fn materials_textures_and_lights() {
+    let s = parse(&format!(
+        r#"WorldBegin
+        Texture "checks" "spectrum" "checkerboard" "rgb tex1" [1 0 0] "rgb tex2" [0 0 1] "float uscale" 4 "float vscale" 4
+        MakeNamedMaterial "glass" "string type" "dielectric" "float eta" 1.33 "float roughness" 0.04
+        MakeNamedMaterial "gold" "string type" "conductor" "spectrum eta" "metal-Au-eta" "spectrum k" "metal-Au-k" "float roughness" 0.01 "bool remaproughness" false
+        NamedMaterial "glass"
+        {QUAD}
+        NamedMaterial "gold"
+        {QUAD}
+        Material "diffuse" "texture reflectance" "checks"
+        {QUAD}
+        AttributeBegin
+          AreaLightSource "diffuse" "rgb L" [ 4 4 4 ] "float scale" 2
+          Material "diffuse" "rgb reflectance" [0 0 0]
+          {QUAD}
+        AttributeEnd
+        LightSource "point" "rgb I" [ 1 2 3 ] "point3 from" [ 0 5 0 ]
+        LightSource "spot" "point3 from" [0 0 0] "point3 to" [0 -1 0] "float coneangle" 30 "float conedeltaangle" 10
+        LightSource "distant" "point3 from" [0 1 0] "point3 to" [0 0 0] "rgb L" [2 2 2]
+        LightSource "infinite" "rgb L" [0.1 0.2 0.3]
+        "#
+    ));
+    let m = |t: usize| s.materials[s.triangles[t].material as usize];
+    assert_eq!(m(0).bsdf, BsdfKind::Dielectric);
+    assert!((m(0).ior - 1.33).abs() < 1e-6);
+    // remaproughness (the default): alpha = sqrt(roughness).
+    assert!((m(0).roughness - 0.2).abs() < 1e-6);
+    assert_eq!(m(2).bsdf, BsdfKind::Conductor);
+    assert!((m(2).roughness - 0.01).abs() < 1e-6);
+    assert!((m(2).eta.x - 0.143_119).abs() < 1e-6);
+    assert_eq!(m(4).bsdf, BsdfKind::Phong);
+    let t = m(4).diffuse_texture.expect("textured") as usize;
+    assert!(
+        matches!(s.textures[t], Texture::Checkerboard { mapping, .. } if mapping == [4.0, 4.0, 0.0, 0.0])
+    );
+    assert_eq!(m(6).emission, Vec3::splat(8.0));
+    assert!(!m(6).two_sided_emission);
+    // The area light ended with its attributes.
+    assert_eq!(s.delta_lights.len(), 3);
+    assert!(
+        matches!(s.delta_lights[0], DeltaLight::Point { position, intensity } if position == Vec3::new(0.0, 5.0, 0.0) && intensity == Vec3::new(1.0, 2.0, 3.0))
+    );
+    match s.delta_lights[1] {
+        DeltaLight::Spot {
+            direction,
+            cos_falloff_start,
+            cos_falloff_end,
+            ..
+        } => {
+            assert!((direction - Vec3::NEG_Y).length() < 1e-6);
+            assert!((cos_falloff_start - 20f32.to_radians().cos()).abs() < 1e-6);
+            assert!((cos_falloff_end - 30f32.to_radians().cos()).abs() < 1e-6);
+        }
+        _ => panic!("a spot light"),
+    }
+    assert!(
+        matches!(s.delta_lights[2], DeltaLight::Directional { direction, radiance } if direction == Vec3::Y && radiance == Vec3::splat(2.0))
+    );
+    assert_eq!(
+        s.environment.as_ref().unwrap().radiance,
+        Vec3::new(0.1, 0.2, 0.3)
+    );
+}
+
+/// pbrt's emitting side: the triangle's normal (p0 - p2) × (p1 - p2), flipped by
+/// ReverseOrientation or a mirroring transform, or turned toward the mesh's normals.
+#[test]
+fn emission_faces_pbrts_side() {
+    let facing = |text: &str| {
+        let s = parse(&format!("WorldBegin AreaLightSource \"diffuse\" {text}"));
+        let t = &s.triangles[0];
+        (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).normalize()
+    };
+    assert!((facing(QUAD) - Vec3::Z).length() < 1e-6);
+    assert!((facing(&format!("ReverseOrientation {QUAD}")) + Vec3::Z).length() < 1e-6);
+    // A mirroring transform turns the normal as a normal transforms.
+    assert!((facing(&format!("Scale 1 1 -1 {QUAD}")) + Vec3::Z).length() < 1e-6);
+    assert!((facing(&format!("Scale -1 1 1 {QUAD}")) - Vec3::Z).length() < 1e-6);
+    let with_normals = format!("{QUAD} \"normal N\" [0 0 -1 0 0 -1 0 0 -1 0 0 -1]");
+    assert!((facing(&with_normals) + Vec3::Z).length() < 1e-6);
+    // A mesh light with `power`: each triangle emits it (pbrt-v4 makes one light per
+    // triangle): L = power / (π area), area 2 per triangle.
+    let s = parse(&format!(
+        "WorldBegin AreaLightSource \"diffuse\" \"float power\" 10 {QUAD}"
+    ));
+    let l = s.materials[s.triangles[0].material as usize].emission;
+    assert!(
+        (l.x - 10.0 / (std::f32::consts::PI * 2.0)).abs() < 1e-5,
+        "{l}"
+    );
+}
+
+#[test]
+fn unsupported_features_are_listed_together() {
+    let e = parse_err(&format!(
+        r#"WorldBegin
+        MakeNamedMedium "fog" "string type" "homogeneous"
+        Shape "curve" "point3 P" [0 0 0 1 1 1 2 2 2 3 3 3]
+        Material "hair"
+        Shape "sphere" "float alpha" 0.5
+        LightSource "goniometric"
+        "#
+    ));
+    let text = e.to_string();
+    for what in [
+        "t.pbrt:2: MakeNamedMedium",
+        "t.pbrt:3: Shape \"curve\"",
+        "t.pbrt:4: Material \"hair\"",
+        "alpha",
+        "t.pbrt:6: LightSource \"goniometric\"",
+    ] {
+        assert!(text.contains(what), "{what} missing from:\n{text}");
+    }
+    assert_eq!(e.line, 2);
+    // An unknown parameter is unsupported too (it would be silently ignored).
+    let e = parse_err(&format!(
+        "WorldBegin Material \"diffuse\" \"rgb reflectanse\" [1 1 1] {QUAD}"
+    ));
+    assert!(
+        e.to_string()
+            .contains("\"rgb reflectanse\" is not supported"),
+        "{e}"
+    );
+}
+
+#[test]
+fn syntax_errors_name_the_line() {
+    let e = parse_err("WorldBegin\n\nShape \"sphere\" \"float radius\" [ 1 \n");
+    assert!(e.message.contains("']'"), "{e}");
+    let e = parse_err("WorldBegin\nFrobnicate 1 2\n");
+    assert_eq!((e.line, e.command.as_str()), (2, "Frobnicate"));
+    let e = parse_err("WorldBegin\nShape \"sphere\" \"float radius\" \"big\"\n");
+    assert_eq!(e.line, 2);
+    let e = parse_err("Film \"rgb\" \"integer xresolution\" 1.5");
+    assert!(e.message.contains("integer"), "{e}");
+    let e = parse_err("WorldBegin\nAttributeEnd");
+    assert!(e.message.contains("without a matching"), "{e}");
+    let e = parse_err("WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"integer indices\" [0 1 5]");
+    assert!(e.message.contains("out of range"), "{e}");
+    let e = parse_err("Shape \"sphere\" \"string radius\" \"unterminated");
+    assert!(e.message.contains("unterminated"), "{e}");
+    let e = parse_err("WorldBegin NamedMaterial \"nothing\"");
+    assert!(e.message.contains("no material named"), "{e}");
+}
+
+#[test]
+fn includes_are_relative_to_the_including_file() {
+    let d = std::env::temp_dir().join(format!("lightpath-pbrt-{}", std::process::id()));
+    std::fs::create_dir_all(d.join("sub/deeper")).unwrap();
+    std::fs::write(d.join("main.pbrt"), "WorldBegin\nInclude \"sub/a.pbrt\"\n").unwrap();
+    std::fs::write(
+        d.join("sub/a.pbrt"),
+        format!("Include \"deeper/b.pbrt\"\n{QUAD}\n"),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("sub/deeper/b.pbrt"),
+        "Material \"diffuse\" \"rgb reflectance\" [0.1 0.2 0.3]\n\nShape \"bogus\"\n",
+    )
+    .unwrap();
+    let e = parse_pbrt_file(&d.join("main.pbrt")).expect_err("bogus shape");
+    assert!(e.to_string().contains("b.pbrt:3: Shape \"bogus\""), "{e}");
+    std::fs::write(
+        d.join("sub/deeper/b.pbrt"),
+        "Material \"diffuse\" \"rgb reflectance\" [0.1 0.2 0.3]\n",
+    )
+    .unwrap();
+    let s = parse_pbrt_file(&d.join("main.pbrt")).unwrap();
+    assert_eq!(s.triangles.len(), 2);
+    assert_eq!(s.materials[0].diffuse, Vec3::new(0.1, 0.2, 0.3));
+    // A gzip-compressed include (pbrt-v4's `.pbrt.gz`); a corrupt one is an error
+    // naming the file.
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    std::io::Write::write_all(&mut gz, format!("{QUAD}\n").as_bytes()).unwrap();
+    std::fs::write(d.join("sub/c.pbrt.gz"), gz.finish().unwrap()).unwrap();
+    std::fs::write(
+        d.join("gz.pbrt"),
+        "WorldBegin\nInclude \"sub/c.pbrt.gz\"\nImport \"sub/c.pbrt.gz\"\n",
+    )
+    .unwrap();
+    let s = parse_pbrt_file(&d.join("gz.pbrt")).unwrap();
+    assert_eq!(s.triangles.len(), 4);
+    std::fs::write(d.join("sub/bad.pbrt.gz"), "not gzip").unwrap();
+    std::fs::write(
+        d.join("bad.pbrt"),
+        "WorldBegin\nInclude \"sub/bad.pbrt.gz\"\n",
+    )
+    .unwrap();
+    let e = parse_pbrt_file(&d.join("bad.pbrt")).expect_err("not gzip");
+    assert!(
+        e.to_string().contains("bad.pbrt:2") && e.message.contains("bad.pbrt.gz"),
+        "{e}"
+    );
+    std::fs::write(d.join("loop.pbrt"), "Include \"loop.pbrt\"\n").unwrap();
+    let e = parse_pbrt_file(&d.join("loop.pbrt")).expect_err("a loop");
+    assert!(e.message.contains("include itself"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// Blackbody, sampled and file spectra: emitted ones at luminance 1 (times scale),
+/// bounded ones grey when constant; bad ones are errors naming the line.
+#[test]
+fn blackbody_sampled_and_file_spectra() {
+    let lum = |c: Vec3| 0.212_672_9 * c.x + 0.715_152_2 * c.y + 0.072_175 * c.z;
+    let s = parse(&format!(
+        "WorldBegin\nAttributeBegin\nAreaLightSource \"diffuse\" \"blackbody L\" [2700] \"float scale\" 2\n{QUAD}\nAttributeEnd\n\
+         Material \"diffuse\" \"spectrum reflectance\" [300 0.25 900 0.25]\n{QUAD}\n"
+    ));
+    let light = s.materials[s.triangles[0].material as usize].emission;
+    assert!((lum(light) - 2.0).abs() < 1e-3, "{light}");
+    assert!(
+        light.x > light.y && light.y > light.z,
+        "2700 K is orange: {light}"
+    );
+    let grey = s.materials[s.triangles[2].material as usize].diffuse;
+    assert!(
+        (grey - Vec3::splat(0.25)).abs().max_element() < 1e-5,
+        "{grey}"
+    );
+    let e = parse_err("WorldBegin\nLightSource \"point\"\n  \"blackbody I\" [-5]\n");
+    assert!(e.line == 2 || e.line == 3, "{e}");
+    assert!(e.message.contains("temperature"), "{e}");
+    let e = parse_err("WorldBegin\nMaterial \"diffuse\" \"spectrum reflectance\" [500 1 400 1]\n");
+    assert!(e.message.contains("increase"), "{e}");
+
+    let d = std::env::temp_dir().join(format!("lightpath-spd-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join("lamp.spd"), "# a lamp\n400 0.2\n550 1.0\n700 3.0\n").unwrap();
+    std::fs::write(
+        d.join("main.pbrt"),
+        "WorldBegin\nLightSource \"point\" \"spectrum I\" \"lamp.spd\" \"float scale\" 3\n",
+    )
+    .unwrap();
+    let s = parse_pbrt_file(&d.join("main.pbrt")).unwrap();
+    let DeltaLight::Point { intensity: i, .. } = s.delta_lights[0] else {
+        panic!("a point light")
+    };
+    assert!((lum(i) - 3.0).abs() < 1e-3 && i.x > i.z, "{i}");
+    std::fs::write(d.join("lamp.spd"), "400 0.2\n550 x\n").unwrap();
+    let e = parse_pbrt_file(&d.join("main.pbrt")).expect_err("a bad spd");
+    assert!(
+        e.message.contains("lamp.spd") && e.message.contains("line 2"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// `Attribute` sets defaults for later directives of its kind, within its block;
+/// a directive's own parameter wins.
+#[test]
+fn attributes_give_default_parameters() {
+    let s = parse(
+        r#"WorldBegin
+        AttributeBegin
+          Attribute "shape" "float radius" 2
+          Attribute "material" "rgb reflectance" [0.1 0.2 0.3]
+          Material "diffuse"
+          Shape "sphere"
+          Shape "sphere" "float radius" 3
+        AttributeEnd
+        Shape "sphere"
+        "#,
+    );
+    let radius = |i: usize| s.spheres[i].object_to_world.x_axis.length();
+    assert_eq!([radius(0), radius(1), radius(2)], [2.0, 3.0, 1.0]);
+    assert_eq!(
+        s.materials[s.spheres[0].material as usize].diffuse,
+        Vec3::new(0.1, 0.2, 0.3)
+    );
+    let e = parse_err("WorldBegin\nAttribute \"camera\" \"float fov\" 30\n");
+    assert!(e.message.contains("unknown target"), "{e}");
+    let e = parse_err("WorldBegin\nAttribute \"medium\" \"rgb sigma_a\" [1 1 1]\n");
+    assert!(e.message.contains("medium"), "{e}");
+}
+
+/// loopsubdiv: `levels` of Loop subdivision, with normals; too many is an error.
+#[test]
+fn loop_subdivision_surfaces() {
+    let oct = r#""point3 P" [1 0 0 -1 0 0 0 1 0 0 -1 0 0 0 1 0 0 -1]
+        "integer indices" [0 2 4 2 1 4 1 3 4 3 0 4 2 0 5 1 2 5 3 1 5 0 3 5]"#;
+    let s = parse(&format!(
+        "WorldBegin\nShape \"loopsubdiv\" \"integer levels\" 2 {oct}\n"
+    ));
+    assert_eq!(s.triangles.len(), 8 * 16);
+    assert!(s.triangles.iter().all(|t| t.normals.is_some()));
+    let s = parse(&format!("WorldBegin\nShape \"loopsubdiv\" {oct}\n"));
+    assert_eq!(s.triangles.len(), 8 * 64, "3 levels by default");
+    let e = parse_err(&format!(
+        "WorldBegin\nShape \"loopsubdiv\" \"integer levels\" 12 {oct}\n"
+    ));
+    assert!(e.message.contains("triangles"), "{e}");
+}
+
+/// An infinite light's `illuminance` with an image: a constant map of radiance 1
+/// gives π, so asking for 2π doubles it.
+#[test]
+fn illuminance_scales_an_environment_map() {
+    let d = std::env::temp_dir().join(format!("lightpath-illum-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let n = 64usize;
+    let mut pfm = format!("PF\n{n} {n}\n-1.0\n").into_bytes();
+    for _ in 0..n * n * 3 {
+        pfm.extend(1.0f32.to_le_bytes());
+    }
+    std::fs::write(d.join("sky.pfm"), pfm).unwrap();
+    std::fs::write(
+        d.join("main.pbrt"),
+        "WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.pfm\" \"float illuminance\" 6.2831853\n",
+    )
+    .unwrap();
+    let s = parse_pbrt_file(&d.join("main.pbrt")).unwrap();
+    let l = s.environment.expect("an environment").radiance;
+    assert!((l - Vec3::splat(2.0)).abs().max_element() < 0.02, "{l}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// A PLY quad (one 4-gon face) gives the triangles of the same trianglemesh.
+#[test]
+fn plymesh_reads_like_a_trianglemesh() {
+    let d = std::env::temp_dir().join(format!("lightpath-pbrt-ply-{}", std::process::id()));
+    std::fs::create_dir_all(d.join("geometry")).unwrap();
+    std::fs::write(
+        d.join("geometry/quad.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+         -1 -1 0\n1 -1 0\n1 1 0\n-1 1 0\n4 0 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("s.pbrt"),
+        "WorldBegin\nTranslate 0 0 2\nShape \"plymesh\" \"string filename\" \"geometry/quad.ply\"\n",
+    )
+    .unwrap();
+    let ply = parse_pbrt_file(&d.join("s.pbrt")).unwrap();
+    let mesh = parse(&format!("WorldBegin Translate 0 0 2 {QUAD}"));
+    assert_eq!(ply.triangles, mesh.triangles);
+    std::fs::write(
+        d.join("s.pbrt"),
+        "WorldBegin\nShape \"plymesh\" \"string filename\" \"missing.ply\"\n",
+    )
+    .unwrap();
+    let e = parse_pbrt_file(&d.join("s.pbrt")).unwrap_err();
+    assert_eq!(e.line, 2);
+    assert!(e.message.contains("missing.ply"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn spheres_disks_and_bilinear_patches() {
+    let s = parse(
+        r#"WorldBegin
+        Translate 1 2 3
+        Shape "sphere" "float radius" 2
+        Shape "disk" "float radius" 1
+        Shape "bilinearmesh" "point3 P" [0 0 0 1 0 0 0 1 0 1 1 0]
+        "#,
+    );
+    assert_eq!(s.spheres.len(), 1);
+    let c = s.spheres[0].object_to_world.transform_point3(Vec3::X);
+    assert!((c - Vec3::new(3.0, 2.0, 3.0)).length() < 1e-5);
+    let disk: f32 = s.triangles[..DISK_SEGMENTS]
+        .iter()
+        .map(|t| 0.5 * (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length())
+        .sum();
+    assert!((disk - std::f32::consts::PI).abs() < 2e-3, "{disk}");
+    assert_eq!(s.triangles.len(), DISK_SEGMENTS + 2);
+    let patch: f32 = s.triangles[DISK_SEGMENTS..]
+        .iter()
+        .map(|t| 0.5 * (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length())
+        .sum();
+    assert!((patch - 1.0).abs() < 1e-6);
+    let e = parse_err("WorldBegin Shape \"sphere\" \"float zmax\" 0.5");
+    assert!(e.message.contains("partial sphere"), "{e}");
+}

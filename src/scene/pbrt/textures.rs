@@ -1,0 +1,341 @@
+//! Textures: image maps, checkerboards, constants and textures made of textures.
+
+use super::*;
+
+impl Parser {
+    pub(super) fn texture(
+        &mut self,
+        name: &str,
+        ty: &str,
+        class: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<(), ParseError> {
+        let d = "Texture";
+        let float = match ty {
+            "float" => true,
+            "spectrum" | "color" => false,
+            other => {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    d,
+                    format!("expected \"spectrum\" or \"float\", got \"{other}\""),
+                ))
+            }
+        };
+        let num = |n: &str, default: f64| {
+            params
+                .find(n)
+                .and_then(|p| p.nums.first().copied())
+                .unwrap_or(default) as f32
+        };
+        // Only pbrt-v4's 2D-mapped textures read a mapping.
+        let mapped = matches!(class, "imagemap" | "checkerboard" | "dots" | "bilerp");
+        let mapping = if mapped {
+            [
+                num("uscale", 1.0),
+                num("vscale", 1.0),
+                num("udelta", 0.0),
+                num("vdelta", 0.0),
+            ]
+        } else {
+            [1.0, 1.0, 0.0, 0.0]
+        };
+        // pbrt-v4's TextureMapping2D: uv, or the point in texture space (the inverse of
+        // the transform in force here).
+        let texture_from_world = self.gs.ctm.inverse();
+        let mut projection = Projection::Uv;
+        if let Some(p) = mapped.then(|| params.find("mapping")).flatten() {
+            match p.strs.first().map(String::as_str) {
+                Some("uv") => {}
+                Some("spherical") => projection = Projection::Spherical { texture_from_world },
+                Some("cylindrical") => projection = Projection::Cylindrical { texture_from_world },
+                Some("planar") => {
+                    let axis = |name: &str, default: Vec3| {
+                        params
+                            .find(name)
+                            .filter(|p| p.nums.len() == 3)
+                            .map(|p| {
+                                Vec3::new(p.nums[0] as f32, p.nums[1] as f32, p.nums[2] as f32)
+                            })
+                            .unwrap_or(default)
+                    };
+                    let (vs, vt) = (axis("v1", Vec3::X), axis("v2", Vec3::Y));
+                    let row = |v: Vec3, delta: f32| {
+                        // delta + v · (texture_from_world p), as a row on (p, 1).
+                        let r = texture_from_world.transpose() * v.extend(0.0);
+                        r + Vec4::new(0.0, 0.0, 0.0, delta)
+                    };
+                    projection = Projection::Planar {
+                        rows: [row(vs, num("udelta", 0.0)), row(vt, num("vdelta", 0.0))],
+                    };
+                }
+                other => {
+                    return Err(self.err_at(
+                        p.file,
+                        p.line,
+                        d,
+                        format!(
+                        "expected a mapping uv, spherical, cylindrical or planar, got {other:?}"
+                    ),
+                    ))
+                }
+            }
+        }
+        if !texture_from_world.is_finite() && projection != Projection::Uv {
+            return Err(self.err_at(file, line, d, "the texture's transform is singular"));
+        }
+        let value = match class {
+            "constant" => match self.value(params, "value", float, d)? {
+                Some(v) => v,
+                None => Value::Const(Vec3::ONE),
+            },
+            "scale" => {
+                let t = self
+                    .value(params, "tex", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ONE));
+                let s = self
+                    .value(params, "scale", true, d)?
+                    .unwrap_or(Value::Const(Vec3::ONE));
+                // A leaf texture times a constant (or a grey constant times a float leaf)
+                // is a scaled copy of the leaf; anything else is made of textures.
+                let copy = match (t, s) {
+                    (Value::Const(a), Value::Const(b)) => Some(Err(Value::Const(a * b.x))),
+                    (Value::Texture(i), Value::Const(b)) => Some(Ok((i, b.x))),
+                    (Value::Const(c), Value::Texture(i)) if c.x == c.y && c.y == c.z => {
+                        Some(Ok((i, c.x)))
+                    }
+                    _ => None,
+                };
+                match copy {
+                    Some(Err(v)) => v,
+                    Some(Ok((i, k))) if !self.scene.textures[i as usize].is_graph() => {
+                        let mut tex = self.scene.textures[i as usize].clone();
+                        match &mut tex {
+                            Texture::Image { scale, .. } => *scale *= k,
+                            Texture::Checkerboard { even, odd, .. } => {
+                                *even *= k;
+                                *odd *= k;
+                            }
+                            Texture::Scale { .. } | Texture::Mix { .. } => unreachable!(),
+                        }
+                        self.scene.textures.push(tex);
+                        Value::Texture(self.scene.textures.len() as u32 - 1)
+                    }
+                    _ => {
+                        let tex = Texture::Scale {
+                            tex: self.operand(t),
+                            scale: self.operand(s),
+                        };
+                        self.graph_texture(tex, file, line)?
+                    }
+                }
+            }
+            "mix" => {
+                let t1 = self
+                    .value(params, "tex1", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ZERO));
+                let t2 = self
+                    .value(params, "tex2", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ONE));
+                let amount = self
+                    .value(params, "amount", true, d)?
+                    .unwrap_or(Value::Const(Vec3::splat(0.5)));
+                match (t1, t2, amount) {
+                    (Value::Const(a), Value::Const(b), Value::Const(k)) => {
+                        Value::Const((1.0 - k.x) * a + k.x * b)
+                    }
+                    _ => {
+                        let tex = Texture::Mix {
+                            tex1: self.operand(t1),
+                            tex2: self.operand(t2),
+                            amount: self.operand(amount),
+                        };
+                        self.graph_texture(tex, file, line)?
+                    }
+                }
+            }
+            "imagemap" => {
+                let Some(p) = params.find("filename").cloned() else {
+                    return Err(self.err_at(file, line, d, "imagemap: no \"string filename\""));
+                };
+                let path = self.dirs[file as usize].join(&p.strs[0]);
+                let encoding = match params
+                    .find("encoding")
+                    .and_then(|p| p.strs.first().cloned())
+                    .as_deref()
+                {
+                    None => {
+                        let ext = path
+                            .extension()
+                            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+                        if matches!(ext.as_deref(), Some("png" | "tga")) {
+                            Encoding::Srgb
+                        } else {
+                            Encoding::Linear
+                        }
+                    }
+                    Some("sRGB") => Encoding::Srgb,
+                    Some("linear") => Encoding::Linear,
+                    Some(other) => {
+                        self.unsupported(file, line, format!("imagemap: encoding \"{other}\""));
+                        Encoding::Linear
+                    }
+                };
+                let invert = params
+                    .find("invert")
+                    .is_some_and(|p| p.bools.first() == Some(&true));
+                let wrap = match params.find("wrap") {
+                    None => Wrap::Repeat,
+                    Some(p) => match p.strs.first().map(String::as_str) {
+                        Some("repeat") => Wrap::Repeat,
+                        Some("clamp") => Wrap::Clamp,
+                        Some("black") => Wrap::Black,
+                        other => {
+                            self.unsupported(
+                                p.file,
+                                p.line,
+                                format!("imagemap: wrap {other:?} (lightpath reads repeat, clamp and black)"),
+                            );
+                            Wrap::Repeat
+                        }
+                    },
+                };
+                params.find("filter");
+                params.find("maxanisotropy");
+                let scale = num("scale", 1.0);
+                let key = (path.clone(), encoding);
+                let image = match self.image_textures.get(&key) {
+                    Some(i) => i.clone(),
+                    None => {
+                        let image = Arc::new(
+                            load_image(&path, encoding)
+                                .map_err(|e| self.err_at(p.file, p.line, d, e))?,
+                        );
+                        self.image_textures.insert(key, image.clone());
+                        image
+                    }
+                };
+                // pbrt-v4's invert: max(0, 1 - scale · v), made once on the texels (the
+                // same as after the lookup wherever scale · v <= 1, as in [0, 1] images).
+                let (image, scale) = if invert {
+                    let mut inverted = (*image).clone();
+                    for p in &mut inverted.pixels {
+                        *p = p.map(|v| (1.0 - scale * v).max(0.0));
+                    }
+                    (Arc::new(inverted), 1.0)
+                } else {
+                    (image, scale)
+                };
+                self.scene.textures.push(Texture::Image {
+                    image,
+                    scale: Vec3::splat(scale),
+                    mapping,
+                    wrap,
+                    projection,
+                });
+                Value::Texture(self.scene.textures.len() as u32 - 1)
+            }
+            "checkerboard" => {
+                let dim = params
+                    .find("dimension")
+                    .and_then(|p| p.nums.first().copied())
+                    .unwrap_or(2.0);
+                // The 3D checkerboard: pbrt-v4's TextureMapping3D, the point in the space
+                // of the transform in force here (the 2D mapping parameters unused).
+                let projection = if dim == 3.0 {
+                    if !texture_from_world.is_finite() {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            "the texture's transform is singular",
+                        ));
+                    }
+                    Projection::Solid { texture_from_world }
+                } else {
+                    if dim != 2.0 {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!("checkerboard: dimension must be 2 or 3, got {dim}"),
+                        ));
+                    }
+                    projection
+                };
+                let even = self
+                    .value(params, "tex1", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ONE));
+                let odd = self
+                    .value(params, "tex2", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ZERO));
+                match (even, odd) {
+                    (Value::Const(even), Value::Const(odd)) => {
+                        self.scene.textures.push(Texture::Checkerboard {
+                            even,
+                            odd,
+                            mapping,
+                            projection,
+                        });
+                        Value::Texture(self.scene.textures.len() as u32 - 1)
+                    }
+                    _ => {
+                        self.unsupported(file, line, "checkerboard of textures");
+                        Value::Const(Vec3::splat(0.5))
+                    }
+                }
+            }
+            other => {
+                self.unsupported(file, line, format!("Texture \"{other}\""));
+                for p in &params.0 {
+                    p.used.set(true);
+                }
+                Value::Const(Vec3::splat(0.5))
+            }
+        };
+        self.check_used(d, &format!("\"{class}\""), params);
+        let table = if float {
+            &mut self.float_textures
+        } else {
+            &mut self.textures
+        };
+        table.insert(name.to_owned(), value);
+        Ok(())
+    }
+
+    /// A texture's input as a texture made of textures holds it.
+    pub(super) fn operand(&self, v: Value) -> crate::texture::Operand {
+        match v {
+            Value::Const(c) => crate::texture::Operand::Const(c),
+            Value::Texture(i) => {
+                crate::texture::Operand::Texture(Box::new(self.scene.textures[i as usize].clone()))
+            }
+        }
+    }
+
+    /// Adds a texture made of textures, if its program fits the kernels'.
+    pub(super) fn graph_texture(
+        &mut self,
+        tex: Texture,
+        file: u32,
+        line: u32,
+    ) -> Result<Value, ParseError> {
+        let n = tex.program_length();
+        if n > crate::abi::MAX_TEXTURE_PROGRAM as usize {
+            return Err(self.err_at(
+                file,
+                line,
+                "Texture",
+                format!(
+                    "a texture made of {n} textures (at most {} in one tree)",
+                    crate::abi::MAX_TEXTURE_PROGRAM
+                ),
+            ));
+        }
+        self.scene.textures.push(tex);
+        Ok(Value::Texture(self.scene.textures.len() as u32 - 1))
+    }
+}
