@@ -48,7 +48,7 @@ void main() {
     Surface s = surface_at(hit, o, d);
     vec3 wo = -d;
     bool front = dot(s.ng, wo) >= 0.0;
-    BsdfParams b = material_bsdf(materials[s.material], front, s.uv, s.p);
+    BsdfParams b = material_bsdf(materials[s.material], front, s.uv, s.p, s.ng);
     // Emission found by the path itself.
     if (s.emitter != NO_EMITTER) {
         vec3 Le = emitted_radiance(s.material, s.ng, wo);

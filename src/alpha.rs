@@ -34,7 +34,8 @@ pub fn alpha_cut(t: &Triangle, textures: &[Texture], bary: Vec2, o: Vec3, d: Vec
             let b0 = 1.0 - bary.x - bary.y;
             let st = b0 * uv[0] + bary.x * uv[1] + bary.y * uv[2];
             let p = t.v[0] + bary.x * (t.v[1] - t.v[0]) + bary.y * (t.v[2] - t.v[0]);
-            texture_value(&textures[i as usize], st, p).x
+            let ng = (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).normalize();
+            texture_value(&textures[i as usize], st, p, ng).x
         }
     };
     if alpha >= 1.0 {

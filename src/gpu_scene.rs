@@ -321,7 +321,9 @@ fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
             mapping: *mapping,
             ..GpuTexture::default()
         },
-        Texture::Scale { .. } | Texture::Mix { .. } => unreachable!("not a leaf"),
+        Texture::Scale { .. } | Texture::Mix { .. } | Texture::DirectionMix { .. } => {
+            unreachable!("not a leaf")
+        }
     };
     let (kind, [proj0, proj1, proj2]) = t.projection().record();
     record.flags[2] = kind;
@@ -338,10 +340,10 @@ fn push_program(t: &Texture, program: &mut Vec<GpuTexture>, texels: &mut Texels)
     }
     let mut record = GpuTexture {
         info: [
-            if matches!(t, Texture::Scale { .. }) {
-                TEXTURE_SCALE
-            } else {
-                TEXTURE_MIX
+            match t {
+                Texture::Scale { .. } => TEXTURE_SCALE,
+                Texture::DirectionMix { .. } => TEXTURE_DIRECTION_MIX,
+                _ => TEXTURE_MIX,
             },
             0,
             0,
@@ -351,6 +353,9 @@ fn push_program(t: &Texture, program: &mut Vec<GpuTexture>, texels: &mut Texels)
         ..GpuTexture::default()
     };
     record.flags[3] = 0;
+    if let Texture::DirectionMix { dir, .. } = t {
+        record.mapping = dir.extend(0.0).to_array();
+    }
     for (slot, o) in t.operands().into_iter().enumerate() {
         match o {
             Operand::Texture(c) => record.flags[slot] = push_program(c, program, texels),

@@ -213,11 +213,17 @@ pub fn shading_normal(scene: &Scene, prim: usize, p: Vec3) -> Vec3 {
         None => ns,
         Some(ShadingMap::Bump(tex)) => {
             let t = &scene.textures[tex as usize];
-            bump_mapped_normal(&geometry(), |uv, p| texture_value(t, uv, p).x, uv, p, ng)
+            bump_mapped_normal(
+                &geometry(),
+                |uv, p| texture_value(t, uv, p, ng).x,
+                uv,
+                p,
+                ng,
+            )
         }
         Some(ShadingMap::Normal(tex)) => {
             let t = &scene.textures[tex as usize];
-            normal_mapped_normal(&geometry(), texture_value(t, uv, p), ng)
+            normal_mapped_normal(&geometry(), texture_value(t, uv, p, ng), ng)
         }
     }
 }

@@ -45,6 +45,13 @@ pub enum Texture {
         tex2: Operand,
         amount: Operand,
     },
+    /// pbrt-v4's `directionmix`: w `tex1` + (1 - w) `tex2`, w = |ng · dir| where ng is the
+    /// surface's unit geometric normal and `dir` a unit world direction.
+    DirectionMix {
+        tex1: Operand,
+        tex2: Operand,
+        dir: Vec3,
+    },
 }
 
 /// An input of a texture made of textures: a constant or a texture (its own tree).
@@ -55,10 +62,10 @@ pub enum Operand {
 }
 
 impl Operand {
-    fn value(&self, uv: Vec2, p: Vec3) -> Vec3 {
+    fn value(&self, uv: Vec2, p: Vec3, ng: Vec3) -> Vec3 {
         match self {
             Operand::Const(c) => *c,
-            Operand::Texture(t) => texture_value(t, uv, p),
+            Operand::Texture(t) => texture_value(t, uv, p, ng),
         }
     }
 }
@@ -70,7 +77,9 @@ impl Texture {
             Texture::Image { projection, .. } | Texture::Checkerboard { projection, .. } => {
                 *projection
             }
-            Texture::Scale { .. } | Texture::Mix { .. } => Projection::Uv,
+            Texture::Scale { .. } | Texture::Mix { .. } | Texture::DirectionMix { .. } => {
+                Projection::Uv
+            }
         }
     }
 
@@ -80,6 +89,7 @@ impl Texture {
             Texture::Image { .. } | Texture::Checkerboard { .. } => Vec::new(),
             Texture::Scale { tex, scale } => vec![tex, scale],
             Texture::Mix { tex1, tex2, amount } => vec![tex1, tex2, amount],
+            Texture::DirectionMix { tex1, tex2, .. } => vec![tex1, tex2],
         }
     }
 
@@ -425,13 +435,18 @@ pub fn bilinear(image: &Image, p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
 }
 
 /// CPU mirror of texture.glsl's `texture_value`: the texture at surface coordinates uv
-/// and world point p.
-pub fn texture_value(t: &Texture, uv: Vec2, p: Vec3) -> Vec3 {
+/// and world point p where the surface's unit geometric normal is ng (either side; only a
+/// direction mix reads it).
+pub fn texture_value(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3) -> Vec3 {
     match t {
-        Texture::Scale { tex, scale } => tex.value(uv, p) * scale.value(uv, p).x,
+        Texture::Scale { tex, scale } => tex.value(uv, p, ng) * scale.value(uv, p, ng).x,
         Texture::Mix { tex1, tex2, amount } => {
-            let a = amount.value(uv, p).x;
-            (1.0 - a) * tex1.value(uv, p) + a * tex2.value(uv, p)
+            let a = amount.value(uv, p, ng).x;
+            (1.0 - a) * tex1.value(uv, p, ng) + a * tex2.value(uv, p, ng)
+        }
+        Texture::DirectionMix { tex1, tex2, dir } => {
+            let w = ng.dot(*dir).abs();
+            w * tex1.value(uv, p, ng) + (1.0 - w) * tex2.value(uv, p, ng)
         }
         Texture::Checkerboard {
             even,
@@ -918,15 +933,15 @@ mod tests {
             projection: Projection::Uv,
         };
         assert_eq!(
-            texture_value(&t, Vec2::new(0.25, 0.25), Vec3::ZERO),
+            texture_value(&t, Vec2::new(0.25, 0.25), Vec3::ZERO, Vec3::Z),
             Vec3::splat(3.0)
         );
         assert_eq!(
-            texture_value(&t, Vec2::new(1.75, 0.75), Vec3::ZERO),
+            texture_value(&t, Vec2::new(1.75, 0.75), Vec3::ZERO, Vec3::Z),
             Vec3::splat(2.0)
         );
         assert_eq!(
-            texture_value(&t, Vec2::new(0.5, 0.25), Vec3::ZERO),
+            texture_value(&t, Vec2::new(0.5, 0.25), Vec3::ZERO, Vec3::Z),
             Vec3::splat(3.5)
         );
         // Between the last and the first column: repeating mixes them, clamping keeps
@@ -943,23 +958,33 @@ mod tests {
         };
         let at = Vec2::new(1.0, 0.25);
         assert_eq!(
-            texture_value(&with(Wrap::Repeat), at, Vec3::ZERO),
+            texture_value(&with(Wrap::Repeat), at, Vec3::ZERO, Vec3::Z),
             Vec3::splat(3.5)
         );
         assert_eq!(
-            texture_value(&with(Wrap::Clamp), at, Vec3::ZERO),
+            texture_value(&with(Wrap::Clamp), at, Vec3::ZERO, Vec3::Z),
             Vec3::splat(4.0)
         );
         assert_eq!(
-            texture_value(&with(Wrap::Black), at, Vec3::ZERO),
+            texture_value(&with(Wrap::Black), at, Vec3::ZERO, Vec3::Z),
             Vec3::splat(2.0)
         );
         assert_eq!(
-            texture_value(&with(Wrap::Black), Vec2::new(1.6, 0.25), Vec3::ZERO),
+            texture_value(
+                &with(Wrap::Black),
+                Vec2::new(1.6, 0.25),
+                Vec3::ZERO,
+                Vec3::Z
+            ),
             Vec3::ZERO
         );
         assert_eq!(
-            texture_value(&with(Wrap::Clamp), Vec2::new(-3.0, 0.25), Vec3::ZERO),
+            texture_value(
+                &with(Wrap::Clamp),
+                Vec2::new(-3.0, 0.25),
+                Vec3::ZERO,
+                Vec3::Z
+            ),
             Vec3::splat(3.0)
         );
     }

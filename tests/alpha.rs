@@ -183,6 +183,7 @@ fn a_light_seen_through_an_alpha_panel_is_dimmed_by_its_alpha_in_every_integrato
                     &texture,
                     Vec2::new(u as f32, 0.5),
                     Vec3::ZERO,
+                    Vec3::Z,
                 )
                 .x;
                 1.0 - a.clamp(0.0, 1.0) as f64

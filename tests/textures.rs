@@ -115,7 +115,7 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
             }
             // Bilinear in the square's corners: u = 1.5 (1 - y') , v = x' with x', y' in [0,1].
             let (x, y) = ((p.x + 1.0) / 2.0, (p.y + 1.0) / 2.0);
-            texture_value(&texture, Vec2::new(1.5 * (1.0 - y), x), p)
+            texture_value(&texture, Vec2::new(1.5 * (1.0 - y), x), p, Vec3::Z)
         });
         let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 1, Bvh);
         let (mean, max) = differences(&img, &expected);
@@ -147,8 +147,10 @@ fn pbrt_sphere_uv(q: Vec3) -> Vec2 {
 
 /// Textures made of textures (pbrt-v4's `scale` and `mix` of textures): a sphere's
 /// reflectance is an image mixed with a colour by a 3D checkerboard's amount, scaled by
-/// a grey image, and a colour scaled by a float image: each renders the CPU mirror's
-/// value at every point (the device runs the tree as a program of five records).
+/// a grey image, a colour scaled by a float image, and a direction mix of the first mix
+/// and a colour (weighted by the normal's alignment with a direction given under a
+/// rotation): each renders the CPU mirror's value at every point (the device runs the
+/// trees as programs of up to five records).
 #[test]
 fn textures_made_of_textures_render_their_value() {
     let dir = temp_dir("graphs");
@@ -166,7 +168,7 @@ fn textures_made_of_textures_render_their_value() {
         let v = [0.5, 1.0, 0.8, 0.6][(y * 2 + x) as usize];
         [v, v, v]
     });
-    for (reflectance, records) in [("s", 5), ("tinted", 2)] {
+    for (reflectance, records) in [("s", 5), ("tinted", 2), ("dm", 4)] {
         let text = format!(
             "LookAt 0 2.2 2.2  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 45 ]\n\
              Film \"rgb\" \"integer xresolution\" [ 24 ] \"integer yresolution\" [ 24 ]\n\
@@ -180,6 +182,9 @@ fn textures_made_of_textures_render_their_value() {
              Texture \"g\" \"float\" \"imagemap\" \"string filename\" \"{}\" \"float vscale\" 2\n\
              Texture \"s\" \"spectrum\" \"scale\" \"texture tex\" \"m\" \"texture scale\" \"g\"\n\
              Texture \"tinted\" \"spectrum\" \"scale\" \"rgb tex\" [ 0.9 0.5 0.2 ] \"texture scale\" \"g\"\n\
+             AttributeBegin\nRotate 90 1 0 0\n\
+             Texture \"dm\" \"spectrum\" \"directionmix\" \"texture tex1\" \"m\" \
+             \"rgb tex2\" [ 0.9 0.9 0.1 ] \"vector3 dir\" [ 0 0 1 ]\nAttributeEnd\n\
              Material \"diffuse\" \"texture reflectance\" \"{reflectance}\"\nShape \"sphere\"\n",
             colours.display(),
             grey.display()
@@ -190,7 +195,7 @@ fn textures_made_of_textures_render_their_value() {
         assert!(texture.is_graph());
         assert_eq!(texture.program_length(), records);
         let expected = expected_image(&s, |o, d| match unit_sphere_hit(o, d) {
-            Some(q) => texture_value(&texture, pbrt_sphere_uv(q.normalize()), q),
+            Some(q) => texture_value(&texture, pbrt_sphere_uv(q.normalize()), q, q.normalize()),
             None => Vec3::ONE,
         });
         let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 2, Bvh);
@@ -277,7 +282,7 @@ fn a_checkerboard_on_a_sphere_follows_pbrts_sphere_coordinates() {
             return Vec3::ONE;
         };
         let q = q.normalize();
-        texture_value(&texture, pbrt_sphere_uv(q), q)
+        texture_value(&texture, pbrt_sphere_uv(q), q, q.normalize())
     });
     let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 2, Bvh);
     let (mean, max) = differences(&img, &expected);
@@ -309,7 +314,7 @@ fn a_solid_checkerboard_renders_its_lookup() {
         lightpath::texture::Projection::Solid { .. }
     ));
     let expected = expected_image(&s, |o, d| match unit_sphere_hit(o, d) {
-        Some(q) => texture_value(&texture, Vec2::ZERO, q),
+        Some(q) => texture_value(&texture, Vec2::ZERO, q, Vec3::Z),
         None => Vec3::ONE,
     });
     let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 2, Bvh);
@@ -368,7 +373,7 @@ fn projected_texture_mappings_render_their_lookup() {
         }
         let texture = s.textures[0].clone();
         let expected = expected_image(&s, |o, d| match unit_sphere_hit(o, d) {
-            Some(q) => texture_value(&texture, Vec2::ZERO, q),
+            Some(q) => texture_value(&texture, Vec2::ZERO, q, Vec3::Z),
             None => Vec3::ONE,
         });
         let img = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 2, Bvh);
@@ -427,8 +432,8 @@ fn environment_maps_seen_directly_are_their_lookup() {
 }
 
 /// A checkerboard floor (mixed with a colour by an image: a texture made of textures)
-/// and a sphere of rough copper whose roughness is an image, under
-/// a map with a small bright sun: light sampling of the map alone agrees with BSDF
+/// and a sphere of rough copper whose roughness is an image mixed with a constant by the
+/// normal's direction (a direction mix), under a map with a small bright sun: light sampling of the map alone agrees with BSDF
 /// sampling alone, and BDPT and MMLT (whose light vertices carry texture coordinates)
 /// with both.
 #[test]
@@ -464,6 +469,13 @@ fn a_textured_scene_under_an_environment_map_agrees_across_integrators() {
         tex1: Operand::Texture(Box::new(s.textures[0].clone())),
         tex2: Operand::Const(Vec3::new(0.9, 0.6, 0.2)),
         amount: Operand::Texture(Box::new(s.textures[1].clone())),
+    };
+    // The sphere's roughness a direction mix: the image where the normal is along
+    // (1, 1, 0), 0.5 where it is across.
+    s.textures[1] = Texture::DirectionMix {
+        tex1: Operand::Texture(Box::new(s.textures[1].clone())),
+        tex2: Operand::Const(Vec3::splat(0.5)),
+        dir: Vec3::new(1.0, 1.0, 0.0).normalize(),
     };
     let mut mis = with_integrator(s.clone(), IntegratorKind::PathTracer, 64);
     mis.settings.nee = NextEventEstimation::Mis;

@@ -165,6 +165,9 @@
 #define TEXTURE_SCALE 3
 // pbrt-v4's mix: (1 - amount) a + amount b, amount's first channel.
 #define TEXTURE_MIX 4
+// pbrt-v4's directionmix: w a + (1 - w) b with w = |ng . dir|, ng the surface's geometric
+// normal and dir (mapping.xyz) a unit world direction.
+#define TEXTURE_DIRECTION_MIX 5
 // The most records of a texture's program.
 #define MAX_TEXTURE_PROGRAM 8
 // How an image texture wraps (GpuTexture.flags.x).

@@ -113,7 +113,7 @@ PathVertex unpack_vertex(GpuPathVertex g) {
 
 // The BSDF at a path vertex: its material, seen from the side of its normal n.
 BsdfParams vertex_bsdf(PathVertex v) {
-    return material_bsdf(materials[v.material], dot(v.n, v.ng) > 0.0, v.uv, v.p);
+    return material_bsdf(materials[v.material], dot(v.n, v.ng) > 0.0, v.uv, v.p, v.ng);
 }
 
 // A subpath being walked: the next ray and the running throughput and MIS sums.

@@ -76,9 +76,10 @@ bool bsdf_is_diffuse_transmission(BsdfParams b) {
     return has_feature(FEATURE_DIFFUSE_TRANSMISSION) && b.kind == BSDF_DIFFUSE_TRANSMISSION;
 }
 
-// The BSDF of material m at a surface point with texture coordinates uv whose normal, as
-// the caller will pass it, points to the material's outside (front) or inside (!front).
-BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p) {
+// The BSDF of material m at a surface point p with texture coordinates uv and unit
+// geometric normal ng (either side), whose normal, as the caller will pass it, points to
+// the material's outside (front) or inside (!front).
+BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p, vec3 ng) {
     BsdfParams b;
     b.kind = m.info.x;
     b.kd = m.diffuse.xyz;
@@ -108,7 +109,7 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p) {
                    : slot == 2u ? (bsdf_is_coated_conductor(b) ? floatBitsToUint(m.base.z) : NO_TEXTURE)
                    : (coated ? floatBitsToUint(m.base.w) : NO_TEXTURE);
         if (index == NO_TEXTURE) continue;
-        vec3 v = texture_value(index, uv, p);
+        vec3 v = texture_value(index, uv, p, ng);
         float a = v.x;
         if (slot != 0u && slot != 3u && (m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(max(a, 0.0));
         if (slot == 0u && bsdf_is_coated_conductor(b)) {

@@ -118,7 +118,8 @@ bool alpha_cut(GpuTriangle tri, vec2 bary, vec3 o, vec3 d) {
         float b0 = 1.0 - bary.x - bary.y;
         vec2 uv = b0 * uv01.xy + bary.x * uv01.zw + bary.y * uv2;
         vec3 p = tri.v0.xyz + bary.x * (tri.v1.xyz - tri.v0.xyz) + bary.y * (tri.v2.xyz - tri.v0.xyz);
-        alpha = texture_value(floatBitsToUint(alpha), uv, p).x;
+        vec3 ng = normalize(cross(tri.v1.xyz - tri.v0.xyz, tri.v2.xyz - tri.v0.xyz));
+        alpha = texture_value(floatBitsToUint(alpha), uv, p, ng).x;
     }
     if (alpha >= 1.0) return false;
     if (alpha <= 0.0) return true;
@@ -149,13 +150,13 @@ vec2 sphere_uv(vec3 q) {
 // each point by a hash of its position (and the mix), so that every subpath reaching
 // the point meets the same material: the second with probability `amount`. Nested
 // mixes resolve in turn.
-uint material_resolve(uint m, vec3 p, vec2 uv) {
+uint material_resolve(uint m, vec3 p, vec2 uv, vec3 ng) {
     if (!has_feature(FEATURE_MIX)) return m;
     for (uint depth = 0u; depth < MAX_MATERIAL_MIX_DEPTH; ++depth) {
         uvec4 info = materials[m].info;
         if ((info.y & MATERIAL_MIX) == 0u) break;
         vec4 mix_params = materials[m].specular;
-        float amount = info.z == NO_TEXTURE ? mix_params.z : texture_value(info.z, uv, p).x;
+        float amount = info.z == NO_TEXTURE ? mix_params.z : texture_value(info.z, uv, p, ng).x;
         uvec3 b = floatBitsToUint(p);
         uint h = hash_pcg(hash_pcg(hash_pcg(hash_pcg(m) ^ b.x) ^ b.y) ^ b.z);
         float u = (float(h >> 8u) + 0.5) * (1.0 / 16777216.0);
@@ -240,7 +241,7 @@ Surface surface_at(Hit hit, vec3 o, vec3 d) {
         s.uv = sphere_uv(q);
         s.ns = s.ng;
     }
-    s.material = material_resolve(s.material, s.p, s.uv);
+    s.material = material_resolve(s.material, s.p, s.uv, s.ng);
     if (has_feature(FEATURE_SHADING_MAPS)) apply_shading_map(hit, s);
     return s;
 }

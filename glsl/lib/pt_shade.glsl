@@ -28,7 +28,7 @@ void main() {
     vec2 uv = vec2(path.p.w, path.n.w);
     vec3 wo = -path.d.xyz;
     Rng rng = wf_rng(i, path.o.w);
-    BsdfParams b = material_bsdf(materials[floatBitsToUint(path.hit.w)], path.ns.w != 0.0, uv, p);
+    BsdfParams b = material_bsdf(materials[floatBitsToUint(path.hit.w)], path.ns.w != 0.0, uv, p, n);
     bool delta = bsdf_is_delta(b);
     if ((flags & PT_PATH_LIGHT_SAMPLE) != 0u) {
         bool queued = false;

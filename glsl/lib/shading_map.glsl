@@ -131,7 +131,7 @@ vec3 mapped_normal(ShadingGeometry g, uint flags, uint tex, vec2 uv, vec3 p, vec
     for (uint k = 0u; k < lookups; ++k) {
         float su = k == 1u ? BUMP_DELTA : 0.0;
         float sv = k == 2u ? BUMP_DELTA : 0.0;
-        c = texture_value(tex, uv + vec2(su, sv), p + su * g.dpdu + sv * g.dpdv);
+        c = texture_value(tex, uv + vec2(su, sv), p + su * g.dpdu + sv * g.dpdv, ng);
         h[k] = c.x;
     }
     return normal_map ? normal_mapped_normal(g, c, ng) : bump_mapped_normal(g, h, ng);

@@ -1,5 +1,5 @@
 // Textures: image lookup (bilinear, wrapped), pbrt's 2D and 3D checkerboard, and
-// textures made of textures (pbrt-v4's scale and mix, as programs). CPU mirror:
+// textures made of textures (pbrt-v4's scale, mix and directionmix, as programs). CPU mirror:
 // src/texture.rs (`texture_value`).
 #ifndef TEXTURE_GLSL
 #define TEXTURE_GLSL
@@ -70,10 +70,11 @@ vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p) {
     vec3 bottom = mix(texel(t, x0, y1), texel(t, x1, y1), ax);
     return t.scale.xyz * mix(top, bottom, ay);
 }
-// The value of texture `index` at the surface coordinates uv and world point p. A
-// texture made of textures runs its program (abi.h TEXTURE_GRAPH): its records in
+// The value of texture `index` at the surface coordinates uv and world point p, where the
+// surface's unit geometric normal is ng (read by a direction mix alone; either side).
+// A texture made of textures runs its program (abi.h TEXTURE_GRAPH): its records in
 // order, each into a register, leaves looked up here at one call site.
-vec3 texture_value(uint index, vec2 uv, vec3 p) {
+vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng) {
     if (!has_feature(FEATURE_TEXTURE_GRAPHS)) return texture_leaf(textures[index], uv, p);
     GpuTexture t = textures[index];
     uint first = index, count = 1u;
@@ -85,10 +86,12 @@ vec3 texture_value(uint index, vec2 uv, vec3 p) {
     vec3 v = vec3(0.0);
     for (uint i = 0u; i < count; ++i) {
         GpuTexture n = textures[first + i];
-        if (n.info.x == TEXTURE_SCALE || n.info.x == TEXTURE_MIX) {
+        if (n.info.x == TEXTURE_SCALE || n.info.x == TEXTURE_MIX || n.info.x == TEXTURE_DIRECTION_MIX) {
             vec3 a = n.flags.x == NO_TEXTURE ? n.scale.xyz : regs[n.flags.x];
             vec3 b = n.flags.y == NO_TEXTURE ? n.other.xyz : regs[n.flags.y];
-            float amount = n.flags.z == NO_TEXTURE ? n.mapping.x : regs[n.flags.z].x;
+            // (A direction mix is a mix whose amount, tex2's weight, is 1 - |ng . dir|.)
+            float amount = n.info.x == TEXTURE_DIRECTION_MIX ? 1.0 - abs(dot(ng, n.mapping.xyz))
+                         : n.flags.z == NO_TEXTURE ? n.mapping.x : regs[n.flags.z].x;
             v = n.info.x == TEXTURE_SCALE ? a * b.x : (1.0 - amount) * a + amount * b;
         } else {
             v = texture_leaf(n, uv, p);

@@ -63,6 +63,7 @@ pub(super) const PARAM_TYPES: &[(&str, &[&str])] = &[
     ("roughness", &["float", "integer", "texture"]),
     ("amount", &["float", "integer", "texture"]),
     ("materials", &["string"]),
+    ("dir", &["vector3"]),
     ("uroughness", &["float", "integer", "texture"]),
     ("vroughness", &["float", "integer", "texture"]),
     ("L", &["rgb", "spectrum", "blackbody"]),

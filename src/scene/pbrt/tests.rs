@@ -534,6 +534,51 @@ fn coated_conductor_reads_its_coating_and_its_conductor() {
     assert_eq!((r.eta[1..4].to_vec(), r.k[3]), (vec![0.5, 1.0, 0.2], -1.0));
 }
 
+/// pbrt-v4's `directionmix`: `dir` (0 1 0 by default) taken to world space by the transform
+/// at the directive and normalized; the weight of `tex1` is |ng · dir|; two equal inputs
+/// fold to one; a `dir` that is not a direction is an error.
+#[test]
+fn directionmix_weights_its_inputs_by_the_normal() {
+    let dm = |pre: &str, params: &str| {
+        let s = parse(&format!(
+            "WorldBegin\nAttributeBegin\n{pre}\nTexture \"d\" \"spectrum\" \"directionmix\" {params}\n\
+             AttributeEnd\nMaterial \"diffuse\" \"texture reflectance\" \"d\"\n{QUAD}"
+        ));
+        match s.materials[0].diffuse_texture {
+            Some(i) => Ok(s.textures[i as usize].clone()),
+            None => Err(s.materials[0].diffuse),
+        }
+    };
+    let Ok(Texture::DirectionMix { tex1, tex2, dir }) = dm("", "") else {
+        panic!("a direction mix")
+    };
+    assert_eq!(dir, Vec3::Y);
+    assert_eq!(tex1, crate::texture::Operand::Const(Vec3::ZERO));
+    assert_eq!(tex2, crate::texture::Operand::Const(Vec3::ONE));
+    let Ok(t) = dm("Rotate 90 1 0 0\nScale 3 3 3", "\"vector3 dir\" [ 0 0 2 ]") else {
+        panic!("a direction mix")
+    };
+    let Texture::DirectionMix { dir, .. } = &t else {
+        panic!("a direction mix")
+    };
+    assert!((*dir - Vec3::new(0.0, -1.0, 0.0)).length() < 1e-6, "{dir}");
+    // The mirror: |ng · dir| of tex1 (0), the rest of tex2 (1).
+    let ng = Vec3::new(0.6, 0.8, 0.0);
+    let v = crate::texture::texture_value(&t, Vec2::ZERO, Vec3::ZERO, -ng);
+    assert!((v - Vec3::splat(0.2)).length() < 1e-6, "{v}");
+    assert_eq!(
+        dm(
+            "",
+            "\"rgb tex1\" [ 0.3 0.2 0.1 ] \"rgb tex2\" [ 0.3 0.2 0.1 ]"
+        ),
+        Err(Vec3::new(0.3, 0.2, 0.1))
+    );
+    let e = parse_err(&format!(
+        "WorldBegin\nTexture \"d\" \"float\" \"directionmix\" \"vector3 dir\" [ 0 0 0 ]\n{QUAD}"
+    ));
+    assert!(e.to_string().contains("dir"), "{e}");
+}
+
 /// pbrt-v4's `scale` and `mix` textures: constants fold into constants, a leaf
 /// texture times a constant is a scaled copy of the leaf, and anything else (a texture
 /// of textures, a colour times a float texture, a mix with a textured amount) is a

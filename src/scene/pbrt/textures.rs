@@ -119,7 +119,9 @@ impl Parser {
                                 *even *= k;
                                 *odd *= k;
                             }
-                            Texture::Scale { .. } | Texture::Mix { .. } => unreachable!(),
+                            Texture::Scale { .. }
+                            | Texture::Mix { .. }
+                            | Texture::DirectionMix { .. } => unreachable!(),
                         }
                         self.scene.textures.push(tex);
                         Value::Texture(self.scene.textures.len() as u32 - 1)
@@ -155,6 +157,39 @@ impl Parser {
                         };
                         self.graph_texture(tex, file, line)?
                     }
+                }
+            }
+            "directionmix" => {
+                let t1 = self
+                    .value(params, "tex1", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ZERO));
+                let t2 = self
+                    .value(params, "tex2", float, d)?
+                    .unwrap_or(Value::Const(Vec3::ONE));
+                // pbrt-v4's direction: `dir` in the texture's space, taken to the world's.
+                let dir = match params.find("dir") {
+                    Some(p) if p.nums.len() == 3 => {
+                        Vec3::new(p.nums[0] as f32, p.nums[1] as f32, p.nums[2] as f32)
+                    }
+                    Some(p) => {
+                        return Err(self.err_at(p.file, p.line, d, "dir: expected 3 numbers"))
+                    }
+                    None => Vec3::Y,
+                };
+                let dir = self.gs.ctm.transform_vector3(dir).normalize_or_zero();
+                if dir == Vec3::ZERO || !dir.is_finite() {
+                    return Err(self.err_at(file, line, d, "directionmix: dir is not a direction"));
+                }
+                if t1 == t2 {
+                    // Either weight gives the same value.
+                    t1
+                } else {
+                    let tex = Texture::DirectionMix {
+                        tex1: self.operand(t1),
+                        tex2: self.operand(t2),
+                        dir,
+                    };
+                    self.graph_texture(tex, file, line)?
                 }
             }
             "imagemap" => {
