@@ -311,11 +311,33 @@ impl Parser {
         line: u32,
     ) -> Result<(), ParseError> {
         self.mlt_mutations = None;
-        let s = &mut self.scene.settings;
-        s.integrator = match ty {
+        self.scene.settings.integrator = match ty {
             "path" | "volpath" => IntegratorKind::PathTracer,
             "bdpt" => IntegratorKind::Bdpt,
             "mlt" => IntegratorKind::Mmlt,
+            // pbrt-v4's other integrators of the same light transport converge to the same
+            // image: its photon mapper and light tracer are rendered with BDPT (which has
+            // their light-tracing strategies), its simpler path tracers with the path
+            // tracer.
+            "sppm" | "lightpath" | "simplepath" | "randomwalk" | "simplevolpath" => {
+                let kind = if matches!(ty, "sppm" | "lightpath") {
+                    IntegratorKind::Bdpt
+                } else {
+                    IntegratorKind::PathTracer
+                };
+                let name = if kind == IntegratorKind::Bdpt {
+                    "bdpt"
+                } else {
+                    "path"
+                };
+                self.warn(
+                    &format!("Integrator {ty}"),
+                    format!(
+                        "Integrator \"{ty}\" rendered as \"{name}\" (the same image, other noise)"
+                    ),
+                );
+                kind
+            }
             other => {
                 self.unsupported(file, line, format!("Integrator \"{other}\""));
                 return Ok(());
@@ -345,6 +367,8 @@ impl Parser {
                 "rrthreshold",
             ],
             "mlt" => &["regularize"],
+            "sppm" => &["photonsperiteration", "radius", "seed"],
+            "simplepath" => &["samplelights", "samplebsdf"],
             _ => &[],
         };
         for &name in switches {

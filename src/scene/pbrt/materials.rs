@@ -30,6 +30,12 @@ pub(super) fn diffuse(kd: Vec3) -> Material {
 }
 
 pub(super) fn named_spectrum(name: &str) -> Option<Vec3> {
+    let measured = |text: &str| {
+        spectrum::Sampled::from_spd(text)
+            .expect("a named spectrum's table")
+            .bounded_rgb()
+            .max(Vec3::ZERO)
+    };
     Some(match name {
         "metal-Cu-eta" => crate::scene::COPPER_ETA,
         "metal-Cu-k" => crate::scene::COPPER_K,
@@ -39,6 +45,14 @@ pub(super) fn named_spectrum(name: &str) -> Option<Vec3> {
         "metal-Ag-k" => Vec3::new(4.828_35, 3.122_25, 2.146_96),
         "metal-Al-eta" => Vec3::new(1.657_46, 0.880_369, 0.521_229),
         "metal-Al-k" => Vec3::new(9.223_87, 6.269_52, 4.837),
+        // pbrt-v4's other named metals, from their measured tables (refractiveindex.info)
+        // projected as a bounded `.spd` spectrum is (spectrum.rs), k kept non-negative.
+        "metal-CuZn-eta" => measured(include_str!("../data/spectra/metal-CuZn-eta.spd")),
+        "metal-CuZn-k" => measured(include_str!("../data/spectra/metal-CuZn-k.spd")),
+        "metal-MgO-eta" => measured(include_str!("../data/spectra/metal-MgO-eta.spd")),
+        "metal-MgO-k" => measured(include_str!("../data/spectra/metal-MgO-k.spd")),
+        "metal-TiO2-eta" => measured(include_str!("../data/spectra/metal-TiO2-eta.spd")),
+        "metal-TiO2-k" => measured(include_str!("../data/spectra/metal-TiO2-k.spd")),
         "glass-BK7" => Vec3::splat(1.5168),
         "glass-BAF10" => Vec3::splat(1.67),
         "glass-F11" => Vec3::splat(1.62),
@@ -210,8 +224,10 @@ impl Parser {
             Ok(())
         };
         match ty {
-            "interface" => {
-                self.check_used(d, "\"interface\"", params);
+            // pbrt-v4 makes no material of "" or "none": its shapes only bound media, as an
+            // interface's.
+            "interface" | "" | "none" => {
+                self.check_used(d, &format!("\"{ty}\""), params);
                 return Ok(MaterialRef::Interface);
             }
             "mix" => return self.mix_material(params, file, line),

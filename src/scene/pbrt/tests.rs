@@ -324,6 +324,40 @@ fn a_portal_is_a_transformed_rectangle() {
     assert!(e.to_string().contains("portal"), "{e}");
 }
 
+/// pbrt-v4's other integrators of the same light transport render with BDPT (the photon
+/// mapper and the light tracer) or the path tracer (the simpler path tracers), their
+/// `maxdepth` kept; `Material ""` and `"none"` are interfaces (their shapes not rendered).
+#[test]
+fn other_integrators_and_materials_that_are_none() {
+    for (ty, kind) in [
+        ("sppm", IntegratorKind::Bdpt),
+        ("lightpath", IntegratorKind::Bdpt),
+        ("simplepath", IntegratorKind::PathTracer),
+        ("randomwalk", IntegratorKind::PathTracer),
+        ("simplevolpath", IntegratorKind::PathTracer),
+    ] {
+        let extra = if ty == "sppm" {
+            " \"integer photonsperiteration\" 1000 \"float radius\" 0.1"
+        } else {
+            ""
+        };
+        let s = parse(&format!(
+            "Integrator \"{ty}\" \"integer maxdepth\" 7{extra}\nWorldBegin\n{QUAD}"
+        ));
+        assert_eq!(s.settings.integrator, kind, "{ty}");
+        assert_eq!(s.settings.max_depth, 7, "{ty}");
+    }
+    for ty in ["", "none", "interface"] {
+        let s = parse(&format!(
+            "WorldBegin\nMaterial \"{ty}\"\n{QUAD}\nMaterial \"diffuse\"\nShape \"sphere\""
+        ));
+        assert!(s.triangles.is_empty(), "{ty:?}");
+        assert_eq!(s.spheres.len(), 1, "{ty:?}");
+    }
+    let e = parse_err("Integrator \"ambientocclusion\"\nWorldBegin\n");
+    assert!(e.message.contains("ambientocclusion"), "{e}");
+}
+
 /// The published scenes' `rrthreshold` (an earlier pbrt-v4's) is read and ignored: it
 /// changes noise only.
 #[test]
@@ -333,6 +367,51 @@ fn rrthreshold_is_accepted() {
             "Integrator \"{ty}\" \"float rrthreshold\" 0.5\nWorldBegin\n{QUAD}"
         ));
     }
+}
+
+/// pbrt-v4's other named metals (brass, magnesium oxide, titanium dioxide; the published
+/// Bistro's brass): their measured tables projected as bounded spectra, as the same
+/// table given as an `.spd` file is; a dielectric's k is 0.
+#[test]
+fn named_brass_and_oxide_spectra() {
+    let conductor = |name: &str| {
+        let s = parse(&format!(
+            "WorldBegin\nMaterial \"conductor\" \"spectrum eta\" \"metal-{name}-eta\" \
+             \"spectrum k\" \"metal-{name}-k\"\n{QUAD}"
+        ));
+        (s.materials[0].eta, s.materials[0].k)
+    };
+    let (eta, k) = conductor("CuZn");
+    // Brass: a conductor more reflective in red than in blue (n small, k large in red).
+    assert!(
+        eta.x < 0.5 && eta.z > 1.0 && k.x > 3.0 && k.z < 2.0,
+        "{eta} {k}"
+    );
+    for name in ["MgO", "TiO2"] {
+        let (eta, k) = conductor(name);
+        assert!(
+            eta.min_element() > 1.7 && eta.max_element() < 3.3,
+            "{name}: {eta}"
+        );
+        assert!(k.max_element() < 1e-3, "{name}: {k}");
+    }
+    let d = std::env::temp_dir().join(format!("lp-brass-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(
+        d.join("brass.spd"),
+        include_str!("../data/spectra/metal-CuZn-eta.spd"),
+    )
+    .unwrap();
+    let s = parse_pbrt_str(
+        &format!(
+            "WorldBegin\nMaterial \"conductor\" \"spectrum eta\" \"{}\" \"spectrum k\" \"metal-CuZn-k\"\n{QUAD}",
+            d.join("brass.spd").display()
+        ),
+        "t.pbrt",
+    )
+    .unwrap();
+    assert_eq!(s.materials[0].eta, eta);
+    std::fs::remove_dir_all(&d).ok();
 }
 
 /// pbrt-v4's imaging ratio: the exposure time (shutterclose − shutteropen) × ISO / 100,
