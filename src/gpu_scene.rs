@@ -269,6 +269,8 @@ fn push_image(texels: &mut Vec<f32>, image: &Image) -> u32 {
 struct Texels {
     floats: Vec<f32>,
     first: std::collections::HashMap<*const Image, u32>,
+    /// Where the noise table is (src/noise.rs), once a texture needs it.
+    noise: Option<u32>,
 }
 
 impl Texels {
@@ -279,6 +281,15 @@ impl Texels {
         let first = push_image(&mut self.floats, image);
         self.first.insert(Arc::as_ptr(image), first);
         first
+    }
+
+    /// The noise table's first float (stored once).
+    fn noise_table(&mut self) -> u32 {
+        *self.noise.get_or_insert_with(|| {
+            let first = self.floats.len() as u32;
+            self.floats.extend(crate::noise::noise_table());
+            first
+        })
     }
 }
 
@@ -321,6 +332,39 @@ fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
             mapping: *mapping,
             ..GpuTexture::default()
         },
+        Texture::Noise {
+            kind,
+            octaves,
+            omega,
+            scale,
+            variation,
+            ..
+        } => GpuTexture {
+            info: [TEXTURE_NOISE, texels.noise_table(), kind.code(), *octaves],
+            mapping: [*omega, *scale, *variation, 0.0],
+            ..GpuTexture::default()
+        },
+        Texture::Dots {
+            inside,
+            outside,
+            mapping,
+            ..
+        } => GpuTexture {
+            info: [TEXTURE_DOTS, texels.noise_table(), 0, 0],
+            scale: inside.extend(0.0).to_array(),
+            other: outside.extend(0.0).to_array(),
+            mapping: *mapping,
+            ..GpuTexture::default()
+        },
+        Texture::Bilerp { v, mapping, .. } => {
+            let first = texels.floats.len() as u32;
+            texels.floats.extend(v.iter().flat_map(|c| c.to_array()));
+            GpuTexture {
+                info: [TEXTURE_BILERP, first, 0, 0],
+                mapping: *mapping,
+                ..GpuTexture::default()
+            }
+        }
         Texture::Scale { .. } | Texture::Mix { .. } | Texture::DirectionMix { .. } => {
             unreachable!("not a leaf")
         }

@@ -11,6 +11,7 @@ pub mod gpu;
 pub mod gpu_scene;
 pub mod integrators;
 pub mod io;
+pub mod noise;
 pub mod probe;
 pub mod profile;
 pub mod render;

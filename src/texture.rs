@@ -35,6 +35,32 @@ pub enum Texture {
         mapping: [f32; 4],
         projection: Projection,
     },
+    /// pbrt-v4's noise textures at the point in the texture's space (`projection` is
+    /// `Solid`; noise.rs): `fbm`, `wrinkled` (turbulence) and `windy` (floats, in every
+    /// channel), `marble` (a colour; `scale` and `variation` are its own).
+    Noise {
+        kind: NoiseKind,
+        octaves: u32,
+        /// pbrt's `roughness`: each octave's weight relative to the last.
+        omega: f32,
+        scale: f32,
+        variation: f32,
+        projection: Projection,
+    },
+    /// pbrt-v4's `dots`: `inside` within the polka dot of (s, t)'s cell, else `outside`.
+    Dots {
+        inside: Vec3,
+        outside: Vec3,
+        mapping: [f32; 4],
+        projection: Projection,
+    },
+    /// pbrt-v4's `bilerp`: (1−s)(1−t) v00 + s(1−t) v10 + (1−s)t v01 + st v11 (`v` in
+    /// that order: v00, v01, v10, v11), extrapolated outside [0, 1]².
+    Bilerp {
+        v: [Vec3; 4],
+        mapping: [f32; 4],
+        projection: Projection,
+    },
     /// pbrt-v4's `scale` texture: `tex` times the first channel of `scale` (a float
     /// texture).
     Scale { tex: Operand, scale: Operand },
@@ -52,6 +78,26 @@ pub enum Texture {
         tex2: Operand,
         dir: Vec3,
     },
+}
+
+/// Which of pbrt-v4's noise textures (abi.h `NOISE_*`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NoiseKind {
+    Fbm,
+    Wrinkled,
+    Windy,
+    Marble,
+}
+
+impl NoiseKind {
+    pub fn code(self) -> u32 {
+        match self {
+            NoiseKind::Fbm => crate::abi::NOISE_FBM,
+            NoiseKind::Wrinkled => crate::abi::NOISE_WRINKLED,
+            NoiseKind::Windy => crate::abi::NOISE_WINDY,
+            NoiseKind::Marble => crate::abi::NOISE_MARBLE,
+        }
+    }
 }
 
 /// An input of a texture made of textures: a constant or a texture (its own tree).
@@ -74,9 +120,11 @@ impl Texture {
     /// How the texture finds its (s, t) (a texture made of textures: none of its own).
     pub fn projection(&self) -> Projection {
         match self {
-            Texture::Image { projection, .. } | Texture::Checkerboard { projection, .. } => {
-                *projection
-            }
+            Texture::Image { projection, .. }
+            | Texture::Checkerboard { projection, .. }
+            | Texture::Noise { projection, .. }
+            | Texture::Dots { projection, .. }
+            | Texture::Bilerp { projection, .. } => *projection,
             Texture::Scale { .. } | Texture::Mix { .. } | Texture::DirectionMix { .. } => {
                 Projection::Uv
             }
@@ -86,14 +134,18 @@ impl Texture {
     /// The texture's operands, if it is made of textures.
     pub fn operands(&self) -> Vec<&Operand> {
         match self {
-            Texture::Image { .. } | Texture::Checkerboard { .. } => Vec::new(),
+            Texture::Image { .. }
+            | Texture::Checkerboard { .. }
+            | Texture::Noise { .. }
+            | Texture::Dots { .. }
+            | Texture::Bilerp { .. } => Vec::new(),
             Texture::Scale { tex, scale } => vec![tex, scale],
             Texture::Mix { tex1, tex2, amount } => vec![tex1, tex2, amount],
             Texture::DirectionMix { tex1, tex2, .. } => vec![tex1, tex2],
         }
     }
 
-    /// The image and checkerboard textures it is made of (itself, if it is one).
+    /// The textures of its tree that are not made of textures (itself, if it is one).
     pub fn leaves(&self) -> Vec<&Texture> {
         let mut out = Vec::new();
         let mut stack = vec![self];
@@ -447,6 +499,49 @@ pub fn texture_value(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3) -> Vec3 {
         Texture::DirectionMix { tex1, tex2, dir } => {
             let w = ng.dot(*dir).abs();
             w * tex1.value(uv, p, ng) + (1.0 - w) * tex2.value(uv, p, ng)
+        }
+        Texture::Noise {
+            kind,
+            octaves,
+            omega,
+            scale,
+            variation,
+            projection,
+        } => {
+            let Projection::Solid { texture_from_world } = projection else {
+                unreachable!("a noise texture's point is in its texture space")
+            };
+            let q = (*texture_from_world * p.extend(1.0)).truncate();
+            match kind {
+                NoiseKind::Fbm => Vec3::splat(crate::noise::fbm(q, *omega, *octaves)),
+                NoiseKind::Wrinkled => Vec3::splat(crate::noise::turbulence(q, *omega, *octaves)),
+                NoiseKind::Windy => Vec3::splat(crate::noise::windy(q)),
+                NoiseKind::Marble => crate::noise::marble(q, *omega, *octaves, *scale, *variation),
+            }
+        }
+        Texture::Dots {
+            inside,
+            outside,
+            mapping,
+            projection,
+        } => {
+            if crate::noise::inside_polka_dot(projection.st(mapping, uv, p)) {
+                *inside
+            } else {
+                *outside
+            }
+        }
+        Texture::Bilerp {
+            v,
+            mapping,
+            projection,
+        } => {
+            let st = projection.st(mapping, uv, p);
+            let (s, t) = (st.x, st.y);
+            (1.0 - s) * (1.0 - t) * v[0]
+                + (1.0 - s) * t * v[1]
+                + s * (1.0 - t) * v[2]
+                + s * t * v[3]
         }
         Texture::Checkerboard {
             even,

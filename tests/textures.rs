@@ -211,6 +211,78 @@ fn textures_made_of_textures_render_their_value() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// pbrt-v4's procedural textures as a sphere's reflectance under a white environment, at
+/// depth 1 with cosine sampling, no light sampling and no Russian roulette (each sample
+/// is the reflectance at its point): fbm, wrinkled and windy noise (through a mix and a scale, so that they are
+/// positive) at a frequency set by the transform at the `Texture` directive, marble,
+/// dots and bilerp each render the CPU mirror's value (src/noise.rs) at every point.
+#[test]
+fn procedural_textures_render_their_mirror_value() {
+    let mix = "Texture \"r\" \"spectrum\" \"mix\" \"rgb tex1\" [ 0.5 0.5 0.5 ] \
+               \"rgb tex2\" [ 0.9 0.6 0.2 ] \"texture amount\" \"n\"";
+    let cases = [
+        (
+            "fbm",
+            format!("Texture \"n\" \"float\" \"fbm\" \"integer octaves\" 4 \"float roughness\" 0.6\n{mix}"),
+        ),
+        (
+            "wrinkled",
+            "Texture \"n\" \"float\" \"wrinkled\" \"integer octaves\" 5\n\
+             Texture \"r\" \"spectrum\" \"scale\" \"rgb tex\" [ 0.5 0.4 0.3 ] \"texture scale\" \"n\""
+                .to_string(),
+        ),
+        ("windy", format!("Texture \"n\" \"float\" \"windy\"\n{mix}")),
+        (
+            "marble",
+            "Texture \"r\" \"spectrum\" \"marble\" \"float scale\" 2 \"float variation\" 0.6"
+                .to_string(),
+        ),
+        (
+            "dots",
+            "Texture \"r\" \"spectrum\" \"dots\" \"float uscale\" 8 \"float vscale\" 4 \
+             \"rgb inside\" [ 0.9 0.2 0.1 ] \"rgb outside\" [ 0.2 0.3 0.8 ]"
+                .to_string(),
+        ),
+        (
+            "bilerp",
+            "Texture \"r\" \"spectrum\" \"bilerp\" \"rgb v00\" [ 1 0 0 ] \"rgb v01\" [ 0 1 0 ] \
+             \"rgb v10\" [ 0 0 1 ] \"rgb v11\" [ 1 1 1 ]"
+                .to_string(),
+        ),
+    ];
+    for (name, textures) in cases {
+        let text = format!(
+            "LookAt 0 2.2 2.2  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 45 ]\n\
+             Film \"rgb\" \"integer xresolution\" [ 24 ] \"integer yresolution\" [ 24 ]\n\
+             WorldBegin\nLightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n\
+             AttributeBegin\nRotate 20 0 1 1\nScale 0.35 0.35 0.35\n{textures}\nAttributeEnd\n\
+             Material \"diffuse\" \"texture reflectance\" \"r\"\nShape \"sphere\"\n"
+        );
+        let mut s = lightpath::scene::parse_pbrt_str(&text, "procedural.pbrt")
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        s.settings.max_depth = 1;
+        s.settings.nee = NextEventEstimation::Off;
+        s.settings.importance_sampling = lightpath::abi::SampleMode::Cosine;
+        s.settings.russian_roulette = false;
+        let texture =
+            s.textures[s.materials[0].diffuse_texture.expect("a texture") as usize].clone();
+        let expected = expected_image(&s, |o, d| match unit_sphere_hit(o, d) {
+            Some(q) => texture_value(&texture, pbrt_sphere_uv(q.normalize()), q, q.normalize()),
+            None => Vec3::ONE,
+        });
+        let img = render(&with_integrator(s, IntegratorKind::PathTracer, 64), 3, Bvh);
+        let (mean, max) = differences(&img, &expected);
+        eprintln!("{name}: mean {mean} max {max}");
+        // (Pixels straddling a dot's edge or a fast variation see a fraction of each.)
+        assert!(
+            mean < 0.01 && max < 0.25,
+            "{name}: mean difference {mean}, largest {max}"
+        );
+        let spread = red_spread(&expected);
+        assert!(spread > 0.15, "{name}: {spread}");
+    }
+}
+
 /// A coated layer's `thickness` as a float texture (pbrt-v4's; two published scenes):
 /// a uniform image of 0.3 renders as the constant 0.3 does (and not as the default
 /// 0.01), for coated diffuse and coated conductor alike.
@@ -431,7 +503,7 @@ fn environment_maps_seen_directly_are_their_lookup() {
     }
 }
 
-/// A checkerboard floor (mixed with a colour by an image: a texture made of textures)
+/// A checkerboard floor (mixed with a colour by wrinkled noise: a texture made of textures)
 /// and a sphere of rough copper whose roughness is an image mixed with a constant by the
 /// normal's direction (a direction mix), under a map with a small bright sun: light sampling of the map alone agrees with BSDF
 /// sampling alone, and BDPT and MMLT (whose light vertices carry texture coordinates)
@@ -462,13 +534,26 @@ fn a_textured_scene_under_an_environment_map_agrees_across_integrators() {
         map.display(),
         roughness.display()
     ));
-    // The floor's reflectance made of textures: the checks mixed with orange by the
-    // roughness image's amount (a program on the device, in every integrator).
+    // The floor's reflectance made of textures: the checks mixed with orange by an amount
+    // of wrinkled noise (a program on the device, in every integrator).
     let mut s = s;
+    let wrinkles = Texture::Noise {
+        kind: lightpath::texture::NoiseKind::Wrinkled,
+        octaves: 6,
+        omega: 0.5,
+        scale: 1.0,
+        variation: 0.0,
+        projection: lightpath::texture::Projection::Solid {
+            texture_from_world: glam::Mat4::from_scale(Vec3::splat(2.0)),
+        },
+    };
     s.textures[0] = Texture::Mix {
         tex1: Operand::Texture(Box::new(s.textures[0].clone())),
         tex2: Operand::Const(Vec3::new(0.9, 0.6, 0.2)),
-        amount: Operand::Texture(Box::new(s.textures[1].clone())),
+        amount: Operand::Texture(Box::new(Texture::Scale {
+            tex: Operand::Texture(Box::new(wrinkles)),
+            scale: Operand::Const(Vec3::splat(0.4)),
+        })),
     };
     // The sphere's roughness a direction mix: the image where the normal is along
     // (1, 1, 0), 0.5 where it is across.

@@ -127,8 +127,10 @@
 // Coated materials whose layer scatters (pbrt-v4's albedo > 0: the walk's free flights
 // and phase function, layered.glsl).
 #define FEATURE_LAYER_MEDIUM 4096
+// Procedural textures: noise (fbm, wrinkled, windy, marble), dots and bilerp.
+#define FEATURE_PROCEDURAL_TEXTURES 8192
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 8191
+#define FEATURE_ALL 16383
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
@@ -168,6 +170,20 @@
 // pbrt-v4's directionmix: w a + (1 - w) b with w = |ng . dir|, ng the surface's geometric
 // normal and dir (mapping.xyz) a unit world direction.
 #define TEXTURE_DIRECTION_MIX 5
+// pbrt-v4's noise textures (noise.glsl; CPU mirror src/noise.rs) at the point in texture
+// space (proj0..2 its rows): info.y the noise table's first float in the texel buffer
+// (the permutation twice, then the marble colours), info.z the kind (NOISE_*), info.w
+// the octaves; mapping.x omega, .y marble's scale, .z its variation.
+#define TEXTURE_NOISE 6
+#define NOISE_FBM 0
+#define NOISE_WRINKLED 1
+#define NOISE_WINDY 2
+#define NOISE_MARBLE 3
+// pbrt-v4's dots: scale inside the polka dot of (s, t)'s cell, other outside; info.y the
+// noise table.
+#define TEXTURE_DOTS 7
+// pbrt-v4's bilerp: info.y the first of 12 floats in the texel buffer, v00 v01 v10 v11.
+#define TEXTURE_BILERP 8
 // The most records of a texture's program.
 #define MAX_TEXTURE_PROGRAM 8
 // How an image texture wraps (GpuTexture.flags.x).

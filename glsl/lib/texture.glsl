@@ -6,6 +6,7 @@
 #include "bindings.glsl"
 #include "features.glsl"
 #include "sampling.glsl"
+#include "noise.glsl"
 
 // The texel (x, y); black outside the image (x or y negative: wrap_texel's `black`).
 vec3 texel(GpuTexture t, int x, int y) {
@@ -37,10 +38,27 @@ vec2 texture_st(GpuTexture t, vec2 uv, vec3 p) {
     return vec2(acos(clamp(d.z, -1.0, 1.0)) * INV_PI, phi * INV_TWO_PI);
 }
 
-// The value of an image or checkerboard texture at the surface coordinates uv and
-// world point p.
+// The value of a texture not made of textures (an image, a checkerboard, a procedural
+// texture) at the surface coordinates uv and world point p.
 vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p) {
+    if (has_feature(FEATURE_PROCEDURAL_TEXTURES) && t.info.x == TEXTURE_NOISE) {
+        vec4 h = vec4(p, 1.0);
+        vec3 q = vec3(dot(t.proj0, h), dot(t.proj1, h), dot(t.proj2, h));
+        return noise_texture(t.info.y, t.info.z, t.info.w, t.mapping, q);
+    }
     vec2 st = texture_st(t, uv, p);
+    if (has_feature(FEATURE_PROCEDURAL_TEXTURES) && t.info.x == TEXTURE_DOTS) {
+        return noise_inside_polka_dot(t.info.y, st) ? t.scale.xyz : t.other.xyz;
+    }
+    if (has_feature(FEATURE_PROCEDURAL_TEXTURES) && t.info.x == TEXTURE_BILERP) {
+        uint i = t.info.y;
+        vec3 v00 = vec3(texels[i], texels[i + 1u], texels[i + 2u]);
+        vec3 v01 = vec3(texels[i + 3u], texels[i + 4u], texels[i + 5u]);
+        vec3 v10 = vec3(texels[i + 6u], texels[i + 7u], texels[i + 8u]);
+        vec3 v11 = vec3(texels[i + 9u], texels[i + 10u], texels[i + 11u]);
+        return (1.0 - st.x) * (1.0 - st.y) * v00 + (1.0 - st.x) * st.y * v01
+             + st.x * (1.0 - st.y) * v10 + st.x * st.y * v11;
+    }
     if (t.info.x == TEXTURE_CHECKERBOARD) {
         float sum = floor(st.x) + floor(st.y);
         if (has_feature(FEATURE_TEXTURE_PROJECTIONS) && t.flags.z == TEXTURE_MAP_SOLID) {

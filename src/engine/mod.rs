@@ -475,8 +475,8 @@ pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
         FEATURE_ALPHA, FEATURE_COATED, FEATURE_COATED_CONDUCTOR, FEATURE_DIFFUSE_TRANSMISSION,
         FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES, FEATURE_LAYER_MEDIUM,
-        FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_SHADING_MAPS, FEATURE_TEXTURE_GRAPHS,
-        FEATURE_TEXTURE_PROJECTIONS, FEATURE_UNBOUNDED,
+        FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_PROCEDURAL_TEXTURES, FEATURE_SHADING_MAPS,
+        FEATURE_TEXTURE_GRAPHS, FEATURE_TEXTURE_PROJECTIONS, FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
@@ -523,6 +523,18 @@ pub fn scene_features(scene: &Scene) -> u32 {
     }
     if scene.textures.iter().any(|t| t.is_graph()) {
         features |= FEATURE_TEXTURE_GRAPHS;
+    }
+    if scene.textures.iter().any(|t| {
+        t.leaves().iter().any(|l| {
+            matches!(
+                l,
+                crate::texture::Texture::Noise { .. }
+                    | crate::texture::Texture::Dots { .. }
+                    | crate::texture::Texture::Bilerp { .. }
+            )
+        })
+    }) {
+        features |= FEATURE_PROCEDURAL_TEXTURES;
     }
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
@@ -628,7 +640,8 @@ mod tests {
             | FEATURE_ALPHA
             | FEATURE_COATED_CONDUCTOR
             | FEATURE_TEXTURE_GRAPHS
-            | FEATURE_LAYER_MEDIUM;
+            | FEATURE_LAYER_MEDIUM
+            | FEATURE_PROCEDURAL_TEXTURES;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -64,6 +64,8 @@ pub(super) const PARAM_TYPES: &[(&str, &[&str])] = &[
     ("amount", &["float", "integer", "texture"]),
     ("materials", &["string"]),
     ("dir", &["vector3"]),
+    ("octaves", &["integer"]),
+    ("variation", &["float", "integer"]),
     ("uroughness", &["float", "integer", "texture"]),
     ("vroughness", &["float", "integer", "texture"]),
     ("L", &["rgb", "spectrum", "blackbody"]),

@@ -111,14 +111,32 @@ impl Parser {
                 };
                 match copy {
                     Some(Err(v)) => v,
-                    Some(Ok((i, k))) if !self.scene.textures[i as usize].is_graph() => {
+                    Some(Ok((i, k)))
+                        if !self.scene.textures[i as usize].is_graph()
+                            && !matches!(
+                                self.scene.textures[i as usize],
+                                Texture::Noise { .. }
+                            ) =>
+                    {
                         let mut tex = self.scene.textures[i as usize].clone();
                         match &mut tex {
                             Texture::Image { scale, .. } => *scale *= k,
-                            Texture::Checkerboard { even, odd, .. } => {
+                            Texture::Checkerboard { even, odd, .. }
+                            | Texture::Dots {
+                                inside: even,
+                                outside: odd,
+                                ..
+                            } => {
                                 *even *= k;
                                 *odd *= k;
                             }
+                            Texture::Bilerp { v, .. } => {
+                                for c in v {
+                                    *c *= k;
+                                }
+                            }
+                            // (Noise is not linear in a scale: a tree.)
+                            Texture::Noise { .. } => unreachable!("not copied"),
                             Texture::Scale { .. }
                             | Texture::Mix { .. }
                             | Texture::DirectionMix { .. } => unreachable!(),
@@ -158,6 +176,123 @@ impl Parser {
                         self.graph_texture(tex, file, line)?
                     }
                 }
+            }
+            "fbm" | "wrinkled" | "windy" | "marble" => {
+                // pbrt-v4's noise textures: floats, but for marble's colour.
+                if float == (class == "marble") {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!("pbrt-v4 has no {ty} \"{class}\" texture"),
+                    ));
+                }
+                let octaves = (class != "windy")
+                    .then(|| params.find("octaves").and_then(|p| p.nums.first().copied()))
+                    .flatten();
+                let octaves = match octaves {
+                    None => 8,
+                    Some(n) if (0.0..=32.0).contains(&n) => n as u32,
+                    Some(n) => {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!("octaves: expected 0 to 32, got {n}"),
+                        ))
+                    }
+                };
+                let number = |name: &str, default: f32| -> Result<f32, ParseError> {
+                    match params.find(name) {
+                        None => Ok(default),
+                        Some(p) => match p.nums.first() {
+                            Some(&x) if p.ty != "texture" => Ok(x as f32),
+                            _ => Err(self.err_at(
+                                p.file,
+                                p.line,
+                                d,
+                                format!("{name}: expected a float"),
+                            )),
+                        },
+                    }
+                };
+                let (omega, scale, variation) = if class == "windy" {
+                    (0.5, 1.0, 0.0)
+                } else if class == "marble" {
+                    (
+                        number("roughness", 0.5)?,
+                        number("scale", 1.0)?,
+                        number("variation", 0.2)?,
+                    )
+                } else {
+                    (number("roughness", 0.5)?, 1.0, 0.0)
+                };
+                use crate::texture::NoiseKind;
+                self.scene.textures.push(Texture::Noise {
+                    kind: match class {
+                        "fbm" => NoiseKind::Fbm,
+                        "wrinkled" => NoiseKind::Wrinkled,
+                        "windy" => NoiseKind::Windy,
+                        _ => NoiseKind::Marble,
+                    },
+                    octaves,
+                    omega,
+                    scale,
+                    variation,
+                    projection: Projection::Solid { texture_from_world },
+                });
+                Value::Texture(self.scene.textures.len() as u32 - 1)
+            }
+            "dots" | "bilerp" => {
+                let names: &[(&str, f32)] = if class == "dots" {
+                    &[("inside", 1.0), ("outside", 0.0)]
+                } else {
+                    &[("v00", 0.0), ("v01", 1.0), ("v10", 0.0), ("v11", 1.0)]
+                };
+                let mut v = [Vec3::ZERO; 4];
+                let mut textured = false;
+                for (k, &(name, default)) in names.iter().enumerate() {
+                    v[k] = match self.value(params, name, float, d)? {
+                        None => Vec3::splat(default),
+                        Some(Value::Const(c)) => c,
+                        Some(Value::Texture(_)) => {
+                            textured = true;
+                            Vec3::ZERO
+                        }
+                    };
+                }
+                if textured {
+                    self.unsupported(file, line, format!("{class} of textures"));
+                    Value::Const(Vec3::splat(0.5))
+                } else {
+                    self.scene.textures.push(if class == "dots" {
+                        Texture::Dots {
+                            inside: v[0],
+                            outside: v[1],
+                            mapping,
+                            projection,
+                        }
+                    } else {
+                        Texture::Bilerp {
+                            v,
+                            mapping,
+                            projection,
+                        }
+                    });
+                    Value::Texture(self.scene.textures.len() as u32 - 1)
+                }
+            }
+            "ptex" => {
+                self.unsupported(
+                    file,
+                    line,
+                    "Texture \"ptex\" (Ptex files: lightpath reads image maps; convert the \
+                     Ptex file to an imagemap)",
+                );
+                for p in &params.0 {
+                    p.used.set(true);
+                }
+                Value::Const(Vec3::splat(0.5))
             }
             "directionmix" => {
                 let t1 = self
