@@ -2,15 +2,21 @@
 // what pbrt-v4 builds on it (fBm, turbulence, windy waves, the marble spline, polka
 // dots). The table (the permutation twice, then marble's colours) is in the texel
 // buffer from float `table` on (abi.h TEXTURE_NOISE).
+//
+// Compile time: every lookup a texture makes goes through the one noise3 call of
+// `procedural_value`'s loop, and noise3's eight corners through one noise_grad call (a
+// kernel inlines these once per texture lookup site; unrolled copies cost lavapipe
+// minutes).
 #ifndef NOISE_GLSL
 #define NOISE_GLSL
+#extension GL_EXT_control_flow_attributes : require
 #include "bindings.glsl"
 
 int noise_perm(uint table, int i) { return int(texels[table + uint(i)]); }
 
 // The gradient of lattice point (x, y, z) dotted with the offset d from it.
-float noise_grad(uint table, int x, int y, int z, vec3 d) {
-    int h = noise_perm(table, noise_perm(table, noise_perm(table, x) + y) + z) & 15;
+float noise_grad(uint table, ivec3 c, vec3 d) {
+    int h = noise_perm(table, noise_perm(table, noise_perm(table, c.x) + c.y) + c.z) & 15;
     float u = h < 8 || h == 12 || h == 13 ? d.x : d.y;
     float v = h < 4 || h == 12 || h == 13 ? d.y : d.z;
     return ((h & 1) != 0 ? -u : u) + ((h & 2) != 0 ? -v : v);
@@ -24,28 +30,16 @@ float noise3(uint table, vec3 p) {
     vec3 f = floor(p);
     vec3 d = p - f;
     ivec3 i = ivec3(f) & 255;
-    float g[8];
-    for (int k = 0; k < 8; ++k) {
-        ivec3 c = ivec3(k & 1, (k >> 1) & 1, k >> 2);
-        g[k] = noise_grad(table, i.x + c.x, i.y + c.y, i.z + c.z, d - vec3(c));
-    }
     vec3 w = vec3(noise_fade(d.x), noise_fade(d.y), noise_fade(d.z));
-    float y0 = mix(mix(g[0], g[1], w.x), mix(g[2], g[3], w.x), w.y);
-    float y1 = mix(mix(g[4], g[5], w.x), mix(g[6], g[7], w.x), w.y);
-    return mix(y0, y1, w.z);
-}
-
-// Fractional Brownian motion (turbulence: of |noise|, plus pbrt-v4's 0.2 for the octave
-// after the last). Every octave: no ray differentials (see noise.rs).
-float noise_fbm(uint table, vec3 p, float omega, uint octaves, bool turbulence) {
-    float sum = 0.0, lambda = 1.0, o = 1.0;
-    for (uint k = 0u; k < octaves; ++k) {
-        float n = noise3(table, lambda * p);
-        sum += o * (turbulence ? abs(n) : n);
-        lambda *= 1.99;
-        o *= omega;
+    // The trilinear interpolation of the corners' values as their weighted sum (no
+    // array: a dynamically indexed one becomes a chain of selects).
+    float sum = 0.0;
+    [[dont_unroll]] for (int k = 0; k < 8; ++k) {
+        ivec3 c = ivec3(k & 1, (k >> 1) & 1, k >> 2);
+        vec3 a = mix(1.0 - w, w, vec3(c));
+        sum += a.x * a.y * a.z * noise_grad(table, i + c, d - vec3(c));
     }
-    return turbulence ? sum + o * 0.2 : sum;
+    return sum;
 }
 
 // pbrt-v4's marble colour at t in [0, 1]: a cubic Bezier segment of its colours, 1.5x.
@@ -60,27 +54,53 @@ vec3 noise_marble_colour(uint table, float t) {
     return clamp(1.5 * rgb, vec3(0.0), vec3(1.0));
 }
 
-// pbrt-v4's noise textures at the texture-space point q (abi.h NOISE_*).
-vec3 noise_texture(uint table, uint kind, uint octaves, vec4 params, vec3 q) {
-    float omega = params.x;
-    if (kind == NOISE_WINDY) {
-        return vec3(abs(noise_fbm(table, 0.1 * q, 0.5, 3u, false)) * noise_fbm(table, q, 0.5, 6u, false));
-    }
-    if (kind == NOISE_MARBLE) q *= params.y;
-    float n = noise_fbm(table, q, omega, octaves, kind == NOISE_WRINKLED);
-    if (kind != NOISE_MARBLE) return vec3(n);
-    return noise_marble_colour(table, 0.5 + 0.5 * sin(q.y + params.z * n));
-}
-
-// Whether (s, t) is inside the polka dot of its cell (pbrt-v4's dots).
-bool noise_inside_polka_dot(uint table, vec2 st) {
+// A noise texture (abi.h TEXTURE_NOISE: NOISE_* in info.z, octaves in info.w, omega,
+// marble's scale and variation in mapping.xyz) at the texture-space point q, or dots
+// (TEXTURE_DOTS) at (s, t): fBm (turbulence: of |noise|, plus pbrt-v4's 0.2 for the
+// octave after the last; every octave: no ray differentials, see noise.rs), windy (three
+// octaves at a tenth of the frequency, then six), marble (fBm perturbing a sine through
+// the colour spline), or the polka dot of (s, t)'s cell (three noise values).
+vec3 procedural_value(GpuTexture t, vec3 q, vec2 st) {
+    uint table = t.info.y;
+    bool dots = t.info.x == TEXTURE_DOTS;
+    uint kind = t.info.z;
+    bool windy = !dots && kind == NOISE_WINDY;
+    float omega = windy ? 0.5 : t.mapping.x;
+    if (!dots && kind == NOISE_MARBLE) q *= t.mapping.y;
     vec2 cell = floor(st + 0.5);
-    if (noise3(table, vec3(cell + 0.5, 0.5)) <= 0.0) return false;
-    float radius = 0.35;
-    float shift = 0.5 - radius;
-    vec2 centre = cell + shift * vec2(noise3(table, vec3(cell + vec2(1.5, 2.8), 0.5)),
-                                      noise3(table, vec3(cell + vec2(4.5, 9.8), 0.5)));
-    vec2 d = st - centre;
-    return dot(d, d) < radius * radius;
+    uint count = dots ? 3u : windy ? 9u : t.info.w;
+    float sum = 0.0, strength = 0.0, lambda = 1.0, o = 1.0;
+    float n0 = 0.0, n1 = 0.0, n2 = 0.0;
+    [[dont_unroll]] for (uint k = 0u; k < count; ++k) {
+        vec3 x;
+        if (dots) {
+            x = vec3(cell + (k == 0u ? vec2(0.5) : k == 1u ? vec2(1.5, 2.8) : vec2(4.5, 9.8)), 0.5);
+        } else {
+            if (windy && k == 3u) {
+                strength = sum;
+                sum = 0.0;
+                lambda = 1.0;
+                o = 1.0;
+            }
+            x = lambda * (windy && k < 3u ? 0.1 * q : q);
+        }
+        float n = noise3(table, x);
+        if (dots) {
+            if (k == 0u) n0 = n; else if (k == 1u) n1 = n; else n2 = n;
+        } else {
+            sum += o * (kind == NOISE_WRINKLED ? abs(n) : n);
+            lambda *= 1.99;
+            o *= omega;
+        }
+    }
+    if (dots) {
+        float radius = 0.35;
+        vec2 d = st - (cell + (0.5 - radius) * vec2(n1, n2));
+        return n0 > 0.0 && dot(d, d) < radius * radius ? t.scale.xyz : t.other.xyz;
+    }
+    if (kind == NOISE_WRINKLED) return vec3(sum + o * 0.2);
+    if (windy) return vec3(abs(strength) * sum);
+    if (kind == NOISE_MARBLE) return noise_marble_colour(table, 0.5 + 0.5 * sin(q.y + t.mapping.z * sum));
+    return vec3(sum);
 }
 #endif

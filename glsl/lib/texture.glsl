@@ -39,18 +39,18 @@ vec2 texture_st(GpuTexture t, vec2 uv, vec3 p) {
 }
 
 // The value of a texture not made of textures (an image, a checkerboard, a procedural
-// texture) at the surface coordinates uv and world point p.
-vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p) {
-    if (has_feature(FEATURE_PROCEDURAL_TEXTURES) && t.info.x == TEXTURE_NOISE) {
+// texture) at the surface coordinates uv and world point p. `procedural` false (a
+// constant at the call site) leaves the procedural textures' code out of it: the
+// environment map, an image, looks up through it.
+vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, bool procedural) {
+    bool noise = t.info.x == TEXTURE_NOISE;
+    vec2 st = noise ? vec2(0.0) : texture_st(t, uv, p);
+    if (procedural && has_feature(FEATURE_PROCEDURAL_TEXTURES) && (noise || t.info.x == TEXTURE_DOTS)) {
         vec4 h = vec4(p, 1.0);
         vec3 q = vec3(dot(t.proj0, h), dot(t.proj1, h), dot(t.proj2, h));
-        return noise_texture(t.info.y, t.info.z, t.info.w, t.mapping, q);
+        return procedural_value(t, q, st);
     }
-    vec2 st = texture_st(t, uv, p);
-    if (has_feature(FEATURE_PROCEDURAL_TEXTURES) && t.info.x == TEXTURE_DOTS) {
-        return noise_inside_polka_dot(t.info.y, st) ? t.scale.xyz : t.other.xyz;
-    }
-    if (has_feature(FEATURE_PROCEDURAL_TEXTURES) && t.info.x == TEXTURE_BILERP) {
+    if (procedural && has_feature(FEATURE_PROCEDURAL_TEXTURES) && t.info.x == TEXTURE_BILERP) {
         uint i = t.info.y;
         vec3 v00 = vec3(texels[i], texels[i + 1u], texels[i + 2u]);
         vec3 v01 = vec3(texels[i + 3u], texels[i + 4u], texels[i + 5u]);
@@ -93,7 +93,7 @@ vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p) {
 // A texture made of textures runs its program (abi.h TEXTURE_GRAPH): its records in
 // order, each into a register, leaves looked up here at one call site.
 vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng) {
-    if (!has_feature(FEATURE_TEXTURE_GRAPHS)) return texture_leaf(textures[index], uv, p);
+    if (!has_feature(FEATURE_TEXTURE_GRAPHS)) return texture_leaf(textures[index], uv, p, true);
     GpuTexture t = textures[index];
     uint first = index, count = 1u;
     if (t.info.x == TEXTURE_GRAPH) {
@@ -112,7 +112,7 @@ vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng) {
                          : n.flags.z == NO_TEXTURE ? n.mapping.x : regs[n.flags.z].x;
             v = n.info.x == TEXTURE_SCALE ? a * b.x : (1.0 - amount) * a + amount * b;
         } else {
-            v = texture_leaf(n, uv, p);
+            v = texture_leaf(n, uv, p, true);
         }
         regs[i] = v;
     }
