@@ -1,5 +1,5 @@
 //! Bump and normal maps: CPU mirror of glsl/lib/shading_map.glsl and of geometry.glsl's
-//! `apply_shading_map`. A material's displacement texture (pbrt-v4's `BumpMap`) or normal
+//! `resolve_material_and_map`. A material's displacement texture (pbrt-v4's `BumpMap`) or normal
 //! map (pbrt-v4's `NormalMap`) replaces the shading normal that surface_at gives; every
 //! integrator then shades with it (and corrects importance for it, as for interpolated
 //! normals).

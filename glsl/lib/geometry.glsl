@@ -146,32 +146,9 @@ vec2 sphere_uv(vec3 q) {
     return vec2(phi * (0.5 / 3.14159265358979), 1.0 - acos(clamp(q.z, -1.0, 1.0)) * (1.0 / 3.14159265358979));
 }
 
-// pbrt-v4's mix material is not a surface but a choice between two materials, made at
-// each point by a hash of its position (and the mix), so that every subpath reaching
-// the point meets the same material: the second with probability `amount`. Nested
-// mixes resolve in turn.
-uint material_resolve(uint m, vec3 p, vec2 uv, vec3 ng) {
-    if (!has_feature(FEATURE_MIX)) return m;
-    for (uint depth = 0u; depth < MAX_MATERIAL_MIX_DEPTH; ++depth) {
-        uvec4 info = materials[m].info;
-        if ((info.y & MATERIAL_MIX) == 0u) break;
-        vec4 mix_params = materials[m].specular;
-        float amount = info.z == NO_TEXTURE ? mix_params.z : texture_value(info.z, uv, p, ng).x;
-        uvec3 b = floatBitsToUint(p);
-        uint h = hash_pcg(hash_pcg(hash_pcg(hash_pcg(m) ^ b.x) ^ b.y) ^ b.z);
-        float u = (float(h >> 8u) + 0.5) * (1.0 / 16777216.0);
-        m = floatBitsToUint(amount < u ? mix_params.x : mix_params.y);
-    }
-    return m;
-}
-
-// The shading normal of s's material's bump or normal map, if it has one (s.ns and s.ng
-// as the primitive gives them).
-void apply_shading_map(Hit hit, inout Surface s) {
-    uvec4 info = materials[s.material].info;
-    if ((info.y & (MATERIAL_BUMP_MAP | MATERIAL_NORMAL_MAP)) == 0u) return;
-    uint tex = floatBitsToUint(materials[s.material].roughness.w);
-    ShadingGeometry g;
+// The shading geometry of the primitive at s for its material's bump or normal map (s.ns
+// as the primitive gives it).
+ShadingGeometry map_geometry(Hit hit, Surface s) {
     uint ntri = scene.triangle_count;
     if (hit.prim < ntri) {
         GpuTriangle tri = triangles[hit.prim];
@@ -193,15 +170,89 @@ void apply_shading_map(Hit hit, inout Surface s) {
             n1 = at.n1.xyz;
             n2 = at.n2.xyz;
         }
-        g = triangle_shading_geometry(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, uv0, uv1, uv2,
-                                      normals, n0, n1, n2, s.ns);
-    } else {
-        GpuSphere sp = spheres[hit.prim - ntri];
-        g = sphere_shading_geometry(sp.o2w0.xyz, sp.o2w1.xyz, sp.o2w2.xyz, sp.w2o0.xyz,
-                                    sp.w2o1.xyz, sp.w2o2.xyz, sphere_to_object_point(sp, s.p),
-                                    s.ns);
+        return triangle_shading_geometry(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, uv0, uv1, uv2,
+                                         normals, n0, n1, n2, s.ns);
     }
-    s.ns = mapped_normal(g, info.y, tex, s.uv, s.p, s.ng);
+    GpuSphere sp = spheres[hit.prim - ntri];
+    return sphere_shading_geometry(sp.o2w0.xyz, sp.o2w1.xyz, sp.o2w2.xyz, sp.w2o0.xyz,
+                                   sp.w2o1.xyz, sp.w2o2.xyz, sphere_to_object_point(sp, s.p),
+                                   s.ns);
+}
+
+// s's material with its mixes resolved, then the shading normal of that material's bump
+// or normal map (MATERIAL_BUMP_MAP / MATERIAL_NORMAL_MAP, texture in roughness.w).
+//
+// pbrt-v4's mix material is not a surface but a choice between two materials, made at
+// each point by a hash of its position (and the mix), so that every subpath reaching
+// the point meets the same material: the second with probability `amount`. Nested
+// mixes resolve in turn. pbrt-v4's BumpMap looks the displacement up three times (at
+// (u, v), a step BUMP_DELTA along u, one along v), its NormalMap once.
+//
+// Every texture lookup of both is made at the loop's one call of texture_value (the mixes'
+// amounts first, then the map's), so that a kernel holds one copy of the texture code for
+// them (lavapipe's compile time grows faster than a kernel).
+void resolve_material_and_map(Hit hit, inout Surface s) {
+    if (!has_feature(FEATURE_MIX) && !has_feature(FEATURE_SHADING_MAPS)) return;
+    uint m = s.material;
+    uint depth = 0u;
+    bool resolving = has_feature(FEATURE_MIX);
+    bool mapped = false;
+    uint flags = 0u;
+    uint tex = NO_TEXTURE;
+    uint lookups = 0u;
+    uint k = 0u;
+    ShadingGeometry g;
+    vec3 c = vec3(0.0);
+    vec3 h = vec3(0.0);
+    for (uint step = 0u; step < MAX_MATERIAL_MIX_DEPTH + 3u; ++step) {
+        uint index = NO_TEXTURE;
+        vec2 uv = s.uv;
+        vec3 p = s.p;
+        bool mixing = false;
+        if (resolving) {
+            uvec4 info = materials[m].info;
+            mixing = depth < MAX_MATERIAL_MIX_DEPTH && (info.y & MATERIAL_MIX) != 0u;
+            resolving = mixing;
+            index = info.z;
+        }
+        if (!mixing) {
+            if (!mapped) {
+                // The material is resolved: its map's lookups follow.
+                mapped = true;
+                flags = materials[m].info.y;
+                if (has_feature(FEATURE_SHADING_MAPS) && (flags & (MATERIAL_BUMP_MAP | MATERIAL_NORMAL_MAP)) != 0u) {
+                    tex = floatBitsToUint(materials[m].roughness.w);
+                    lookups = (flags & MATERIAL_NORMAL_MAP) != 0u ? 1u : 3u;
+                    g = map_geometry(hit, s);
+                }
+            }
+            if (k >= lookups) break;
+            float su = k == 1u ? BUMP_DELTA : 0.0;
+            float sv = k == 2u ? BUMP_DELTA : 0.0;
+            index = tex;
+            uv = s.uv + vec2(su, sv);
+            p = s.p + su * g.dpdu + sv * g.dpdv;
+        }
+        vec3 v = index == NO_TEXTURE ? vec3(0.0) : texture_value(index, uv, p, s.ng);
+        if (mixing) {
+            vec4 mix_params = materials[m].specular;
+            float amount = index == NO_TEXTURE ? mix_params.z : v.x;
+            uvec3 b = floatBitsToUint(s.p);
+            uint hh = hash_pcg(hash_pcg(hash_pcg(hash_pcg(m) ^ b.x) ^ b.y) ^ b.z);
+            float u = (float(hh >> 8u) + 0.5) * (1.0 / 16777216.0);
+            m = floatBitsToUint(amount < u ? mix_params.x : mix_params.y);
+            depth += 1u;
+        } else {
+            c = v;
+            h[k] = v.x;
+            k += 1u;
+        }
+    }
+    s.material = m;
+    if (lookups > 0u) {
+        s.ns = (flags & MATERIAL_NORMAL_MAP) != 0u ? normal_mapped_normal(g, c, s.ng)
+                                                   : bump_mapped_normal(g, h, s.ng);
+    }
 }
 
 Surface surface_at(Hit hit, vec3 o, vec3 d) {
@@ -241,8 +292,7 @@ Surface surface_at(Hit hit, vec3 o, vec3 d) {
         s.uv = sphere_uv(q);
         s.ns = s.ng;
     }
-    s.material = material_resolve(s.material, s.p, s.uv, s.ng);
-    if (has_feature(FEATURE_SHADING_MAPS)) apply_shading_map(hit, s);
+    resolve_material_and_map(hit, s);
     return s;
 }
 

@@ -119,21 +119,4 @@ vec3 normal_mapped_normal(ShadingGeometry g, vec3 c, vec3 ng) {
     return dot(ns, ng) < 0.0 ? -ns : ns;
 }
 
-// The shading normal of a map (MATERIAL_BUMP_MAP or MATERIAL_NORMAL_MAP flags, texture
-// tex) at (uv, p) with shading geometry g. The texture is looked up in one place, in a
-// loop (once for a normal map, three times for a bump map), so that a kernel holds one
-// copy of the texture code.
-vec3 mapped_normal(ShadingGeometry g, uint flags, uint tex, vec2 uv, vec3 p, vec3 ng) {
-    bool normal_map = (flags & MATERIAL_NORMAL_MAP) != 0u;
-    uint lookups = normal_map ? 1u : 3u;
-    vec3 c = vec3(0.0);
-    vec3 h = vec3(0.0);
-    for (uint k = 0u; k < lookups; ++k) {
-        float su = k == 1u ? BUMP_DELTA : 0.0;
-        float sv = k == 2u ? BUMP_DELTA : 0.0;
-        c = texture_value(tex, uv + vec2(su, sv), p + su * g.dpdu + sv * g.dpdv, ng);
-        h[k] = c.x;
-    }
-    return normal_map ? normal_mapped_normal(g, c, ng) : bump_mapped_normal(g, h, ng);
-}
 #endif
