@@ -668,6 +668,45 @@ fn a_reflectance_conductor_reflects_its_colour_at_normal_incidence() {
     }
 }
 
+/// A conductor's `reflectance` as a texture (pbrt-v4's; the published watercolor scenes):
+/// a uniform image of r renders as the constant reflectance r does (eta 1 and k from r,
+/// converted at each lookup), and differs from another reflectance.
+#[test]
+fn a_conductor_reflectance_texture_renders_as_its_constant() {
+    let dir = temp_dir("reflectance");
+    let image = dir.join("r.pfm");
+    write_pfm(&image, 4, 4, |_, _| [0.9, 0.5, 0.2]);
+    let scene = |reflectance: &str| {
+        let text = format!(
+            "LookAt 0 0 4  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 30 ]\n\
+             Film \"rgb\" \"integer xresolution\" [ 24 ] \"integer yresolution\" [ 24 ]\n\
+             Integrator \"path\" \"integer maxdepth\" [ 2 ]\nWorldBegin\n\
+             LightSource \"point\" \"point3 from\" [ 1 2 4 ] \"rgb I\" [ 20 20 20 ]\n\
+             LightSource \"infinite\" \"rgb L\" [ 0.3 0.3 0.3 ]\n\
+             Texture \"r\" \"spectrum\" \"imagemap\" \"string filename\" \"{}\"\n\
+             Material \"conductor\" \"float roughness\" 0.05 {reflectance}\nShape \"sphere\"\n",
+            image.display()
+        );
+        let mut s = lightpath::scene::parse_pbrt_str(&text, "reflectance.pbrt").expect("parses");
+        s.settings.spp = 16;
+        s
+    };
+    let constant = render(&scene("\"rgb reflectance\" [ 0.9 0.5 0.2 ]"), 1, Bvh);
+    let textured = render(&scene("\"texture reflectance\" \"r\""), 1, Bvh);
+    let other = render(&scene("\"rgb reflectance\" [ 0.5 0.5 0.5 ]"), 1, Bvh);
+    let (mean, max) = differences(&textured, &constant);
+    assert!(
+        mean < 1e-5 && max < 1e-3,
+        "textured vs constant reflectance: {mean}, {max}"
+    );
+    let (mean, max) = differences(&other, &constant);
+    assert!(
+        max > 0.05,
+        "reflectance 0.5 vs (0.9, 0.5, 0.2): {mean}, {max}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// pbrt-v4's `remaproughness` applies to a roughness texture at each lookup: a rough
 /// copper sphere under a point light whose roughness is a uniform image of 0.09 renders
 /// as the constant `"float roughness" 0.09` does (both alpha = 0.3), and as alpha 0.09

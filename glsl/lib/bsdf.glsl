@@ -98,7 +98,7 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p, vec3 ng) {
     b.albedo = has_feature(FEATURE_LAYER_MEDIUM) && layered ? m.eta.yzw : vec3(0.0);
     b.g = m.k.w;
     // Textures replace parameters, each slot looked up at the one call site of the loop:
-    // 0 the diffuse reflectance (a coated conductor's: its conductor's reflectance), 1
+    // 0 the diffuse reflectance (a conductor's or a coated conductor's: its reflectance), 1
     // the roughness (first channel; diffuse transmission: the transmittance), 2 a coated
     // conductor's conductor roughness, 3 a coated layer's thickness.
     if (!has_feature(FEATURE_MATERIAL_TEXTURES)) return b;
@@ -112,12 +112,18 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p, vec3 ng) {
         vec3 v = texture_value(index, uv, p, ng);
         float a = v.x;
         if (slot != 0u && slot != 3u && (m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(max(a, 0.0));
-        if (slot == 0u && bsdf_is_coated_conductor(b)) {
-            // pbrt-v4's artist-friendly conductor (eta 1, k from the reflectance r) in
-            // the coating (both over its index).
+        if (slot == 0u && (bsdf_is_coated_conductor(b) || b.kind == BSDF_CONDUCTOR)) {
+            // pbrt-v4's artist-friendly conductor: eta 1, k from the reflectance r (a
+            // coated conductor's in the coating: both over its index).
             vec3 r = clamp(v, vec3(0.0), vec3(0.9999));
-            b.base_eta = vec3(1.0 / b.eta.x);
-            b.base_k = 2.0 * sqrt(r) / sqrt(vec3(1.0) - r) / b.eta.x;
+            vec3 k = 2.0 * sqrt(r) / sqrt(vec3(1.0) - r);
+            if (b.kind == BSDF_CONDUCTOR) {
+                b.eta = vec3(1.0);
+                b.k = k;
+            } else {
+                b.base_eta = vec3(1.0 / b.eta.x);
+                b.base_k = k / b.eta.x;
+            }
         } else if (slot == 0u) {
             b.kd = v;
         } else if (slot == 1u && bsdf_is_diffuse_transmission(b)) {

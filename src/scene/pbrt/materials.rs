@@ -325,7 +325,7 @@ impl Parser {
             "conductor" => {
                 m.bsdf = BsdfKind::Conductor;
                 roughness(self, &mut m)?;
-                conductor(self, &mut m, "", false)?;
+                conductor(self, &mut m, "", true)?;
             }
             other => {
                 self.unsupported(file, line, format!("Material \"{other}\""));
