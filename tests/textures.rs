@@ -463,11 +463,12 @@ fn projected_texture_mappings_render_their_lookup() {
 
 /// A smooth 16 × 8 map with values from 0.2 to 2.
 fn smooth_map(x: u32, y: u32) -> [f32; 3] {
+    use std::f32::consts::{PI, TAU};
     let (u, v) = (x as f32 / 16.0, y as f32 / 8.0);
     [
-        1.1 + 0.9 * (6.28 * u).sin(),
+        1.1 + 0.9 * (TAU * u).sin(),
         0.2 + 1.8 * v,
-        1.0 + 0.5 * (12.56 * u).cos() * (3.14 * v).sin(),
+        1.0 + 0.5 * (2.0 * TAU * u).cos() * (PI * v).sin(),
     ]
 }
 
