@@ -263,3 +263,19 @@ fn a_sphere_light_in_pbrt_syntax_renders_like_its_test_twin_in_every_integrator(
         }
     }
 }
+
+/// scenes/pbrt/every-feature.pbrt (docs/performance.md's cold-compile figures) holds every
+/// feature a pbrt file can bring without an image file: the kernels it needs are
+/// specialized to every feature bit but the environment map's and unbounded depth's.
+#[test]
+fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
+    use lightpath::abi::{FEATURE_ALL, FEATURE_ENVIRONMENT_MAP, FEATURE_UNBOUNDED};
+    let s = scene::load(&repo().join("scenes/pbrt/every-feature.pbrt"))
+        .expect("the every-feature scene parses");
+    let features = lightpath::engine::scene_features(&s);
+    assert_eq!(
+        features,
+        FEATURE_ALL & !(FEATURE_ENVIRONMENT_MAP | FEATURE_UNBOUNDED),
+        "{features:b}"
+    );
+}
