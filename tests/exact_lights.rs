@@ -512,6 +512,41 @@ fn bump_and_normal_maps_render_alike_in_every_strategy_and_integrator() {
     assert_integrators_agree("maps", &s);
 }
 
+/// pbrt-v4's procedural and combined textures: a marble floor bumped by wrinkled noise, a
+/// sphere whose reflectance is a direction mix, and a rough conductor panel whose
+/// reflectance is polka dots, under the quad light. Every BDPT strategy alone matches the
+/// path tracer's image of its depth (every vertex of every subpath looks its textures up
+/// alike), and PT, BDPT and MMLT agree (maxdepth 1, 2 and 5).
+#[test]
+fn procedural_textures_render_alike_in_every_strategy_and_integrator() {
+    let (_, kind, quad) = lights().into_iter().next().expect("the quad light");
+    let light = format!(
+        "{quad}\nAttributeEnd\nAttributeBegin\n\
+         AttributeBegin\nScale 0.5 0.5 0.5\n\
+         Texture \"wrinkles\" \"float\" \"wrinkled\" \"integer octaves\" 5\n\
+         Texture \"veins\" \"spectrum\" \"marble\" \"float variation\" 0.5\nAttributeEnd\n\
+         Texture \"bumps\" \"float\" \"scale\" \"texture tex\" \"wrinkles\" \"float scale\" 0.1\n\
+         Material \"diffuse\" \"texture reflectance\" \"veins\" \"texture displacement\" \"bumps\"\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -3 0.02 3  3 0.02 3  3 0.02 -2.5  -3 0.02 -2.5 ] \"point2 uv\" [ 0 0  3 0  3 3  0 3 ]\n\
+         Texture \"facing\" \"spectrum\" \"directionmix\" \"rgb tex1\" [ 0.8 0.3 0.2 ] \
+         \"rgb tex2\" [ 0.2 0.3 0.8 ] \"vector3 dir\" [ 0 1 0 ]\n\
+         Material \"diffuse\" \"texture reflectance\" \"facing\"\n\
+         AttributeBegin\nTranslate 1.5 0.6 0.5\nShape \"sphere\" \"float radius\" [ 0.6 ]\nAttributeEnd\n\
+         Texture \"spots\" \"spectrum\" \"dots\" \"float uscale\" 4 \"float vscale\" 4 \
+         \"rgb inside\" [ 0.9 0.8 0.2 ] \"rgb outside\" [ 0.5 0.5 0.5 ]\n\
+         Material \"conductor\" \"float roughness\" 0.3 \"texture reflectance\" \"spots\"\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -3 0 -2.98  3 0 -2.98  3 4 -2.98  -3 4 -2.98 ] \"point2 uv\" [ 0 0  2 0  2 2  0 2 ]"
+    );
+    let s = room(&light, false, 3);
+    let features = lightpath::engine::scene_features(&s);
+    assert_ne!(features & lightpath::abi::FEATURE_PROCEDURAL_TEXTURES, 0);
+    assert_ne!(features & lightpath::abi::FEATURE_TEXTURE_GRAPHS, 0);
+    assert_each_strategy_alone_matches_pt("procedural", kind, &s, 3);
+    assert_integrators_agree("procedural", &s);
+}
+
 /// Alpha cut-outs (pbrt-v4's `alpha`): under the quad light hang a diffuse panel whose
 /// alpha is a ramp texture (0 to 1 across it) and one of constant alpha 0.5, so that the
 /// floor is lit through and around them and light bounces off their kept parts. Every

@@ -21,6 +21,26 @@ fn rng(state: &mut u64) -> f32 {
     ((*state >> 40) as f32) / (1u64 << 24) as f32
 }
 
+/// `per_group` random rays from above and in front at each of `groups` shapes placed 3
+/// units apart along x (centred at x = 3 group, on y = 0).
+fn rays_at_groups(groups: usize, per_group: usize, seed: u64) -> Vec<(Vec3, Vec3, f32)> {
+    let mut state = seed;
+    let mut rays = Vec::new();
+    for group in 0..groups {
+        let cx = 3.0 * group as f32;
+        for _ in 0..per_group {
+            let o = Vec3::new(cx + rng(&mut state) - 0.5, 4.0, 3.0 + rng(&mut state) - 0.5);
+            let target = Vec3::new(
+                cx + 1.4 * (rng(&mut state) - 0.5),
+                0.0,
+                1.4 * (rng(&mut state) - 0.5),
+            );
+            rays.push((o, (target - o).normalize(), 100.0));
+        }
+    }
+    rays
+}
+
 /// Five groups along x (3 units apart): a bumped quad without normals, a bumped curved
 /// quad with normals, a bumped ellipsoid, a normal-mapped quad, a normal-mapped sphere
 /// with reversed orientation, and a normal-mapped quad with normals.
@@ -83,20 +103,7 @@ fn bump_and_normal_maps_on_the_device_match_their_mirror() {
         bumped >= 2 && normal >= 2,
         "{bumped} bumped, {normal} normal-mapped materials"
     );
-    let mut state = 7u64;
-    let mut rays = Vec::new();
-    for group in 0..6 {
-        let cx = 3.0 * group as f32;
-        for _ in 0..96 {
-            let o = Vec3::new(cx + rng(&mut state) - 0.5, 4.0, 3.0 + rng(&mut state) - 0.5);
-            let target = Vec3::new(
-                cx + 1.4 * (rng(&mut state) - 0.5),
-                0.0,
-                1.4 * (rng(&mut state) - 0.5),
-            );
-            rays.push((o, (target - o).normalize(), 100.0));
-        }
-    }
+    let rays = rays_at_groups(6, 96, 7);
     let hits = {
         let mut r = renderer(Bvh);
         lightpath::probe::trace_rays(&mut r.engine, &s, &rays).expect("trace probe")
@@ -265,20 +272,7 @@ fn procedural_bump_maps_on_the_device_match_their_mirror() {
         );
     }
     let s = scene::parse_pbrt_str(&text, "procedural-bumps.pbrt").expect("the scene parses");
-    let mut state = 11u64;
-    let mut rays = Vec::new();
-    for group in 0..2 * textures.len() {
-        let cx = 3.0 * group as f32;
-        for _ in 0..64 {
-            let o = Vec3::new(cx + rng(&mut state) - 0.5, 4.0, 3.0 + rng(&mut state) - 0.5);
-            let target = Vec3::new(
-                cx + 1.4 * (rng(&mut state) - 0.5),
-                0.0,
-                1.4 * (rng(&mut state) - 0.5),
-            );
-            rays.push((o, (target - o).normalize(), 100.0));
-        }
-    }
+    let rays = rays_at_groups(2 * textures.len(), 64, 11);
     let hits = {
         let mut r = renderer(Bvh);
         lightpath::probe::trace_rays(&mut r.engine, &s, &rays).expect("trace probe")
