@@ -39,7 +39,7 @@ void main() {
         vec3 L = s.emitter != NO_EMITTER ? emitted_radiance(s.material, s.ng, wo) : vec3(0.0);
         vec3 E = vec3(0.0);
         for (uint e = 0u; e < scene.emitter_count; ++e) E += emitter_unoccluded_irradiance(e, s.p, n, s.prim);
-        sum += L + material_bsdf(materials[s.material], true, s.uv, s.p, s.ng).kd * INV_PI * E;
+        sum += L + material_bsdf(materials[s.material], true, s.tex0, s.tex1).kd * INV_PI * E;
     }
     film[index] += vec4(sum, float(rays));
 }

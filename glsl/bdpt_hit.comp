@@ -43,7 +43,7 @@ void main() {
         // Vertices that a camera vertex can still connect to (s + t - 2 <= max_scatter()
         // with t >= 2) are stored.
         if (i < max_scatter()) {
-            path_vertices[base + i - 1u] = pack_vertex(v);
+            store_path_vertex(base + i - 1u, v);
             walks[slot].counts.z = i;
         }
         flags |= BDPT_WALK_VERTEX;
@@ -84,7 +84,7 @@ void main() {
             }
             // s >= 2: light vertices y_j with j + k <= max_scatter() (shade, then trace).
             if (k < max_scatter() && g.counts.z > 0u) {
-                path_vertices[base + vertex_stride() + k - 1u] = pack_vertex(v);
+                store_path_vertex(base + vertex_stride() + k - 1u, v);
                 walks[slot].counts.w = k;
                 uint first, last;
                 if (connection_range(k, g.counts.z, first, last)) flags |= BDPT_WALK_CONNECTIONS;

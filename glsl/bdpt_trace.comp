@@ -27,14 +27,22 @@ void main() {
     vec3 radiance = walks[slot].radiance.xyz;
     PathVertex z;
     if (connections > 0u) z = stored_vertex(base + vertex_stride() + counts.w - 1u);
-    // Every shadow ray in one kept loop (each trace_occluded is a copy of the backend):
-    // r = 0 the pending one, then one per connection z_k - y_j.
+    // Every ray in one kept loop, through one trace_ray (each call site is a copy of the
+    // backend): r = 0 the pending shadow ray, then one per connection z_k - y_j, then
+    // (r = connections + 1) the walk's own ray, for its closest hit.
+    bool walk_ray = (flags & BDPT_WALK_RAY) != 0u;
     uint first_ray = shadow ? 0u : 1u;
-    [[dont_unroll]] for (uint r = first_ray; r <= connections; ++r) {
+    uint last_ray = connections + (walk_ray ? 1u : 0u);
+    [[dont_unroll]] for (uint r = first_ray; r <= last_ray; ++r) {
+        bool closest = r == connections + 1u;
         vec3 o, d, value;
         float tmax, weight;
         uint j = 0u;
-        if (r == 0u) {
+        if (closest) {
+            o = walks[slot].o.xyz;
+            d = walks[slot].d.xyz;
+            tmax = INF;
+        } else if (r == 0u) {
             vec4 ow = walks[slot].ls_wi;
             vec4 dw = walks[slot].ls_le;
             vec4 c = walks[slot].ls_p;
@@ -56,7 +64,15 @@ void main() {
             connected.w += 1.0;
         }
         // (A connection of no length has nothing to block it.)
-        if ((r == 0u || tmax > 0.0) && trace_occluded(o, d, tmax)) continue;
+        Hit hit;
+        bool found = (closest || r == 0u || tmax > 0.0) && trace_ray(o, d, tmax, !closest, hit);
+        if (closest) {
+            counts.y++;
+            walks[slot].hit = vec4(uintBitsToFloat(found ? hit.prim : NO_HIT), hit.bary, hit.t);
+            walks[slot].counts.y = counts.y;
+            continue;
+        }
+        if (found) continue;
         uvec2 st = r > 0u ? uvec2(j + 1u, counts.w + 1u) : floatBitsToUint(walks[slot].ls_n.xy);
         if (r == 0u && (flags & BDPT_WALK_SHADOW_SPLAT) != 0u) {
             uint to = floatBitsToUint(walks[slot].ls_le.w);
@@ -71,13 +87,6 @@ void main() {
     if (shadow) walks[slot].radiance.xyz = radiance;
     if (connections > 0u) walks[slot].connected = connected;
     flags &= ~(BDPT_WALK_SHADOW | BDPT_WALK_SHADOW_SPLAT | BDPT_WALK_CONNECTIONS);
-    if ((flags & BDPT_WALK_RAY) != 0u) {
-        Hit hit;
-        bool found = trace_closest(walks[slot].o.xyz, walks[slot].d.xyz, INF, hit);
-        counts.y++;
-        walks[slot].hit = vec4(uintBitsToFloat(found ? hit.prim : NO_HIT), hit.bary, hit.t);
-        walks[slot].counts.y = counts.y;
-    }
     walks[slot].d.w = uintBitsToFloat(flags);
     if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
 }

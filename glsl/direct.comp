@@ -46,7 +46,7 @@ vec3 direct_sample(uvec2 pixel, inout Rng rng) {
     vec3 L = vec3(0.0);
     if (s.emitter != NO_EMITTER) L += emitted_radiance(s.material, s.ng, wo);
     if (scene.emitter_count == 0u || (scene.max_depth == 0u && scene.unbounded == 0u)) return L;
-    BsdfParams b = material_bsdf(materials[s.material], dot(s.ng, wo) >= 0.0, s.uv, s.p, s.ng);
+    BsdfParams b = material_bsdf(materials[s.material], dot(s.ng, wo) >= 0.0, s.tex0, s.tex1);
     vec3 n = dot(s.ng, wo) < 0.0 ? -s.ng : s.ng;
     vec3 ns = dot(s.ng, wo) < 0.0 ? -s.ns : s.ns;
     uint count = max(scene.light_samples, 1u);

@@ -14,20 +14,24 @@ void main() {
     if (!mmlt_slot(slot, item)) return;
     uint flags = floatBitsToUint(walks[slot].d.w);
     if ((flags & (BDPT_WALK_SHADOW | BDPT_WALK_RAY)) == 0u) return;
+    // Both rays through one trace_ray (each call site is a copy of the backend): r = 0 the
+    // shadow ray, r = 1 the walk's.
     uint rays = 0u;
-    if ((flags & BDPT_WALK_SHADOW) != 0u) {
-        vec4 o = walks[slot].ls_wi;
-        vec3 d = walks[slot].ls_le.xyz;
+    [[dont_unroll]] for (uint r = 0u; r < 2u; ++r) {
+        bool closest = r == 1u;
+        if ((flags & (closest ? BDPT_WALK_RAY : BDPT_WALK_SHADOW)) == 0u) continue;
+        vec4 o = closest ? vec4(walks[slot].o.xyz, INF) : walks[slot].ls_wi;
+        vec3 d = closest ? walks[slot].d.xyz : walks[slot].ls_le.xyz;
         rays++;
-        if (!(o.w > 0.0) || !trace_occluded(o.xyz, d, o.w)) mpaths[slot].path.z |= MMLT_PATH_FOUND;
-        flags &= ~BDPT_WALK_SHADOW;
-        walks[slot].d.w = uintBitsToFloat(flags);
-    }
-    if ((flags & BDPT_WALK_RAY) != 0u) {
         Hit hit;
-        bool found = trace_closest(walks[slot].o.xyz, walks[slot].d.xyz, INF, hit);
-        rays++;
-        walks[slot].hit = vec4(uintBitsToFloat(found ? hit.prim : NO_HIT), hit.bary, hit.t);
+        bool found = (closest || o.w > 0.0) && trace_ray(o.xyz, d, o.w, !closest, hit);
+        if (closest) {
+            walks[slot].hit = vec4(uintBitsToFloat(found ? hit.prim : NO_HIT), hit.bary, hit.t);
+        } else {
+            if (!found) mpaths[slot].path.z |= MMLT_PATH_FOUND;
+            flags &= ~BDPT_WALK_SHADOW;
+            walks[slot].d.w = uintBitsToFloat(flags);
+        }
     }
     mpaths[slot].used.w += rays;
 }

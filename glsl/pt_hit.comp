@@ -48,7 +48,7 @@ void main() {
     Surface s = surface_at(hit, o, d);
     vec3 wo = -d;
     bool front = dot(s.ng, wo) >= 0.0;
-    BsdfParams b = material_bsdf(materials[s.material], front, s.uv, s.p, s.ng);
+    BsdfParams b = material_bsdf(materials[s.material], front, s.tex0, s.tex1);
     // Emission found by the path itself.
     if (s.emitter != NO_EMITTER) {
         vec3 Le = emitted_radiance(s.material, s.ng, wo);
@@ -69,6 +69,10 @@ void main() {
     paths[i].p = vec4(s.p, s.uv.x);
     paths[i].n = vec4(n, s.uv.y);
     paths[i].ns = vec4(ns, front ? 1.0 : 0.0);
+    if (has_feature(FEATURE_MATERIAL_TEXTURES)) {
+        paths[i].tex0 = s.tex0;
+        paths[i].tex1 = s.tex1;
+    }
     // The light sample (a delta BSDF cannot be reached by one: no NEE there). Its BSDF
     // value and its shadow ray are the shading stage's and pt_shadow's.
     flags &= ~(PT_PATH_LIGHT_SAMPLE | PT_PATH_LIGHT_SAMPLE_OK);

@@ -148,6 +148,8 @@ pub struct GpuPtPath {
     pub ls_le: [f32; 4],
     pub ls_p: [f32; 4],
     pub ls_n: [f32; 4],
+    pub tex0: [f32; 4],
+    pub tex1: [f32; 4],
 }
 
 /// A wavefront stage's push constants (abi.h).
@@ -210,6 +212,8 @@ pub struct GpuBdptWalk {
     pub ls_n: [f32; 4],
     pub ls_pdfs: [f32; 4],
     pub connected: [f32; 4],
+    pub v_tex0: [f32; 4],
+    pub v_tex1: [f32; 4],
 }
 
 /// MMLT's push constants (abi.h).
@@ -263,6 +267,8 @@ pub struct GpuMmltPath {
     pub answer_z: [f32; 4],
     pub answer_y: [f32; 4],
     pub answer_rev: [f32; 4],
+    pub y_tex0: [f32; 4],
+    pub y_tex1: [f32; 4],
 }
 
 /// The BSDF probe's input (abi.h).
@@ -428,7 +434,10 @@ pub fn layouts() -> Vec<StructLayout> {
             portal_e3
         ),
         layout!(GpuPathVertex, p, n, wi, beta, ns),
-        layout!(GpuPtPath, o, d, beta, radiance, prev_p, hit, p, n, ns, ls_wi, ls_le, ls_p, ls_n),
+        layout!(
+            GpuPtPath, o, d, beta, radiance, prev_p, hit, p, n, ns, ls_wi, ls_le, ls_p, ls_n, tex0,
+            tex1
+        ),
         layout!(GpuTriangleAttributes, uv01, uv2, n0, n1, n2),
         layout!(GpuTexture, info, flags, scale, other, mapping, proj0, proj1, proj2),
         layout!(PassParams, first_sample, samples, row_begin, row_end),
@@ -462,7 +471,9 @@ pub fn layouts() -> Vec<StructLayout> {
             ls_p,
             ls_n,
             ls_pdfs,
-            connected
+            connected,
+            v_tex0,
+            v_tex1
         ),
         layout!(
             WavefrontParams,
@@ -512,7 +523,9 @@ pub fn layouts() -> Vec<StructLayout> {
             to_eye,
             answer_z,
             answer_y,
-            answer_rev
+            answer_rev,
+            y_tex0,
+            y_tex1
         ),
         layout!(BsdfProbeInput, info, n, wo, wi, u),
         layout!(BsdfProbeOutput, eval, sample_dir, sample_f, info),
@@ -526,7 +539,7 @@ const _: () = assert!(std::mem::size_of::<GpuEmitter>() == 80);
 const _: () = assert!(std::mem::size_of::<SceneParams>() == 304);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 80);
-const _: () = assert!(std::mem::size_of::<GpuPtPath>() == 208);
-const _: () = assert!(std::mem::size_of::<GpuBdptWalk>() == 288);
+const _: () = assert!(std::mem::size_of::<GpuPtPath>() == 240);
+const _: () = assert!(std::mem::size_of::<GpuBdptWalk>() == 320);
 const _: () = assert!(std::mem::size_of::<BdptParams>() == 32);
 const _: () = assert!(std::mem::size_of::<WavefrontParams>() == 32);

@@ -108,9 +108,8 @@ pub fn bsdf(
     let materials_buffer =
         engine.buffer_with("probe materials", bytemuck::cast_slice(materials))?;
     let inputs_buffer = engine.buffer_with("probe inputs", bytemuck::cast_slice(inputs))?;
-    // The probe's materials have no textures; the kernel still declares the buffers.
-    let textures = engine.buffer_with("probe textures", &[0u8; 80])?;
-    let texels = engine.buffer_with("probe texels", &[0u8; 16])?;
+    // (The probe's materials have no textures: surfaces look textures up, and the probe
+    // has none.)
     let out_bytes = (inputs.len() * std::mem::size_of::<BsdfProbeOutput>()).max(16) as u64;
     let out = engine.storage_buffer("probe outputs", out_bytes)?;
     let kernel = engine.kernel(
@@ -127,8 +126,6 @@ pub fn bsdf(
             (BINDING_MATERIALS, &materials_buffer),
             (BINDING_BSDF_PROBE_INPUTS, &inputs_buffer),
             (BINDING_BSDF_PROBE_OUTPUTS, &out),
-            (BINDING_TEXTURES, &textures),
-            (BINDING_TEXELS, &texels),
         ],
     )?;
     let params = PassParams {

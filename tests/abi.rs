@@ -96,9 +96,7 @@ fn kernel_bindings_come_from_the_spirv() {
                 vec![
                     abi::BINDING_MATERIALS,
                     abi::BINDING_BSDF_PROBE_INPUTS,
-                    abi::BINDING_BSDF_PROBE_OUTPUTS,
-                    abi::BINDING_TEXTURES,
-                    abi::BINDING_TEXELS
+                    abi::BINDING_BSDF_PROBE_OUTPUTS
                 ],
                 "{kernel} ({backend})"
             );

@@ -57,6 +57,10 @@
 // BDPT's wavefront at maxdepth -1: per camera bounce, the walks that go on (the host
 // reads it to know when to stop).
 #define BINDING_BDPT_LIVE 31
+// BDPT's path vertices' material texture values (two vec4 per vertex of
+// BINDING_PATH_VERTICES, PathVertex.tex0 and tex1), in scenes with
+// FEATURE_MATERIAL_TEXTURES (a placeholder elsewhere).
+#define BINDING_PATH_VERTEX_TEXTURES 32
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -131,6 +135,9 @@
 #define FEATURE_PROCEDURAL_TEXTURES 8192
 // Every feature (kernels that must serve any scene: the BSDF probe).
 #define FEATURE_ALL 16383
+
+// Texture slots of a material (texture.glsl's material_texture).
+#define MATERIAL_TEXTURE_SLOTS 4u
 
 // Material flags (GpuMaterial.info.y).
 #define MATERIAL_TWO_SIDED_EMISSION 1
@@ -501,6 +508,9 @@ struct GpuBdptWalk {
     vec4 ls_n;       // normal, w unused; then x s, y t (uint bits)
     vec4 ls_pdfs;    // x, y the light's emission densities toward the vertex (area, direction)
     vec4 connected;  // xyz the s, t >= 2 strategies' sum, w their shadow rays
+    vec4 v_tex0;     // the vertex's material texture values (PathVertex.tex0, tex1; only in
+                     //   scenes with FEATURE_MATERIAL_TEXTURES)
+    vec4 v_tex1;
 };
 // GpuBdptWalk.d.w flags.
 #define BDPT_WALK_RAY 1            // the walk goes on: its ray is to be traced
@@ -533,6 +543,8 @@ struct GpuPtPath {
     vec4 ls_le;      // light sample: radiance, pdf; then the shadow ray's direction
     vec4 ls_p;       // light sample: point, w 1 when delta; then the estimate f L cos w / pdf
     vec4 ls_n;       // light sample: normal; then the throughput that multiplies the estimate
+    vec4 tex0;       // the hit's material texture values (Surface.tex0, tex1; FEATURE_MATERIAL_TEXTURES)
+    vec4 tex1;
 };
 // GpuPtPath.d.w flags.
 #define PT_PATH_PREV_DELTA 1
@@ -590,6 +602,8 @@ struct GpuMmltPath {
     vec4 answer_z;   // the BSDF at z (the camera subpath's last vertex): xyz f, w forward pdf
     vec4 answer_y;   // the BSDF at y (importance): xyz f, w forward pdf
     vec4 answer_rev; // x z's reverse pdf, y y's, z the s = 1 light sample's shading cosine
+    vec4 y_tex0;     // y's material texture values (PathVertex.tex0, tex1; the same)
+    vec4 y_tex1;
 };
 // GpuMmltPath.path.z flags.
 #define MMLT_PATH_CAMERA 1   // the walk is the camera subpath (else the light subpath)

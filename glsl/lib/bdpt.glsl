@@ -78,11 +78,13 @@ struct PathVertex {
     vec2 uv;         // texture coordinates
     vec3 ns;         // unit shading normal on n's side: the BSDF's frame (geometric
                      // normals convert densities and place rays)
+    vec4 tex0;       // the material's texture values (Surface.tex0, tex1)
+    vec4 tex1;
 };
 
 // A vertex as a wavefront keeps it between stages (the path-vertex buffer, a walk):
 // what a connection reads (its emitter is not kept, and of its geometric normal only
-// the side).
+// the side). Its material texture values are kept beside it, in scenes that have them.
 GpuPathVertex pack_vertex(PathVertex y) {
     GpuPathVertex v;
     bool front = dot(y.n, y.ng) > 0.0;
@@ -108,12 +110,15 @@ PathVertex unpack_vertex(GpuPathVertex g) {
     y.ng = (m & PATH_VERTEX_FRONT) != 0u ? y.n : -y.n;   // (only its side matters: emission is not read here)
     y.uv = vec2(g.ns.w, g.beta.w);
     y.ns = g.ns.xyz;
+    // (Its texture values are kept beside it: the caller's.)
+    y.tex0 = vec4(0.0);
+    y.tex1 = vec4(0.0);
     return y;
 }
 
 // The BSDF at a path vertex: its material, seen from the side of its normal n.
 BsdfParams vertex_bsdf(PathVertex v) {
-    return material_bsdf(materials[v.material], dot(v.n, v.ng) > 0.0, v.uv, v.p, v.ng);
+    return material_bsdf(materials[v.material], dot(v.n, v.ng) > 0.0, v.tex0, v.tex1);
 }
 
 // A subpath being walked: the next ray and the running throughput and MIS sums.
@@ -144,6 +149,8 @@ PathVertex vertex_at(Walk w, Surface s, vec3 toward_prev) {
     v.emitter = s.emitter;
     v.ng = s.ng;
     v.uv = s.uv;
+    v.tex0 = s.tex0;
+    v.tex1 = s.tex1;
     return v;
 }
 

@@ -110,7 +110,32 @@ bool bdpt_pixel(bool count_out_of_range, out uvec2 pixel, out uint index, out ui
     return true;
 }
 
-PathVertex stored_vertex(uint index) { return unpack_vertex(path_vertices[index]); }
+// Beside each, its material texture values (in scenes with FEATURE_MATERIAL_TEXTURES).
+layout(std430, set = 0, binding = BINDING_PATH_VERTEX_TEXTURES) buffer PathVertexTextureBuffer { vec4 path_vertex_textures[]; };
+
+PathVertex stored_vertex(uint index) {
+    PathVertex y = unpack_vertex(path_vertices[index]);
+    if (has_feature(FEATURE_MATERIAL_TEXTURES)) {
+        y.tex0 = path_vertex_textures[2u * index];
+        y.tex1 = path_vertex_textures[2u * index + 1u];
+    }
+    return y;
+}
+
+// Store y at `index` of the path-vertex buffer (its texture values only where the scene
+// has material textures: every word is a memory access per pixel).
+void store_path_vertex(uint index, PathVertex y) {
+    GpuPathVertex v = pack_vertex(y);
+    path_vertices[index].p = v.p;
+    path_vertices[index].n = v.n;
+    path_vertices[index].wi = v.wi;
+    path_vertices[index].beta = v.beta;
+    path_vertices[index].ns = v.ns;
+    if (has_feature(FEATURE_MATERIAL_TEXTURES)) {
+        path_vertex_textures[2u * index] = y.tex0;
+        path_vertex_textures[2u * index + 1u] = y.tex1;
+    }
+}
 
 // The light vertices y_first ..= y_last that the camera vertex z_k connects to (s, t >= 2)
 // when `stored` light vertices are: those whose path stays within maxdepth (and, for

@@ -76,10 +76,10 @@ bool bsdf_is_diffuse_transmission(BsdfParams b) {
     return has_feature(FEATURE_DIFFUSE_TRANSMISSION) && b.kind == BSDF_DIFFUSE_TRANSMISSION;
 }
 
-// The BSDF of material m at a surface point p with texture coordinates uv and unit
-// geometric normal ng (either side), whose normal, as the caller will pass it, points to
-// the material's outside (front) or inside (!front).
-BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p, vec3 ng) {
+// The BSDF of material m at a surface point whose material texture values are tex0 and
+// tex1 (Surface.tex0, tex1: the surface looked them up), whose normal, as the caller will
+// pass it, points to the material's outside (front) or inside (!front).
+BsdfParams material_bsdf(GpuMaterial m, bool front, vec4 tex0, vec4 tex1) {
     BsdfParams b;
     b.kind = m.info.x;
     b.kd = m.diffuse.xyz;
@@ -97,19 +97,11 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec2 uv, vec3 p, vec3 ng) {
     bool layered = b.kind == BSDF_COATED_DIFFUSE || b.kind == BSDF_COATED_CONDUCTOR;
     b.albedo = has_feature(FEATURE_LAYER_MEDIUM) && layered ? m.eta.yzw : vec3(0.0);
     b.g = m.k.w;
-    // Textures replace parameters, each slot looked up at the one call site of the loop:
-    // 0 the diffuse reflectance (a conductor's or a coated conductor's: its reflectance), 1
-    // the roughness (first channel; diffuse transmission: the transmittance), 2 a coated
-    // conductor's conductor roughness, 3 a coated layer's thickness.
+    // Textures replace parameters (material_texture's slots; roughness remapped here).
     if (!has_feature(FEATURE_MATERIAL_TEXTURES)) return b;
-    bool coated = has_feature(FEATURE_COATED) && (b.kind == BSDF_COATED_DIFFUSE || b.kind == BSDF_COATED_CONDUCTOR);
-    for (uint slot = 0u; slot < 4u; ++slot) {
-        uint index = slot == 0u ? m.info.z
-                   : slot == 1u ? m.info.w
-                   : slot == 2u ? (bsdf_is_coated_conductor(b) ? floatBitsToUint(m.base.z) : NO_TEXTURE)
-                   : (coated ? floatBitsToUint(m.base.w) : NO_TEXTURE);
-        if (index == NO_TEXTURE) continue;
-        vec3 v = texture_value(index, uv, p, ng);
+    for (uint slot = 0u; slot < MATERIAL_TEXTURE_SLOTS; ++slot) {
+        if (material_texture(m, slot) == NO_TEXTURE) continue;
+        vec3 v = slot == 0u ? tex0.xyz : slot == 1u ? tex1.xyz : vec3(slot == 2u ? tex0.w : tex1.w);
         float a = v.x;
         if (slot != 0u && slot != 3u && (m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(max(a, 0.0));
         if (slot == 0u && (bsdf_is_coated_conductor(b) || b.kind == BSDF_CONDUCTOR)) {

@@ -135,6 +135,8 @@ struct Surface {
     vec2 uv;      // texture coordinates
     vec3 ns;      // unit shading normal (interpolated from a mesh's normals; else ng), on
                   // ng's side (the parser winds meshes so)
+    vec4 tex0;    // the material's texture values here (material_texture's slots: xyz slot
+    vec4 tex1;    // 0, w slot 2; xyz slot 1, w slot 3), for material_bsdf; 0 without one
 };
 
 // pbrt's (u, v) of a point q on the unit sphere: u the azimuth about +z from +x over
@@ -180,7 +182,9 @@ ShadingGeometry map_geometry(Hit hit, Surface s) {
 }
 
 // s's material with its mixes resolved, then the shading normal of that material's bump
-// or normal map (MATERIAL_BUMP_MAP / MATERIAL_NORMAL_MAP, texture in roughness.w).
+// or normal map (MATERIAL_BUMP_MAP / MATERIAL_NORMAL_MAP, texture in roughness.w), then
+// the values of the material's own textures (material_texture's slots, into s.tex0 and
+// s.tex1 for material_bsdf).
 //
 // pbrt-v4's mix material is not a surface but a choice between two materials, made at
 // each point by a hash of its position (and the mix), so that every subpath reaching
@@ -188,11 +192,15 @@ ShadingGeometry map_geometry(Hit hit, Surface s) {
 // mixes resolve in turn. pbrt-v4's BumpMap looks the displacement up three times (at
 // (u, v), a step BUMP_DELTA along u, one along v), its NormalMap once.
 //
-// Every texture lookup of both is made at the loop's one call of texture_value (the mixes'
-// amounts first, then the map's), so that a kernel holds one copy of the texture code for
-// them (lavapipe's compile time grows faster than a kernel).
+// Every texture lookup of a surface point is made here, at the loop's one call of
+// texture_value (the mixes' amounts first, then the map's, then the material's), so that
+// a kernel holds one copy of the texture code, and only the kernels that find surfaces
+// hold it: the shade stages read the values (lavapipe's compile time grows faster than a
+// kernel).
 void resolve_material_and_map(Hit hit, inout Surface s) {
-    if (!has_feature(FEATURE_MIX) && !has_feature(FEATURE_SHADING_MAPS)) return;
+    s.tex0 = vec4(0.0);
+    s.tex1 = vec4(0.0);
+    if (!has_feature(FEATURE_MIX) && !has_feature(FEATURE_SHADING_MAPS) && !has_feature(FEATURE_MATERIAL_TEXTURES)) return;
     uint m = s.material;
     uint depth = 0u;
     bool resolving = has_feature(FEATURE_MIX);
@@ -201,10 +209,12 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
     uint tex = NO_TEXTURE;
     uint lookups = 0u;
     uint k = 0u;
+    uint slot = 0u;
+    uint slots = has_feature(FEATURE_MATERIAL_TEXTURES) ? MATERIAL_TEXTURE_SLOTS : 0u;
     ShadingGeometry g;
     vec3 c = vec3(0.0);
     vec3 h = vec3(0.0);
-    for (uint step = 0u; step < MAX_MATERIAL_MIX_DEPTH + 3u; ++step) {
+    for (uint step = 0u; step < MAX_MATERIAL_MIX_DEPTH + 3u + MATERIAL_TEXTURE_SLOTS; ++step) {
         uint index = NO_TEXTURE;
         vec2 uv = s.uv;
         vec3 p = s.p;
@@ -226,12 +236,17 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
                     g = map_geometry(hit, s);
                 }
             }
-            if (k >= lookups) break;
-            float su = k == 1u ? BUMP_DELTA : 0.0;
-            float sv = k == 2u ? BUMP_DELTA : 0.0;
-            index = tex;
-            uv = s.uv + vec2(su, sv);
-            p = s.p + su * g.dpdu + sv * g.dpdv;
+            if (k < lookups) {
+                float su = k == 1u ? BUMP_DELTA : 0.0;
+                float sv = k == 2u ? BUMP_DELTA : 0.0;
+                index = tex;
+                uv = s.uv + vec2(su, sv);
+                p = s.p + su * g.dpdu + sv * g.dpdv;
+            } else if (slot < slots) {
+                index = material_texture(materials[m], slot);
+            } else {
+                break;
+            }
         }
         vec3 v = index == NO_TEXTURE ? vec3(0.0) : texture_value(index, uv, p, s.ng);
         if (mixing) {
@@ -242,10 +257,16 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
             float u = (float(hh >> 8u) + 0.5) * (1.0 / 16777216.0);
             m = floatBitsToUint(amount < u ? mix_params.x : mix_params.y);
             depth += 1u;
-        } else {
+        } else if (k < lookups) {
             c = v;
             h[k] = v.x;
             k += 1u;
+        } else {
+            if (slot == 0u) s.tex0.xyz = v;
+            else if (slot == 1u) s.tex1.xyz = v;
+            else if (slot == 2u) s.tex0.w = v.x;
+            else s.tex1.w = v.x;
+            slot += 1u;
         }
     }
     s.material = m;

@@ -79,7 +79,10 @@ PathVertex path_y(uint slot) {
     g.wi = mpaths[slot].y_wi;
     g.beta = mpaths[slot].y_beta;
     g.ns = mpaths[slot].y_ns;
-    return unpack_vertex(g);
+    PathVertex y = unpack_vertex(g);
+    y.tex0 = mpaths[slot].y_tex0;   // (read only where the scene has material textures)
+    y.tex1 = mpaths[slot].y_tex1;
+    return y;
 }
 
 void store_path_y(uint slot, PathVertex y) {
@@ -89,6 +92,10 @@ void store_path_y(uint slot, PathVertex y) {
     mpaths[slot].y_wi = g.wi;
     mpaths[slot].y_beta = g.beta;
     mpaths[slot].y_ns = g.ns;
+    if (has_feature(FEATURE_MATERIAL_TEXTURES)) {
+        mpaths[slot].y_tex0 = y.tex0;
+        mpaths[slot].y_tex1 = y.tex1;
+    }
 }
 
 // A shadow ray for mmlt_trace; the path's contribution counts when nothing blocks it.

@@ -25,10 +25,9 @@ void main() {
     vec3 p = path.p.xyz;
     vec3 n = path.n.xyz;
     vec3 ns = path.ns.xyz;
-    vec2 uv = vec2(path.p.w, path.n.w);
     vec3 wo = -path.d.xyz;
     Rng rng = wf_rng(i, path.o.w);
-    BsdfParams b = material_bsdf(materials[floatBitsToUint(path.hit.w)], path.ns.w != 0.0, uv, p, n);
+    BsdfParams b = material_bsdf(materials[floatBitsToUint(path.hit.w)], path.ns.w != 0.0, path.tex0, path.tex1);
     bool delta = bsdf_is_delta(b);
     if ((flags & PT_PATH_LIGHT_SAMPLE) != 0u) {
         bool queued = false;

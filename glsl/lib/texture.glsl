@@ -118,4 +118,18 @@ vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng) {
     }
     return v;
 }
+
+// The texture of slot `slot` (< MATERIAL_TEXTURE_SLOTS) of material m, or NO_TEXTURE: 0 the
+// diffuse reflectance (a conductor's or a coated conductor's: its reflectance), 1 the
+// roughness (first channel; diffuse transmission: the transmittance), 2 a coated
+// conductor's conductor roughness, 3 a coated layer's thickness. Surfaces look them up
+// (geometry.glsl's resolve_material_and_map), material_bsdf reads the values.
+uint material_texture(GpuMaterial m, uint slot) {
+    uint kind = m.info.x;
+    bool coated = has_feature(FEATURE_COATED) && (kind == BSDF_COATED_DIFFUSE || kind == BSDF_COATED_CONDUCTOR);
+    return slot == 0u ? m.info.z
+         : slot == 1u ? m.info.w
+         : slot == 2u ? (has_feature(FEATURE_COATED_CONDUCTOR) && kind == BSDF_COATED_CONDUCTOR ? floatBitsToUint(m.base.z) : NO_TEXTURE)
+         : (coated ? floatBitsToUint(m.base.w) : NO_TEXTURE);
+}
 #endif

@@ -59,14 +59,9 @@ bool bvh_visit_prim(uint prim, vec3 o, vec3 d, inout float closest, inout Hit hi
 }
 
 // Each walk (trace_bvh2.glsl, trace_cwbvh.glsl) defines its traversal; the kernels'
-// visibility interface is the same over either.
+// visibility interface (trace.glsl) is the same over either.
 bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit);
 
-bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
-    return bvh_traverse(o, d, tmax, false, hit);
-}
-
-bool trace_occluded(vec3 o, vec3 d, float tmax) {
-    Hit hit;
-    return bvh_traverse(o, d, tmax, true, hit);
+bool trace_ray(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
+    return bvh_traverse(o, d, tmax, any_hit, hit);
 }

@@ -9,12 +9,17 @@ layout(set = 0, binding = BINDING_TLAS) uniform accelerationStructureEXT tlas;
 
 uint rq_flags() { return has_feature(FEATURE_ALPHA) ? gl_RayFlagsNoneEXT : gl_RayFlagsOpaqueEXT; }
 
-bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
+// (any_hit: the first hit found ends the query.)
+bool trace_ray(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     rayQueryEXT rq;
-    rayQueryInitializeEXT(rq, tlas, rq_flags(), 0xFF, o, 0.0, d, tmax);
+    uint flags = rq_flags() | (any_hit ? gl_RayFlagsTerminateOnFirstHitEXT : 0u);
+    rayQueryInitializeEXT(rq, tlas, flags, 0xFF, o, 0.0, d, tmax);
     while (rayQueryProceedEXT(rq)) {
         if (has_feature(FEATURE_ALPHA) && rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionTriangleEXT) {
-            if (!alpha_cut(triangles[rayQueryGetIntersectionPrimitiveIndexEXT(rq, false)], rayQueryGetIntersectionBarycentricsEXT(rq, false), o, d)) rayQueryConfirmIntersectionEXT(rq);
+            if (!alpha_cut(triangles[rayQueryGetIntersectionPrimitiveIndexEXT(rq, false)], rayQueryGetIntersectionBarycentricsEXT(rq, false), o, d)) {
+                rayQueryConfirmIntersectionEXT(rq);
+                if (any_hit) rayQueryTerminateEXT(rq);
+            }
             continue;
         }
         if (rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionAABBEXT) {
@@ -27,6 +32,7 @@ bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
             float t;
             if (intersect_sphere(spheres[si], o, d, 0.0, committed, t)) {
                 rayQueryGenerateIntersectionEXT(rq, t);
+                if (any_hit) rayQueryTerminateEXT(rq);
             }
         }
     }
@@ -46,27 +52,4 @@ bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
         return true;
     }
     return false;
-}
-
-bool trace_occluded(vec3 o, vec3 d, float tmax) {
-    rayQueryEXT rq;
-    rayQueryInitializeEXT(rq, tlas, rq_flags() | gl_RayFlagsTerminateOnFirstHitEXT, 0xFF, o, 0.0, d, tmax);
-    while (rayQueryProceedEXT(rq)) {
-        if (has_feature(FEATURE_ALPHA) && rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionTriangleEXT) {
-            if (!alpha_cut(triangles[rayQueryGetIntersectionPrimitiveIndexEXT(rq, false)], rayQueryGetIntersectionBarycentricsEXT(rq, false), o, d)) {
-                rayQueryConfirmIntersectionEXT(rq);
-                rayQueryTerminateEXT(rq);
-            }
-            continue;
-        }
-        if (rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionAABBEXT) {
-            uint si = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));
-            float t;
-            if (intersect_sphere(spheres[si], o, d, 0.0, tmax, t)) {
-                rayQueryGenerateIntersectionEXT(rq, t);
-                rayQueryTerminateEXT(rq);
-            }
-        }
-    }
-    return rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionNoneEXT;
 }

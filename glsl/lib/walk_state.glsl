@@ -77,7 +77,10 @@ PathVertex walk_vertex(GpuBdptWalk g) {
     v.wi = g.v_wi;
     v.beta = g.v_beta;
     v.ns = g.v_ns;
-    return unpack_vertex(v);
+    PathVertex y = unpack_vertex(v);
+    y.tex0 = g.v_tex0;   // (read only where the scene has material textures: material_bsdf)
+    y.tex1 = g.v_tex1;
+    return y;
 }
 
 void store_vertex(uint slot, PathVertex y) {
@@ -87,5 +90,9 @@ void store_vertex(uint slot, PathVertex y) {
     walks[slot].v_wi = v.wi;
     walks[slot].v_beta = v.beta;
     walks[slot].v_ns = v.ns;
+    if (has_feature(FEATURE_MATERIAL_TEXTURES)) {
+        walks[slot].v_tex0 = y.tex0;
+        walks[slot].v_tex1 = y.tex1;
+    }
 }
 #endif

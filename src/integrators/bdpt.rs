@@ -522,7 +522,15 @@ impl Integrator for Bdpt {
             },
             trace,
         )?;
-        let (film, stats, splat, vertices, strategy_film) =
+        // Each vertex's material texture values beside it (two vec4), where the scene has
+        // material textures.
+        let vertex_texture_bytes =
+            if prepared.specialization().features & FEATURE_MATERIAL_TEXTURES != 0 {
+                vertex_bytes / std::mem::size_of::<GpuPathVertex>() as u64 * 32
+            } else {
+                0
+            };
+        let (film, stats, splat, vertices, vertex_textures, strategy_film) =
             trace.cpu("BDPT buffers", || -> Result<_> {
                 Ok((
                     engine.storage_buffer("film", film_bytes)?,
@@ -532,6 +540,10 @@ impl Integrator for Bdpt {
                         "BDPT path vertices",
                         (band * samples as u64 * vertex_bytes).max(16),
                     )?,
+                    engine.device_buffer(
+                        "BDPT path vertex textures",
+                        (band * samples as u64 * vertex_texture_bytes).max(16),
+                    )?,
                     engine.storage_buffer("strategy films", strategy_bytes.max(16))?,
                 ))
             })?;
@@ -540,6 +552,7 @@ impl Integrator for Bdpt {
             (BINDING_STATS, &stats),
             (BINDING_SPLAT, &splat),
             (BINDING_PATH_VERTICES, &vertices),
+            (BINDING_PATH_VERTEX_TEXTURES, &vertex_textures),
             (BINDING_STRATEGIES, &strategy_film),
         ];
         let (wave, _walks) = bdpt_wave(

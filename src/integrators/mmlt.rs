@@ -698,6 +698,7 @@ impl Integrator for Mmlt {
                     (BINDING_STATS, &stats),
                     (BINDING_SPLAT, &splat),
                     (BINDING_PATH_VERTICES, &unused),
+                    (BINDING_PATH_VERTEX_TEXTURES, &unused),
                     (BINDING_STRATEGIES, &unused),
                 ],
                 (width, height, rows, samples),
