@@ -395,7 +395,7 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
     }
     if out.nonfinite_samples > 0 {
         eprintln!(
-            "warning: {} samples were NaN or infinite and were left out of the image",
+            "warning: {} samples were NaN, infinite or (splatted) negative and were left out of the image",
             out.nonfinite_samples
         );
     }

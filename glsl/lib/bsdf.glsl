@@ -102,8 +102,10 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec4 tex0, vec4 tex1) {
     for (uint slot = 0u; slot < MATERIAL_TEXTURE_SLOTS; ++slot) {
         if (material_texture(m, slot) == NO_TEXTURE) continue;
         vec3 v = slot == 0u ? tex0.xyz : slot == 1u ? tex1.xyz : vec3(slot == 2u ? tex0.w : tex1.w);
-        float a = v.x;
-        if (slot != 0u && slot != 3u && (m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(max(a, 0.0));
+        // (A roughness below 0 is 0; a reflectance or a transmittance is clamped to [0, 1],
+        // as pbrt-v4's materials clamp theirs: a mix or a scale of textures can leave it.)
+        float a = max(v.x, 0.0);
+        if (slot != 0u && slot != 3u && (m.info.y & MATERIAL_REMAP_ROUGHNESS) != 0u) a = sqrt(a);
         if (slot == 0u && (bsdf_is_coated_conductor(b) || b.kind == BSDF_CONDUCTOR)) {
             // pbrt-v4's artist-friendly conductor: eta 1, k from the reflectance r (a
             // coated conductor's in the coating: both over its index).
@@ -117,9 +119,9 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec4 tex0, vec4 tex1) {
                 b.base_k = k / b.eta.x;
             }
         } else if (slot == 0u) {
-            b.kd = v;
+            b.kd = clamp(v, vec3(0.0), vec3(1.0));
         } else if (slot == 1u && bsdf_is_diffuse_transmission(b)) {
-            b.ks = v;
+            b.ks = clamp(v, vec3(0.0), vec3(1.0));
         } else if (slot == 1u) {
             b.roughness = a;
             b.alpha = vec2(a);

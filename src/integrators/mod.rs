@@ -23,7 +23,8 @@ use std::any::Any;
 /// A render's result and what was measured along the way.
 pub struct RenderOutput {
     pub image: Image,
-    /// Samples that came out NaN or infinite and were left out of the film.
+    /// Samples (BDPT: contributions) that came out NaN or infinite, or that a splat could not
+    /// add (negative, or beyond the fixed-point range), left out of the film.
     pub nonfinite_samples: u64,
     pub rays: f64,
     pub samples_per_pixel: u32,

@@ -234,7 +234,9 @@ impl Parser {
             "diffuse" => {
                 m = diffuse(Vec3::splat(0.5));
                 match self.value(params, "reflectance", false, d)? {
-                    Some(Value::Const(c)) => m.diffuse = c,
+                    // (Clamped to [0, 1] as pbrt-v4 clamps it; a texture's value where
+                    // bsdf.glsl's material_bsdf reads it.)
+                    Some(Value::Const(c)) => m.diffuse = c.clamp(Vec3::ZERO, Vec3::ONE),
                     Some(Value::Texture(t)) => m.diffuse_texture = Some(t),
                     None => {}
                 }
@@ -243,7 +245,9 @@ impl Parser {
                 m.bsdf = BsdfKind::CoatedDiffuse;
                 m.diffuse = Vec3::splat(0.5);
                 match self.value(params, "reflectance", false, d)? {
-                    Some(Value::Const(c)) => m.diffuse = c,
+                    // (Clamped to [0, 1] as pbrt-v4 clamps it; a texture's value where
+                    // bsdf.glsl's material_bsdf reads it.)
+                    Some(Value::Const(c)) => m.diffuse = c.clamp(Vec3::ZERO, Vec3::ONE),
                     Some(Value::Texture(t)) => m.diffuse_texture = Some(t),
                     None => {}
                 }
