@@ -12,6 +12,7 @@ pub mod gpu_scene;
 pub mod integrators;
 pub mod io;
 pub mod noise;
+pub mod plinear2d;
 pub mod probe;
 pub mod profile;
 pub mod render;
