@@ -85,7 +85,7 @@ impl PiecewiseLinear2D {
             if p.is_empty() {
                 bail!("parameter {d} of a piecewise-linear table has no values");
             }
-            if p.windows(2).any(|w| !(w[1] > w[0])) || p.iter().any(|v| !v.is_finite()) {
+            if p.iter().any(|v| !v.is_finite()) || p.windows(2).any(|w| w[1] <= w[0]) {
                 bail!("parameter {d}'s values must be finite and increasing: {p:?}");
             }
         }
