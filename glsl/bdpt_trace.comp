@@ -28,13 +28,16 @@ void main() {
     PathVertex z;
     if (connections > 0u) z = stored_vertex(base + vertex_stride() + counts.w - 1u);
     // Every ray in one kept loop, through one trace_ray (each call site is a copy of the
-    // backend): r = 0 the pending shadow ray, then one per connection z_k - y_j, then
-    // (r = connections + 1) the walk's own ray, for its closest hit.
+    // backend): i = 0 the walk's own ray, for its closest hit, then (r = i - 1) r = 0 the
+    // pending shadow ray and one per connection z_k - y_j. (The closest hits first, so
+    // that every lane traces its long ray in the same iteration: a SIMD loop runs each
+    // iteration until its slowest lane ends.)
     bool walk_ray = (flags & BDPT_WALK_RAY) != 0u;
-    uint first_ray = shadow ? 0u : 1u;
-    uint last_ray = connections + (walk_ray ? 1u : 0u);
-    [[dont_unroll]] for (uint r = first_ray; r <= last_ray; ++r) {
-        bool closest = r == connections + 1u;
+    uint first_ray = walk_ray ? 0u : shadow ? 1u : 2u;
+    [[dont_unroll]] for (uint i = first_ray; i <= connections + 1u; ++i) {
+        bool closest = i == 0u;
+        uint r = i - 1u;
+        if (i == 1u && !shadow) continue;
         vec3 o, d, value;
         float tmax, weight;
         uint j = 0u;

@@ -30,10 +30,10 @@ void main() {
                                        weight, o, d, tmax);
     } else if (kind == MMLT_KIND_LIGHT_SAMPLE) {
         LightSample ls = unpack_light_sample(g.ls_wi, g.ls_le, g.ls_p, g.ls_n);
-        shadow = light_sample_end(walk_load(g), walk_vertex(g), ls, g.ls_pdfs.xy, rev.z, az.xyz, az.w, rev.x, value,
+        shadow = light_sample_end(walk_load(g), walk_vertex(slot, g), ls, g.ls_pdfs.xy, rev.z, az.xyz, az.w, rev.x, value,
                                   weight, o, d, tmax);
     } else {
-        shadow = connection_end(walk_vertex(g), path_y(slot), conn.xyz, conn.w, az.xyz, az.w, rev.x, ay.xyz, ay.w, rev.y,
+        shadow = connection_end(walk_vertex(slot, g), path_y(slot), conn.xyz, conn.w, az.xyz, az.w, rev.x, ay.xyz, ay.w, rev.y,
                                 value, weight, o, d, tmax);
     }
     if (!shadow) return;

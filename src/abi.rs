@@ -212,8 +212,6 @@ pub struct GpuBdptWalk {
     pub ls_n: [f32; 4],
     pub ls_pdfs: [f32; 4],
     pub connected: [f32; 4],
-    pub v_tex0: [f32; 4],
-    pub v_tex1: [f32; 4],
 }
 
 /// MMLT's push constants (abi.h).
@@ -471,9 +469,7 @@ pub fn layouts() -> Vec<StructLayout> {
             ls_p,
             ls_n,
             ls_pdfs,
-            connected,
-            v_tex0,
-            v_tex1
+            connected
         ),
         layout!(
             WavefrontParams,
@@ -540,6 +536,6 @@ const _: () = assert!(std::mem::size_of::<SceneParams>() == 304);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuPtPath>() == 240);
-const _: () = assert!(std::mem::size_of::<GpuBdptWalk>() == 320);
+const _: () = assert!(std::mem::size_of::<GpuBdptWalk>() == 288);
 const _: () = assert!(std::mem::size_of::<BdptParams>() == 32);
 const _: () = assert!(std::mem::size_of::<WavefrontParams>() == 32);

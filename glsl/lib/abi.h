@@ -61,6 +61,10 @@
 // BINDING_PATH_VERTICES, PathVertex.tex0 and tex1), in scenes with
 // FEATURE_MATERIAL_TEXTURES (a placeholder elsewhere).
 #define BINDING_PATH_VERTEX_TEXTURES 32
+// The material texture values of each walk's vertex waiting for its shade stage (two vec4
+// per GpuBdptWalk slot, beside it rather than in it: a larger walk slowed BDPT on lavapipe
+// by 5 %), in scenes with FEATURE_MATERIAL_TEXTURES (a placeholder elsewhere).
+#define BINDING_WALK_TEXTURES 33
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -508,9 +512,6 @@ struct GpuBdptWalk {
     vec4 ls_n;       // normal, w unused; then x s, y t (uint bits)
     vec4 ls_pdfs;    // x, y the light's emission densities toward the vertex (area, direction)
     vec4 connected;  // xyz the s, t >= 2 strategies' sum, w their shadow rays
-    vec4 v_tex0;     // the vertex's material texture values (PathVertex.tex0, tex1; only in
-                     //   scenes with FEATURE_MATERIAL_TEXTURES)
-    vec4 v_tex1;
 };
 // GpuBdptWalk.d.w flags.
 #define BDPT_WALK_RAY 1            // the walk goes on: its ray is to be traced

@@ -19,7 +19,7 @@ void main() {
     uint flags = floatBitsToUint(walks[slot].d.w);
     if ((flags & (BDPT_WALK_VERTEX | BDPT_WALK_CONNECTIONS)) == 0u) return;
     GpuBdptWalk g = walks[slot];   // (the compiler loads only the members read)
-    PathVertex v = walk_vertex(g);
+    PathVertex v = walk_vertex(slot, g);
     // The vertex is this class's (its walk goes on here), or only some y_j it connects to is.
     bool own = (flags & BDPT_WALK_VERTEX) != 0u && material_class(materials[v.material].info.x) == SHADE_CLASS;
     uint first, last;

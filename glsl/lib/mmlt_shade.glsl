@@ -25,7 +25,7 @@ void main() {
     [[dont_unroll]] for (uint i = 0u; i < 2u; ++i) {
         uint bit = i == 0u ? MMLT_PATH_ASK_Z : MMLT_PATH_ASK_Y;
         if (!(i == 0u ? extend || (pflags & bit) != 0u : (pflags & bit) != 0u)) continue;
-        PathVertex x = i == 0u ? walk_vertex(g) : path_y(slot);
+        PathVertex x = i == 0u ? walk_vertex(slot, g) : path_y(slot);
         if (material_class(materials[x.material].info.x) != SHADE_CLASS) continue;
         BsdfParams b = vertex_bsdf(x);
         if (extend) {

@@ -5,6 +5,8 @@
 #define WALK_STATE_GLSL
 
 layout(std430, set = 0, binding = BINDING_BDPT_WALKS) buffer BdptWalkBuffer { GpuBdptWalk walks[]; };
+// Beside each, its vertex's material texture values (scenes with FEATURE_MATERIAL_TEXTURES).
+layout(std430, set = 0, binding = BINDING_WALK_TEXTURES) buffer WalkTextureBuffer { vec4 walk_textures[]; };
 
 // The walk as lib/bdpt.glsl has it.
 Walk walk_load(GpuBdptWalk g) {
@@ -69,8 +71,8 @@ void store_walk(uint slot, Walk w, uint flags) {
     walks[slot].counts.x = w.vertices;
 }
 
-// The vertex waiting for the shade stage.
-PathVertex walk_vertex(GpuBdptWalk g) {
+// The vertex waiting for the shade stage (g: the walk of `slot`).
+PathVertex walk_vertex(uint slot, GpuBdptWalk g) {
     GpuPathVertex v;
     v.p = g.v_p;
     v.n = g.v_n;
@@ -78,8 +80,10 @@ PathVertex walk_vertex(GpuBdptWalk g) {
     v.beta = g.v_beta;
     v.ns = g.v_ns;
     PathVertex y = unpack_vertex(v);
-    y.tex0 = g.v_tex0;   // (read only where the scene has material textures: material_bsdf)
-    y.tex1 = g.v_tex1;
+    if (has_feature(FEATURE_MATERIAL_TEXTURES)) {
+        y.tex0 = walk_textures[2u * slot];
+        y.tex1 = walk_textures[2u * slot + 1u];
+    }
     return y;
 }
 
@@ -91,8 +95,8 @@ void store_vertex(uint slot, PathVertex y) {
     walks[slot].v_beta = v.beta;
     walks[slot].v_ns = v.ns;
     if (has_feature(FEATURE_MATERIAL_TEXTURES)) {
-        walks[slot].v_tex0 = y.tex0;
-        walks[slot].v_tex1 = y.tex1;
+        walk_textures[2u * slot] = y.tex0;
+        walk_textures[2u * slot + 1u] = y.tex1;
     }
 }
 #endif

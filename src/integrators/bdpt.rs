@@ -118,6 +118,10 @@ pub fn bdpt_max_scatter(scene: &Scene) -> u32 {
 /// Bytes per pixel of BDPT's wavefront walk state (GpuBdptWalk).
 pub const BDPT_WALK_BYTES: u64 = std::mem::size_of::<GpuBdptWalk>() as u64;
 
+/// Bytes per walk of its vertex's material texture values (abi.h BINDING_WALK_TEXTURES),
+/// in scenes with material textures.
+pub const WALK_TEXTURE_BYTES: u64 = 32;
+
 /// BDPT as a wavefront of small kernels over a band's pixels (glsl/lib/bdpt_wave.glsl):
 /// per pass and band, `bdpt_start` and per bounce `bdpt_trace`, `bdpt_hit` and one
 /// `bdpt_shade_CLASS` per material class of the scene, for the light subpath and then
@@ -146,6 +150,7 @@ pub(crate) struct BdptWave {
     /// The connections' BSDF answers, from the shade stages to the trace stage (held
     /// while the stages are bound to it).
     _answers: Buffer,
+    _walk_textures: Buffer,
 }
 
 /// Camera bounces per submission at maxdepth -1, between looks at how many walks go on.
@@ -383,7 +388,8 @@ pub(crate) fn bdpt_wave(
     let params = prepared.params();
     // (MMLT's tail, whose paths are all longer than the strategies' cap, connects nothing.)
     let connects = params.min_depth <= params.max_depth;
-    let (walks, live, answers) = trace.cpu("BDPT buffers", || -> Result<_> {
+    let textured = prepared.specialization().features & FEATURE_MATERIAL_TEXTURES != 0;
+    let (walks, walk_textures, live, answers) = trace.cpu("BDPT buffers", || -> Result<_> {
         let slots = rows as u64 * width as u64 * samples as u64;
         let answer_bytes = if connects {
             bdpt_answer_bytes_per_pixel(params.max_depth)
@@ -392,6 +398,14 @@ pub(crate) fn bdpt_wave(
         };
         Ok((
             engine.device_buffer("BDPT walks", slots * BDPT_WALK_BYTES)?,
+            engine.device_buffer(
+                "BDPT walk textures",
+                if textured {
+                    slots * WALK_TEXTURE_BYTES
+                } else {
+                    16
+                },
+            )?,
             engine.storage_buffer("BDPT live walks", 4 * (UNBOUNDED_DEPTH_CAP as u64 + 2))?,
             engine.device_buffer("BDPT connection answers", (slots * answer_bytes).max(16))?,
         ))
@@ -400,6 +414,7 @@ pub(crate) fn bdpt_wave(
     let (start, trace_stage, hit, shade, finish) = {
         let mut all = buffers.to_vec();
         all.push((BINDING_BDPT_WALKS, &walks));
+        all.push((BINDING_WALK_TEXTURES, &walk_textures));
         all.push((BINDING_BDPT_LIVE, &live));
         all.push((BINDING_BDPT_ANSWERS, &answers));
         let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
@@ -430,6 +445,7 @@ pub(crate) fn bdpt_wave(
         unbounded,
         live,
         _answers: answers,
+        _walk_textures: walk_textures,
     };
     for d in wave.idle() {
         engine.warm_up(d, trace)?;

@@ -12,7 +12,9 @@
 //! the chains' cap between them. Each path is `mmlt start`, per round `mmlt trace`,
 //! `mmlt hit` and `mmlt shade CLASS`, then `mmlt end`, `mmlt trace` and `mmlt accept`,
 //! each a span of the trace.
-use super::bdpt::{bdpt_max_scatter, bdpt_wave, BdptWork, BDPT_SPANS, BDPT_WALK_BYTES};
+use super::bdpt::{
+    bdpt_max_scatter, bdpt_wave, BdptWork, BDPT_SPANS, BDPT_WALK_BYTES, WALK_TEXTURE_BYTES,
+};
 use super::mmlt_sampler::{pcg4d, stream_sizes};
 use super::{add_film, film_image, splat_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
@@ -480,7 +482,7 @@ fn mmlt_wave(
     slots: u32,
     base: &MmltParams,
     trace: &mut Trace,
-) -> Result<(MmltWave, [Buffer; 2])> {
+) -> Result<(MmltWave, [Buffer; 3])> {
     let state = trace.cpu("MMLT buffers", || -> Result<_> {
         Ok([
             engine.device_buffer(
@@ -491,11 +493,20 @@ fn mmlt_wave(
                 "MMLT paths",
                 slots as u64 * std::mem::size_of::<GpuMmltPath>() as u64,
             )?,
+            engine.device_buffer(
+                "MMLT walk textures",
+                if prepared.specialization().features & FEATURE_MATERIAL_TEXTURES != 0 {
+                    slots as u64 * WALK_TEXTURE_BYTES
+                } else {
+                    16
+                },
+            )?,
         ])
     })?;
     let mut all = buffers.to_vec();
     all.push((BINDING_BDPT_WALKS, &state[0]));
     all.push((BINDING_MMLT_PATHS, &state[1]));
+    all.push((BINDING_WALK_TEXTURES, &state[2]));
     let mut stage = |name: &'static str, span: &'static str| -> Result<PassStage> {
         engine.stage(name, None, prepared, &all, span)
     };
