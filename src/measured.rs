@@ -61,6 +61,9 @@ fn spherical(theta: f32, phi: f32) -> Vec3 {
     Vec3::new(st * cp, st * sp, ct)
 }
 
+/// Words of a packed material's header (`MeasuredBsdf::pack`).
+pub const MEASURED_HEADER: usize = 8;
+
 /// See the module documentation.
 #[derive(Clone, Debug)]
 pub struct MeasuredBsdf {
@@ -208,6 +211,31 @@ impl MeasuredBsdf {
     pub fn read(path: &std::path::Path) -> Result<MeasuredBsdf> {
         let t = TensorFile::read(path)?;
         MeasuredBsdf::from_tensor(&t, &path.display().to_string())
+    }
+
+    /// The material as glsl/lib/measured.glsl reads it from the texel buffer: a header
+    /// (isotropic, jacobian, then the header indices of the ndf, sigma, vndf, luminance
+    /// and reflectance tables, relative to the start; integers as f32 bit patterns) and
+    /// the five tables (`PiecewiseLinear2D::pack`, their indices relative to the start).
+    pub fn pack(&self) -> Vec<f32> {
+        let bits = |v: u32| f32::from_bits(v);
+        let mut out = vec![0.0; MEASURED_HEADER];
+        out[0] = bits(self.isotropic as u32);
+        out[1] = bits(self.jacobian as u32);
+        for (k, t) in [
+            &self.ndf,
+            &self.sigma,
+            &self.vndf,
+            &self.luminance,
+            &self.rgb,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let at = t.pack(&mut out);
+            out[2 + k] = bits(at);
+        }
+        out
     }
 
     /// h's warped coordinates seen from wo (azimuth phi_o).

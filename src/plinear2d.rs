@@ -44,6 +44,9 @@ fn solve_linear(a: f32, b: f32, u: f32) -> f32 {
     }
 }
 
+/// Words of a packed table's header (`PiecewiseLinear2D::pack`).
+pub const PACKED_HEADER: usize = 13;
+
 /// See the module documentation.
 #[derive(Clone, Debug)]
 pub struct PiecewiseLinear2D {
@@ -172,6 +175,41 @@ impl PiecewiseLinear2D {
             marginal,
             conditional,
         })
+    }
+
+    /// Appends the table to `out` as glsl/lib/plinear2d.glsl reads it, returning the
+    /// index of its header: W, H, the number of parameters, their value counts and
+    /// strides (three each, unused ones 1 and 0), then the indices in `out` of the
+    /// parameter values (all parameters' in turn), the data, the marginal and the
+    /// conditional CDFs (0 without CDFs); integers as f32 bit patterns.
+    pub fn pack(&self, out: &mut Vec<f32>) -> u32 {
+        let bits = |v: usize| f32::from_bits(v as u32);
+        let header = out.len();
+        out.resize(header + PACKED_HEADER, 0.0);
+        let mut h = [0usize; PACKED_HEADER];
+        h[0] = self.size[0];
+        h[1] = self.size[1];
+        h[2] = self.params.len();
+        for d in 0..3 {
+            h[3 + d] = self.params.get(d).map_or(1, |p| p.len());
+            h[6 + d] = self.strides.get(d).copied().unwrap_or(0);
+        }
+        h[9] = out.len();
+        for p in &self.params {
+            out.extend_from_slice(p);
+        }
+        h[10] = out.len();
+        out.extend_from_slice(&self.data);
+        if !self.marginal.is_empty() {
+            h[11] = out.len();
+            out.extend_from_slice(&self.marginal);
+            h[12] = out.len();
+            out.extend_from_slice(&self.conditional);
+        }
+        for (k, v) in h.iter().enumerate() {
+            out[header + k] = bits(*v);
+        }
+        header as u32
     }
 
     /// The slices to blend at the parameter values `p` and their weights (up to 2^N).

@@ -148,6 +148,50 @@ pub fn bsdf(
     Ok(bytemuck::cast_slice::<u8, BsdfProbeOutput>(&data)[..inputs.len()].to_vec())
 }
 
+/// Runs the measured-material probe (glsl/measured_probe.comp) on `inputs` for the
+/// material `packed` (`MeasuredBsdf::pack`; each input's `info.x` its texel index, 0 here):
+/// f, the pdf and a sample, as `bsdf` returns them (no lobe flags or combined queries).
+pub fn measured(
+    engine: &mut Engine,
+    packed: &[f32],
+    inputs: &[BsdfProbeInput],
+) -> Result<Vec<BsdfProbeOutput>> {
+    let mut trace = Trace::new();
+    engine.kernels.reset_sets()?;
+    let texels = engine.buffer_with("probe measured material", bytemuck::cast_slice(packed))?;
+    let inputs_buffer = engine.buffer_with("probe inputs", bytemuck::cast_slice(inputs))?;
+    let out_bytes = (inputs.len() * std::mem::size_of::<BsdfProbeOutput>()).max(16) as u64;
+    let out = engine.storage_buffer("probe outputs", out_bytes)?;
+    let kernel = engine.kernel("measured_probe", None, Specialization { features: 0 })?;
+    let set = engine.bind(
+        &kernel,
+        None,
+        &[
+            (BINDING_TEXELS, &texels),
+            (BINDING_BSDF_PROBE_INPUTS, &inputs_buffer),
+            (BINDING_BSDF_PROBE_OUTPUTS, &out),
+        ],
+    )?;
+    let params = PassParams {
+        first_sample: 0,
+        samples: inputs.len() as u32,
+        row_begin: 0,
+        row_end: 0,
+    };
+    let groups = [
+        (inputs.len() as u32).div_ceil(PROBE_WORKGROUP_SIZE).max(1),
+        1,
+        1,
+    ];
+    engine.submit(
+        &[Dispatch::new(&kernel, set, &params, groups)],
+        "running the measured-material probe",
+        &mut trace,
+    )?;
+    let data = out.download(out_bytes)?;
+    Ok(bytemuck::cast_slice::<u8, BsdfProbeOutput>(&data)[..inputs.len()].to_vec())
+}
+
 /// MMLT's sampler against its CPU mirror: `chains` chains (chain c started on bootstrap
 /// sample c of depth `depth_cap`) make `proposals` proposals on mmlt_probe.comp's synthetic
 /// probe path. Returns every chain's primary numbers (dimension-major, as the kernel

@@ -459,3 +459,116 @@ fn assert_coated_matches_its_mirror(materials: &[GpuMaterial], rng: &mut Rng) {
         "mean f cos / pdf: {ratio_gpu} vs {ratio_cpu}"
     );
 }
+
+/// The measured material's GLSL (glsl/lib/measured.glsl, its tables through
+/// lib/plinear2d.glsl) against its CPU mirror (src/measured.rs) on a file that tabulates
+/// GGX, isotropic and sampled coarsely enough that interpolation shows: f, the pdf and a
+/// sample (its direction, f and pdf) for random directions on both sides.
+#[test]
+fn the_measured_material_on_the_device_matches_its_cpu_mirror() {
+    use lightpath::measured::{ggx_tensor, MeasuredBsdf};
+    let file = ggx_tensor(0.4, 7, 20);
+    let m = MeasuredBsdf::from_tensor(&file, "ggx.bsdf").expect("loads");
+    let packed = m.pack();
+    let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+    let mut inputs = Vec::new();
+    for i in 0..6000u32 {
+        let mut wo = rng.unit_vector();
+        let mut wi = rng.unit_vector();
+        if i % 4 != 0 {
+            // Mostly the same side (f > 0), a quarter of them either.
+            wi.z = wi.z.abs() * wo.z.signum();
+        }
+        if i % 50 == 0 {
+            wo = Vec3::Z;
+            wi = (Vec3::Z + 0.01 * rng.unit_vector()).normalize();
+        }
+        inputs.push(BsdfProbeInput {
+            info: [0, 0, 0, 0],
+            n: [0.0, 0.0, 1.0, 0.0],
+            wo: wo.extend(0.0).to_array(),
+            wi: wi.extend(0.0).to_array(),
+            u: [rng.next(), rng.next(), 0.0, 0.0],
+        });
+    }
+    let got = {
+        let mut r = common::renderer(AccelChoice::Bvh);
+        lightpath::probe::measured(&mut r.engine, &packed, &inputs).expect("measured probe")
+    };
+    // The device's transcendentals round differently, and a direction's table coordinates
+    // pass through asin, atan2 and square roots: half the answers agree to 1e-5 (measured
+    // 9e-7), 99 % to 1e-2 (4e-3), all to 2e-2 (9e-3); a wrong formula is off everywhere
+    // (0.45 for 0.5 in plinear_invert's column integral: 2.7 %).
+    let rel = |a: f32, b: f32| (a - b).abs() / b.abs().max(a.abs()).max(1e-4);
+    let (mut errors, mut nonzero, mut sampled) = (Vec::new(), 0, 0);
+    for (k, (input, out)) in inputs.iter().zip(&got).enumerate() {
+        let wo = Vec3::from_slice(&input.wo[..3]);
+        let wi = Vec3::from_slice(&input.wi[..3]);
+        let u = glam::Vec2::new(input.u[0], input.u[1]);
+        let what = || format!("input {k}: wo {wo}, wi {wi}, u {u}");
+        let (f, pdf) = (m.eval(wo, wi), m.pdf(wo, wi));
+        let f_gpu = Vec3::from_slice(&out.eval[..3]);
+        // (Within 3° of the horizon the coordinates' rounding moves values by percents:
+        // such inputs need only be finite, as the other BSDFs' probe counts them aside.)
+        let grazing = wo.z.abs() < 0.05 || wi.z.abs() < 0.05;
+        assert!(f_gpu.is_finite() && out.eval[3].is_finite(), "{}", what());
+        if !grazing {
+            let e = rel(f_gpu.x, f.x).max(rel(out.eval[3], pdf));
+            assert!(
+                e < 0.02,
+                "f, pdf: device {f_gpu}, {} vs mirror {f}, {pdf} ({})",
+                out.eval[3],
+                what()
+            );
+            errors.push(e);
+        }
+        nonzero += (f.x > 0.0) as u32;
+        let cpu = m.sample(wo, u);
+        assert_eq!(
+            out.sample_f[3] == 1.0,
+            cpu.is_some(),
+            "sample found ({})",
+            what()
+        );
+        if let Some((swi, sf, spdf)) = cpu {
+            sampled += 1;
+            let dwi = Vec3::from_slice(&out.sample_dir[..3]);
+            let dsf = Vec3::from_slice(&out.sample_f[..3]);
+            assert!(
+                (dwi - swi).abs().max_element() < 2e-3,
+                "wi: device {dwi} vs mirror {swi} ({})",
+                what()
+            );
+            // (f times the cosine: near the horizon f alone is 1 / cos θi of rounding.)
+            let e = rel(out.sample_dir[3], spdf).max(rel(dsf.x * dwi.z.abs(), sf.x * swi.z.abs()));
+            if wo.z.abs() < 0.05 || swi.z.abs() < 0.05 {
+                continue;
+            }
+            assert!(
+                e < 0.02,
+                "sample: device {dsf}, {} vs {sf}, {spdf} ({})",
+                out.sample_dir[3],
+                what()
+            );
+            errors.push(e);
+        }
+    }
+    errors.sort_by(|a, b| a.total_cmp(b));
+    let q = |p: f64| errors[((errors.len() - 1) as f64 * p) as usize];
+    eprintln!(
+        "relative differences: median {}, 99% {}, largest {}",
+        q(0.5),
+        q(0.99),
+        q(1.0)
+    );
+    assert!(
+        q(0.5) < 1e-5 && q(0.99) < 1e-2,
+        "median {}, 99% {}",
+        q(0.5),
+        q(0.99)
+    );
+    assert!(
+        nonzero > 3000 && sampled > 4000,
+        "{nonzero} values, {sampled} samples"
+    );
+}
