@@ -246,6 +246,12 @@ impl PiecewiseLinear2D {
             .sum()
     }
 
+    /// The blended data at node i and its neighbours i + 1, i + W, i + W + 1.
+    fn corner_values(&self, i: usize, c: &([(usize, f32); 8], usize)) -> [f32; 4] {
+        let [w, h] = self.size;
+        [i, i + 1, i + w, i + w + 1].map(|k| Self::lookup(&self.data, w * h, k, c))
+    }
+
     fn patch(&self, pos: Vec2) -> (usize, usize, f32, f32) {
         let [w, h] = self.size;
         let x = pos.x.clamp(0.0, 1.0) * (w - 1) as f32;
@@ -262,14 +268,9 @@ impl PiecewiseLinear2D {
     /// The density (or, for a table kept as it is, the interpolated value) at `pos`.
     pub fn eval(&self, pos: Vec2, params: &[f32]) -> f32 {
         let c = self.corners(params);
-        let [w, h] = self.size;
-        let n = w * h;
         let (col, row, fx, fy) = self.patch(pos);
-        let i = row * w + col;
-        let v00 = Self::lookup(&self.data, n, i, &c);
-        let v10 = Self::lookup(&self.data, n, i + 1, &c);
-        let v01 = Self::lookup(&self.data, n, i + w, &c);
-        let v11 = Self::lookup(&self.data, n, i + w + 1, &c);
+        let i = row * self.size[0] + col;
+        let [v00, v10, v01, v11] = self.corner_values(i, &c);
         ((1.0 - fx) * (1.0 - fy) * v00
             + fx * (1.0 - fy) * v10
             + (1.0 - fx) * fy * v01
@@ -300,10 +301,7 @@ impl PiecewiseLinear2D {
         let col = find_interval(w, |k| cond(k) < u.x);
         u.x -= cond(col);
         let i = row * w + col;
-        let v00 = Self::lookup(&self.data, n, i, &c);
-        let v10 = Self::lookup(&self.data, n, i + 1, &c);
-        let v01 = Self::lookup(&self.data, n, i + w, &c);
-        let v11 = Self::lookup(&self.data, n, i + w + 1, &c);
+        let [v00, v10, v01, v11] = self.corner_values(i, &c);
         let c0 = (1.0 - t) * v00 + t * v01;
         let c1 = (1.0 - t) * v10 + t * v11;
         let s = solve_linear(c0, c1, u.x).clamp(0.0, 1.0);
@@ -325,10 +323,7 @@ impl PiecewiseLinear2D {
         let n = w * h;
         let (col, row, s, t) = self.patch(pos);
         let i = row * w + col;
-        let v00 = Self::lookup(&self.data, n, i, &c);
-        let v10 = Self::lookup(&self.data, n, i + 1, &c);
-        let v01 = Self::lookup(&self.data, n, i + w, &c);
-        let v11 = Self::lookup(&self.data, n, i + w + 1, &c);
+        let [v00, v10, v01, v11] = self.corner_values(i, &c);
         let c0 = (1.0 - t) * v00 + t * v01;
         let c1 = (1.0 - t) * v10 + t * v11;
         let r0 = Self::lookup(&self.conditional, n, row * w + w - 1, &c);

@@ -103,49 +103,21 @@ pub fn bsdf(
     materials: &[GpuMaterial],
     inputs: &[BsdfProbeInput],
 ) -> Result<Vec<BsdfProbeOutput>> {
-    let mut trace = Trace::new();
     engine.kernels.reset_sets()?;
     let materials_buffer =
         engine.buffer_with("probe materials", bytemuck::cast_slice(materials))?;
-    let inputs_buffer = engine.buffer_with("probe inputs", bytemuck::cast_slice(inputs))?;
     // (The probe's materials have no textures: surfaces look textures up, and the probe
     // has none.)
-    let out_bytes = (inputs.len() * std::mem::size_of::<BsdfProbeOutput>()).max(16) as u64;
-    let out = engine.storage_buffer("probe outputs", out_bytes)?;
-    let kernel = engine.kernel(
+    let features = crate::abi::FEATURE_ALL;
+    let what = "running the BSDF probe";
+    run_bsdf_probe(
+        engine,
         "bsdf_probe",
-        None,
-        Specialization {
-            features: crate::abi::FEATURE_ALL,
-        },
-    )?;
-    let set = engine.bind(
-        &kernel,
-        None,
-        &[
-            (BINDING_MATERIALS, &materials_buffer),
-            (BINDING_BSDF_PROBE_INPUTS, &inputs_buffer),
-            (BINDING_BSDF_PROBE_OUTPUTS, &out),
-        ],
-    )?;
-    let params = PassParams {
-        first_sample: 0,
-        samples: inputs.len() as u32,
-        row_begin: 0,
-        row_end: 0,
-    };
-    let groups = [
-        (inputs.len() as u32).div_ceil(PROBE_WORKGROUP_SIZE).max(1),
-        1,
-        1,
-    ];
-    engine.submit(
-        &[Dispatch::new(&kernel, set, &params, groups)],
-        "running the BSDF probe",
-        &mut trace,
-    )?;
-    let data = out.download(out_bytes)?;
-    Ok(bytemuck::cast_slice::<u8, BsdfProbeOutput>(&data)[..inputs.len()].to_vec())
+        features,
+        (BINDING_MATERIALS, &materials_buffer),
+        inputs,
+        what,
+    )
 }
 
 /// Runs the measured-material probe (glsl/measured_probe.comp) on `inputs` for the
@@ -156,18 +128,39 @@ pub fn measured(
     packed: &[f32],
     inputs: &[BsdfProbeInput],
 ) -> Result<Vec<BsdfProbeOutput>> {
-    let mut trace = Trace::new();
     engine.kernels.reset_sets()?;
     let texels = engine.buffer_with("probe measured material", bytemuck::cast_slice(packed))?;
+    let what = "running the measured-material probe";
+    run_bsdf_probe(
+        engine,
+        "measured_probe",
+        0,
+        (BINDING_TEXELS, &texels),
+        inputs,
+        what,
+    )
+}
+
+/// One dispatch of a BSDF probe kernel over `inputs`, with its material data at `data`:
+/// the outputs, one per input.
+fn run_bsdf_probe(
+    engine: &mut Engine,
+    kernel: &'static str,
+    features: u32,
+    data: (u32, &crate::gpu::buffer::Buffer),
+    inputs: &[BsdfProbeInput],
+    what: &str,
+) -> Result<Vec<BsdfProbeOutput>> {
+    let mut trace = Trace::new();
     let inputs_buffer = engine.buffer_with("probe inputs", bytemuck::cast_slice(inputs))?;
     let out_bytes = (inputs.len() * std::mem::size_of::<BsdfProbeOutput>()).max(16) as u64;
     let out = engine.storage_buffer("probe outputs", out_bytes)?;
-    let kernel = engine.kernel("measured_probe", None, Specialization { features: 0 })?;
+    let kernel = engine.kernel(kernel, None, Specialization { features })?;
     let set = engine.bind(
         &kernel,
         None,
         &[
-            (BINDING_TEXELS, &texels),
+            data,
             (BINDING_BSDF_PROBE_INPUTS, &inputs_buffer),
             (BINDING_BSDF_PROBE_OUTPUTS, &out),
         ],
@@ -185,7 +178,7 @@ pub fn measured(
     ];
     engine.submit(
         &[Dispatch::new(&kernel, set, &params, groups)],
-        "running the measured-material probe",
+        what,
         &mut trace,
     )?;
     let data = out.download(out_bytes)?;
