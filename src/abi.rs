@@ -302,10 +302,11 @@ pub enum BsdfKind {
     CoatedDiffuse = BSDF_COATED_DIFFUSE,
     DiffuseTransmission = BSDF_DIFFUSE_TRANSMISSION,
     CoatedConductor = BSDF_COATED_CONDUCTOR,
+    Measured = BSDF_MEASURED,
 }
 
 impl BsdfKind {
-    pub const ALL: [BsdfKind; 8] = [
+    pub const ALL: [BsdfKind; 9] = [
         BsdfKind::Phong,
         BsdfKind::Ggx,
         BsdfKind::Dielectric,
@@ -314,6 +315,7 @@ impl BsdfKind {
         BsdfKind::CoatedDiffuse,
         BsdfKind::DiffuseTransmission,
         BsdfKind::CoatedConductor,
+        BsdfKind::Measured,
     ];
 
     /// The material class (abi.h `MATERIAL_CLASS_*`) whose shade kernels hold this kind:
@@ -326,6 +328,7 @@ impl BsdfKind {
             | BsdfKind::Conductor
             | BsdfKind::DiffuseTransmission => MATERIAL_CLASS_INTERFACE,
             BsdfKind::CoatedDiffuse | BsdfKind::CoatedConductor => MATERIAL_CLASS_COATED,
+            BsdfKind::Measured => MATERIAL_CLASS_MEASURED,
         }
     }
 

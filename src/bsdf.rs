@@ -297,6 +297,9 @@ pub struct BsdfParams {
     /// Henyey–Greenstein g of its phase function.
     pub albedo: Vec3,
     pub g: f32,
+    /// Measured: the texel index of its tables (its mirror is `MeasuredBsdf`'s
+    /// `eval_about` and `sample_about`, src/measured.rs, which hold them).
+    pub table: u32,
 }
 
 impl Default for BsdfParams {
@@ -316,6 +319,7 @@ impl Default for BsdfParams {
             base_alpha: Vec2::ZERO,
             albedo: Vec3::ZERO,
             g: 0.0,
+            table: 0,
         }
     }
 }
@@ -466,6 +470,7 @@ impl BsdfParams {
                 Vec3::ZERO
             },
             g: m.k[3],
+            table: m.base[0].to_bits(),
         })
     }
 
@@ -488,7 +493,8 @@ impl BsdfParams {
             BsdfKind::Phong
             | BsdfKind::Ggx
             | BsdfKind::CoatedDiffuse
-            | BsdfKind::DiffuseTransmission => false,
+            | BsdfKind::DiffuseTransmission
+            | BsdfKind::Measured => false,
         }
     }
 
@@ -498,6 +504,15 @@ impl BsdfParams {
             self.kind,
             BsdfKind::CoatedDiffuse | BsdfKind::CoatedConductor
         )
+    }
+
+    /// A measured BSDF's tables are not in its parameters: its mirror is `MeasuredBsdf`'s
+    /// `eval_about` and `sample_about` (src/measured.rs).
+    fn assert_tabulated_elsewhere(&self) {
+        assert!(
+            self.kind != BsdfKind::Measured,
+            "a measured BSDF is evaluated by MeasuredBsdf::eval_about and sample_about"
+        );
     }
 
     /// The course's two-sided reflectors (n flipped toward wo).
@@ -522,6 +537,7 @@ impl BsdfParams {
     /// The BSDF value f(wo, wi) (not multiplied by cosθi) for a path carrying
     /// `transport` (these BRDFs are symmetric and do not depend on it). GLSL `bsdf_eval`.
     pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3, transport: Transport) -> Vec3 {
+        self.assert_tabulated_elsewhere();
         if !self.is_course_brdf() {
             return interface_eval(self, n, wo, wi, transport);
         }
@@ -547,6 +563,7 @@ impl BsdfParams {
     /// Solid-angle pdf with which `sample(mode, ..)` produces wi; 0 below the surface.
     /// GLSL `bsdf_pdf`.
     pub fn pdf(&self, mode: SampleMode, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+        self.assert_tabulated_elsewhere();
         if !self.is_course_brdf() {
             return interface_pdf(self, n, wo, wi);
         }
@@ -585,6 +602,7 @@ impl BsdfParams {
         u: Vec3,
         transport: Transport,
     ) -> Option<BsdfSample> {
+        self.assert_tabulated_elsewhere();
         if !self.is_course_brdf() {
             return interface_sample(self, n, wo, u, transport);
         }
@@ -626,7 +644,7 @@ impl BsdfParams {
 // ---- the interface BSDFs: GLSL's dielectric, thin dielectric and conductor -----------
 
 /// GLSL `LocalFrame`: n's tangent frame, mirrored (z negated) when wo lies below n.
-struct LocalFrame {
+pub(crate) struct LocalFrame {
     t: Vec3,
     b: Vec3,
     n: Vec3,
@@ -634,7 +652,7 @@ struct LocalFrame {
 }
 
 impl LocalFrame {
-    fn new(n: Vec3, wo: Vec3) -> LocalFrame {
+    pub(crate) fn new(n: Vec3, wo: Vec3) -> LocalFrame {
         let (t, b) = sampling::build_onb(n);
         LocalFrame {
             t,
@@ -643,7 +661,7 @@ impl LocalFrame {
             flip: n.dot(wo) < 0.0,
         }
     }
-    fn to_local(&self, v: Vec3) -> Vec3 {
+    pub(crate) fn to_local(&self, v: Vec3) -> Vec3 {
         let l = Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n));
         if self.flip {
             Vec3::new(l.x, l.y, -l.z)
@@ -651,7 +669,7 @@ impl LocalFrame {
             l
         }
     }
-    fn world(&self, l: Vec3) -> Vec3 {
+    pub(crate) fn world(&self, l: Vec3) -> Vec3 {
         let z = if self.flip { -l.z } else { l.z };
         l.x * self.t + l.y * self.b + z * self.n
     }

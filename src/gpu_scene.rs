@@ -254,6 +254,9 @@ pub struct TextureData {
     /// The environment map's texture and the first floats of its marginal and
     /// conditional CDFs in `texels`, if the scene has a map.
     pub environment: Option<(u32, u32, u32)>,
+    /// The texel index of each measured material's tables (`Scene::measured`'s order,
+    /// `MeasuredBsdf::pack`'s layout).
+    pub measured: Vec<u32>,
 }
 
 fn push_image(texels: &mut Vec<f32>, image: &Image) -> u32 {
@@ -475,11 +478,38 @@ pub fn texture_data(scene: &Scene) -> TextureData {
         texels.floats.extend(&d.conditional);
         environment = Some((index, marginal, conditional));
     }
+    let measured = scene
+        .measured
+        .iter()
+        .map(|m| {
+            let first = texels.floats.len() as u32;
+            texels.floats.extend(m.pack());
+            first
+        })
+        .collect();
     TextureData {
         textures,
         texels: texels.floats,
         environment,
+        measured,
     }
+}
+
+/// The materials as the kernels read them: their records, a measured material's with the
+/// texel index of its tables (`TextureData::measured`) where `Material::record` put its
+/// index into `Scene::measured`.
+pub fn material_records(scene: &Scene, textures: &TextureData) -> Vec<GpuMaterial> {
+    scene
+        .materials
+        .iter()
+        .map(|m| {
+            let mut record = m.record();
+            if let (BsdfKind::Measured, Some(i)) = (m.bsdf, m.measured) {
+                record.base[0] = f32::from_bits(textures.measured[i as usize]);
+            }
+            record
+        })
+        .collect()
 }
 
 /// The per-triangle attribute records and each triangle's index into them
@@ -656,7 +686,7 @@ impl GpuScene {
                 }
             })
             .collect();
-        let materials: Vec<GpuMaterial> = scene.materials.iter().map(|m| m.record()).collect();
+        let materials = material_records(scene, &textures);
         let mut params = params;
         params.emitter_count = table.emitters.len() as u32;
         params.environment = table.environment;

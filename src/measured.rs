@@ -330,6 +330,27 @@ impl MeasuredBsdf {
     }
 }
 
+/// The BSDF about a unit normal n, as the renders ask it (GLSL bsdf.glsl's
+/// `measured_bsdf_eval_pdf` and `measured_bsdf_sample`): in n's local frame
+/// (`build_onb`'s tangents), mirrored when wo lies below n, so that it reflects on both
+/// sides.
+impl MeasuredBsdf {
+    /// f(wo, wi) and pdf(wo → wi).
+    pub fn eval_about(&self, n: Vec3, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let fr = crate::bsdf::LocalFrame::new(n, wo);
+        let (lo, li) = (fr.to_local(wo), fr.to_local(wi));
+        (self.eval(lo, li), self.pdf(lo, li))
+    }
+
+    /// wi drawn for wo with the numbers u (the BSDFs' u.yz): (wi, f, pdf), None for no
+    /// sample.
+    pub fn sample_about(&self, n: Vec3, wo: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+        let fr = crate::bsdf::LocalFrame::new(n, wo);
+        let (wi, f, pdf) = self.sample(fr.to_local(wo), u)?;
+        (pdf.is_finite() && f != Vec3::ZERO).then(|| (fr.world(wi), f, pdf))
+    }
+}
+
 /// GGX (isotropic α): D(m), Λ(ω) and G1(ω) of directions in the local frame.
 fn ggx_d(alpha: f32, m: Vec3) -> f32 {
     if m.z <= 0.0 {

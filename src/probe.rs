@@ -97,15 +97,20 @@ pub fn trace_rays(
 }
 
 /// Runs the GLSL BSDFs on `inputs` (each names a material of `materials` by index) and
-/// returns what they gave (abi.h `BsdfProbeOutput`).
+/// returns what they gave (abi.h `BsdfProbeOutput`). `texels` holds the measured
+/// materials' tables (`MeasuredBsdf::pack`, at the texel index in their records' base.x);
+/// it may be empty.
 pub fn bsdf(
     engine: &mut Engine,
     materials: &[GpuMaterial],
+    texels: &[f32],
     inputs: &[BsdfProbeInput],
 ) -> Result<Vec<BsdfProbeOutput>> {
     engine.kernels.reset_sets()?;
     let materials_buffer =
         engine.buffer_with("probe materials", bytemuck::cast_slice(materials))?;
+    let texels = if texels.is_empty() { &[0.0; 4] } else { texels };
+    let texels_buffer = engine.buffer_with("probe texels", bytemuck::cast_slice(texels))?;
     // (The probe's materials have no textures: surfaces look textures up, and the probe
     // has none.)
     let features = crate::abi::FEATURE_ALL;
@@ -114,7 +119,10 @@ pub fn bsdf(
         engine,
         "bsdf_probe",
         features,
-        (BINDING_MATERIALS, &materials_buffer),
+        &[
+            (BINDING_MATERIALS, &materials_buffer),
+            (BINDING_TEXELS, &texels_buffer),
+        ],
         inputs,
         what,
     )
@@ -135,19 +143,20 @@ pub fn measured(
         engine,
         "measured_probe",
         0,
-        (BINDING_TEXELS, &texels),
+        &[(BINDING_TEXELS, &texels)],
         inputs,
         what,
     )
 }
 
-/// One dispatch of a BSDF probe kernel over `inputs`, with its material data at `data`:
+/// One dispatch of a BSDF probe kernel over `inputs`, with its material data at `data`
+/// (binding, buffer):
 /// the outputs, one per input.
 fn run_bsdf_probe(
     engine: &mut Engine,
     kernel: &'static str,
     features: u32,
-    data: (u32, &crate::gpu::buffer::Buffer),
+    data: &[(u32, &crate::gpu::buffer::Buffer)],
     inputs: &[BsdfProbeInput],
     what: &str,
 ) -> Result<Vec<BsdfProbeOutput>> {
@@ -156,15 +165,10 @@ fn run_bsdf_probe(
     let out_bytes = (inputs.len() * std::mem::size_of::<BsdfProbeOutput>()).max(16) as u64;
     let out = engine.storage_buffer("probe outputs", out_bytes)?;
     let kernel = engine.kernel(kernel, None, Specialization { features })?;
-    let set = engine.bind(
-        &kernel,
-        None,
-        &[
-            data,
-            (BINDING_BSDF_PROBE_INPUTS, &inputs_buffer),
-            (BINDING_BSDF_PROBE_OUTPUTS, &out),
-        ],
-    )?;
+    let mut bindings = data.to_vec();
+    bindings.push((BINDING_BSDF_PROBE_INPUTS, &inputs_buffer));
+    bindings.push((BINDING_BSDF_PROBE_OUTPUTS, &out));
+    let set = engine.bind(&kernel, None, &bindings)?;
     let params = PassParams {
         first_sample: 0,
         samples: inputs.len() as u32,

@@ -264,6 +264,24 @@ fn a_sphere_light_in_pbrt_syntax_renders_like_its_test_twin_in_every_integrator(
     }
 }
 
+/// scenes/pbrt/ggx.bsdf, the every-feature scene's measured material, is the synthetic
+/// RGL file `measured::ggx_tensor(0.3, 6, 16)` makes (GGX of α 0.3, 27 kB): reproducible
+/// from the code, not a published material's data. With LIGHTPATH_WRITE_SCENE_DATA set the
+/// test writes it.
+#[test]
+fn the_every_feature_scenes_measured_file_is_the_synthetic_ggx_table() {
+    let path = repo().join("scenes/pbrt/ggx.bsdf");
+    let bytes = lightpath::measured::ggx_tensor(0.3, 6, 16).to_bytes();
+    if std::env::var_os("LIGHTPATH_WRITE_SCENE_DATA").is_some() {
+        std::fs::write(&path, &bytes).expect("writes scenes/pbrt/ggx.bsdf");
+    }
+    let committed = std::fs::read(&path).expect("scenes/pbrt/ggx.bsdf");
+    assert!(
+        committed == bytes,
+        "scenes/pbrt/ggx.bsdf is not ggx_tensor(0.3, 6, 16)'s file (LIGHTPATH_WRITE_SCENE_DATA=1 rewrites it)"
+    );
+}
+
 /// scenes/pbrt/every-feature.pbrt (docs/performance.md's cold-compile figures) holds every
 /// feature a pbrt file can bring without an image file: the kernels it needs are
 /// specialized to every feature bit but the environment map's and unbounded depth's.

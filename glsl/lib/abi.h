@@ -101,6 +101,9 @@
 // alphas), the layer between them as coated diffuse's (k.xyz; coated kinds: eta.yzw the
 // layer's scattering albedo, k.w its Henyey-Greenstein g).
 #define BSDF_COATED_CONDUCTOR 7
+// pbrt-v4's measured material (RGL's tabulated BRDFs, lib/measured.glsl): base.x (uint
+// bits) the texel index of its tables (MeasuredBsdf::pack); the class of its own.
+#define BSDF_MEASURED 8
 
 // Specialization constants (set per scene when a pipeline is created): code for what
 // the scene lacks is removed before the driver compiles the kernel (lib/features.glsl).
@@ -137,8 +140,10 @@
 #define FEATURE_LAYER_MEDIUM 4096
 // Procedural textures: noise (fbm, wrinkled, windy, marble), dots and bilerp.
 #define FEATURE_PROCEDURAL_TEXTURES 8192
+// Measured materials, the measured class (lib/measured.glsl's tables).
+#define FEATURE_MEASURED 16384
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 16383
+#define FEATURE_ALL 32767
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -274,14 +279,16 @@
 #define WF_QUEUE_CLASS_BASIC 2
 #define WF_QUEUE_CLASS_INTERFACE 3
 #define WF_QUEUE_CLASS_COATED 4
-#define WF_QUEUE_COUNT 5
+#define WF_QUEUE_CLASS_MEASURED 5
+#define WF_QUEUE_COUNT 6
 // Material classes, each shaded by its own kernel: the course BRDFs (Phong, GGX); the
 // interfaces (dielectric, thin dielectric, conductor) and diffuse transmission; coated
-// diffuse.
+// diffuse and coated conductor; measured.
 #define MATERIAL_CLASS_BASIC 0
 #define MATERIAL_CLASS_INTERFACE 1
 #define MATERIAL_CLASS_COATED 2
-#define MATERIAL_CLASS_COUNT 3
+#define MATERIAL_CLASS_MEASURED 3
+#define MATERIAL_CLASS_COUNT 4
 // GpuPtPath.hit.x of a ray that left the scene.
 #define NO_HIT 4294967295
 

@@ -64,11 +64,22 @@ struct BsdfParams {
     vec2 base_alpha;
     vec3 albedo;       // coated: the layer's single-scattering albedo (0: it only absorbs)
     float g;           //   and its Henyey-Greenstein g
+    uint table;        // measured: the texel index of its tables (measured.glsl)
 };
 
 // Coated conductors' code is in kernels only for scenes that have them.
 bool bsdf_is_coated_conductor(BsdfParams b) {
     return has_feature(FEATURE_COATED_CONDUCTOR) && b.kind == BSDF_COATED_CONDUCTOR;
+}
+
+// Measured materials are a class of their own: a kernel that shades one class holds their
+// tables' code only if it is theirs, and other kernels only for scenes that have them.
+bool bsdf_is_measured(BsdfParams b) {
+#if defined(SHADE_CLASS)
+    return SHADE_CLASS == MATERIAL_CLASS_MEASURED;
+#else
+    return has_feature(FEATURE_MEASURED) && b.kind == BSDF_MEASURED;
+#endif
 }
 
 // Diffuse transmission's code is in kernels only for scenes that have it.
@@ -97,6 +108,7 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec4 tex0, vec4 tex1) {
     bool layered = b.kind == BSDF_COATED_DIFFUSE || b.kind == BSDF_COATED_CONDUCTOR;
     b.albedo = has_feature(FEATURE_LAYER_MEDIUM) && layered ? m.eta.yzw : vec3(0.0);
     b.g = m.k.w;
+    b.table = floatBitsToUint(m.base.x);
     // Textures replace parameters (material_texture's slots; roughness remapped here).
     if (!has_feature(FEATURE_MATERIAL_TEXTURES)) return b;
     for (uint slot = 0u; slot < MATERIAL_TEXTURE_SLOTS; ++slot) {
@@ -507,6 +519,30 @@ bool diffuse_transmission_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, o
 }
 
 #include "layered.glsl"
+#include "measured.glsl"
+
+// ---- the measured BSDF (pbrt-v4's MeasuredBxDF, measured.glsl) in n's local frame ------
+// (mirrored when wo lies below n: it reflects on both sides). CPU mirror: src/measured.rs,
+// MeasuredBsdf::eval_about, sample_about.
+
+// measured_query about n: f(wo, wi) and pdf(wo -> wi) of a given wi, or with `draw` a
+// sampled wi (u.yz).
+bool measured_bsdf_query(BsdfParams b, vec3 n, vec3 wo, bool draw, vec3 u, inout vec3 wi, out vec3 f,
+                         out float pdf) {
+    LocalFrame fr = local_frame(n, wo);
+    vec3 li = to_local(fr, wi);
+    bool ok = measured_query(b.table, to_local(fr, wo), draw, u.yz, li, f, pdf);
+    if (draw) wi = from_local(fr, li);
+    return ok;
+}
+
+// Its sample, as the other BSDFs give theirs.
+bool measured_bsdf_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, out BsdfSample s) {
+    s.wi = vec3(0.0);
+    s.flags = BSDF_LOBE_REFLECTION;
+    bool ok = measured_bsdf_query(b, n, wo, true, u, s.wi, s.f, s.pdf);
+    return ok && !isinf(s.pdf) && s.f != vec3(0.0);
+}
 
 vec3 interface_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
     if (bsdf_is_delta(b)) return vec3(0.0);
@@ -545,6 +581,7 @@ bool interface_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, uint transport, out
 // The material class of a BSDF kind (MATERIAL_CLASS_*): the wavefront path tracer
 // shades each class in a kernel of its own.
 uint material_class(uint kind) {
+    if (has_feature(FEATURE_MEASURED) && kind == BSDF_MEASURED) return MATERIAL_CLASS_MEASURED;
     if (kind == BSDF_COATED_DIFFUSE || kind == BSDF_COATED_CONDUCTOR) return MATERIAL_CLASS_COATED;
     if (kind == BSDF_PHONG || kind == BSDF_GGX) return MATERIAL_CLASS_BASIC;
     return MATERIAL_CLASS_INTERFACE;
@@ -674,6 +711,12 @@ bool bsdf_is_coated(BsdfParams b) {
 }
 
 vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
+    if (bsdf_is_measured(b)) {
+        vec3 f;
+        float pdf;
+        measured_bsdf_query(b, n, wo, false, vec3(0.0), wi, f, pdf);
+        return f;
+    }
     if (!bsdf_is_coated(b)) return analytic_eval(b, n, wo, wi, transport);
     vec3 f;
     float pdf, pdf_rev;
@@ -683,6 +726,12 @@ vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
 }
 
 float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
+    if (bsdf_is_measured(b)) {
+        vec3 f;
+        float pdf;
+        measured_bsdf_query(b, n, wo, false, vec3(0.0), wi, f, pdf);
+        return pdf;
+    }
     if (!bsdf_is_coated(b)) return analytic_pdf(b, mode, n, wo, wi);
     vec3 f;
     float pdf, pdf_rev;
@@ -694,6 +743,7 @@ float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
 // u.x picks the lobe, u.yz place the direction. False when there is no sample (below
 // the surface, or a pdf that is not a positive finite number).
 bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
+    if (bsdf_is_measured(b)) return measured_bsdf_sample(b, n, wo, u, s);
     if (!bsdf_is_coated(b)) return analytic_sample(b, mode, n, wo, u, transport, s);
     vec3 f;
     float pdf, pdf_rev;
@@ -708,6 +758,22 @@ vec3 bsdf_eval_pdfs(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi, uint tran
                     out float pdf_fwd, out float pdf_rev) {
     pdf_fwd = 0.0;
     pdf_rev = 0.0;
+    if (bsdf_is_measured(b)) {
+        vec3 f_fwd = vec3(0.0);
+        [[dont_unroll]] for (uint k = 0u; k < (want_rev ? 2u : 1u); ++k) {
+            // (k = 0: f and pdf(wo -> wi); k = 1: pdf(wi -> wo). One inlined copy.)
+            vec3 f, to = k == 0u ? wi : wo;
+            float pdf;
+            measured_bsdf_query(b, n, k == 0u ? wo : wi, false, vec3(0.0), to, f, pdf);
+            if (k == 0u) {
+                pdf_fwd = pdf;
+                f_fwd = f;
+            } else {
+                pdf_rev = pdf;
+            }
+        }
+        return f_fwd;
+    }
     if (bsdf_is_coated(b)) {
         vec3 f;
         BsdfSample s;
@@ -726,6 +792,27 @@ vec3 bsdf_eval_pdfs(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi, uint tran
 bool bsdf_sample_rev(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, bool want_rev,
                      out BsdfSample s, out float pdf_rev) {
     pdf_rev = 0.0;
+    if (bsdf_is_measured(b)) {
+        s.wi = vec3(0.0);
+        s.flags = BSDF_LOBE_REFLECTION;
+        bool ok = false;
+        [[dont_unroll]] for (uint k = 0u; k < (want_rev ? 2u : 1u); ++k) {
+            // (k = 0: the sample; k = 1: pdf(s.wi -> wo). One inlined copy.)
+            vec3 f, to = k == 0u ? s.wi : wo;
+            float pdf;
+            bool found = measured_bsdf_query(b, n, k == 0u ? wo : s.wi, k == 0u, u, to, f, pdf);
+            if (k == 0u) {
+                ok = found && !isinf(pdf) && f != vec3(0.0);
+                s.wi = to;
+                s.f = f;
+                s.pdf = pdf;
+                if (!ok) break;
+            } else {
+                pdf_rev = pdf;
+            }
+        }
+        return ok;
+    }
     if (bsdf_is_coated(b)) {
         vec3 f;
         float pdf;

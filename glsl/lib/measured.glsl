@@ -23,88 +23,107 @@ float measured_azimuth(vec3 d) { return d.x == 0.0 && d.y == 0.0 ? 0.0 : atan(d.
 
 Plinear measured_table(uint base, uint k) { return plinear_at(base, plin_word(base + 2u + k)); }
 
-// h's warped coordinates seen from wo (azimuth phi_o).
-vec2 measured_warp_h(uint base, vec3 h, float phi_o) {
-    bool isotropic = plin_word(base) != 0u;
-    float y = measured_phi_to_u(measured_azimuth(h) - (isotropic ? phi_o : 0.0));
-    return vec2(measured_theta_to_u(measured_elevation(h)), y - floor(y));
-}
-
-// The reflectance at the luminance-space point u, times D / (4 sigma) with the file's
-// jacobian flag, over cos(theta_i).
-vec3 measured_value(uint base, vec2 u, vec2 u_h, vec2 params, vec3 wi) {
-    Plinear rgb = measured_table(base, 4u);
-    vec3 r;
-    [[dont_unroll]] for (uint c = 0u; c < 3u; ++c) r[c] = plinear_eval(rgb, u, vec3(params, float(c)));
-    vec3 f = max(r, vec3(0.0)) / abs(wi.z);
-    if (plin_word(base + 1u) != 0u) {
-        vec2 u_o = vec2(measured_theta_to_u(params.y), measured_phi_to_u(params.x));
-        float sigma = plinear_eval(measured_table(base, 1u), u_o, vec3(0.0));
-        f *= sigma > 0.0 ? plinear_eval(measured_table(base, 0u), u_h, vec3(0.0)) / (4.0 * sigma) : 0.0;
-    }
-    return f;
-}
-
 // The Jacobian from the warped square to wi: h's solid angle times 4 (wo . h).
 float measured_to_solid_angle(vec2 u_h, float wo_dot_h) {
     float theta = measured_u_to_theta(u_h.x);
     return max(2.0 * MEASURED_PI * MEASURED_PI * u_h.x * sin(theta), 1e-6) * 4.0 * abs(wo_dot_h);
 }
 
-vec3 measured_eval(uint base, vec3 wo, vec3 wi) {
-    if (wo.z * wi.z <= 0.0) return vec3(0.0);
-    if (wo.z < 0.0) {
+// Every question about the material in one body, so that a kernel inlines its tables'
+// code once per call site: with `draw`, wi drawn for wo with the numbers u (false for no
+// sample); else for the given wi. Either way f(wo, wi) and the density with which a draw
+// gives wi. (The mirror's eval, pdf and sample, src/measured.rs.)
+bool measured_query(uint base, vec3 wo, bool draw, vec2 u, inout vec3 wi, out vec3 f, out float pdf) {
+    f = vec3(0.0);
+    pdf = 0.0;
+    if (!draw && wo.z * wi.z <= 0.0) return false;
+    bool flip = draw ? wo.z <= 0.0 : wo.z < 0.0;
+    if (flip) {
         wo = -wo;
         wi = -wi;
     }
-    vec3 h = wo + wi;
-    if (dot(h, h) == 0.0) return vec3(0.0);
-    h = normalize(h);
     vec2 params = vec2(measured_azimuth(wo), measured_elevation(wo));
-    vec2 u_h = measured_warp_h(base, h, params.x);
+    bool isotropic = plin_word(base) != 0u;
+    vec2 u1, u_h;
+    float lum_pdf = 0.0, vndf_pdf = 0.0;
+    vec3 h;
+    if (draw) {
+        // The luminance's table draws u1 from u, the VNDF's u_h from u1 (one call site).
+        vec2 x = u;
+        [[dont_unroll]] for (uint k = 0u; k < 2u; ++k) {
+            float p;
+            x = plinear_sample(measured_table(base, 3u - k), x, vec3(params, 0.0), p);
+            if (k == 0u) {
+                u1 = x;
+                lum_pdf = p;
+            } else {
+                vndf_pdf = p;
+            }
+        }
+        u_h = x;
+        float phi = measured_u_to_phi(u_h.y) + (isotropic ? params.x : 0.0);
+        float theta = measured_u_to_theta(u_h.x);
+        h = vec3(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
+        wi = 2.0 * dot(wo, h) * h - wo;
+        if (!(wi.z > 0.0)) {
+            wi = vec3(0.0);
+            return false;
+        }
+    } else {
+        h = wo + wi;
+        if (dot(h, h) == 0.0) return false;
+        h = normalize(h);
+        float y = measured_phi_to_u(measured_azimuth(h) - (isotropic ? params.x : 0.0));
+        u_h = vec2(measured_theta_to_u(measured_elevation(h)), y - floor(y));
+        u1 = plinear_invert(measured_table(base, 2u), u_h, vec3(params, 0.0), vndf_pdf);
+    }
+    // The tables' values (one call site): the luminance at u1 (its density, for a given
+    // wi), the reflectance's three channels at u1 and, with the file's jacobian flag, the
+    // NDF at u_h and sigma at wo.
+    bool jacobian = plin_word(base + 1u) != 0u;
+    vec3 r;
+    float ndf = 0.0, sigma = 0.0;
+    vec2 u_o = vec2(measured_theta_to_u(params.y), measured_phi_to_u(params.x));
+    [[dont_unroll]] for (uint k = draw ? 1u : 0u; k < (jacobian ? 6u : 4u); ++k) {
+        // k: 0 luminance, 1-3 reflectance, 4 sigma, 5 NDF.
+        uint table = k == 0u ? 3u : k < 4u ? 4u : k == 4u ? 1u : 0u;
+        vec2 pos = k < 4u ? u1 : k == 4u ? u_o : u_h;
+        vec3 p = k < 4u ? vec3(params, float(max(k, 1u) - 1u)) : vec3(0.0);
+        float x = plinear_eval(measured_table(base, table), pos, p);
+        if (k == 0u) {
+            lum_pdf = x;
+        } else if (k < 4u) {
+            r[k - 1u] = x;
+        } else if (k == 4u) {
+            sigma = x;
+        } else {
+            ndf = x;
+        }
+    }
+    f = max(r, vec3(0.0)) / abs(wi.z);
+    if (jacobian) f *= sigma > 0.0 ? ndf / (4.0 * sigma) : 0.0;
+    pdf = vndf_pdf * lum_pdf / measured_to_solid_angle(u_h, dot(wo, h));
+    if (flip) wi = -wi;
+    return pdf > 0.0;
+}
+
+vec3 measured_eval(uint base, vec3 wo, vec3 wi) {
+    vec3 f;
     float pdf;
-    vec2 u = plinear_invert(measured_table(base, 2u), u_h, vec3(params, 0.0), pdf);
-    return measured_value(base, u, u_h, params, wi);
+    measured_query(base, wo, false, vec2(0.0), wi, f, pdf);
+    return f;
 }
 
 float measured_pdf(uint base, vec3 wo, vec3 wi) {
-    if (wo.z * wi.z <= 0.0) return 0.0;
-    if (wo.z < 0.0) {
-        wo = -wo;
-        wi = -wi;
-    }
-    vec3 h = wo + wi;
-    if (dot(h, h) == 0.0) return 0.0;
-    h = normalize(h);
-    vec2 params = vec2(measured_azimuth(wo), measured_elevation(wo));
-    vec2 u_h = measured_warp_h(base, h, params.x);
-    float vndf_pdf;
-    vec2 u = plinear_invert(measured_table(base, 2u), u_h, vec3(params, 0.0), vndf_pdf);
-    return vndf_pdf * plinear_eval(measured_table(base, 3u), u, vec3(params, 0.0))
-         / measured_to_solid_angle(u_h, dot(wo, h));
+    vec3 f;
+    float pdf;
+    measured_query(base, wo, false, vec2(0.0), wi, f, pdf);
+    return pdf;
 }
 
 // wi drawn for wo with the numbers u, its f and pdf; false for no sample.
 bool measured_sample(uint base, vec3 wo, vec2 u, out vec3 wi, out vec3 f, out float pdf) {
     wi = vec3(0.0);
-    f = vec3(0.0);
-    pdf = 0.0;
-    bool flip = wo.z <= 0.0;
-    if (flip) wo = -wo;
-    vec2 params = vec2(measured_azimuth(wo), measured_elevation(wo));
-    float lum_pdf, vndf_pdf;
-    vec2 u1 = plinear_sample(measured_table(base, 3u), u, vec3(params, 0.0), lum_pdf);
-    vec2 u_h = plinear_sample(measured_table(base, 2u), u1, vec3(params, 0.0), vndf_pdf);
-    bool isotropic = plin_word(base) != 0u;
-    float phi = measured_u_to_phi(u_h.y) + (isotropic ? params.x : 0.0);
-    float theta = measured_u_to_theta(u_h.x);
-    vec3 h = vec3(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
-    wi = 2.0 * dot(wo, h) * h - wo;
-    if (!(wi.z > 0.0)) return false;
-    pdf = vndf_pdf * lum_pdf / measured_to_solid_angle(u_h, dot(wo, h));
-    f = measured_value(base, u1, u_h, params, wi);
-    if (!(pdf > 0.0)) return false;
-    if (flip) wi = -wi;
-    return true;
+    return measured_query(base, wo, true, u, wi, f, pdf);
 }
 #endif

@@ -122,49 +122,60 @@ float plinear_eval(Plinear t, vec2 pos, vec3 p) {
             + f.x * f.y * v.w) * plinear_area_inv(t);
 }
 
-// A point drawn with the density from the uniform numbers u; its density in pdf.
+// (1 - ty) times the blend of element o0 of `array` plus ty times that of element o1
+// (one lookup site for both).
+float plinear_blend(Plinear t, uint array, uint len, uint o0, uint o1, float ty, uint first, vec3 w1) {
+    vec2 x;
+    [[dont_unroll]] for (uint k = 0u; k < 2u; ++k) x[k] = plinear_lookup(t, array, len, k == 0u ? o0 : o1, first, w1);
+    return (1.0 - ty) * x.x + ty * x.y;
+}
+
+// A point drawn with the density from the uniform numbers u; its density in pdf. (Its
+// two searches, the row on the marginal integrals and then the column on the rows'
+// running integrals blended at ty, are one bisection loop, which ends by evaluating the
+// integral at the index it found: each lookup has one call site.)
 vec2 plinear_sample(Plinear t, vec2 u, vec3 p, out float pdf) {
     uint first;
     vec3 w1;
     plinear_slices(t, p, first, w1);
     uint w = t.size.x, h = t.size.y, n = w * h;
     u = clamp(u, vec2(1e-7), vec2(1.0 - 1e-7));
-    // The row: the largest k in [0, H - 2] whose running integral is below u.y.
-    uint lo = 1u, len = h - 2u;
-    [[dont_unroll]] while (len > 0u) {
-        uint half_ = len / 2u;
-        uint middle = lo + half_;
-        if (plinear_lookup(t, t.marginal, h, middle, first, w1) < u.y) {
-            lo = middle + 1u;
-            len -= half_ + 1u;
+    uint row = 0u, col = 0u;
+    float ty = 0.0;
+    [[dont_unroll]] for (uint pass = 0u; pass < 2u; ++pass) {
+        bool rows = pass == 0u;
+        uint count = rows ? h : w;
+        float target = rows ? u.y : u.x;
+        // The largest k in [0, count - 2] whose running integral is below the target.
+        uint lo = 1u, len = count - 2u, k;
+        float c;
+        [[dont_unroll]] for (;;) {
+            bool last = len == 0u;
+            k = last ? min(lo - 1u, count - 2u) : lo + len / 2u;
+            c = plinear_blend(t, rows ? t.marginal : t.conditional, rows ? h : n, rows ? k : row * w + k,
+                              rows ? k : (row + 1u) * w + k, rows ? 0.0 : ty, first, w1);
+            if (last) break;
+            if (c < target) {
+                lo = k + 1u;
+                len -= len / 2u + 1u;
+            } else {
+                len = len / 2u;
+            }
+        }
+        if (rows) {
+            row = k;
+            u.y -= c;
+            vec2 r;
+            [[dont_unroll]] for (uint j = 0u; j < 2u; ++j) {
+                r[j] = plinear_lookup(t, t.conditional, n, (row + j) * w + w - 1u, first, w1);
+            }
+            ty = clamp(plinear_solve(r.x, r.y, u.y), 0.0, 1.0);
+            u.x *= (1.0 - ty) * r.x + ty * r.y;
         } else {
-            len = half_;
+            col = k;
+            u.x -= c;
         }
     }
-    uint row = min(lo - 1u, h - 2u);
-    u.y -= plinear_lookup(t, t.marginal, h, row, first, w1);
-    float r0 = plinear_lookup(t, t.conditional, n, row * w + w - 1u, first, w1);
-    float r1 = plinear_lookup(t, t.conditional, n, (row + 1u) * w + w - 1u, first, w1);
-    float ty = clamp(plinear_solve(r0, r1, u.y), 0.0, 1.0);
-    u.x *= (1.0 - ty) * r0 + ty * r1;
-    // The column, on the rows' running integrals blended at ty.
-    lo = 1u;
-    len = w - 2u;
-    [[dont_unroll]] while (len > 0u) {
-        uint half_ = len / 2u;
-        uint middle = lo + half_;
-        float c = (1.0 - ty) * plinear_lookup(t, t.conditional, n, row * w + middle, first, w1)
-                + ty * plinear_lookup(t, t.conditional, n, (row + 1u) * w + middle, first, w1);
-        if (c < u.x) {
-            lo = middle + 1u;
-            len -= half_ + 1u;
-        } else {
-            len = half_;
-        }
-    }
-    uint col = min(lo - 1u, w - 2u);
-    u.x -= (1.0 - ty) * plinear_lookup(t, t.conditional, n, row * w + col, first, w1)
-         + ty * plinear_lookup(t, t.conditional, n, (row + 1u) * w + col, first, w1);
     vec4 v = plinear_corners(t, row * w + col, first, w1);
     float c0 = (1.0 - ty) * v.x + ty * v.z;
     float c1 = (1.0 - ty) * v.y + ty * v.w;
@@ -173,7 +184,9 @@ vec2 plinear_sample(Plinear t, vec2 u, vec3 p, out float pdf) {
     return vec2((float(col) + s) / float(w - 1u), (float(row) + ty) / float(h - 1u));
 }
 
-// The uniform numbers that plinear_sample maps to pos; the density there in pdf.
+// The uniform numbers that plinear_sample maps to pos; the density there in pdf. (Its
+// nine lookups, the patch's corners, the rows' totals and running integrals and the
+// marginal, in one loop.)
 vec2 plinear_invert(Plinear t, vec2 pos, vec3 p, out float pdf) {
     uint first;
     vec3 w1;
@@ -183,16 +196,30 @@ vec2 plinear_invert(Plinear t, vec2 pos, vec3 p, out float pdf) {
     vec2 f;
     plinear_patch(t, pos, cell, f);
     uint i = cell.y * w + cell.x;
-    vec4 v = plinear_corners(t, i, first, w1);
+    vec4 v, q;
+    float marginal = 0.0;
+    [[dont_unroll]] for (uint k = 0u; k < 9u; ++k) {
+        uint array = k < 4u ? t.data : k < 8u ? t.conditional : t.marginal;
+        uint offset = k < 4u ? i + (k & 1u) + (k >> 1u) * w
+                    : k < 6u ? (cell.y + k - 4u) * w + w - 1u
+                    : k < 8u ? i + (k - 6u) * w
+                    : cell.y;
+        float x = plinear_lookup(t, array, k < 8u ? n : h, offset, first, w1);
+        if (k < 4u) {
+            v[k] = x;
+        } else if (k < 8u) {
+            q[k - 4u] = x;
+        } else {
+            marginal = x;
+        }
+    }
     float c0 = (1.0 - f.y) * v.x + f.y * v.z;
     float c1 = (1.0 - f.y) * v.y + f.y * v.w;
-    float r0 = plinear_lookup(t, t.conditional, n, cell.y * w + w - 1u, first, w1);
-    float r1 = plinear_lookup(t, t.conditional, n, (cell.y + 1u) * w + w - 1u, first, w1);
-    float before = (1.0 - f.y) * plinear_lookup(t, t.conditional, n, i, first, w1)
-                 + f.y * plinear_lookup(t, t.conditional, n, i + w, first, w1);
+    float r0 = q.x, r1 = q.y;
+    float before = (1.0 - f.y) * q.z + f.y * q.w;
     float row_total = (1.0 - f.y) * r0 + f.y * r1;
     float ux = row_total > 0.0 ? (f.x * (c0 + 0.5 * f.x * (c1 - c0)) + before) / row_total : 0.0;
-    float uy = f.y * (r0 + 0.5 * f.y * (r1 - r0)) + plinear_lookup(t, t.marginal, h, cell.y, first, w1);
+    float uy = f.y * (r0 + 0.5 * f.y * (r1 - r0)) + marginal;
     pdf = ((1.0 - f.x) * c0 + f.x * c1) * plinear_area_inv(t);
     return vec2(ux, uy);
 }

@@ -475,8 +475,9 @@ pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
         FEATURE_ALPHA, FEATURE_COATED, FEATURE_COATED_CONDUCTOR, FEATURE_DIFFUSE_TRANSMISSION,
         FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES, FEATURE_LAYER_MEDIUM,
-        FEATURE_MATERIAL_TEXTURES, FEATURE_MIX, FEATURE_PROCEDURAL_TEXTURES, FEATURE_SHADING_MAPS,
-        FEATURE_TEXTURE_GRAPHS, FEATURE_TEXTURE_PROJECTIONS, FEATURE_UNBOUNDED,
+        FEATURE_MATERIAL_TEXTURES, FEATURE_MEASURED, FEATURE_MIX, FEATURE_PROCEDURAL_TEXTURES,
+        FEATURE_SHADING_MAPS, FEATURE_TEXTURE_GRAPHS, FEATURE_TEXTURE_PROJECTIONS,
+        FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
@@ -489,6 +490,7 @@ pub fn scene_features(scene: &Scene) -> u32 {
             }
             // (A case of the interface class's kernels.)
             BsdfKind::DiffuseTransmission => FEATURE_INTERFACES | FEATURE_DIFFUSE_TRANSMISSION,
+            BsdfKind::Measured => FEATURE_MEASURED,
             BsdfKind::Phong | BsdfKind::Ggx => 0,
         };
         if m.diffuse_texture.is_some()
@@ -641,7 +643,8 @@ mod tests {
             | FEATURE_COATED_CONDUCTOR
             | FEATURE_TEXTURE_GRAPHS
             | FEATURE_LAYER_MEDIUM
-            | FEATURE_PROCEDURAL_TEXTURES;
+            | FEATURE_PROCEDURAL_TEXTURES
+            | FEATURE_MEASURED;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -368,7 +368,8 @@ fn shade_kernel(class: u32) -> (&'static str, &'static str) {
     match class {
         MATERIAL_CLASS_BASIC => ("bdpt_shade_basic", "bdpt shade basic"),
         MATERIAL_CLASS_INTERFACE => ("bdpt_shade_interface", "bdpt shade interface"),
-        _ => ("bdpt_shade_coated", "bdpt shade coated"),
+        MATERIAL_CLASS_COATED => ("bdpt_shade_coated", "bdpt shade coated"),
+        _ => ("bdpt_shade_measured", "bdpt shade measured"),
     }
 }
 

@@ -390,18 +390,20 @@ fn shade_kernel(class: u32) -> (&'static str, &'static str) {
     match class {
         MATERIAL_CLASS_BASIC => ("mmlt_shade_basic", "mmlt shade basic"),
         MATERIAL_CLASS_INTERFACE => ("mmlt_shade_interface", "mmlt shade interface"),
-        _ => ("mmlt_shade_coated", "mmlt shade coated"),
+        MATERIAL_CLASS_COATED => ("mmlt_shade_coated", "mmlt shade coated"),
+        _ => ("mmlt_shade_measured", "mmlt shade measured"),
     }
 }
 
 /// The spans of MMLT's stages, for the device time of a run.
-const MMLT_SPANS: [&str; 8] = [
+const MMLT_SPANS: [&str; 9] = [
     "mmlt start",
     "mmlt trace",
     "mmlt hit",
     "mmlt shade basic",
     "mmlt shade interface",
     "mmlt shade coated",
+    "mmlt shade measured",
     "mmlt end",
     "mmlt accept",
 ];

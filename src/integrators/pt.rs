@@ -164,7 +164,8 @@ impl Integrator for FilmIntegrator {
 /// (glsl/lib/wavefront.glsl): per bounce, closest hits (`pt_trace`, the only kernel with
 /// the visibility backend besides `pt_shadow`), the surface interaction with emission
 /// and the light sample (`pt_hit`, every emitter's code), one shading kernel per material
-/// class the scene has (`pt_shade_basic`, `pt_shade_interface`, `pt_shade_coated`), and
+/// class the scene has (`pt_shade_basic`, `pt_shade_interface`, `pt_shade_coated`,
+/// `pt_shade_measured`), and
 /// the shadow rays (`pt_shadow`); `pt_camera` starts the paths and `pt_finish` adds them
 /// to the film. Queues of path indices connect the stages (`wf_queues` turns their counts
 /// into indirect dispatches). Each path does the arithmetic of one invocation carrying
@@ -242,7 +243,8 @@ fn shade_kernel(class: u32) -> &'static str {
     match class {
         MATERIAL_CLASS_BASIC => "pt_shade_basic",
         MATERIAL_CLASS_INTERFACE => "pt_shade_interface",
-        _ => "pt_shade_coated",
+        MATERIAL_CLASS_COATED => "pt_shade_coated",
+        _ => "pt_shade_measured",
     }
 }
 
@@ -250,7 +252,8 @@ fn shade_span(class: u32) -> &'static str {
     match class {
         MATERIAL_CLASS_BASIC => "pt shade basic",
         MATERIAL_CLASS_INTERFACE => "pt shade interface",
-        _ => "pt shade coated",
+        MATERIAL_CLASS_COATED => "pt shade coated",
+        _ => "pt shade measured",
     }
 }
 

@@ -29,6 +29,7 @@ pub fn load(path: &std::path::Path) -> Result<Scene, ParseError> {
 
 use glam::{Mat4, Vec2, Vec3};
 use std::path::PathBuf;
+use std::sync::Arc;
 
 pub use crate::abi::{BsdfKind, SampleMode};
 use crate::abi::{
@@ -93,6 +94,8 @@ pub struct Material {
     /// A bump or normal map: the shading normal it gives replaces the surface's
     /// (src/shading_map.rs).
     pub shading_map: Option<ShadingMap>,
+    /// Measured (pbrt-v4's `measured`): its tables, an index into `Scene::measured`.
+    pub measured: Option<u32>,
     /// pbrt-v4's `mix`: not a surface but a choice between two materials at each point
     /// (the BSDF fields are unused; `emission` is the emitter's, and both materials
     /// carry it too).
@@ -160,6 +163,7 @@ impl Default for Material {
             remap_roughness_texture: false,
             transmittance_texture: None,
             shading_map: None,
+            measured: None,
             mix: None,
         }
     }
@@ -232,7 +236,10 @@ impl Material {
                     self.layer_albedo.z,
                 ],
                 BsdfKind::Conductor => self.eta.extend(0.0).to_array(),
-                BsdfKind::Phong | BsdfKind::Ggx | BsdfKind::DiffuseTransmission => [0.0; 4],
+                BsdfKind::Phong
+                | BsdfKind::Ggx
+                | BsdfKind::DiffuseTransmission
+                | BsdfKind::Measured => [0.0; 4],
             },
             k: match self.bsdf {
                 BsdfKind::Conductor => self.k.extend(0.0).to_array(),
@@ -293,6 +300,9 @@ impl Material {
                     0.0,
                     f32::from_bits(self.thickness_texture.unwrap_or(NO_TEXTURE)),
                 ],
+                // (The index into `Scene::measured`: the upload puts the texel index of
+                // its tables there, gpu_scene::material_records.)
+                BsdfKind::Measured => [f32::from_bits(self.measured.unwrap_or(0)), 0.0, 0.0, 0.0],
                 _ => [0.0; 4],
             },
         }
@@ -568,6 +578,8 @@ pub struct Scene {
     pub environment: Option<Environment>,
     /// The textures materials refer to.
     pub textures: Vec<Texture>,
+    /// The measured materials' tables (`Material::measured` indexes them).
+    pub measured: Vec<Arc<crate::measured::MeasuredBsdf>>,
 }
 
 impl Default for Scene {
@@ -586,6 +598,7 @@ impl Default for Scene {
             delta_lights: Vec::new(),
             environment: None,
             textures: Vec::new(),
+            measured: Vec::new(),
         }
     }
 }

@@ -331,6 +331,28 @@ impl Parser {
                 roughness(self, &mut m)?;
                 conductor(self, &mut m, "", true)?;
             }
+            "measured" => {
+                // pbrt-v4's MeasuredMaterial: an RGL `.bsdf` file (relative to the file
+                // that names it), read once however many materials name it.
+                let Some(p) = params.find("filename").cloned() else {
+                    return Err(self.err_at(file, line, d, "measured: no \"string filename\""));
+                };
+                let path = self.dirs[p.file as usize].join(&p.strs[0]);
+                let index = match self.measured_files.get(&path) {
+                    Some(&i) => i,
+                    None => {
+                        let table = crate::measured::MeasuredBsdf::read(&path).map_err(|e| {
+                            self.err_at(p.file, p.line, d, format!("measured: {e:#}"))
+                        })?;
+                        self.scene.measured.push(Arc::new(table));
+                        let i = self.scene.measured.len() as u32 - 1;
+                        self.measured_files.insert(path, i);
+                        i
+                    }
+                };
+                m.bsdf = BsdfKind::Measured;
+                m.measured = Some(index);
+            }
             other => {
                 self.unsupported(file, line, format!("Material \"{other}\""));
                 for p in &params.0 {

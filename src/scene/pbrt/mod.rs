@@ -80,6 +80,8 @@ struct Parser {
     float_textures: HashMap<String, Value>,
     material_lookup: HashMap<MaterialKey, u32>,
     image_textures: HashMap<(PathBuf, Encoding), Arc<crate::io::Image>>,
+    /// Measured materials' files read so far: their index in `Scene::measured`.
+    measured_files: HashMap<PathBuf, u32>,
     objects: HashMap<String, Vec<ShapeDecl>>,
     /// The object being defined (ObjectBegin .. ObjectEnd).
     defining: Option<(String, Vec<ShapeDecl>)>,
@@ -144,6 +146,7 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
         float_textures: HashMap::new(),
         material_lookup: HashMap::new(),
         image_textures: HashMap::new(),
+        measured_files: HashMap::new(),
         objects: HashMap::new(),
         defining: None,
         unsupported: Vec::new(),

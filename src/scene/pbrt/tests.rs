@@ -1343,3 +1343,41 @@ fn spheres_disks_and_bilinear_patches() {
     let e = parse_err("WorldBegin Shape \"sphere\" \"float zmax\" 0.5");
     assert!(e.message.contains("partial sphere"), "{e}");
 }
+
+/// `Material "measured"`: its file relative to the file that names it, read once however
+/// many materials name it; a missing, unreadable or absent file is an error at the
+/// directive's line that names it.
+#[test]
+fn measured_materials_read_their_file_once_relative_to_the_scene() {
+    let d = std::env::temp_dir().join(format!("lightpath-measured-{}", std::process::id()));
+    std::fs::create_dir_all(d.join("bsdfs")).unwrap();
+    let table = crate::measured::ggx_tensor(0.3, 4, 8);
+    std::fs::write(d.join("bsdfs/ggx.bsdf"), table.to_bytes()).unwrap();
+    let write = |text: &str| {
+        std::fs::write(d.join("s.pbrt"), text).unwrap();
+        parse_pbrt_file(&d.join("s.pbrt"))
+    };
+    let s = write(
+        "WorldBegin\nMaterial \"measured\" \"string filename\" \"bsdfs/ggx.bsdf\"\n\
+         Shape \"sphere\"\nAttributeBegin\nTranslate 3 0 0\n\
+         Material \"measured\" \"string filename\" \"bsdfs/ggx.bsdf\"\nShape \"sphere\"\nAttributeEnd\n",
+    )
+    .unwrap();
+    assert_eq!(s.measured.len(), 1);
+    let m = &s.materials[s.spheres[1].material as usize];
+    assert_eq!((m.bsdf, m.measured), (BsdfKind::Measured, Some(0)));
+    assert_eq!(s.spheres[0].material, s.spheres[1].material);
+    let e = write("WorldBegin\n\nMaterial \"measured\" \"string filename\" \"bsdfs/none.bsdf\"\n")
+        .unwrap_err();
+    assert_eq!(e.line, 3);
+    assert!(e.message.contains("none.bsdf"), "{e}");
+    let e = write("WorldBegin\nMaterial \"measured\"\n").unwrap_err();
+    assert_eq!(e.line, 2);
+    assert!(e.message.contains("filename"), "{e}");
+    std::fs::write(d.join("bsdfs/bad.bsdf"), b"tensor_file\0 not one").unwrap();
+    let e = write("WorldBegin\nMaterial \"measured\" \"string filename\" \"bsdfs/bad.bsdf\"\n")
+        .unwrap_err();
+    assert_eq!(e.line, 2);
+    assert!(e.message.contains("bad.bsdf"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
