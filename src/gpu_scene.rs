@@ -114,7 +114,17 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
             p1: t.v[1].extend(0.0).to_array(),
             p2: t.v[2].extend(0.0).to_array(),
             radiance: m.emission.extend(0.0).to_array(),
-            info: [EMITTER_TRIANGLE, i as u32, m.two_sided_emission as u32, 0],
+            info: [
+                EMITTER_TRIANGLE,
+                i as u32,
+                m.two_sided_emission as u32,
+                // (pbrt-v4's invisible area light: alpha 0, cut out of every ray.)
+                if matches!(t.alpha, Some(crate::scene::Alpha::Constant(a)) if a <= 0.0) {
+                    EMITTER_HIDDEN
+                } else {
+                    0
+                },
+            ],
         });
     }
     for (i, s) in scene.spheres.iter().enumerate() {

@@ -73,6 +73,9 @@
 #define EMITTER_DIRECTIONAL 3
 #define EMITTER_SPOT 4
 #define EMITTER_INFINITE 5
+// GpuEmitter.info.w of pbrt-v4's invisible area light (a triangle emitter whose alpha is
+// 0: lights.glsl's emitter_is_hidden); 0 for every other emitter.
+#define EMITTER_HIDDEN 1
 
 // Integrators (SceneParams.integrator): each has its own code.
 #define INTEGRATOR_PATHTRACER 0
@@ -390,7 +393,7 @@ struct GpuMaterial {
 // the angle where the falloff starts (pbrt-v4's cosFalloffEnd and cosFalloffStart).
 // Infinite (the environment): radiance the constant radiance arriving from every direction.
 // radiance.w: the probability of picking this emitter. info: x kind, y primitive,
-// z 1 when two-sided, w unused. p0.w: area (triangles, spheres).
+// z 1 when two-sided, w EMITTER_HIDDEN for an invisible light (else 0). p0.w: area (triangles, spheres).
 struct GpuEmitter {
     vec4 p0;
     vec4 p1;

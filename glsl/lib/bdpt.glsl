@@ -179,7 +179,8 @@ bool light_walk_start(out Walk w, out LightEmission le, out uint e) {
     bool delta = emitter_kind_is_delta(le.kind);
     w.beta = le.Le * (le.cos_l / le.pdf_emit);
     w.dvcm = mis(le.pdf_pos / le.pdf_emit);
-    w.dvc = delta ? 0.0 : mis(le.cos_l / le.pdf_emit);
+    // (No camera subpath can hit a delta or hidden light: no such strategy to weigh.)
+    w.dvc = delta || le.hidden ? 0.0 : mis(le.cos_l / le.pdf_emit);
     w.infinite = emitter_kind_is_at_infinity(le.kind);
     w.o = delta ? le.p : offset_ray_origin(le.p, dot(le.n, le.dir) > 0.0 ? le.n : -le.n);
     w.d = le.dir;
@@ -412,7 +413,7 @@ bool light_sample_end(Walk w, PathVertex z, LightSample ls, vec2 pdfs, float cos
         float pdf_pos = pdfs.x;
         float pdf_emit = pdfs.y;
         float d2 = ls.dist == INF ? 1.0 : ls.dist * ls.dist;
-        float w_light = ls.delta ? 0.0 : mis(pdf_dir / ls.pdf);
+        float w_light = ls.unhittable ? 0.0 : mis(pdf_dir / ls.pdf);
         float w_cam = mis(pdf_emit * cos_z / (pdf_pos * d2)) * (z.dvcm + z.dvc * mis(pdf_rev));
         weight = 1.0 / (w_light + 1.0 + w_cam);
     } else {
@@ -467,8 +468,8 @@ bool camera_connection_end(PathVertex y, vec3 eye, vec3 to_eye, float dist, vec3
 }
 
 // s = 1, t = 1: the point a light subpath started from, seen by the camera, and the
-// shadow ray that decides it. (Delta lights are not visible to the camera, as in the
-// path tracer.)
+// shadow ray that decides it. (Delta and hidden lights are not visible to the camera, as
+// in the path tracer.)
 bool light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 value, out float weight, out vec3 o,
                       out vec3 d, out float tmax) {
     value = vec3(0.0);
@@ -477,7 +478,7 @@ bool light_point_seen(LightEmission le, uint e, out uvec2 px, out vec3 value, ou
     o = le.p;
     d = vec3(0.0, 0.0, 1.0);
     tmax = 0.0;
-    if (!emitter_kind_has_surface(le.kind)) return false;
+    if (!emitter_kind_has_surface(le.kind) || le.hidden) return false;
     vec3 to_eye;
     float dist;
     vec3 eye = camera_lens_point(camera_lens_numbers());

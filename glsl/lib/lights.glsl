@@ -32,6 +32,12 @@ bool emitter_kind_is_delta(uint kind) {
     return kind == EMITTER_POINT || kind == EMITTER_SPOT || kind == EMITTER_DIRECTIONAL;
 }
 
+// pbrt-v4's invisible area light (GpuEmitter.info.w, EMITTER_HIDDEN: an area light whose
+// shape has alpha 0): it emits as the area light it is, but its surface is cut out of
+// every ray (the alpha test), so no ray finds it and only light sampling does. For MIS it
+// is a delta light: the strategies that would hit it are not strategies.
+bool emitter_is_hidden(GpuEmitter em) { return em.info.w == EMITTER_HIDDEN; }
+
 // Triangles and spheres: emitters with a surface a camera can see.
 bool emitter_kind_has_surface(uint kind) { return kind == EMITTER_TRIANGLE || kind == EMITTER_SPHERE; }
 
@@ -281,6 +287,7 @@ struct LightSample {
     vec3 L;       // radiance arriving along -wi (point lights: I / d^2; directional: E)
     float pdf;    // solid-angle pdf including the pick probability (delta: pick probability)
     bool delta;
+    bool unhittable;  // no ray can find the light (delta, or hidden): MIS weighs it alone
     vec3 p;       // the sampled point (for occlusion tests), n its normal
     vec3 n;
 };
@@ -294,6 +301,7 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
     GpuEmitter em = emitters[e];
     float pick = em.radiance.w;
     ls.delta = false;
+    ls.unhittable = emitter_kind_is_delta(em.info.x) || emitter_is_hidden(em);
     ls.n = vec3(0.0);
     ls.L = vec3(0.0);
     ls.pdf = 0.0;
@@ -370,7 +378,7 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
 void pack_light_sample(LightSample ls, out vec4 wi, out vec4 le, out vec4 p, out vec4 n) {
     wi = vec4(ls.wi, ls.dist);
     le = vec4(ls.L, ls.pdf);
-    p = vec4(ls.p, ls.delta ? 1.0 : 0.0);
+    p = vec4(ls.p, (ls.delta ? 1.0 : 0.0) + (ls.unhittable ? 2.0 : 0.0));
     n = vec4(ls.n, 0.0);
 }
 
@@ -381,7 +389,8 @@ LightSample unpack_light_sample(vec4 wi, vec4 le, vec4 p, vec4 n) {
     ls.L = le.xyz;
     ls.pdf = le.w;
     ls.p = p.xyz;
-    ls.delta = p.w != 0.0;
+    ls.delta = p.w == 1.0 || p.w == 3.0;
+    ls.unhittable = p.w >= 2.0;
     ls.n = n.xyz;
     return ls;
 }
@@ -465,7 +474,7 @@ bool sample_direct_light(BsdfParams b, uint e, vec3 p, vec3 n, vec3 ns, vec3 wo,
 // Power-heuristic weight of a light sample against BSDF sampling of the same direction
 // (bsdf_pdf); delta lights cannot be hit by BSDF sampling.
 float light_sample_mis_weight(LightSample ls, float bsdf_pdf) {
-    return ls.delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf);
+    return ls.unhittable ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf);
 }
 
 // Power-heuristic weight of emission found by BSDF sampling (from prev_p, with solid-angle
@@ -497,6 +506,7 @@ struct LightEmission {
     float pdf_emit;
     float cos_l;
     uint kind;
+    bool hidden;  // emitter_is_hidden
 };
 
 float emission_direction_pdf(bool two_sided, float cos_l) {
@@ -509,6 +519,7 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
     GpuEmitter em = emitters[e];
     float pick = em.radiance.w;
     le.kind = em.info.x;
+    le.hidden = emitter_is_hidden(em);
     le.n = vec3(0.0);
     le.cos_l = 1.0;
     le.Le = em.radiance.xyz;

@@ -288,6 +288,14 @@ impl Parser {
         let alpha = match self.value(params, "alpha", true, d)? {
             None => None,
             Some(Value::Const(c)) if c.x >= 1.0 => None,
+            Some(Value::Const(c)) if c.x <= 0.0 && self.gs.area.is_none() => {
+                // pbrt-v4 never intersects a shape whose alpha is 0: it is nothing, and is
+                // left out. (An area light's is an invisible light: below.)
+                for p in &params.0 {
+                    p.used.set(true);
+                }
+                return Ok(());
+            }
             Some(Value::Const(c)) => Some(crate::scene::Alpha::Constant(c.x)),
             Some(Value::Texture(t)) => Some(crate::scene::Alpha::Texture(t)),
         };
@@ -299,7 +307,10 @@ impl Parser {
                     "Shape \"sphere\": alpha (lightpath cuts out triangles only)",
                 );
             }
-            if self.gs.area.is_some() {
+            // pbrt-v4's invisible area light: alpha 0 on an emitter (its triangles cut out
+            // of every ray; the emitter table marks it EMITTER_HIDDEN).
+            let invisible = matches!(alpha, Some(crate::scene::Alpha::Constant(a)) if a <= 0.0);
+            if self.gs.area.is_some() && !invisible {
                 self.unsupported(
                     file,
                     line,

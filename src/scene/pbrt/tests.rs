@@ -1381,3 +1381,36 @@ fn measured_materials_read_their_file_once_relative_to_the_scene() {
     assert!(e.message.contains("bad.bsdf"), "{e}");
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// A shape whose alpha is 0 is nothing in pbrt-v4 (never intersected): it is left out,
+/// sphere or mesh, unless it is an area light: then it is pbrt-v4's invisible light, whose
+/// triangles stay (cut out of every ray by their alpha) and emit. Other alphas on area
+/// lights, and alpha on a sphere light, are unsupported.
+#[test]
+fn shapes_whose_alpha_is_zero_are_left_out_unless_they_emit() {
+    let s = parse(&format!(
+        "WorldBegin\nShape \"bilinearmesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0  1 1 0 ] \"float alpha\" [ 0 ]\n\
+         Shape \"sphere\" \"float alpha\" 0\n{QUAD}"
+    ));
+    assert_eq!((s.triangles.len(), s.spheres.len()), (2, 0));
+    let s = parse(
+        "WorldBegin\nAreaLightSource \"diffuse\" \"rgb L\" [ 7 7 7 ]\n\
+         Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0  1 1 0 ] \"float alpha\" [ 0 ]\n",
+    );
+    assert_eq!(s.triangles.len(), 2);
+    for t in &s.triangles {
+        assert!(s.materials[t.material as usize].is_emissive());
+        assert_eq!(t.alpha, Some(crate::scene::Alpha::Constant(0.0)));
+    }
+    for (shape, alpha, what) in [
+        ("sphere", "0", "Shape \"sphere\": alpha"),
+        ("sphere", "0.5", "alpha"),
+        ("disk", "0.5", "alpha on an area light"),
+    ] {
+        let e = parse_err(&format!(
+            "WorldBegin\nAreaLightSource \"diffuse\" \"rgb L\" [ 7 7 7 ]\n\
+             Shape \"{shape}\" \"float alpha\" {alpha}\n"
+        ));
+        assert!(e.to_string().contains(what), "{shape} {alpha}: {e}");
+    }
+}
