@@ -288,9 +288,14 @@ impl Parser {
         let alpha = match self.value(params, "alpha", true, d)? {
             None => None,
             Some(Value::Const(c)) if c.x >= 1.0 => None,
-            Some(Value::Const(c)) if c.x <= 0.0 && self.gs.area.is_none() => {
-                // pbrt-v4 never intersects a shape whose alpha is 0: it is nothing, and is
-                // left out. (An area light's is an invisible light: below.)
+            Some(Value::Const(c))
+                if c.x <= 0.0
+                    && self.gs.area.is_none()
+                    && matches!(kind, ShapeKind::Sphere { .. }) =>
+            {
+                // pbrt-v4 never intersects a shape whose alpha is 0: a sphere's is nothing,
+                // and is left out (triangles keep it: the alpha test cuts them out of every
+                // ray; an area light's is an invisible light, below).
                 for p in &params.0 {
                     p.used.set(true);
                 }

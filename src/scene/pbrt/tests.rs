@@ -1382,17 +1382,22 @@ fn measured_materials_read_their_file_once_relative_to_the_scene() {
     std::fs::remove_dir_all(&d).ok();
 }
 
-/// A shape whose alpha is 0 is nothing in pbrt-v4 (never intersected): it is left out,
-/// sphere or mesh, unless it is an area light: then it is pbrt-v4's invisible light, whose
-/// triangles stay (cut out of every ray by their alpha) and emit. Other alphas on area
-/// lights, and alpha on a sphere light, are unsupported.
+/// A shape whose alpha is 0 is nothing in pbrt-v4 (never intersected): a sphere's is left
+/// out, triangles keep their alpha (the alpha test cuts them out of every ray). On an area
+/// light it is pbrt-v4's invisible light, whose triangles stay (cut out of every ray) and
+/// emit. Other alphas on area lights, and alpha on a sphere light, are unsupported.
 #[test]
 fn shapes_whose_alpha_is_zero_are_left_out_unless_they_emit() {
     let s = parse(&format!(
         "WorldBegin\nShape \"bilinearmesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0  1 1 0 ] \"float alpha\" [ 0 ]\n\
          Shape \"sphere\" \"float alpha\" 0\n{QUAD}"
     ));
-    assert_eq!((s.triangles.len(), s.spheres.len()), (2, 0));
+    assert_eq!((s.triangles.len(), s.spheres.len()), (4, 0));
+    let cut = s
+        .triangles
+        .iter()
+        .filter(|t| t.alpha == Some(crate::scene::Alpha::Constant(0.0)));
+    assert_eq!(cut.count(), 2);
     let s = parse(
         "WorldBegin\nAreaLightSource \"diffuse\" \"rgb L\" [ 7 7 7 ]\n\
          Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0  1 1 0 ] \"float alpha\" [ 0 ]\n",
