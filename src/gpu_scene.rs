@@ -119,7 +119,7 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
                 i as u32,
                 m.two_sided_emission as u32,
                 // (pbrt-v4's invisible area light: alpha 0, cut out of every ray.)
-                if matches!(t.alpha, Some(crate::scene::Alpha::Constant(a)) if a <= 0.0) {
+                if t.alpha.is_some_and(crate::scene::Alpha::is_zero) {
                     EMITTER_HIDDEN
                 } else {
                     0

@@ -464,6 +464,31 @@ fn assert_coated_matches_its_mirror(materials: &[GpuMaterial], rng: &mut Rng) {
 /// lib/plinear2d.glsl) against its CPU mirror (src/measured.rs) on a file that tabulates
 /// GGX, isotropic and sampled coarsely enough that interpolation shows: f, the pdf and a
 /// sample (its direction, f and pdf) for random directions on both sides.
+/// The relative difference of a device's answer a and its mirror's b (the measured
+/// material's probes).
+fn rel(a: f32, b: f32) -> f32 {
+    (a - b).abs() / b.abs().max(a.abs()).max(1e-4)
+}
+
+/// The measured material's probes: the median and 99th percentile of the relative
+/// differences `errors` below their bounds (printed with the largest).
+fn assert_relative_differences(mut errors: Vec<f32>, median: f32, p99: f32) {
+    errors.sort_by(|a, b| a.total_cmp(b));
+    let q = |p: f64| errors[((errors.len() - 1) as f64 * p) as usize];
+    eprintln!(
+        "relative differences: median {}, 99% {}, largest {}",
+        q(0.5),
+        q(0.99),
+        q(1.0)
+    );
+    assert!(
+        q(0.5) < median && q(0.99) < p99,
+        "median {}, 99% {}",
+        q(0.5),
+        q(0.99)
+    );
+}
+
 #[test]
 fn the_measured_material_on_the_device_matches_its_cpu_mirror() {
     use lightpath::measured::{ggx_tensor, MeasuredBsdf};
@@ -499,7 +524,6 @@ fn the_measured_material_on_the_device_matches_its_cpu_mirror() {
     // pass through asin, atan2 and square roots: half the answers agree to 1e-5 (measured
     // 9e-7), 99 % to 1e-2 (4e-3), all to 2e-2 (9e-3); a wrong formula is off everywhere
     // (0.45 for 0.5 in plinear_invert's column integral: 2.7 %).
-    let rel = |a: f32, b: f32| (a - b).abs() / b.abs().max(a.abs()).max(1e-4);
     let (mut errors, mut nonzero, mut sampled) = (Vec::new(), 0, 0);
     for (k, (input, out)) in inputs.iter().zip(&got).enumerate() {
         let wo = Vec3::from_slice(&input.wo[..3]);
@@ -553,20 +577,7 @@ fn the_measured_material_on_the_device_matches_its_cpu_mirror() {
             errors.push(e);
         }
     }
-    errors.sort_by(|a, b| a.total_cmp(b));
-    let q = |p: f64| errors[((errors.len() - 1) as f64 * p) as usize];
-    eprintln!(
-        "relative differences: median {}, 99% {}, largest {}",
-        q(0.5),
-        q(0.99),
-        q(1.0)
-    );
-    assert!(
-        q(0.5) < 1e-5 && q(0.99) < 1e-2,
-        "median {}, 99% {}",
-        q(0.5),
-        q(0.99)
-    );
+    assert_relative_differences(errors, 1e-5, 1e-2);
     assert!(
         nonzero > 3000 && sampled > 4000,
         "{nonzero} values, {sampled} samples"
@@ -624,7 +635,6 @@ fn measured_bsdfs_about_any_normal_on_the_device_match_their_cpu_mirror() {
     // (Tolerances as the measured probe's: the tables' coordinates pass through asin,
     // atan2 and square roots, which the device rounds differently; within 3° of the
     // horizon only finiteness is asked.)
-    let rel = |a: f32, b: f32| (a - b).abs() / b.abs().max(a.abs()).max(1e-4);
     let (mut errors, mut nonzero, mut sampled) = (Vec::new(), 0, 0);
     for (k, (input, out)) in inputs.iter().zip(&got).enumerate() {
         let table = &tables[input.info[0] as usize];
@@ -688,22 +698,9 @@ fn measured_bsdfs_about_any_normal_on_the_device_match_their_cpu_mirror() {
             errors.push(e);
         }
     }
-    errors.sort_by(|a, b| a.total_cmp(b));
-    let q = |p: f64| errors[((errors.len() - 1) as f64 * p) as usize];
-    eprintln!(
-        "relative differences: median {}, 99% {}, largest {}",
-        q(0.5),
-        q(0.99),
-        q(1.0)
-    );
     // (Measured: median 3e-4, 99% 4e-3, largest 1.3e-2; the frame's rotation adds its
     // rounding to the tables'.)
-    assert!(
-        q(0.5) < 1e-3 && q(0.99) < 1e-2,
-        "median {}, 99% {}",
-        q(0.5),
-        q(0.99)
-    );
+    assert_relative_differences(errors, 1e-3, 1e-2);
     assert!(
         nonzero > 3000 && sampled > 4000,
         "{nonzero} values, {sampled} samples"

@@ -332,6 +332,14 @@ pub enum Alpha {
     Texture(u32),
 }
 
+impl Alpha {
+    /// A constant alpha of 0 (or below): cut out of every ray; on an area light, pbrt-v4's
+    /// invisible light.
+    pub fn is_zero(self) -> bool {
+        matches!(self, Alpha::Constant(a) if a <= 0.0)
+    }
+}
+
 impl Triangle {
     pub fn new(v: [Vec3; 3], material: u32) -> Triangle {
         Triangle {

@@ -314,7 +314,7 @@ impl Parser {
             }
             // pbrt-v4's invisible area light: alpha 0 on an emitter (its triangles cut out
             // of every ray; the emitter table marks it EMITTER_HIDDEN).
-            let invisible = matches!(alpha, Some(crate::scene::Alpha::Constant(a)) if a <= 0.0);
+            let invisible = alpha.is_some_and(crate::scene::Alpha::is_zero);
             if self.gs.area.is_some() && !invisible {
                 self.unsupported(
                     file,
