@@ -18,7 +18,7 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pass_params.samples) return;
     BsdfProbeInput p = probe_inputs[i];
-    BsdfParams b = material_bsdf(materials[p.info.x], p.info.w == 0u, vec4(0.0), vec4(0.0));
+    BsdfParams b = material_bsdf(materials[p.info.x], p.info.w == 0u, vec4(0.0), p.tex1);
     uint mode = p.info.y;
     uint transport = p.info.z;
     vec3 n = p.n.xyz;

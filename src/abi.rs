@@ -278,6 +278,8 @@ pub struct BsdfProbeInput {
     pub wo: [f32; 4],
     pub wi: [f32; 4],
     pub u: [f32; 4],
+    /// The surface's `Surface.tex1` (hair: its ∂p/∂u and the offset h across the fiber).
+    pub tex1: [f32; 4],
 }
 
 /// The BSDF probe's output (abi.h).
@@ -303,10 +305,11 @@ pub enum BsdfKind {
     DiffuseTransmission = BSDF_DIFFUSE_TRANSMISSION,
     CoatedConductor = BSDF_COATED_CONDUCTOR,
     Measured = BSDF_MEASURED,
+    Hair = BSDF_HAIR,
 }
 
 impl BsdfKind {
-    pub const ALL: [BsdfKind; 9] = [
+    pub const ALL: [BsdfKind; 10] = [
         BsdfKind::Phong,
         BsdfKind::Ggx,
         BsdfKind::Dielectric,
@@ -316,6 +319,7 @@ impl BsdfKind {
         BsdfKind::DiffuseTransmission,
         BsdfKind::CoatedConductor,
         BsdfKind::Measured,
+        BsdfKind::Hair,
     ];
 
     /// The material class (abi.h `MATERIAL_CLASS_*`) whose shade kernels hold this kind:
@@ -329,6 +333,7 @@ impl BsdfKind {
             | BsdfKind::DiffuseTransmission => MATERIAL_CLASS_INTERFACE,
             BsdfKind::CoatedDiffuse | BsdfKind::CoatedConductor => MATERIAL_CLASS_COATED,
             BsdfKind::Measured => MATERIAL_CLASS_MEASURED,
+            BsdfKind::Hair => MATERIAL_CLASS_HAIR,
         }
     }
 

@@ -300,6 +300,10 @@ pub struct BsdfParams {
     /// Measured: the texel index of its tables (its mirror is `MeasuredBsdf`'s
     /// `eval_about` and `sample_about`, src/measured.rs, which hold them).
     pub table: u32,
+    /// Hair: the fiber's direction (the surface's ∂p/∂u) and the offset across it, which
+    /// the surface gives (GLSL: Surface.tex1); src/hair.rs evaluates it.
+    pub tangent: Vec3,
+    pub h: f32,
 }
 
 impl Default for BsdfParams {
@@ -320,6 +324,8 @@ impl Default for BsdfParams {
             albedo: Vec3::ZERO,
             g: 0.0,
             table: 0,
+            tangent: Vec3::ZERO,
+            h: 0.0,
         }
     }
 }
@@ -471,6 +477,8 @@ impl BsdfParams {
             },
             g: m.k[3],
             table: m.base[0].to_bits(),
+            tangent: Vec3::ZERO,
+            h: 0.0,
         })
     }
 
@@ -494,7 +502,8 @@ impl BsdfParams {
             | BsdfKind::Ggx
             | BsdfKind::CoatedDiffuse
             | BsdfKind::DiffuseTransmission
-            | BsdfKind::Measured => false,
+            | BsdfKind::Measured
+            | BsdfKind::Hair => false,
         }
     }
 
@@ -513,6 +522,18 @@ impl BsdfParams {
             self.kind != BsdfKind::Measured,
             "a measured BSDF is evaluated by MeasuredBsdf::eval_about and sample_about"
         );
+    }
+
+    /// Hair's model (src/hair.rs) with these parameters.
+    pub fn hair(&self) -> crate::hair::Hair {
+        crate::hair::Hair {
+            sigma_a: self.k,
+            eta: self.eta.x,
+            beta_m: self.alpha.x,
+            beta_n: self.alpha.y,
+            alpha: self.shininess,
+            h: self.h,
+        }
     }
 
     /// The course's two-sided reflectors (n flipped toward wo).
@@ -538,6 +559,9 @@ impl BsdfParams {
     /// `transport` (these BRDFs are symmetric and do not depend on it). GLSL `bsdf_eval`.
     pub fn eval(&self, n: Vec3, wo: Vec3, wi: Vec3, transport: Transport) -> Vec3 {
         self.assert_tabulated_elsewhere();
+        if self.kind == BsdfKind::Hair {
+            return self.hair().eval_about(n, self.tangent, wo, wi, transport);
+        }
         if !self.is_course_brdf() {
             return interface_eval(self, n, wo, wi, transport);
         }
@@ -564,6 +588,9 @@ impl BsdfParams {
     /// GLSL `bsdf_pdf`.
     pub fn pdf(&self, mode: SampleMode, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
         self.assert_tabulated_elsewhere();
+        if self.kind == BsdfKind::Hair {
+            return self.hair().pdf_about(n, self.tangent, wo, wi);
+        }
         if !self.is_course_brdf() {
             return interface_pdf(self, n, wo, wi);
         }
@@ -603,6 +630,17 @@ impl BsdfParams {
         transport: Transport,
     ) -> Option<BsdfSample> {
         self.assert_tabulated_elsewhere();
+        if self.kind == BsdfKind::Hair {
+            let (wi, f, pdf) = self
+                .hair()
+                .sample_about(n, self.tangent, wo, u, transport)?;
+            let flags = if n.dot(wo) * n.dot(wi) > 0.0 {
+                BSDF_LOBE_REFLECTION
+            } else {
+                BSDF_LOBE_TRANSMISSION
+            };
+            return (f != Vec3::ZERO).then_some(BsdfSample { wi, f, pdf, flags });
+        }
         if !self.is_course_brdf() {
             return interface_sample(self, n, wo, u, transport);
         }

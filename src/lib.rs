@@ -9,6 +9,7 @@ pub mod cli;
 pub mod engine;
 pub mod gpu;
 pub mod gpu_scene;
+pub mod hair;
 pub mod integrators;
 pub mod io;
 pub mod measured;

@@ -107,6 +107,9 @@
 // pbrt-v4's measured material (RGL's tabulated BRDFs, lib/measured.glsl): base.x (uint
 // bits) the texel index of its tables (MeasuredBsdf::pack); the class of its own.
 #define BSDF_MEASURED 8
+// pbrt-v4's hair (lib/hair.glsl): k.xyz sigma_a, eta.x its index, roughness.y beta_m,
+// roughness.z beta_n, roughness.x the scales' tilt in degrees; the class of its own.
+#define BSDF_HAIR 9
 
 // Specialization constants (set per scene when a pipeline is created): code for what
 // the scene lacks is removed before the driver compiles the kernel (lib/features.glsl).
@@ -145,8 +148,10 @@
 #define FEATURE_PROCEDURAL_TEXTURES 8192
 // Measured materials, the measured class (lib/measured.glsl's tables).
 #define FEATURE_MEASURED 16384
+// Hair, the hair class (lib/hair.glsl; surfaces give it their dp/du and offset).
+#define FEATURE_HAIR 32768
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 32767
+#define FEATURE_ALL 65535
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -283,15 +288,17 @@
 #define WF_QUEUE_CLASS_INTERFACE 3
 #define WF_QUEUE_CLASS_COATED 4
 #define WF_QUEUE_CLASS_MEASURED 5
-#define WF_QUEUE_COUNT 6
+#define WF_QUEUE_CLASS_HAIR 6
+#define WF_QUEUE_COUNT 7
 // Material classes, each shaded by its own kernel: the course BRDFs (Phong, GGX); the
 // interfaces (dielectric, thin dielectric, conductor) and diffuse transmission; coated
-// diffuse and coated conductor; measured.
+// diffuse and coated conductor; measured; hair.
 #define MATERIAL_CLASS_BASIC 0
 #define MATERIAL_CLASS_INTERFACE 1
 #define MATERIAL_CLASS_COATED 2
 #define MATERIAL_CLASS_MEASURED 3
-#define MATERIAL_CLASS_COUNT 4
+#define MATERIAL_CLASS_HAIR 4
+#define MATERIAL_CLASS_COUNT 5
 // GpuPtPath.hit.x of a ray that left the scene.
 #define NO_HIT 4294967295
 
@@ -637,6 +644,7 @@ struct BsdfProbeInput {
     vec4 wo;
     vec4 wi;
     vec4 u;
+    vec4 tex1;          // the surface's Surface.tex1 (hair: its dp/du and offset h)
 };
 
 // The BSDF probe's output: eval.xyz f(wo, wi), eval.w pdf(wo, wi); sample.xyz the

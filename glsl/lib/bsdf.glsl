@@ -65,6 +65,8 @@ struct BsdfParams {
     vec3 albedo;       // coated: the layer's single-scattering albedo (0: it only absorbs)
     float g;           //   and its Henyey-Greenstein g
     uint table;        // measured: the texel index of its tables (measured.glsl)
+    vec3 tangent;      // hair: the fiber's direction (the surface's dp/du) and the offset h
+    float h;           //   across it (hair.glsl; Surface.tex1 carries them)
 };
 
 // Coated conductors' code is in kernels only for scenes that have them.
@@ -79,6 +81,15 @@ bool bsdf_is_measured(BsdfParams b) {
     return SHADE_CLASS == MATERIAL_CLASS_MEASURED;
 #else
     return has_feature(FEATURE_MEASURED) && b.kind == BSDF_MEASURED;
+#endif
+}
+
+// Hair is a class of its own, like measured materials.
+bool bsdf_is_hair(BsdfParams b) {
+#if defined(SHADE_CLASS)
+    return SHADE_CLASS == MATERIAL_CLASS_HAIR;
+#else
+    return has_feature(FEATURE_HAIR) && b.kind == BSDF_HAIR;
 #endif
 }
 
@@ -109,6 +120,11 @@ BsdfParams material_bsdf(GpuMaterial m, bool front, vec4 tex0, vec4 tex1) {
     b.albedo = has_feature(FEATURE_LAYER_MEDIUM) && layered ? m.eta.yzw : vec3(0.0);
     b.g = m.k.w;
     b.table = floatBitsToUint(m.base.x);
+    // (Hair: sigma_a in k, eta in eta.x, beta_m and beta_n in alpha, the scales' tilt in
+    // shininess; its frame and offset are the surface's, in tex1.)
+    b.tangent = tex1.xyz;
+    b.h = tex1.w;
+    if (has_feature(FEATURE_HAIR) && b.kind == BSDF_HAIR) return b;
     // Textures replace parameters (material_texture's slots; roughness remapped here).
     if (!has_feature(FEATURE_MATERIAL_TEXTURES)) return b;
     for (uint slot = 0u; slot < MATERIAL_TEXTURE_SLOTS; ++slot) {
@@ -520,6 +536,67 @@ bool diffuse_transmission_sample(BsdfParams b, LocalFrame fr, vec3 wo, vec3 u, o
 
 #include "layered.glsl"
 #include "measured.glsl"
+#include "hair.glsl"
+
+// ---- the hair BSDF (pbrt-v4's HairBxDF, hair.glsl) in the fiber's frame about n ---------
+// (b.tangent made orthogonal to n; build_onb's where it cannot be). CPU mirror:
+// src/hair.rs, Hair::eval_about, pdf_about, sample_about.
+
+// f(a, w) and pdf(a -> w), or with `draw` a w sampled from a's lobes (u).
+bool hair_bsdf_query(BsdfParams b, vec3 n, vec3 a, bool draw, vec3 u, inout vec3 w, out vec3 f, out float pdf) {
+    vec3 x = b.tangent - n * dot(n, b.tangent);
+    float l = length(x);
+    vec3 y;
+    if (l > 1e-6) {
+        x /= l;
+    } else {
+        build_onb(n, x, y);
+    }
+    y = cross(n, x);
+    vec3 lw = vec3(dot(w, x), dot(w, y), dot(w, n));
+    bool ok = hair_query(b.k, b.eta.x, b.alpha.x, b.alpha.y, b.shininess, b.h, vec3(dot(a, x), dot(a, y), dot(a, n)),
+                         draw, u, lw, f, pdf);
+    if (draw) w = lw.x * x + lw.y * y + lw.z * n;
+    return ok;
+}
+
+// The combined question of a connection or a sample (bsdf_eval_pdfs, bsdf_sample_rev):
+// pass 0 f(wo, wi) and pdf(wo -> wi) (wi drawn with `draw`), pass 1 f(wi, wo) and
+// pdf(wi -> wo), asked when the reverse density is wanted or for importance transport,
+// whose f is the adjoint f(wi, wo) (src/hair.rs). One inlined copy of the model.
+bool hair_bsdf_pair(BsdfParams b, vec3 n, vec3 wo, bool draw, vec3 u, uint transport, bool want_rev,
+                    inout vec3 wi, out vec3 f, out float pdf_fwd, out float pdf_rev) {
+    f = vec3(0.0);
+    pdf_fwd = 0.0;
+    pdf_rev = 0.0;
+    bool adjoint = transport == TRANSPORT_IMPORTANCE;
+    bool ok = false;
+    [[dont_unroll]] for (uint k = 0u; k < (want_rev || adjoint ? 2u : 1u); ++k) {
+        vec3 fk, to = k == 0u ? wi : wo;
+        float pdf;
+        bool found = hair_bsdf_query(b, n, k == 0u ? wo : wi, draw && k == 0u, u, to, fk, pdf);
+        if (k == 0u) {
+            ok = found || !draw;
+            wi = to;
+            pdf_fwd = pdf;
+            if (!adjoint) f = fk;
+            if (!ok) break;
+        } else {
+            pdf_rev = pdf;
+            if (adjoint) f = fk;
+        }
+    }
+    return ok;
+}
+
+// Its sample (reflection where wo and wi are on one side of n, else transmission).
+bool hair_bsdf_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, uint transport, bool want_rev, out BsdfSample s,
+                      out float pdf_rev) {
+    s.wi = vec3(0.0);
+    bool ok = hair_bsdf_pair(b, n, wo, true, u, transport, want_rev, s.wi, s.f, s.pdf, pdf_rev);
+    s.flags = dot(n, wo) * dot(n, s.wi) > 0.0 ? BSDF_LOBE_REFLECTION : BSDF_LOBE_TRANSMISSION;
+    return ok && !isinf(s.pdf) && s.f != vec3(0.0);
+}
 
 // ---- the measured BSDF (pbrt-v4's MeasuredBxDF, measured.glsl) in n's local frame ------
 // (mirrored when wo lies below n: it reflects on both sides). CPU mirror: src/measured.rs,
@@ -581,6 +658,7 @@ bool interface_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, uint transport, out
 // The material class of a BSDF kind (MATERIAL_CLASS_*): the wavefront path tracer
 // shades each class in a kernel of its own.
 uint material_class(uint kind) {
+    if (has_feature(FEATURE_HAIR) && kind == BSDF_HAIR) return MATERIAL_CLASS_HAIR;
     if (has_feature(FEATURE_MEASURED) && kind == BSDF_MEASURED) return MATERIAL_CLASS_MEASURED;
     if (kind == BSDF_COATED_DIFFUSE || kind == BSDF_COATED_CONDUCTOR) return MATERIAL_CLASS_COATED;
     if (kind == BSDF_PHONG || kind == BSDF_GGX) return MATERIAL_CLASS_BASIC;
@@ -589,16 +667,17 @@ uint material_class(uint kind) {
 
 // A kernel that shades one material class defines SHADE_CLASS (a MATERIAL_CLASS_*): the
 // tests below are then constants, and the other classes' code is left out of it.
-// (Kernels for scenes without interface materials take every BSDF for a course one.)
+// (Kernels for scenes without interface materials take every BSDF but hair, which
+// transmits, for a course one.)
 bool bsdf_is_course_brdf(BsdfParams b) {
 #if defined(SHADE_CLASS) && SHADE_CLASS == MATERIAL_CLASS_BASIC
     return true;
-#elif defined(SHADE_CLASS) && SHADE_CLASS == MATERIAL_CLASS_INTERFACE
+#elif defined(SHADE_CLASS) && (SHADE_CLASS == MATERIAL_CLASS_INTERFACE || SHADE_CLASS == MATERIAL_CLASS_HAIR)
     return false;
 #elif defined(SHADE_CLASS)
     return !has_feature(FEATURE_INTERFACES);
 #else
-    return !has_feature(FEATURE_INTERFACES) || b.kind == BSDF_PHONG || b.kind == BSDF_GGX;
+    return (!has_feature(FEATURE_INTERFACES) && !bsdf_is_hair(b)) || b.kind == BSDF_PHONG || b.kind == BSDF_GGX;
 #endif
 }
 
@@ -711,6 +790,14 @@ bool bsdf_is_coated(BsdfParams b) {
 }
 
 vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
+    if (bsdf_is_hair(b)) {
+        // (Importance: the adjoint, f(wi, wo).)
+        bool adjoint = transport == TRANSPORT_IMPORTANCE;
+        vec3 f, w = adjoint ? wo : wi;
+        float pdf;
+        hair_bsdf_query(b, n, adjoint ? wi : wo, false, vec3(0.0), w, f, pdf);
+        return f;
+    }
     if (bsdf_is_measured(b)) {
         vec3 f;
         float pdf;
@@ -726,6 +813,12 @@ vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
 }
 
 float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
+    if (bsdf_is_hair(b)) {
+        vec3 f;
+        float pdf;
+        hair_bsdf_query(b, n, wo, false, vec3(0.0), wi, f, pdf);
+        return pdf;
+    }
     if (bsdf_is_measured(b)) {
         vec3 f;
         float pdf;
@@ -743,6 +836,10 @@ float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
 // u.x picks the lobe, u.yz place the direction. False when there is no sample (below
 // the surface, or a pdf that is not a positive finite number).
 bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
+    if (bsdf_is_hair(b)) {
+        float pdf_rev;
+        return hair_bsdf_sample(b, n, wo, u, transport, false, s, pdf_rev);
+    }
     if (bsdf_is_measured(b)) return measured_bsdf_sample(b, n, wo, u, s);
     if (!bsdf_is_coated(b)) return analytic_sample(b, mode, n, wo, u, transport, s);
     vec3 f;
@@ -758,6 +855,11 @@ vec3 bsdf_eval_pdfs(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi, uint tran
                     out float pdf_fwd, out float pdf_rev) {
     pdf_fwd = 0.0;
     pdf_rev = 0.0;
+    if (bsdf_is_hair(b)) {
+        vec3 f, w = wi;
+        hair_bsdf_pair(b, n, wo, false, vec3(0.0), transport, want_rev, w, f, pdf_fwd, pdf_rev);
+        return f;
+    }
     if (bsdf_is_measured(b)) {
         vec3 f_fwd = vec3(0.0);
         [[dont_unroll]] for (uint k = 0u; k < (want_rev ? 2u : 1u); ++k) {
@@ -792,6 +894,7 @@ vec3 bsdf_eval_pdfs(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi, uint tran
 bool bsdf_sample_rev(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, bool want_rev,
                      out BsdfSample s, out float pdf_rev) {
     pdf_rev = 0.0;
+    if (bsdf_is_hair(b)) return hair_bsdf_sample(b, n, wo, u, transport, want_rev, s, pdf_rev);
     if (bsdf_is_measured(b)) {
         s.wi = vec3(0.0);
         s.flags = BSDF_LOBE_REFLECTION;

@@ -200,11 +200,13 @@ ShadingGeometry map_geometry(Hit hit, Surface s) {
 void resolve_material_and_map(Hit hit, inout Surface s) {
     s.tex0 = vec4(0.0);
     s.tex1 = vec4(0.0);
+    // (Scenes with hair have FEATURE_MATERIAL_TEXTURES: the host sets it.)
     if (!has_feature(FEATURE_MIX) && !has_feature(FEATURE_SHADING_MAPS) && !has_feature(FEATURE_MATERIAL_TEXTURES)) return;
     uint m = s.material;
     uint depth = 0u;
     bool resolving = has_feature(FEATURE_MIX);
     bool mapped = false;
+    bool hair = false;
     uint flags = 0u;
     uint tex = NO_TEXTURE;
     uint lookups = 0u;
@@ -230,10 +232,12 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
                 // The material is resolved: its map's lookups follow.
                 mapped = true;
                 flags = materials[m].info.y;
-                if (has_feature(FEATURE_SHADING_MAPS) && (flags & (MATERIAL_BUMP_MAP | MATERIAL_NORMAL_MAP)) != 0u) {
+                bool map = has_feature(FEATURE_SHADING_MAPS) && (flags & (MATERIAL_BUMP_MAP | MATERIAL_NORMAL_MAP)) != 0u;
+                hair = has_feature(FEATURE_HAIR) && materials[m].info.x == BSDF_HAIR;
+                if (map || hair) g = map_geometry(hit, s);
+                if (map) {
                     tex = floatBitsToUint(materials[m].roughness.w);
                     lookups = (flags & MATERIAL_NORMAL_MAP) != 0u ? 1u : 3u;
-                    g = map_geometry(hit, s);
                 }
             }
             if (k < lookups) {
@@ -270,6 +274,8 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
         }
     }
     s.material = m;
+    // Hair's frame follows the fiber (dp/du), its offset across it is pbrt's -1 + 2v.
+    if (hair) s.tex1 = vec4(g.dpdu, -1.0 + 2.0 * s.uv.y);
     if (lookups > 0u) {
         s.ns = (flags & MATERIAL_NORMAL_MAP) != 0u ? normal_mapped_normal(g, c, s.ng)
                                                    : bump_mapped_normal(g, h, s.ng);

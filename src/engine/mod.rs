@@ -474,7 +474,7 @@ impl Engine {
 pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
         FEATURE_ALPHA, FEATURE_COATED, FEATURE_COATED_CONDUCTOR, FEATURE_DIFFUSE_TRANSMISSION,
-        FEATURE_ENVIRONMENT_MAP, FEATURE_INTERFACES, FEATURE_LAYER_MEDIUM,
+        FEATURE_ENVIRONMENT_MAP, FEATURE_HAIR, FEATURE_INTERFACES, FEATURE_LAYER_MEDIUM,
         FEATURE_MATERIAL_TEXTURES, FEATURE_MEASURED, FEATURE_MIX, FEATURE_PROCEDURAL_TEXTURES,
         FEATURE_SHADING_MAPS, FEATURE_TEXTURE_GRAPHS, FEATURE_TEXTURE_PROJECTIONS,
         FEATURE_UNBOUNDED,
@@ -491,6 +491,8 @@ pub fn scene_features(scene: &Scene) -> u32 {
             // (A case of the interface class's kernels.)
             BsdfKind::DiffuseTransmission => FEATURE_INTERFACES | FEATURE_DIFFUSE_TRANSMISSION,
             BsdfKind::Measured => FEATURE_MEASURED,
+            // (Surfaces hand hair its frame and offset in the material texture values.)
+            BsdfKind::Hair => FEATURE_HAIR | FEATURE_MATERIAL_TEXTURES,
             BsdfKind::Phong | BsdfKind::Ggx => 0,
         };
         if m.diffuse_texture.is_some()
@@ -644,7 +646,8 @@ mod tests {
             | FEATURE_TEXTURE_GRAPHS
             | FEATURE_LAYER_MEDIUM
             | FEATURE_PROCEDURAL_TEXTURES
-            | FEATURE_MEASURED;
+            | FEATURE_MEASURED
+            | FEATURE_HAIR;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -369,7 +369,8 @@ fn shade_kernel(class: u32) -> (&'static str, &'static str) {
         MATERIAL_CLASS_BASIC => ("bdpt_shade_basic", "bdpt shade basic"),
         MATERIAL_CLASS_INTERFACE => ("bdpt_shade_interface", "bdpt shade interface"),
         MATERIAL_CLASS_COATED => ("bdpt_shade_coated", "bdpt shade coated"),
-        _ => ("bdpt_shade_measured", "bdpt shade measured"),
+        MATERIAL_CLASS_MEASURED => ("bdpt_shade_measured", "bdpt shade measured"),
+        _ => ("bdpt_shade_hair", "bdpt shade hair"),
     }
 }
 

@@ -391,12 +391,13 @@ fn shade_kernel(class: u32) -> (&'static str, &'static str) {
         MATERIAL_CLASS_BASIC => ("mmlt_shade_basic", "mmlt shade basic"),
         MATERIAL_CLASS_INTERFACE => ("mmlt_shade_interface", "mmlt shade interface"),
         MATERIAL_CLASS_COATED => ("mmlt_shade_coated", "mmlt shade coated"),
-        _ => ("mmlt_shade_measured", "mmlt shade measured"),
+        MATERIAL_CLASS_MEASURED => ("mmlt_shade_measured", "mmlt shade measured"),
+        _ => ("mmlt_shade_hair", "mmlt shade hair"),
     }
 }
 
 /// The spans of MMLT's stages, for the device time of a run.
-const MMLT_SPANS: [&str; 9] = [
+const MMLT_SPANS: [&str; 10] = [
     "mmlt start",
     "mmlt trace",
     "mmlt hit",
@@ -404,6 +405,7 @@ const MMLT_SPANS: [&str; 9] = [
     "mmlt shade interface",
     "mmlt shade coated",
     "mmlt shade measured",
+    "mmlt shade hair",
     "mmlt end",
     "mmlt accept",
 ];

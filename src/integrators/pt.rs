@@ -165,7 +165,7 @@ impl Integrator for FilmIntegrator {
 /// the visibility backend besides `pt_shadow`), the surface interaction with emission
 /// and the light sample (`pt_hit`, every emitter's code), one shading kernel per material
 /// class the scene has (`pt_shade_basic`, `pt_shade_interface`, `pt_shade_coated`,
-/// `pt_shade_measured`), and
+/// `pt_shade_measured`, `pt_shade_hair`), and
 /// the shadow rays (`pt_shadow`); `pt_camera` starts the paths and `pt_finish` adds them
 /// to the film. Queues of path indices connect the stages (`wf_queues` turns their counts
 /// into indirect dispatches). Each path does the arithmetic of one invocation carrying
@@ -244,7 +244,8 @@ fn shade_kernel(class: u32) -> &'static str {
         MATERIAL_CLASS_BASIC => "pt_shade_basic",
         MATERIAL_CLASS_INTERFACE => "pt_shade_interface",
         MATERIAL_CLASS_COATED => "pt_shade_coated",
-        _ => "pt_shade_measured",
+        MATERIAL_CLASS_MEASURED => "pt_shade_measured",
+        _ => "pt_shade_hair",
     }
 }
 
@@ -253,7 +254,8 @@ fn shade_span(class: u32) -> &'static str {
         MATERIAL_CLASS_BASIC => "pt shade basic",
         MATERIAL_CLASS_INTERFACE => "pt shade interface",
         MATERIAL_CLASS_COATED => "pt shade coated",
-        _ => "pt shade measured",
+        MATERIAL_CLASS_MEASURED => "pt shade measured",
+        _ => "pt shade hair",
     }
 }
 

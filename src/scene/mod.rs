@@ -39,6 +39,11 @@ use crate::abi::{
 pub use crate::texture::{Environment, EnvironmentMap, Texture, UV_MAPPING};
 
 /// One material: the sticky material state at the moment a shape was declared.
+///
+/// Hair (pbrt-v4's `hair`, src/hair.rs) keeps its parameters in the fields of the same
+/// role: `k` its absorption σa, `ior` its index, `roughness` and `roughness_v` its
+/// longitudinal and azimuthal roughness β_m and β_n, `shininess` its scales' tilt α in
+/// degrees.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
     pub bsdf: BsdfKind,
@@ -236,13 +241,15 @@ impl Material {
                     self.layer_albedo.z,
                 ],
                 BsdfKind::Conductor => self.eta.extend(0.0).to_array(),
+                BsdfKind::Hair => [self.ior, 0.0, 0.0, 0.0],
                 BsdfKind::Phong
                 | BsdfKind::Ggx
                 | BsdfKind::DiffuseTransmission
                 | BsdfKind::Measured => [0.0; 4],
             },
             k: match self.bsdf {
-                BsdfKind::Conductor => self.k.extend(0.0).to_array(),
+                // (Hair: its absorption sigma_a.)
+                BsdfKind::Conductor | BsdfKind::Hair => self.k.extend(0.0).to_array(),
                 BsdfKind::CoatedDiffuse | BsdfKind::CoatedConductor => [
                     self.thickness,
                     self.layer_max_depth as f32,

@@ -353,6 +353,70 @@ impl Parser {
                 m.bsdf = BsdfKind::Measured;
                 m.measured = Some(index);
             }
+            "hair" => {
+                // pbrt-v4's HairMaterial (src/hair.rs): the absorption from `sigma_a`, else
+                // from the colour (`reflectance`, or `color`), else from melanin
+                // concentrations, else brown hair (eumelanin 1.3); the roughnesses clamped
+                // to [0.01, 1] as pbrt-v4 clamps them.
+                m.bsdf = BsdfKind::Hair;
+                let float = |this: &mut Self,
+                             name: &str,
+                             default: f32|
+                 -> Result<Option<f32>, ParseError> {
+                    Ok(match this.value(params, name, true, d)? {
+                        Some(Value::Const(c)) => Some(c.x),
+                        Some(Value::Texture(_)) => {
+                            this.unsupported(file, line, format!("hair: a textured {name}"));
+                            Some(default)
+                        }
+                        None => None,
+                    })
+                };
+                let eta = float(self, "eta", 1.55)?.unwrap_or(1.55);
+                if !(eta > 0.0 && eta.is_finite()) {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!("hair: eta must be positive and finite, got {eta}"),
+                    ));
+                }
+                let beta_m = float(self, "beta_m", 0.3)?.unwrap_or(0.3).clamp(0.01, 1.0);
+                let beta_n = float(self, "beta_n", 0.3)?.unwrap_or(0.3).clamp(0.01, 1.0);
+                let alpha = float(self, "alpha", 2.0)?.unwrap_or(2.0);
+                let eumelanin = float(self, "eumelanin", 0.0)?;
+                let pheomelanin = float(self, "pheomelanin", 0.0)?;
+                let colour = |this: &mut Self, name: &str| -> Result<Option<Vec3>, ParseError> {
+                    Ok(match this.value(params, name, false, d)? {
+                        Some(Value::Const(c)) => Some(c),
+                        Some(Value::Texture(_)) => {
+                            this.unsupported(file, line, format!("hair: a textured {name}"));
+                            Some(Vec3::splat(0.5))
+                        }
+                        None => None,
+                    })
+                };
+                let sigma_a = colour(self, "sigma_a")?;
+                let reflectance = match colour(self, "reflectance")? {
+                    Some(c) => Some(c),
+                    None => colour(self, "color")?,
+                };
+                m.k = match (sigma_a, reflectance) {
+                    (Some(s), _) => s.max(Vec3::ZERO),
+                    (None, Some(c)) => crate::hair::sigma_a_from_reflectance(c, beta_n),
+                    (None, None) if eumelanin.is_some() || pheomelanin.is_some() => {
+                        crate::hair::sigma_a_from_concentration(
+                            eumelanin.unwrap_or(0.0).max(0.0),
+                            pheomelanin.unwrap_or(0.0).max(0.0),
+                        )
+                    }
+                    (None, None) => crate::hair::sigma_a_from_concentration(1.3, 0.0),
+                };
+                m.ior = eta;
+                m.roughness = beta_m;
+                m.roughness_v = beta_n;
+                m.shininess = alpha;
+            }
             other => {
                 self.unsupported(file, line, format!("Material \"{other}\""));
                 for p in &params.0 {

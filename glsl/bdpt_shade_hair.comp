@@ -1,0 +1,9 @@
+// BDPT's wavefront shade stage for the hair material class (lib/bdpt_shade.glsl).
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_atomic_float : require
+
+#include "abi.h"
+#define SHADE_CLASS MATERIAL_CLASS_HAIR
+layout(local_size_x = WORKGROUP_SIZE_X, local_size_y = WORKGROUP_SIZE_Y) in;
+#include "bdpt_shade.glsl"

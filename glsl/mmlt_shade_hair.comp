@@ -1,0 +1,9 @@
+// MMLT's wavefront shade stage for the hair material class (lib/mmlt_shade.glsl).
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_atomic_float : require
+
+#include "abi.h"
+#define SHADE_CLASS MATERIAL_CLASS_HAIR
+layout(local_size_x = MMLT_WORKGROUP_SIZE) in;
+#include "mmlt_shade.glsl"
