@@ -1,8 +1,8 @@
 // BDPT's wavefront (lib/bdpt_wave.glsl): the surface interaction. The vertex at the
-// walk's hit (light side: y_i; camera side: z_k), stored in the path-vertex buffer when a
-// connection can use it; on the camera side the emission found there or in the
-// environment (s = 0) and the point of the s = 1 strategy's light sample. The vertex then
-// waits for its material class's shade stage. All of BDPT's emitter code is here.
+// walk's hit (light side: y_i; camera side: z_k), found with its material's textures and
+// maps, stored in the walk for the stages after (the camera side's emit stage, the shade
+// stage of its material class) and in the path-vertex buffer when a connection can use
+// it. No emitter code: what the emitters give at a camera vertex is bdpt_emit's.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_atomic_float : require
@@ -34,8 +34,9 @@ void main() {
         s = surface_at(hit, w.o, w.d);
         graze = pass_params.side == BDPT_SIDE_LIGHT ? !light_walk_vertex(w, hit.t, s, v) : !camera_walk_vertex(w, hit.t, s, v);
     }
+    bool found = prim != NO_HIT && !graze;
     if (pass_params.side == BDPT_SIDE_LIGHT) {
-        if (prim == NO_HIT || graze) {
+        if (!found) {
             walks[slot].d.w = uintBitsToFloat(flags);
             return;
         }
@@ -52,36 +53,12 @@ void main() {
     } else {
         // The vertex z_k; strategies here have t = k + 1.
         uint k = g.counts.x + 1u;   // (w.vertices before this vertex)
-        sampler_resume(index, g);
         uint max_vertices = scene.unbounded != 0u ? UNBOUNDED_DEPTH_CAP : max_scatter();
-        vec3 L = g.radiance.xyz;
-        vec3 value;
-        bool found = prim != NO_HIT && !graze;
-        // s = 0: the camera subpath found an emitter, or escaped toward the environment
-        // (k - 1 scattering vertices either way).
+        // The emit stage looks at what the walk found: an emitter (s = 0), a point for
+        // the s = 1 light sample, or the environment.
         w.escaped = prim == NO_HIT;
-        if (!found) v.emitter = NO_EMITTER;
-        EmissionQuery q[2];
-        bool ask[2] = bool[2](false, false);
-        bool emission = (found || w.escaped) && k - 1u >= min_scatter() && emission_found(w, v, !found, value, q[0], ask[0]);
-        // s = 1: a fresh sample on a light (k scattering vertices); its BSDF half is the
-        // shade stage's.
-        LightSample ls;
-        bool sampled = found && k <= max_vertices && k >= min_scatter() && light_sample_draw(v, ls, q[1]);
-        ask[1] = sampled && w.vertices <= max_scatter();
-        // Both strategies' emitter densities, asked in one place.
-        vec2 pdfs[2] = vec2[2](vec2(0.0), vec2(0.0));
-        [[dont_unroll]] for (uint i = 0u; i < 2u; ++i) {
-            if (ask[i]) pdfs[i] = emission_pdfs(q[i]);
-        }
-        if (emission) add_camera(L, 0u, k + 1u, index, value, emission_weight(w, v, !found, q[0], pdfs[0]));
-        if (emission) walks[slot].radiance.xyz = L;
+        if (found || w.escaped) flags |= BDPT_WALK_EMIT;
         if (found && k <= max_vertices) {
-            if (sampled) {
-                flags |= BDPT_WALK_LIGHT_SAMPLE;
-                pack_light_sample(ls, walks[slot].ls_wi, walks[slot].ls_le, walks[slot].ls_p, walks[slot].ls_n);
-                walks[slot].ls_pdfs = vec4(pdfs[1], 0.0, 0.0);
-            }
             // s >= 2: light vertices y_j with j + k <= max_scatter() (shade, then trace).
             if (k < max_scatter() && g.counts.z > 0u) {
                 store_path_vertex(base + vertex_stride() + k - 1u, v);
@@ -91,9 +68,7 @@ void main() {
             }
             flags |= BDPT_WALK_VERTEX | BDPT_WALK_EXTEND;
         }
-        walks[slot].o.w = uintBitsToFloat(sampler_rng.counter);
     }
-    if ((flags & BDPT_WALK_VERTEX) != 0u) store_vertex(slot, v);
+    if ((flags & (BDPT_WALK_VERTEX | BDPT_WALK_EMIT)) != 0u && found) store_vertex(slot, v);
     store_walk_vertex(slot, w, flags);
-    if (nonfinite > 0u) atomicAdd(stats[STAT_NONFINITE], nonfinite);
 }

@@ -4,8 +4,9 @@
 // the connection to y: the lens point, the pixel). A camera vertex before the last
 // scatters; at the last, z (or where the camera subpath escaped), the strategy: s = 0 the
 // emission found, whole; s = 1 a light sample (its BSDF half is the shade stage's);
-// s, t >= 2 the connection's geometry. Every emitter's code of MMLT is here, each of
-// the emitters' densities asked in one place.
+// s, t >= 2 the connection's geometry: mmlt_emit's, which holds every emitter's code of
+// MMLT (kept apart from the surfaces' and textures' code here: lavapipe's compile time
+// grows faster than a kernel).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_atomic_float : require
@@ -40,9 +41,9 @@ void main() {
     } else {
         w.escaped = cam;
     }
-    // (The sampler only where this stage draws numbers: t = 1's lens point, s = 1's light
-    // sample; each word of state is a memory access per slot on lavapipe.)
-    bool draws = cam ? (ok && w.vertices == t - 1u && s == 1u) : (ok && w.vertices == s - 1u && t == 1u);
+    // (The sampler only where this stage draws numbers: t = 1's lens point; each word of
+    // state is a memory access per slot on lavapipe.)
+    bool draws = !cam && ok && w.vertices == s - 1u && t == 1u;
     if (draws) pss_resume(slot, item);
     uint kind = MMLT_KIND_NONE;
     bool vertex = false;   // v waits for the shade stage
@@ -80,40 +81,9 @@ void main() {
             wflags |= BDPT_WALK_EXTEND;
             vertex = true;
         } else if (ok || escaped) {
-            // The emitters' densities, asked in one place for s = 0 and s = 1.
-            EmissionQuery q;
-            bool ask = false;
-            vec3 value;
-            LightSample ls;
-            if (s == 0u) {
-                if (emission_found(w, v, escaped, value, q, ask)) kind = MMLT_KIND_EMISSION;
-            } else if (s == 1u) {
-                if (light_sample_draw(v, ls, q)) {
-                    kind = MMLT_KIND_LIGHT_SAMPLE;
-                    ask = light_sample_weighs_all(w);
-                }
-            } else {
-                vec3 dir;
-                float d2;
-                if (connection_faces(v, path_y(slot), dir, d2)) {
-                    kind = MMLT_KIND_CONNECTION;
-                    mpaths[slot].conn = vec4(dir, d2);
-                }
-            }
-            vec2 pdfs = vec2(0.0);
-            if (ask) pdfs = emission_pdfs(q);
-            if (kind == MMLT_KIND_EMISSION) {
-                mpaths[slot].value = vec4(value, emission_weight(w, v, escaped, q, pdfs));
-                pflags |= MMLT_PATH_FOUND;
-            } else if (kind == MMLT_KIND_LIGHT_SAMPLE) {
-                pack_light_sample(ls, walks[slot].ls_wi, walks[slot].ls_le, walks[slot].ls_p, walks[slot].ls_n);
-                walks[slot].ls_pdfs = vec4(pdfs, 0.0, 0.0);
-                pflags |= MMLT_PATH_ASK_Z;
-                vertex = true;
-            } else if (kind == MMLT_KIND_CONNECTION) {
-                pflags |= MMLT_PATH_ASK_Z | MMLT_PATH_ASK_Y;
-                vertex = true;
-            }
+            // The strategy at the last camera vertex: the emit stage's.
+            wflags |= BDPT_WALK_EMIT;
+            vertex = ok;
         }
     }
     if (vertex) store_vertex(slot, v);

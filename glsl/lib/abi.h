@@ -542,6 +542,7 @@ struct GpuBdptWalk {
 #define BDPT_WALK_PREV_DELTA 256
 #define BDPT_WALK_ESCAPED 512
 #define BDPT_WALK_CONNECTIONS 1024 // z_k's s, t >= 2 connections wait: answers (shade), then rays (trace)
+#define BDPT_WALK_EMIT 2048        // a camera walk's hit (or escape) waits for the emit stage
 // Floats per connection in the answers buffer: z's BSDF toward y (rgb, pdf there, pdf
 // back), then y's toward z (the same).
 #define BDPT_ANSWER_FLOATS 10

@@ -282,6 +282,13 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
     }
 }
 
+// The emitter of primitive prim (NO_EMITTER if it emits nothing): Surface.emitter, for a
+// stage that keeps the surface in memory rather than finding it again.
+uint primitive_emitter(uint prim) {
+    uint ntri = scene.triangle_count;
+    return prim < ntri ? floatBitsToUint(triangles[prim].v1.w) : spheres[prim - ntri].info.y;
+}
+
 Surface surface_at(Hit hit, vec3 o, vec3 d) {
     Surface s;
     s.prim = hit.prim;

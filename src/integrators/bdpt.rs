@@ -123,8 +123,8 @@ pub const BDPT_WALK_BYTES: u64 = std::mem::size_of::<GpuBdptWalk>() as u64;
 pub const WALK_TEXTURE_BYTES: u64 = 32;
 
 /// BDPT as a wavefront of small kernels over a band's pixels (glsl/lib/bdpt_wave.glsl):
-/// per pass and band, `bdpt_start` and per bounce `bdpt_trace`, `bdpt_hit` and one
-/// `bdpt_shade_CLASS` per material class of the scene, for the light subpath and then
+/// per pass and band, `bdpt_start` and per bounce `bdpt_trace`, `bdpt_hit` (on the
+/// camera side then `bdpt_emit`) and one `bdpt_shade_CLASS` per material class of the scene, for the light subpath and then
 /// the camera subpath, then `bdpt_finish`. At maxdepth -1 the camera subpaths go on with
 /// Russian roulette until none is left (the shade stages count them, `live`), up to
 /// UNBOUNDED_DEPTH_CAP vertices, `UNBOUNDED_CHUNK` bounces per submission.
@@ -132,6 +132,7 @@ pub(crate) struct BdptWave {
     start: PassStage,
     trace: PassStage,
     hit: PassStage,
+    emit: PassStage,
     shade: Vec<PassStage>,
     finish: PassStage,
     width: u32,
@@ -178,6 +179,9 @@ impl BdptWave {
     ) {
         list.push(self.dispatch(&self.trace, p, bounce, side));
         list.push(self.dispatch(&self.hit, p, bounce, side));
+        if side == BDPT_SIDE_CAMERA {
+            list.push(self.dispatch(&self.emit, p, bounce, side));
+        }
         if shade {
             for s in &self.shade {
                 list.push(self.dispatch(s, p, bounce, side));
@@ -249,11 +253,17 @@ impl BdptWave {
             row_end: 1,
             ..Default::default()
         };
-        [&self.start, &self.trace, &self.hit, &self.finish]
-            .into_iter()
-            .chain(&self.shade)
-            .map(|s| Dispatch::new(&s.kernel, s.set, &p, [1, 1, 1]))
-            .collect()
+        [
+            &self.start,
+            &self.trace,
+            &self.hit,
+            &self.emit,
+            &self.finish,
+        ]
+        .into_iter()
+        .chain(&self.shade)
+        .map(|s| Dispatch::new(&s.kernel, s.set, &p, [1, 1, 1]))
+        .collect()
     }
 }
 
@@ -354,13 +364,16 @@ impl Work for BdptWork<'_> {
 }
 
 /// The spans of BDPT's wavefront stages, for the device time of a run.
-pub(crate) const BDPT_SPANS: [&str; 7] = [
+pub(crate) const BDPT_SPANS: [&str; 10] = [
     "bdpt start",
     "bdpt trace",
     "bdpt hit",
+    "bdpt emit",
     "bdpt shade basic",
     "bdpt shade interface",
     "bdpt shade coated",
+    "bdpt shade measured",
+    "bdpt shade hair",
     "bdpt finish",
 ];
 
@@ -413,7 +426,7 @@ pub(crate) fn bdpt_wave(
         ))
     })?;
     // (The stages borrow the buffers while they are bound.)
-    let (start, trace_stage, hit, shade, finish) = {
+    let (start, trace_stage, hit, emit, shade, finish) = {
         let mut all = buffers.to_vec();
         all.push((BINDING_BDPT_WALKS, &walks));
         all.push((BINDING_WALK_TEXTURES, &walk_textures));
@@ -428,6 +441,7 @@ pub(crate) fn bdpt_wave(
                 stage("bdpt_start", "bdpt start")?,
                 stage("bdpt_trace", "bdpt trace")?,
                 stage("bdpt_hit", "bdpt hit")?,
+                stage("bdpt_emit", "bdpt emit")?,
                 shade,
                 stage("bdpt_finish", "bdpt finish")?,
             ))
@@ -437,6 +451,7 @@ pub(crate) fn bdpt_wave(
         start,
         trace: trace_stage,
         hit,
+        emit,
         shade,
         finish,
         width,

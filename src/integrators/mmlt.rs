@@ -371,6 +371,7 @@ pub(crate) struct MmltWave {
     start: PassStage,
     trace: PassStage,
     hit: PassStage,
+    emit: PassStage,
     shade: Vec<PassStage>,
     end: PassStage,
     accept: PassStage,
@@ -397,10 +398,11 @@ fn shade_kernel(class: u32) -> (&'static str, &'static str) {
 }
 
 /// The spans of MMLT's stages, for the device time of a run.
-const MMLT_SPANS: [&str; 10] = [
+const MMLT_SPANS: [&str; 11] = [
     "mmlt start",
     "mmlt trace",
     "mmlt hit",
+    "mmlt emit",
     "mmlt shade basic",
     "mmlt shade interface",
     "mmlt shade coated",
@@ -430,6 +432,7 @@ impl MmltWave {
         for round in 0..=depth {
             list.push(self.dispatch(&self.trace, p));
             list.push(self.dispatch(&self.hit, p));
+            list.push(self.dispatch(&self.emit, p));
             if round < depth {
                 for s in &self.shade {
                     list.push(self.dispatch(s, p));
@@ -468,11 +471,18 @@ impl MmltWave {
     /// Every stage once with no items (each compiles at its first dispatch).
     fn idle(&self, base: &MmltParams) -> Vec<Dispatch> {
         let p = MmltParams { items: 0, ..*base };
-        [&self.start, &self.trace, &self.hit, &self.end, &self.accept]
-            .into_iter()
-            .chain(&self.shade)
-            .map(|s| Dispatch::new(&s.kernel, s.set, &p, [1, 1, 1]))
-            .collect()
+        [
+            &self.start,
+            &self.trace,
+            &self.hit,
+            &self.emit,
+            &self.end,
+            &self.accept,
+        ]
+        .into_iter()
+        .chain(&self.shade)
+        .map(|s| Dispatch::new(&s.kernel, s.set, &p, [1, 1, 1]))
+        .collect()
     }
 }
 
@@ -520,6 +530,7 @@ fn mmlt_wave(
             start: stage("mmlt_start", "mmlt start")?,
             trace: stage("mmlt_trace", "mmlt trace")?,
             hit: stage("mmlt_hit", "mmlt hit")?,
+            emit: stage("mmlt_emit", "mmlt emit")?,
             shade,
             end: stage("mmlt_end", "mmlt end")?,
             accept: stage("mmlt_accept", "mmlt accept")?,
