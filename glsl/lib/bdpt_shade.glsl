@@ -7,7 +7,8 @@
 // z_k to the light vertices y_j: the question to z's BSDF when z is of the class, and to
 // each y_j's that is; the answers wait in answers[] for the trace stage. Only the class's
 // own BSDFs are compiled in (bsdf.glsl's SHADE_CLASS), and each is asked in one place for
-// every question: one evaluation, one sample.
+// every question, the sample too (bsdf_ask: an engine that answers both, the coated walk,
+// the measured tables, hair, is inlined once).
 #ifndef BDPT_SHADE_GLSL
 #define BDPT_SHADE_GLSL
 #include "bdpt_wave.glsl"
@@ -38,19 +39,27 @@ void main() {
     LightSample ls;
     float cos_s;
     BsdfParams b;
-    // The questions, in kept loops (each BSDF is compiled in once): i = 0 v's own
-    // connection (t = 1 or s = 1), i >= 1 the connection to y_j, j = first + i - 1, asked
-    // of each end of the class (side 0: v toward y_j, side 1: y_j toward v).
-    [[dont_unroll]] for (uint i = 0u; i <= connections; ++i) {
+    // The sample that continues the walk (asked last, where walk_extend would draw it).
+    bool extending = own && (flags & BDPT_WALK_EXTEND) != 0u;
+    bool beyond = walk_beyond(w, camera);
+    bool sampled = false;
+    BsdfSample bs;
+    float bs_rev = 0.0;
+    // The questions, in kept loops through one bsdf_ask (each BSDF is compiled in once):
+    // i = 0 v's own connection (t = 1 or s = 1), i >= 1 the connection to y_j,
+    // j = first + i - 1, asked of each end of the class (side 0: v toward y_j, side 1:
+    // y_j toward v), and last (extending) v's sample.
+    uint ext = connections + 1u;
+    [[dont_unroll]] for (uint i = 0u; i <= (extending ? ext : connections); ++i) {
         uint j = first + i - 1u;
         PathVertex y;
         vec3 dir;
         float d2;
-        if (i > 0u) {
+        if (i > 0u && i != ext) {
             y = stored_vertex(base + j - 1u);
             if (!connection_faces(v, y, dir, d2)) continue;
         }
-        [[dont_unroll]] for (uint side = 0u; side < (i == 0u ? 1u : 2u); ++side) {
+        [[dont_unroll]] for (uint side = 0u; side < (i == 0u || i == ext ? 1u : 2u); ++side) {
             PathVertex x = side == 0u ? v : y;
             if (side == 0u ? !own : material_class(materials[x.material].info.x) != SHADE_CLASS) continue;
             BsdfParams bx = b;
@@ -78,8 +87,26 @@ void main() {
                 }
                 if (!connect) continue;
             }
-            float pdf_fwd, pdf_rev;
-            vec3 f = bsdf_eval_pdfs(bx, scene.sample_mode, x.ns, x.w, wi, transport, want_fwd, want_rev, pdf_fwd, pdf_rev);
+            vec3 u = vec3(0.0);
+            if (i == ext) {
+                transport = camera ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE;
+                want_fwd = false;
+                want_rev = !beyond;
+                u = sample_3d(camera ? STREAM_CAMERA : STREAM_LIGHT);
+                if (!(dot(v.ns, v.w) > 0.0)) continue;
+            }
+            BsdfSample q;
+            q.wi = wi;
+            float pdf_rev;
+            bool answered = bsdf_ask(bx, scene.sample_mode, x.ns, x.w, i == ext, u, transport, want_fwd, want_rev, q, pdf_rev);
+            if (i == ext) {
+                sampled = answered;
+                bs = q;
+                bs_rev = pdf_rev;
+                continue;
+            }
+            vec3 f = q.f;
+            float pdf_fwd = q.pdf;
             if (i > 0u) {
                 store_answer(answer_at(slot, j, side), f, pdf_fwd, pdf_rev);
                 continue;
@@ -99,7 +126,8 @@ void main() {
     }
     // The walk is the vertex's class's to go on with; another class only answered.
     if (!own) return;
-    bool extend = (flags & BDPT_WALK_EXTEND) != 0u && walk_extend(w, v, b, camera);
+    bool extend = sampled && walk_scatter_sampled(w, v, bs, bs_rev, camera ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE, !beyond)
+               && walk_survives(w, beyond);
     flags &= ~(BDPT_WALK_VERTEX | BDPT_WALK_CONNECT | BDPT_WALK_EXTEND | BDPT_WALK_LIGHT_SAMPLE);
     if (extend) flags |= BDPT_WALK_RAY;
     // maxdepth -1: how many camera walks go on after this bounce, for the host to know

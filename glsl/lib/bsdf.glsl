@@ -926,4 +926,59 @@ bool bsdf_sample_rev(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint tran
     if (want_rev && (s.flags & BSDF_LOBE_DELTA) == 0u) pdf_rev = analytic_pdf(b, mode, n, s.wi, wo);
     return true;
 }
+
+// bsdf_eval_pdfs and bsdf_sample_rev in one: with `draw` the sample (into s) and its
+// density back, else f(wo, s.wi) into s.f and the densities pdf(wo -> s.wi) into s.pdf
+// (want_fwd) and back (want_rev). For a kernel that asks a BSDF both questions (BDPT's
+// shade stage): one call site holds one copy of an engine that answers both (the coated
+// random walk, the measured tables, hair), where the two functions would inline two.
+bool bsdf_ask(BsdfParams b, uint mode, vec3 n, vec3 wo, bool draw, vec3 u, uint transport, bool want_fwd,
+              bool want_rev, inout BsdfSample s, out float pdf_rev) {
+    pdf_rev = 0.0;
+    if (draw) s.wi = vec3(0.0);
+    if (bsdf_is_hair(b)) {
+        bool ok = hair_bsdf_pair(b, n, wo, draw, u, transport, want_rev, s.wi, s.f, s.pdf, pdf_rev);
+        s.flags = dot(n, wo) * dot(n, s.wi) > 0.0 ? BSDF_LOBE_REFLECTION : BSDF_LOBE_TRANSMISSION;
+        return !draw || (ok && !isinf(s.pdf) && s.f != vec3(0.0));
+    }
+    if (bsdf_is_measured(b)) {
+        s.flags = BSDF_LOBE_REFLECTION;
+        bool ok = true;
+        [[dont_unroll]] for (uint k = 0u; k < (want_rev ? 2u : 1u); ++k) {
+            // (k = 0: the sample, or f and pdf(wo -> wi); k = 1: pdf(wi -> wo).)
+            vec3 f, to = k == 0u ? s.wi : wo;
+            float pdf;
+            bool found = measured_bsdf_query(b, n, k == 0u ? wo : s.wi, draw && k == 0u, u, to, f, pdf);
+            if (k == 0u) {
+                ok = !draw || (found && !isinf(pdf) && f != vec3(0.0));
+                s.wi = to;
+                s.f = f;
+                s.pdf = pdf;
+                if (!ok) break;
+            } else {
+                pdf_rev = pdf;
+            }
+        }
+        return ok;
+    }
+    if (bsdf_is_coated(b)) {
+        vec3 f;
+        float pdf;
+        uint q = draw ? COAT_Q_SAMPLE | (want_rev ? COAT_Q_PDF_REV : 0u)
+                      : COAT_Q_F | (want_fwd ? COAT_Q_PDF : 0u) | (want_rev ? COAT_Q_PDF_REV : 0u);
+        vec3 wi = draw ? wo : s.wi;
+        BsdfSample t = s;
+        bool ok = coated_engine(b, n, wo, wi, draw ? u : vec3(0.0), transport, q, f, pdf, pdf_rev, t);
+        if (draw) {
+            s = t;
+            return ok;
+        }
+        s.f = f;
+        s.pdf = pdf;
+        return true;
+    }
+    if (draw) return bsdf_sample_rev(b, mode, n, wo, u, transport, want_rev, s, pdf_rev);
+    s.f = bsdf_eval_pdfs(b, mode, n, wo, s.wi, transport, want_fwd, want_rev, s.pdf, pdf_rev);
+    return true;
+}
 #endif
