@@ -29,7 +29,7 @@ float hair_longitudinal(float cos_i, float cos_o, float sin_i, float sin_o, floa
     if (v <= 0.1) {
         float log_i0 = a > 12.0 ? a + 0.5 * (-log(2.0 * HAIR_PI) + log(1.0 / a) + 1.0 / (8.0 * a))
                                 : log(hair_bessel_i0(a));
-        return exp(log_i0 - b - 1.0 / v + 0.6931 + log(1.0 / (2.0 * v)));
+        return exp(log_i0 - b - 1.0 / v + 0.69314718 + log(1.0 / (2.0 * v)));
     }
     return exp(-b) * hair_bessel_i0(a) / (sinh(1.0 / v) * 2.0 * v);
 }
