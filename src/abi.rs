@@ -531,7 +531,7 @@ pub fn layouts() -> Vec<StructLayout> {
             y_tex0,
             y_tex1
         ),
-        layout!(BsdfProbeInput, info, n, wo, wi, u),
+        layout!(BsdfProbeInput, info, n, wo, wi, u, tex1),
         layout!(BsdfProbeOutput, eval, sample_dir, sample_f, info),
     ]
 }

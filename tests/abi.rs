@@ -197,6 +197,15 @@ fn kernel_bindings_come_from_the_spirv() {
                 has(abi::BINDING_BDPT_WALKS)
                     && has(abi::BINDING_PATH_VERTICES)
                     && !has(abi::BINDING_FILM)
+                    && !has(abi::BINDING_SPLAT)
+                    // (The emitters' code is bdpt_emit's: no light is picked in the hit stage.)
+                    && (base == "bdpt_start" || !has(abi::BINDING_EMITTER_CDF)),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            "bdpt_emit" => assert!(
+                has(abi::BINDING_BDPT_WALKS)
+                    && has(abi::BINDING_EMITTER_CDF)
+                    && !has(abi::BINDING_FILM)
                     && !has(abi::BINDING_SPLAT),
                 "{kernel} ({backend}): {numbers:?}"
             ),
@@ -214,11 +223,14 @@ fn kernel_bindings_come_from_the_spirv() {
             // MMLT's wavefront: every stage keeps its path in the walk and path buffers;
             // only mmlt_accept splats and touches the chains' state beyond reading it; the
             // shade stages hold no emitter, the accept stage no material.
-            "mmlt_start" | "mmlt_hit" | "mmlt_end" | "mmlt_trace" => assert!(
+            "mmlt_start" | "mmlt_hit" | "mmlt_emit" | "mmlt_end" | "mmlt_trace" => assert!(
                 has(abi::BINDING_BDPT_WALKS)
                     && has(abi::BINDING_MMLT_PATHS)
                     && !has(abi::BINDING_SPLAT)
-                    && !has(abi::BINDING_FILM),
+                    && !has(abi::BINDING_FILM)
+                    // (The emitters' code is mmlt_emit's, and mmlt_start's.)
+                    && (base != "mmlt_hit" || !has(abi::BINDING_EMITTER_CDF))
+                    && (base != "mmlt_emit" || has(abi::BINDING_EMITTER_CDF)),
                 "{kernel} ({backend}): {numbers:?}"
             ),
             k if k.starts_with("mmlt_shade_") => assert!(

@@ -425,7 +425,10 @@ impl Parser {
                 return Ok(MaterialRef::Material(diffuse(Vec3::splat(0.5))));
             }
         }
-        m.shading_map = self.shading_map(params, d)?;
+        // (pbrt-v4's hair reads no displacement or normal map.)
+        if m.bsdf != BsdfKind::Hair {
+            m.shading_map = self.shading_map(params, d)?;
+        }
         self.check_used(d, &format!("\"{ty}\""), params);
         Ok(MaterialRef::Material(m))
     }
