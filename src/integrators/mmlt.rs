@@ -427,12 +427,17 @@ impl MmltWave {
     /// start, or a chain's proposal), evaluated and taken by its chain: depth + 1 rounds
     /// of trace, hit and shade (a path of depth d finds its vertices with at most d + 1
     /// rays; the last round's vertices are s = 0's, which ask no BSDF, so it has no shade).
+    /// The camera subpath's last vertex z_{t-1}, the emit stage's, is found by the d-th ray
+    /// when s >= 1 (s - 1 light rays, then t - 1 camera rays) and by the (d + 1)-th when
+    /// s = 0: only the last two rounds have an emit stage (mmlt_hit marks no other).
     fn path(&self, p: &MmltParams, depth: u32, list: &mut Vec<Dispatch>) {
         list.push(self.dispatch(&self.start, p));
         for round in 0..=depth {
             list.push(self.dispatch(&self.trace, p));
             list.push(self.dispatch(&self.hit, p));
-            list.push(self.dispatch(&self.emit, p));
+            if round + 1 >= depth {
+                list.push(self.dispatch(&self.emit, p));
+            }
             if round < depth {
                 for s in &self.shade {
                     list.push(self.dispatch(s, p));
