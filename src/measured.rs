@@ -331,7 +331,7 @@ impl MeasuredBsdf {
 }
 
 /// The BSDF about a unit normal n, as the renders ask it (GLSL bsdf.glsl's
-/// `measured_bsdf_eval_pdf` and `measured_bsdf_sample`): in n's local frame
+/// `measured_bsdf_query`, asked through `engine_ask`): in n's local frame
 /// (`build_onb`'s tangents), mirrored when wo lies below n, so that it reflects on both
 /// sides.
 impl MeasuredBsdf {

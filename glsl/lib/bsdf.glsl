@@ -589,15 +589,6 @@ bool hair_bsdf_pair(BsdfParams b, vec3 n, vec3 wo, bool draw, vec3 u, uint trans
     return ok;
 }
 
-// Its sample (reflection where wo and wi are on one side of n, else transmission).
-bool hair_bsdf_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, uint transport, bool want_rev, out BsdfSample s,
-                      out float pdf_rev) {
-    s.wi = vec3(0.0);
-    bool ok = hair_bsdf_pair(b, n, wo, true, u, transport, want_rev, s.wi, s.f, s.pdf, pdf_rev);
-    s.flags = dot(n, wo) * dot(n, s.wi) > 0.0 ? BSDF_LOBE_REFLECTION : BSDF_LOBE_TRANSMISSION;
-    return ok && !isinf(s.pdf) && s.f != vec3(0.0);
-}
-
 // ---- the measured BSDF (pbrt-v4's MeasuredBxDF, measured.glsl) in n's local frame ------
 // (mirrored when wo lies below n: it reflects on both sides). CPU mirror: src/measured.rs,
 // MeasuredBsdf::eval_about, sample_about.
@@ -611,14 +602,6 @@ bool measured_bsdf_query(BsdfParams b, vec3 n, vec3 wo, bool draw, vec3 u, inout
     bool ok = measured_query(b.table, to_local(fr, wo), draw, u.yz, li, f, pdf);
     if (draw) wi = from_local(fr, li);
     return ok;
-}
-
-// Its sample, as the other BSDFs give theirs.
-bool measured_bsdf_sample(BsdfParams b, vec3 n, vec3 wo, vec3 u, out BsdfSample s) {
-    s.wi = vec3(0.0);
-    s.flags = BSDF_LOBE_REFLECTION;
-    bool ok = measured_bsdf_query(b, n, wo, true, u, s.wi, s.f, s.pdf);
-    return ok && !isinf(s.pdf) && s.f != vec3(0.0);
 }
 
 vec3 interface_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
@@ -789,6 +772,83 @@ bool bsdf_is_coated(BsdfParams b) {
 #endif
 }
 
+// The closed-form BSDFs' answers to several questions (bsdf_eval_pdfs, bsdf_sample_rev).
+vec3 analytic_eval_pdfs(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi, uint transport, bool want_fwd,
+                        bool want_rev, out float pdf_fwd, out float pdf_rev) {
+    pdf_fwd = 0.0;
+    pdf_rev = 0.0;
+    vec3 f = analytic_eval(b, n, wo, wi, transport);
+    if (want_fwd) pdf_fwd = analytic_pdf(b, mode, n, wo, wi);
+    if (want_rev) pdf_rev = analytic_pdf(b, mode, n, wi, wo);
+    return f;
+}
+
+bool analytic_sample_rev(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, bool want_rev,
+                         out BsdfSample s, out float pdf_rev) {
+    pdf_rev = 0.0;
+    if (!analytic_sample(b, mode, n, wo, u, transport, s)) return false;
+    if (want_rev && (s.flags & BSDF_LOBE_DELTA) == 0u) pdf_rev = analytic_pdf(b, mode, n, s.wi, wo);
+    return true;
+}
+
+// The BSDFs that answer through an engine rather than closed forms: hair (hair.glsl), the
+// measured tables (measured.glsl), the coated walks (layered.glsl).
+bool bsdf_is_engine(BsdfParams b) {
+    return bsdf_is_hair(b) || bsdf_is_measured(b) || bsdf_is_coated(b);
+}
+
+// Every question to an engine BSDF, in one body (the one place each engine is called
+// with several questions): with `draw` a sample into s (and with want_rev its density
+// back), else f(wo, s.wi) into s.f, pdf(wo -> s.wi) into s.pdf (want_fwd) and the density
+// back (want_rev). bsdf_sample, bsdf_eval_pdfs, bsdf_sample_rev and bsdf_ask ask it.
+bool engine_ask(BsdfParams b, vec3 n, vec3 wo, bool draw, vec3 u, uint transport, bool want_fwd, bool want_rev,
+                inout BsdfSample s, out float pdf_rev) {
+    pdf_rev = 0.0;
+    if (draw) s.wi = vec3(0.0);
+    if (bsdf_is_hair(b)) {
+        bool ok = hair_bsdf_pair(b, n, wo, draw, u, transport, want_rev, s.wi, s.f, s.pdf, pdf_rev);
+        s.flags = dot(n, wo) * dot(n, s.wi) > 0.0 ? BSDF_LOBE_REFLECTION : BSDF_LOBE_TRANSMISSION;
+        return !draw || (ok && !isinf(s.pdf) && s.f != vec3(0.0));
+    }
+    if (bsdf_is_measured(b)) {
+        s.flags = BSDF_LOBE_REFLECTION;
+        bool ok = true;
+        [[dont_unroll]] for (uint k = 0u; k < (want_rev ? 2u : 1u); ++k) {
+            // (k = 0: the sample, or f and pdf(wo -> wi); k = 1: pdf(wi -> wo).)
+            vec3 f, to = k == 0u ? s.wi : wo;
+            float pdf;
+            bool found = measured_bsdf_query(b, n, k == 0u ? wo : s.wi, draw && k == 0u, u, to, f, pdf);
+            if (k == 0u) {
+                ok = !draw || (found && !isinf(pdf) && f != vec3(0.0));
+                s.wi = to;
+                s.f = f;
+                s.pdf = pdf;
+                if (!ok) break;
+            } else {
+                pdf_rev = pdf;
+            }
+        }
+        return ok;
+    }
+    if (bsdf_is_coated(b)) {
+        vec3 f;
+        float pdf;
+        uint q = draw ? COAT_Q_SAMPLE | (want_rev ? COAT_Q_PDF_REV : 0u)
+                      : COAT_Q_F | (want_fwd ? COAT_Q_PDF : 0u) | (want_rev ? COAT_Q_PDF_REV : 0u);
+        vec3 wi = draw ? wo : s.wi;
+        BsdfSample t = s;
+        bool ok = coated_engine(b, n, wo, wi, draw ? u : vec3(0.0), transport, q, f, pdf, pdf_rev, t);
+        if (draw) {
+            s = t;
+            return ok;
+        }
+        s.f = f;
+        s.pdf = pdf;
+        return true;
+    }
+    return false;
+}
+
 vec3 bsdf_eval(BsdfParams b, vec3 n, vec3 wo, vec3 wi, uint transport) {
     if (bsdf_is_hair(b)) {
         // (Importance: the adjoint, f(wi, wo).)
@@ -836,15 +896,9 @@ float bsdf_pdf(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi) {
 // u.x picks the lobe, u.yz place the direction. False when there is no sample (below
 // the surface, or a pdf that is not a positive finite number).
 bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, out BsdfSample s) {
-    if (bsdf_is_hair(b)) {
-        float pdf_rev;
-        return hair_bsdf_sample(b, n, wo, u, transport, false, s, pdf_rev);
-    }
-    if (bsdf_is_measured(b)) return measured_bsdf_sample(b, n, wo, u, s);
-    if (!bsdf_is_coated(b)) return analytic_sample(b, mode, n, wo, u, transport, s);
-    vec3 f;
-    float pdf, pdf_rev;
-    return coated_engine(b, n, wo, wo, u, transport, COAT_Q_SAMPLE, f, pdf, pdf_rev, s);
+    if (!bsdf_is_engine(b)) return analytic_sample(b, mode, n, wo, u, transport, s);
+    float pdf_rev;
+    return engine_ask(b, n, wo, true, u, transport, false, false, s, pdf_rev);
 }
 
 // Several questions about one BSDF at once, for the integrators' connections: f(wo, wi)
@@ -853,132 +907,34 @@ bool bsdf_sample(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transpor
 // a kernel inlines it once per connection rather than once per question.
 vec3 bsdf_eval_pdfs(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 wi, uint transport, bool want_fwd, bool want_rev,
                     out float pdf_fwd, out float pdf_rev) {
-    pdf_fwd = 0.0;
-    pdf_rev = 0.0;
-    if (bsdf_is_hair(b)) {
-        vec3 f, w = wi;
-        hair_bsdf_pair(b, n, wo, false, vec3(0.0), transport, want_rev, w, f, pdf_fwd, pdf_rev);
-        return f;
-    }
-    if (bsdf_is_measured(b)) {
-        vec3 f_fwd = vec3(0.0);
-        [[dont_unroll]] for (uint k = 0u; k < (want_rev ? 2u : 1u); ++k) {
-            // (k = 0: f and pdf(wo -> wi); k = 1: pdf(wi -> wo). One inlined copy.)
-            vec3 f, to = k == 0u ? wi : wo;
-            float pdf;
-            measured_bsdf_query(b, n, k == 0u ? wo : wi, false, vec3(0.0), to, f, pdf);
-            if (k == 0u) {
-                pdf_fwd = pdf;
-                f_fwd = f;
-            } else {
-                pdf_rev = pdf;
-            }
-        }
-        return f_fwd;
-    }
-    if (bsdf_is_coated(b)) {
-        vec3 f;
+    if (bsdf_is_engine(b)) {
         BsdfSample s;
-        uint q = COAT_Q_F | (want_fwd ? COAT_Q_PDF : 0u) | (want_rev ? COAT_Q_PDF_REV : 0u);
-        coated_engine(b, n, wo, wi, vec3(0.0), transport, q, f, pdf_fwd, pdf_rev, s);
-        return f;
+        s.wi = wi;
+        engine_ask(b, n, wo, false, vec3(0.0), transport, want_fwd, want_rev, s, pdf_rev);
+        pdf_fwd = s.pdf;
+        return s.f;
     }
-    vec3 f = analytic_eval(b, n, wo, wi, transport);
-    if (want_fwd) pdf_fwd = analytic_pdf(b, mode, n, wo, wi);
-    if (want_rev) pdf_rev = analytic_pdf(b, mode, n, wi, wo);
-    return f;
+    return analytic_eval_pdfs(b, mode, n, wo, wi, transport, want_fwd, want_rev, pdf_fwd, pdf_rev);
 }
 
 // bsdf_sample, and with want_rev the pdf of the way back, pdf(s.wi -> wo) (0 after a
 // delta lobe).
 bool bsdf_sample_rev(BsdfParams b, uint mode, vec3 n, vec3 wo, vec3 u, uint transport, bool want_rev,
                      out BsdfSample s, out float pdf_rev) {
-    pdf_rev = 0.0;
-    if (bsdf_is_hair(b)) return hair_bsdf_sample(b, n, wo, u, transport, want_rev, s, pdf_rev);
-    if (bsdf_is_measured(b)) {
-        s.wi = vec3(0.0);
-        s.flags = BSDF_LOBE_REFLECTION;
-        bool ok = false;
-        [[dont_unroll]] for (uint k = 0u; k < (want_rev ? 2u : 1u); ++k) {
-            // (k = 0: the sample; k = 1: pdf(s.wi -> wo). One inlined copy.)
-            vec3 f, to = k == 0u ? s.wi : wo;
-            float pdf;
-            bool found = measured_bsdf_query(b, n, k == 0u ? wo : s.wi, k == 0u, u, to, f, pdf);
-            if (k == 0u) {
-                ok = found && !isinf(pdf) && f != vec3(0.0);
-                s.wi = to;
-                s.f = f;
-                s.pdf = pdf;
-                if (!ok) break;
-            } else {
-                pdf_rev = pdf;
-            }
-        }
-        return ok;
-    }
-    if (bsdf_is_coated(b)) {
-        vec3 f;
-        float pdf;
-        uint q = COAT_Q_SAMPLE | (want_rev ? COAT_Q_PDF_REV : 0u);
-        return coated_engine(b, n, wo, wo, u, transport, q, f, pdf, pdf_rev, s);
-    }
-    if (!analytic_sample(b, mode, n, wo, u, transport, s)) return false;
-    if (want_rev && (s.flags & BSDF_LOBE_DELTA) == 0u) pdf_rev = analytic_pdf(b, mode, n, s.wi, wo);
-    return true;
+    if (bsdf_is_engine(b)) return engine_ask(b, n, wo, true, u, transport, false, want_rev, s, pdf_rev);
+    return analytic_sample_rev(b, mode, n, wo, u, transport, want_rev, s, pdf_rev);
 }
 
 // bsdf_eval_pdfs and bsdf_sample_rev in one: with `draw` the sample (into s) and its
 // density back, else f(wo, s.wi) into s.f and the densities pdf(wo -> s.wi) into s.pdf
 // (want_fwd) and back (want_rev). For a kernel that asks a BSDF both questions (BDPT's
-// shade stage): one call site holds one copy of an engine that answers both (the coated
-// random walk, the measured tables, hair), where the two functions would inline two.
+// and MMLT's shade stages): one call site holds one copy of an engine that answers both
+// (engine_ask), where the two functions would inline two.
 bool bsdf_ask(BsdfParams b, uint mode, vec3 n, vec3 wo, bool draw, vec3 u, uint transport, bool want_fwd,
               bool want_rev, inout BsdfSample s, out float pdf_rev) {
-    pdf_rev = 0.0;
-    if (draw) s.wi = vec3(0.0);
-    if (bsdf_is_hair(b)) {
-        bool ok = hair_bsdf_pair(b, n, wo, draw, u, transport, want_rev, s.wi, s.f, s.pdf, pdf_rev);
-        s.flags = dot(n, wo) * dot(n, s.wi) > 0.0 ? BSDF_LOBE_REFLECTION : BSDF_LOBE_TRANSMISSION;
-        return !draw || (ok && !isinf(s.pdf) && s.f != vec3(0.0));
-    }
-    if (bsdf_is_measured(b)) {
-        s.flags = BSDF_LOBE_REFLECTION;
-        bool ok = true;
-        [[dont_unroll]] for (uint k = 0u; k < (want_rev ? 2u : 1u); ++k) {
-            // (k = 0: the sample, or f and pdf(wo -> wi); k = 1: pdf(wi -> wo).)
-            vec3 f, to = k == 0u ? s.wi : wo;
-            float pdf;
-            bool found = measured_bsdf_query(b, n, k == 0u ? wo : s.wi, draw && k == 0u, u, to, f, pdf);
-            if (k == 0u) {
-                ok = !draw || (found && !isinf(pdf) && f != vec3(0.0));
-                s.wi = to;
-                s.f = f;
-                s.pdf = pdf;
-                if (!ok) break;
-            } else {
-                pdf_rev = pdf;
-            }
-        }
-        return ok;
-    }
-    if (bsdf_is_coated(b)) {
-        vec3 f;
-        float pdf;
-        uint q = draw ? COAT_Q_SAMPLE | (want_rev ? COAT_Q_PDF_REV : 0u)
-                      : COAT_Q_F | (want_fwd ? COAT_Q_PDF : 0u) | (want_rev ? COAT_Q_PDF_REV : 0u);
-        vec3 wi = draw ? wo : s.wi;
-        BsdfSample t = s;
-        bool ok = coated_engine(b, n, wo, wi, draw ? u : vec3(0.0), transport, q, f, pdf, pdf_rev, t);
-        if (draw) {
-            s = t;
-            return ok;
-        }
-        s.f = f;
-        s.pdf = pdf;
-        return true;
-    }
-    if (draw) return bsdf_sample_rev(b, mode, n, wo, u, transport, want_rev, s, pdf_rev);
-    s.f = bsdf_eval_pdfs(b, mode, n, wo, s.wi, transport, want_fwd, want_rev, s.pdf, pdf_rev);
+    if (bsdf_is_engine(b)) return engine_ask(b, n, wo, draw, u, transport, want_fwd, want_rev, s, pdf_rev);
+    if (draw) return analytic_sample_rev(b, mode, n, wo, u, transport, want_rev, s, pdf_rev);
+    s.f = analytic_eval_pdfs(b, mode, n, wo, s.wi, transport, want_fwd, want_rev, s.pdf, pdf_rev);
     return true;
 }
 #endif
