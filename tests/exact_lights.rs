@@ -519,6 +519,47 @@ fn hair_renders_alike_in_every_strategy_and_integrator() {
     assert_integrators_agree("hair", &s);
 }
 
+/// Curves (pbrt-v4's `curve`, diced into tubes and strips as pbrt-v4's GPU renderer dices
+/// them): a fan of tapering fibres (cubic Béziers and B-splines, `cylinder` and `flat`,
+/// coated diffuse, as the published hair-coated-diffuse scene has them) and a diffuse
+/// `ribbon` whose normal turns, under the quad light. Every BDPT strategy alone matches
+/// the path tracer's image of its depth, and PT, BDPT and MMLT agree. (The `hair` material
+/// on these tubes does not yet: see docs/pbrt.md, curves.)
+#[test]
+fn curves_render_alike_in_every_strategy_and_integrator() {
+    let (_, kind, quad) = lights().into_iter().next().expect("the quad light");
+    let mut curves = String::new();
+    for k in 0..8 {
+        let x = -1.6 + 0.4 * k as f32;
+        let (ty, basis) = if k % 2 == 0 {
+            ("cylinder", "bezier")
+        } else {
+            ("flat", "bspline")
+        };
+        curves += &format!(
+            "Shape \"curve\" \"string type\" \"{ty}\" \"string basis\" \"{basis}\" \"float width0\" [ 0.18 ] \"float width1\" [ 0.08 ]\n\
+             \"point3 P\" [ {x} 0.1 -1.2  {} 0.8 -0.9  {} 1.4 -1.3  {} 2.0 -1.0 ]\n",
+            x + 0.3,
+            x - 0.2,
+            x + 0.1
+        );
+    }
+    let light = format!(
+        "{quad}\nAttributeEnd\n\
+         AttributeBegin\n\
+         Material \"coateddiffuse\" \"rgb reflectance\" [ 0.8 0.6 0.3 ] \"float roughness\" [ 0.2 ]\n\
+         {curves}AttributeEnd\n\
+         AttributeBegin\n\
+         Material \"diffuse\" \"rgb reflectance\" [ 0.3 0.6 0.8 ]\n\
+         Shape \"curve\" \"string type\" \"ribbon\" \"float width\" [ 0.8 ] \"normal N\" [ 0 0.3 1  0 1 0.3 ]\n\
+         \"point3 P\" [ -1.5 0.6 0.6  -0.5 0.2 0.9  0.5 1.0 0.9  1.5 0.6 0.6 ]"
+    );
+    let s = room(&light, false, 3);
+    assert!(s.triangles.len() > 8 * 50);
+    assert_each_strategy_alone_matches_pt("curves", kind, &s, 3);
+    assert_integrators_agree("curves", &s);
+}
+
 /// A measured material renders as what it tabulates: a sphere of tabulated GGX (α 0.3,
 /// Fresnel factor 1) as a rough conductor of the same α whose Fresnel factor is 0.9999
 /// (pbrt-v4's `reflectance` 0.9999), lit by a constant environment (each pixel then sees

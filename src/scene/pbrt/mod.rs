@@ -18,6 +18,7 @@
 //! and `shapes`.
 
 mod camera;
+mod curves;
 mod lights;
 mod materials;
 mod params;

@@ -1,5 +1,6 @@
-//! Shapes: triangle meshes, PLY meshes, subdivision surfaces, spheres, disks and
-//! bilinear patches, made world-space triangles and spheres of the scene.
+//! Shapes: triangle meshes, PLY meshes, subdivision surfaces, spheres, disks, cylinders,
+//! bilinear patches and curves (diced, `curves.rs`), made world-space triangles and spheres of the
+//! scene.
 
 use super::*;
 
@@ -8,6 +9,9 @@ pub(super) const MAX_SUBDIVIDED_TRIANGLES: f64 = 8_000_000.0;
 
 /// Segments of a triangulated disk.
 pub(super) const DISK_SEGMENTS: usize = 128;
+
+/// Segments around a triangulated whole cylinder.
+pub(super) const CYLINDER_SEGMENTS: usize = 128;
 
 /// A shape as declared, in its object space, with what applies to it.
 #[derive(Clone, Debug)]
@@ -196,6 +200,88 @@ impl Parser {
                     uv: mesh.uv,
                 }
             }
+            "curve" => {
+                let Some(pp) = params.find("P") else {
+                    return Err(self.err_at(file, line, d, "curve: no \"point3 P\""));
+                };
+                let cp = vec3s(pp);
+                let num = |n: &str| params.find(n).and_then(|p| p.nums.first().copied());
+                let string = |n: &str, default: &str| {
+                    params
+                        .find(n)
+                        .and_then(|p| p.strs.first().cloned())
+                        .unwrap_or_else(|| default.to_owned())
+                };
+                let width = num("width").unwrap_or(1.0) as f32;
+                let (width0, width1) = (
+                    num("width0").map_or(width, |w| w as f32),
+                    num("width1").map_or(width, |w| w as f32),
+                );
+                if !(width0 >= 0.0 && width1 >= 0.0) {
+                    return Err(self.err_at(file, line, d, "curve: a negative width"));
+                }
+                let degree = num("degree").unwrap_or(3.0) as usize;
+                let bspline = match string("basis", "bezier").as_str() {
+                    "bezier" => false,
+                    "bspline" => true,
+                    other => {
+                        return Err(self.err_at(
+                            file,
+                            line,
+                            d,
+                            format!(
+                                "curve: basis \"{other}\" (expected \"bezier\" or \"bspline\")"
+                            ),
+                        ))
+                    }
+                };
+                let ty = match string("type", "flat").as_str() {
+                    "flat" => curves::CurveType::Flat,
+                    "cylinder" => curves::CurveType::Cylinder,
+                    "ribbon" => curves::CurveType::Ribbon,
+                    other => {
+                        return Err(self.err_at(file, line, d, format!("curve: type \"{other}\" (expected \"flat\", \"cylinder\" or \"ribbon\")")))
+                    }
+                };
+                // (pbrt-v4's GPU renderer dices curves whole, as here: no split depth.)
+                params.find("splitdepth");
+                let mut curve = curves::Curve {
+                    cp,
+                    degree,
+                    bspline,
+                    width0,
+                    width1,
+                    ty,
+                    normals: Vec::new(),
+                };
+                let segments = curve
+                    .segments()
+                    .map_err(|e| self.err_at(pp.file, pp.line, d, format!("curve: {e}")))?;
+                let normals = params.find("N").map(vec3s);
+                match (ty, normals) {
+                    (curves::CurveType::Ribbon, Some(n)) if n.len() == segments.len() + 1 => {
+                        curve.normals = n
+                    }
+                    (curves::CurveType::Ribbon, Some(n)) => {
+                        return Err(self.err_at(file, line, d, format!("curve: {} normals for {} segments (a ribbon needs one more normal than segments)", n.len(), segments.len())))
+                    }
+                    (curves::CurveType::Ribbon, None) => {
+                        return Err(self.err_at(file, line, d, "curve: a ribbon needs \"normal N\" at its segments' ends"))
+                    }
+                    (_, Some(_)) => {
+                        let at = format!("{}:{line}", self.files[file as usize]);
+                        self.warn("curve normals", format!("{at}: curve: normals \"N\" are read by ribbon curves only (ignored, as pbrt-v4 does)"))
+                    }
+                    (_, None) => {}
+                }
+                let diced = curve.dice(&segments);
+                ShapeKind::Mesh {
+                    p: diced.p,
+                    indices: diced.indices,
+                    n: diced.n,
+                    uv: Some(diced.uv),
+                }
+            }
             "sphere" => {
                 let radius = params
                     .find("radius")
@@ -273,6 +359,63 @@ impl Parser {
                     p,
                     indices,
                     n: None,
+                    uv: Some(uv),
+                }
+            }
+            "cylinder" => {
+                let num = |n: &str, default: f64| {
+                    params
+                        .find(n)
+                        .and_then(|p| p.nums.first().copied())
+                        .unwrap_or(default) as f32
+                };
+                let (radius, z0, z1, phimax) = (
+                    num("radius", 1.0),
+                    num("zmin", -1.0),
+                    num("zmax", 1.0),
+                    num("phimax", 360.0).clamp(0.0, 360.0),
+                );
+                let (zmin, zmax) = (z0.min(z1), z0.max(z1));
+                if !(radius > 0.0 && zmax > zmin && phimax > 0.0) {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        "cylinder: need radius > 0, zmin != zmax and phimax > 0",
+                    ));
+                }
+                // pbrt-v4's quadric (u = φ / φmax, v = (z − zmin) / (zmax − zmin), the
+                // normal away from the axis) as CYLINDER_SEGMENTS quads around, radial
+                // vertex normals: exact along z, its area 0.04 % below the cylinder's
+                // (the disk's polygon).
+                let steps = ((CYLINDER_SEGMENTS as f32 * phimax / 360.0).ceil() as usize).max(1);
+                let mut p = Vec::new();
+                let mut n = Vec::new();
+                let mut uv = Vec::new();
+                let mut indices = Vec::new();
+                for k in 0..=steps {
+                    let u = k as f32 / steps as f32;
+                    let (s, c) = (u * phimax.to_radians()).sin_cos();
+                    for (z, v) in [(zmin, 0.0), (zmax, 1.0)] {
+                        p.push(Vec3::new(radius * c, radius * s, z));
+                        n.push(Vec3::new(c, s, 0.0));
+                        uv.push(Vec2::new(u, v));
+                    }
+                    if k > 0 {
+                        let (a0, a1, b0, b1) = (
+                            2 * k as u32 - 2,
+                            2 * k as u32 - 1,
+                            2 * k as u32,
+                            2 * k as u32 + 1,
+                        );
+                        // Wound so that the faces' normal leaves the axis.
+                        indices.extend([a0, b0, b1, a0, b1, a1]);
+                    }
+                }
+                ShapeKind::Mesh {
+                    p,
+                    indices,
+                    n: Some(n),
                     uv: Some(uv),
                 }
             }

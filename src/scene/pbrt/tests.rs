@@ -79,6 +79,9 @@ fn every_parameter_name_read_is_pbrt_v4s_own() {
     for ty in ["sphere", "disk", "cylinder", "curve", "plymesh"] {
         files.push(world(&format!("Shape \"{ty}\"")));
     }
+    files.push(world(
+        "Shape \"curve\" \"point3 P\" [ 0 0 0  1 0 0  2 0 0  3 0 0 ] \"string type\" \"ribbon\" \"normal N\" [ 0 0 1  0 0 1 ]",
+    ));
     for ty in [
         "diffuse",
         "dielectric",
@@ -1066,7 +1069,7 @@ fn unsupported_features_are_listed_together() {
     let e = parse_err(&format!(
         r#"WorldBegin
         MakeNamedMedium "fog" "string type" "homogeneous"
-        Shape "curve" "point3 P" [0 0 0 1 1 1 2 2 2 3 3 3]
+        Shape "hyperboloid"
         Material "subsurface"
         Shape "sphere" "float alpha" 0.5
         LightSource "goniometric"
@@ -1075,7 +1078,7 @@ fn unsupported_features_are_listed_together() {
     let text = e.to_string();
     for what in [
         "t.pbrt:2: MakeNamedMedium",
-        "t.pbrt:3: Shape \"curve\"",
+        "t.pbrt:3: Shape \"hyperboloid\"",
         "t.pbrt:4: Material \"subsurface\"",
         "alpha",
         "t.pbrt:6: LightSource \"goniometric\"",
@@ -1342,6 +1345,84 @@ fn spheres_disks_and_bilinear_patches() {
     assert!((patch - 1.0).abs() < 1e-6);
     let e = parse_err("WorldBegin Shape \"sphere\" \"float zmax\" 0.5");
     assert!(e.message.contains("partial sphere"), "{e}");
+}
+
+/// `Shape "cylinder"` as pbrt-v4's quadric: radius, zmin, zmax, a partial φmax; uv
+/// (φ / φmax, (z − zmin) / (zmax − zmin)), faces and normals away from the axis; its area
+/// that of the polygon around.
+#[test]
+fn cylinders_are_pbrt_v4s_quadrics() {
+    let s = parse(
+        r#"WorldBegin
+        Shape "cylinder" "float radius" 0.5 "float zmin" -0.25 "float zmax" 0.75 "float phimax" 180
+        "#,
+    );
+    let area: f32 = s
+        .triangles
+        .iter()
+        .map(|t| 0.5 * (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length())
+        .sum();
+    let want = std::f32::consts::PI * 0.5 * 1.0;
+    assert!((area / want - 1.0).abs() < 1e-3, "{area} against {want}");
+    for t in &s.triangles {
+        let g = (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]);
+        let mid = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
+        assert!(
+            g.dot(Vec3::new(mid.x, mid.y, 0.0)) > 0.0,
+            "a face looks at the axis"
+        );
+        for (k, v) in t.v.iter().enumerate() {
+            assert!((Vec3::new(v.x, v.y, 0.0).length() - 0.5).abs() < 1e-5 && v.y >= -1e-6);
+            let uv = t.uv.unwrap()[k];
+            assert!((uv.y - (v.z + 0.25)).abs() < 1e-5);
+            assert!((uv.x * std::f32::consts::PI - v.y.max(0.0).atan2(v.x)).abs() < 1e-4);
+            assert!(t.normals.unwrap()[k].dot(Vec3::new(v.x, v.y, 0.0) * 2.0) > 0.9999);
+        }
+    }
+    let e = parse_err("WorldBegin\nShape \"cylinder\" \"float radius\" 0");
+    assert!(e.message.contains("cylinder") && e.line == 2, "{e}");
+}
+
+/// `Shape "curve"`: diced as pbrt-v4's GPU renderer dices it (tubes for flat and cylinder
+/// curves, strips for ribbons), under the current transform; pbrt-v4's errors for its
+/// control points and ribbon normals, at the directive's line.
+#[test]
+fn curves_are_diced_into_tubes_and_ribbons() {
+    let s = parse(
+        r#"WorldBegin
+        Translate 0 0 1
+        Shape "curve" "point3 P" [0 0 0 1 0 0 2 0 0 3 0 0] "float width" 0.2 "string type" "cylinder"
+        Shape "curve" "point3 P" [0 0 0 1 0 0 2 0 0 3 0 0 4 0 0] "string basis" "bspline" "float width0" 0.2 "float width1" 0.1
+        Shape "curve" "point3 P" [0 0 0 1 0 0 2 0 0 3 0 0] "string type" "ribbon" "normal N" [0 0 1 0 0 1] "float width" 0.5
+        "#,
+    );
+    let tube = 2 * curves::CURVE_SIDES * curves::CURVE_STEPS_PER_SEGMENT;
+    let ribbon = 2 * curves::CURVE_STEPS_PER_SEGMENT;
+    assert_eq!(s.triangles.len(), tube + 2 * tube + ribbon);
+    for t in &s.triangles[..tube] {
+        for (k, v) in t.v.iter().enumerate() {
+            // On the tube of radius 0.1 around the x axis moved to z = 1, its normals radial.
+            let r = Vec3::new(0.0, v.y, v.z - 1.0);
+            assert!((r.length() - 0.1).abs() < 1e-5, "{v}");
+            let n = t.normals.as_ref().expect("tubes have vertex normals")[k];
+            assert!(n.dot(r.normalize()) > 0.9999);
+            assert!((v.x - 3.0 * t.uv.unwrap()[k].x).abs() < 1e-4);
+        }
+    }
+    // The ribbon: flat in z = 1, 0.5 wide across y, two-sided (no vertex normals).
+    for t in &s.triangles[3 * tube..] {
+        assert!(t.normals.is_none());
+        assert!(t
+            .v
+            .iter()
+            .all(|v| (v.z - 1.0).abs() < 1e-5 && (v.y.abs() - 0.25).abs() < 1e-5));
+    }
+    let e = parse_err("WorldBegin\nShape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0 4 0 0]");
+    assert!(e.message.contains("4 + k · 3") && e.line == 2, "{e}");
+    let e = parse_err("WorldBegin\nShape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0] \"string type\" \"ribbon\"");
+    assert!(e.message.contains("ribbon needs"), "{e}");
+    let e = parse_err("WorldBegin\nShape \"curve\" \"point3 P\" [0 0 0 1 0 0 2 0 0 3 0 0] \"string basis\" \"hermite\"");
+    assert!(e.message.contains("hermite"), "{e}");
 }
 
 /// `Material "measured"`: its file relative to the file that names it, read once however
