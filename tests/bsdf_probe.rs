@@ -711,6 +711,68 @@ fn measured_bsdfs_about_any_normal_on_the_device_match_their_cpu_mirror() {
     );
 }
 
+/// Hair seen from either side of its surface is one fiber: a caller passes the normal on
+/// wo's side, so seen from the inside (`front` false) the fiber's frame is the outside's
+/// turned half a turn about the fiber, and f and the pdfs must not change with it (light
+/// subpaths reach a point of a closed fiber from the other side than camera subpaths where
+/// the fiber transmits). The device's answers for (front, n) and (back, −n) agree.
+#[test]
+fn hair_is_one_fiber_seen_from_either_side() {
+    let mut rng = Rng(0x2f0b_55aa_31c4_9e07);
+    let materials: Vec<GpuMaterial> = (0..8)
+        .map(|_| {
+            Material {
+                bsdf: BsdfKind::Hair,
+                k: rng.colour() * 2.0,
+                ior: 1.55,
+                roughness: 0.2 + 0.6 * rng.next(),
+                roughness_v: 0.2 + 0.6 * rng.next(),
+                shininess: 2.0,
+                ..Material::default()
+            }
+            .record()
+        })
+        .collect();
+    let mut inputs = Vec::new();
+    for i in 0..2000u32 {
+        let (n, t) = (rng.unit_vector(), rng.unit_vector());
+        let h = 2.0 * rng.next() - 1.0;
+        let (wo, wi) = (rng.unit_vector(), rng.unit_vector());
+        let u = [rng.next(), rng.next(), rng.next(), 0.0];
+        for back in [false, true] {
+            inputs.push(BsdfProbeInput {
+                info: [
+                    i % 8,
+                    SampleMode::Brdf as u32,
+                    Transport::Radiance as u32,
+                    back as u32,
+                ],
+                n: (if back { -n } else { n }).extend(0.0).to_array(),
+                wo: wo.extend(0.0).to_array(),
+                wi: wi.extend(0.0).to_array(),
+                u,
+                tex1: t.extend(h).to_array(),
+            });
+        }
+    }
+    let got = {
+        let mut r = common::renderer(AccelChoice::Bvh);
+        lightpath::probe::bsdf(&mut r.engine, &materials, &[], &inputs).expect("BSDF probe")
+    };
+    let mut errors = Vec::new();
+    for (k, pair) in got.chunks(2).enumerate() {
+        let (a, b) = (&pair[0], &pair[1]);
+        let e = (0..4)
+            .map(|j| rel(b.eval[j], a.eval[j]))
+            .fold(0.0f32, f32::max)
+            .max(rel(f32::from_bits(b.info[2]), f32::from_bits(a.info[2])))
+            .max(rel(f32::from_bits(b.info[3]), f32::from_bits(a.info[3])));
+        assert!(e < 0.1, "pair {k}: front {:?} vs back {:?}", a.eval, b.eval);
+        errors.push(e);
+    }
+    assert_relative_differences(errors, 1e-4, 3e-2);
+}
+
 /// Hair (pbrt-v4's `hair`, its own class) as the renders ask it (bsdf.glsl's `bsdf_eval`,
 /// `bsdf_pdf`, `bsdf_sample`, `bsdf_eval_pdfs` and `bsdf_sample_rev` in the hair branch)
 /// against `Hair::eval_about`, `pdf_about` and `sample_about` (src/hair.rs): random

@@ -519,25 +519,32 @@ fn hair_renders_alike_in_every_strategy_and_integrator() {
     assert_integrators_agree("hair", &s);
 }
 
-/// Curves (pbrt-v4's `curve`, diced into tubes and strips as pbrt-v4's GPU renderer dices
-/// them): a fan of tapering fibres (cubic Béziers and B-splines, `cylinder` and `flat`,
-/// coated diffuse, as the published hair-coated-diffuse scene has them) and a diffuse
-/// `ribbon` whose normal turns, under the quad light. Every BDPT strategy alone matches
-/// the path tracer's image of its depth, and PT, BDPT and MMLT agree. (The `hair` material
-/// on these tubes does not yet: see docs/pbrt.md, curves.)
-#[test]
-fn curves_render_alike_in_every_strategy_and_integrator() {
-    let (_, kind, quad) = lights().into_iter().next().expect("the quad light");
+/// A fan of eight tapering fibres (cubic Béziers and B-splines, every other one coated
+/// diffuse as the published hair-coated-diffuse scene has it, the rest blond `hair`) of
+/// curve type `ty` (`ribbon`s get normals toward the camera), and a diffuse ribbon whose
+/// normal turns, in the room under the quad light.
+fn curves_scene(quad: &str, hair_type: &str) -> Scene {
     let mut curves = String::new();
     for k in 0..8 {
         let x = -1.6 + 0.4 * k as f32;
-        let (ty, basis) = if k % 2 == 0 {
-            ("cylinder", "bezier")
+        let hair = k % 2 == 0;
+        let (ty, basis) = match (hair, k % 4) {
+            (true, _) => (hair_type, "bezier"),
+            (false, 1) => ("cylinder", "bspline"),
+            (false, _) => ("flat", "bezier"),
+        };
+        curves += if hair {
+            "Material \"hair\" \"rgb reflectance\" [ 0.8 0.6 0.3 ] \"float beta_m\" [ 0.5 ] \"float beta_n\" [ 0.5 ]\n"
         } else {
-            ("flat", "bspline")
+            "Material \"coateddiffuse\" \"rgb reflectance\" [ 0.8 0.6 0.3 ] \"float roughness\" [ 0.2 ]\n"
+        };
+        let normals = if ty == "ribbon" {
+            "\"normal N\" [ 0 0 1  0 0 1 ]"
+        } else {
+            ""
         };
         curves += &format!(
-            "Shape \"curve\" \"string type\" \"{ty}\" \"string basis\" \"{basis}\" \"float width0\" [ 0.18 ] \"float width1\" [ 0.08 ]\n\
+            "Shape \"curve\" \"string type\" \"{ty}\" \"string basis\" \"{basis}\" \"float width0\" [ 0.18 ] \"float width1\" [ 0.08 ] {normals}\n\
              \"point3 P\" [ {x} 0.1 -1.2  {} 0.8 -0.9  {} 1.4 -1.3  {} 2.0 -1.0 ]\n",
             x + 0.3,
             x - 0.2,
@@ -547,7 +554,6 @@ fn curves_render_alike_in_every_strategy_and_integrator() {
     let light = format!(
         "{quad}\nAttributeEnd\n\
          AttributeBegin\n\
-         Material \"coateddiffuse\" \"rgb reflectance\" [ 0.8 0.6 0.3 ] \"float roughness\" [ 0.2 ]\n\
          {curves}AttributeEnd\n\
          AttributeBegin\n\
          Material \"diffuse\" \"rgb reflectance\" [ 0.3 0.6 0.8 ]\n\
@@ -555,9 +561,27 @@ fn curves_render_alike_in_every_strategy_and_integrator() {
          \"point3 P\" [ -1.5 0.6 0.6  -0.5 0.2 0.9  0.5 1.0 0.9  1.5 0.6 0.6 ]"
     );
     let s = room(&light, false, 3);
-    assert!(s.triangles.len() > 8 * 50);
-    assert_each_strategy_alone_matches_pt("curves", kind, &s, 3);
-    assert_integrators_agree("curves", &s);
+    assert!(s.triangles.len() > 4 * 50);
+    s
+}
+
+/// Curves (pbrt-v4's `curve`, diced into tubes and strips as pbrt-v4's GPU renderer dices
+/// them), `curves_scene`: with the hair fibres as ribbons, every BDPT strategy alone
+/// matches the path tracer's image of its depth; with them as tubes (`cylinder`), PT,
+/// BDPT and MMLT agree. (Hair tubes are not posed to each strategy alone: light that the
+/// fibre transmits walks inside its tube, and there the s, t ≥ 2 connections span a
+/// fraction of its width, so that their unweighted estimates are heavy-tailed: over three
+/// seeds of 256 samples the whole image's depth-3 mean of s = 2, t = 3 read 0.0022,
+/// 0.0077 and 0.0013 where s = 1, t = 4 read 0.0019, 0.0018, 0.0019; as ribbons every
+/// strategy reads 0.0017 to 0.0019. MIS weights those connections down, and the weighted
+/// images agree.)
+#[test]
+fn curves_render_alike_in_every_strategy_and_integrator() {
+    let (_, kind, quad) = lights().into_iter().next().expect("the quad light");
+    let ribbons = curves_scene(&quad, "ribbon");
+    assert_each_strategy_alone_matches_pt("curves", kind, &ribbons, 3);
+    assert_integrators_agree("curves (ribbons)", &ribbons);
+    assert_integrators_agree("curves (tubes)", &curves_scene(&quad, "cylinder"));
 }
 
 /// A measured material renders as what it tabulates: a sphere of tabulated GGX (α 0.3,
