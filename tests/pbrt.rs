@@ -102,7 +102,7 @@ fn the_command_line_reads_pbrt_files() {
     let bad = dir.join("bad.pbrt");
     std::fs::write(
         &bad,
-        "WorldBegin\nShape \"curve\" \"point3 P\" [0 0 0 1 1 1 2 2 2 3 3 3]\nMakeNamedMedium \"m\" \"string type\" \"homogeneous\"\n",
+        "WorldBegin\nShape \"hyperboloid\"\nMakeNamedMedium \"m\" \"string type\" \"homogeneous\"\n",
     )
     .unwrap();
     let out2 = dir.join("bad.exr");
@@ -118,7 +118,8 @@ fn the_command_line_reads_pbrt_files() {
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success());
     assert!(
-        err.contains("bad.pbrt:2: Shape \"curve\"") && err.contains("bad.pbrt:3: MakeNamedMedium"),
+        err.contains("bad.pbrt:2: Shape \"hyperboloid\"")
+            && err.contains("bad.pbrt:3: MakeNamedMedium"),
         "{err}"
     );
     assert!(!out2.exists());
