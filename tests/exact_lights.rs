@@ -522,7 +522,8 @@ fn hair_renders_alike_in_every_strategy_and_integrator() {
 /// A fan of eight tapering fibres (cubic Béziers and B-splines, every other one coated
 /// diffuse as the published hair-coated-diffuse scene has it, the rest blond `hair`) of
 /// curve type `ty` (`ribbon`s get normals toward the camera), and a diffuse ribbon whose
-/// normal turns, in the room under the quad light.
+/// normal turns, and a half cylinder behind them (pbrt-v4's `cylinder`, as bunny-fur's
+/// backdrop), in the room under the quad light.
 fn curves_scene(quad: &str, hair_type: &str) -> Scene {
     let mut curves = String::new();
     for k in 0..8 {
@@ -558,7 +559,11 @@ fn curves_scene(quad: &str, hair_type: &str) -> Scene {
          AttributeBegin\n\
          Material \"diffuse\" \"rgb reflectance\" [ 0.3 0.6 0.8 ]\n\
          Shape \"curve\" \"string type\" \"ribbon\" \"float width\" [ 0.8 ] \"normal N\" [ 0 0.3 1  0 1 0.3 ]\n\
-         \"point3 P\" [ -1.5 0.6 0.6  -0.5 0.2 0.9  0.5 1.0 0.9  1.5 0.6 0.6 ]"
+         \"point3 P\" [ -1.5 0.6 0.6  -0.5 0.2 0.9  0.5 1.0 0.9  1.5 0.6 0.6 ]\n\
+         AttributeEnd\nAttributeBegin\n\
+         Material \"diffuse\" \"rgb reflectance\" [ 0.6 0.5 0.4 ]\n\
+         Translate 0 1.2 -2.4\nRotate 90 0 1 0\n\
+         Shape \"cylinder\" \"float radius\" [ 0.5 ] \"float zmin\" [ -2.5 ] \"float zmax\" [ 2.5 ] \"float phimax\" [ 180 ]"
     );
     let s = room(&light, false, 3);
     assert!(s.triangles.len() > 4 * 50);

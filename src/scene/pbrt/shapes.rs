@@ -64,6 +64,13 @@ impl Parser {
                 .map(|c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))
                 .collect::<Vec<_>>()
         };
+        // A float parameter's first value, or `default`.
+        let float_or = |n: &str, default: f64| {
+            params
+                .find(n)
+                .and_then(|p| p.nums.first().copied())
+                .unwrap_or(default) as f32
+        };
         let kind = match ty {
             "trianglemesh" | "bilinearmesh" => {
                 let Some(pp) = params.find("P") else {
@@ -205,22 +212,18 @@ impl Parser {
                     return Err(self.err_at(file, line, d, "curve: no \"point3 P\""));
                 };
                 let cp = vec3s(pp);
-                let num = |n: &str| params.find(n).and_then(|p| p.nums.first().copied());
                 let string = |n: &str, default: &str| {
                     params
                         .find(n)
                         .and_then(|p| p.strs.first().cloned())
                         .unwrap_or_else(|| default.to_owned())
                 };
-                let width = num("width").unwrap_or(1.0) as f32;
-                let (width0, width1) = (
-                    num("width0").map_or(width, |w| w as f32),
-                    num("width1").map_or(width, |w| w as f32),
-                );
+                let width = float_or("width", 1.0) as f64;
+                let (width0, width1) = (float_or("width0", width), float_or("width1", width));
                 if !(width0 >= 0.0 && width1 >= 0.0) {
                     return Err(self.err_at(file, line, d, "curve: a negative width"));
                 }
-                let degree = num("degree").unwrap_or(3.0) as usize;
+                let degree = float_or("degree", 3.0) as usize;
                 let bspline = match string("basis", "bezier").as_str() {
                     "bezier" => false,
                     "bspline" => true,
@@ -315,16 +318,10 @@ impl Parser {
                 ShapeKind::Sphere { radius }
             }
             "disk" => {
-                let num = |n: &str, default: f64| {
-                    params
-                        .find(n)
-                        .and_then(|p| p.nums.first().copied())
-                        .unwrap_or(default) as f32
-                };
                 let (radius, inner, height) = (
-                    num("radius", 1.0),
-                    num("innerradius", 0.0),
-                    num("height", 0.0),
+                    float_or("radius", 1.0),
+                    float_or("innerradius", 0.0),
+                    float_or("height", 0.0),
                 );
                 if let Some(p) = params.find("phimax") {
                     if p.nums.first().copied().unwrap_or(360.0) < 360.0 {
@@ -363,17 +360,11 @@ impl Parser {
                 }
             }
             "cylinder" => {
-                let num = |n: &str, default: f64| {
-                    params
-                        .find(n)
-                        .and_then(|p| p.nums.first().copied())
-                        .unwrap_or(default) as f32
-                };
                 let (radius, z0, z1, phimax) = (
-                    num("radius", 1.0),
-                    num("zmin", -1.0),
-                    num("zmax", 1.0),
-                    num("phimax", 360.0).clamp(0.0, 360.0),
+                    float_or("radius", 1.0),
+                    float_or("zmin", -1.0),
+                    float_or("zmax", 1.0),
+                    float_or("phimax", 360.0).clamp(0.0, 360.0),
                 );
                 let (zmin, zmax) = (z0.min(z1), z0.max(z1));
                 if !(radius > 0.0 && zmax > zmin && phimax > 0.0) {
