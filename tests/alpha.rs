@@ -144,6 +144,117 @@ fn alpha_cut_outs_match_their_mirror_on_every_backend() {
     }
 }
 
+/// Panels side by side at z = 0 whose alpha is a texture of each kind that the alpha test
+/// compiles only when an alpha texture needs it (abi.h's `FEATURE_ALPHA_*`): a bilerp, a
+/// procedural noise (fbm), a texture made of textures (a checkerboard scaled by a bilerp)
+/// and a planar-mapped checkerboard; an opaque wall at z = -1, and a material texture of
+/// another kind (dots), so that the surfaces' texture features and the alpha test's differ.
+fn alpha_kinds() -> Scene {
+    let quad = |x0: f32, alpha: &str| {
+        let x1 = x0 + 2.0;
+        format!(
+            "AttributeBegin\nShape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \
+             \"point3 P\" [ {x0} -1 0  {x1} -1 0  {x1} 1 0  {x0} 1 0 ] \
+             \"point2 uv\" [ 0 0  1 0  1 1  0 1 ] \"texture alpha\" \"{alpha}\"\nAttributeEnd\n"
+        )
+    };
+    let text = format!(
+        "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 40 ]\n\
+         Film \"rgb\" \"integer xresolution\" [ 8 ] \"integer yresolution\" [ 8 ]\n\
+         WorldBegin\n\
+         Texture \"ramp\" \"float\" \"bilerp\" \"float v00\" 0 \"float v01\" 1 \"float v10\" 1 \"float v11\" 0\n\
+         AttributeBegin\nScale 0.3 0.3 0.3\n\
+         Texture \"noise\" \"float\" \"fbm\" \"integer octaves\" 4\nAttributeEnd\n\
+         Texture \"checks\" \"float\" \"checkerboard\" \"float uscale\" 4 \"float vscale\" 4 \
+         \"float tex1\" 1 \"float tex2\" 0.2\n\
+         Texture \"graph\" \"float\" \"scale\" \"texture tex\" \"checks\" \"texture scale\" \"ramp\"\n\
+         Texture \"planar\" \"float\" \"checkerboard\" \"string mapping\" \"planar\" \
+         \"vector3 v1\" [ 2 0 0 ] \"vector3 v2\" [ 0 2 0 ] \"float tex1\" 0.9 \"float tex2\" 0.1\n\
+         Texture \"spots\" \"spectrum\" \"dots\" \"rgb inside\" [ 0.9 0.1 0.1 ]\n\
+         Material \"diffuse\" \"texture reflectance\" \"spots\"\n\
+         {q0}{q1}{q2}{q3}\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \
+         \"point3 P\" [ -5 -2 -1  5 -2 -1  5 2 -1  -5 2 -1 ]\n",
+        q0 = quad(-4.0, "ramp"),
+        q1 = quad(-2.0, "noise"),
+        q2 = quad(0.0, "graph"),
+        q3 = quad(2.0, "planar"),
+    );
+    scene::parse_pbrt_str(&text, "alpha-kinds.pbrt").expect("the alpha kinds parse")
+}
+
+#[test]
+fn alpha_textures_of_every_kind_match_their_mirror_on_every_backend() {
+    use lightpath::abi::{
+        FEATURE_ALPHA_BILERP_TEXTURES, FEATURE_ALPHA_PROCEDURAL_TEXTURES,
+        FEATURE_ALPHA_TEXTURE_GRAPHS, FEATURE_ALPHA_TEXTURE_PROJECTIONS,
+    };
+    let s = alpha_kinds();
+    let alpha_bits = FEATURE_ALPHA_BILERP_TEXTURES
+        | FEATURE_ALPHA_PROCEDURAL_TEXTURES
+        | FEATURE_ALPHA_TEXTURE_GRAPHS
+        | FEATURE_ALPHA_TEXTURE_PROJECTIONS;
+    assert_eq!(
+        lightpath::engine::scene_features(&s) & alpha_bits,
+        alpha_bits,
+        "the alpha textures need every alpha texture feature"
+    );
+    let mut state = 5u64;
+    let mut rays = Vec::new();
+    for _ in 0..2000 {
+        let o = Vec3::new(
+            8.0 * (rng(&mut state) - 0.5),
+            2.0 * (rng(&mut state) - 0.5),
+            4.0,
+        );
+        let target = Vec3::new(
+            8.0 * (rng(&mut state) - 0.5),
+            1.9 * (rng(&mut state) - 0.5),
+            -1.0,
+        );
+        rays.push((o, (target - o).normalize(), 100.0));
+    }
+    for accel in [AccelChoice::Bvh, AccelChoice::Bvh2, AccelChoice::RayQuery] {
+        let hits = {
+            let mut r = renderer(accel);
+            lightpath::probe::trace_rays(&mut r.engine, &s, &rays).expect("trace probe")
+        };
+        // Per panel: rays that stop on it and rays that pass it (to the wall).
+        let (mut kept, mut passed, mut differ) = ([0u32; 4], [0u32; 4], 0u32);
+        for ((o, d, tmax), h) in rays.iter().zip(&hits) {
+            let want = brute(&s, &s.textures, *o, *d, *tmax);
+            let got = h.closest;
+            match (got, want) {
+                (Some((gp, gt)), Some((wp, wt))) if gp == wp && (gt - wt).abs() <= 1e-4 * wt => {
+                    if gp < 8 {
+                        kept[(gp / 2) as usize] += 1;
+                    } else {
+                        // (Where the ray crossed z = 0.)
+                        let x = o.x + d.x * (-o.z / d.z);
+                        if (-4.0..4.0).contains(&x) && (o.y + d.y * (-o.z / d.z)).abs() < 1.0 {
+                            passed[((x + 4.0) / 2.0) as usize] += 1;
+                        }
+                    }
+                }
+                _ => differ += 1,
+            }
+        }
+        let allowed = if accel == AccelChoice::RayQuery { 4 } else { 0 };
+        assert!(
+            differ <= allowed,
+            "{accel:?}: {differ} rays differ from the brute force with the mirror's alpha \
+             (kept per panel {kept:?}, passed {passed:?})"
+        );
+        // Each texture keeps some rays and lets others through.
+        for i in 0..4 {
+            assert!(
+                kept[i] > 40 && passed[i] > 40,
+                "{accel:?}: panel {i} kept {kept:?} passed {passed:?}"
+            );
+        }
+    }
+}
+
 /// A quad light (L 2) filling the view behind a black panel at z = 0 with `alpha`.
 fn light_through_panel(dir: &Path, alpha: &str) -> Scene {
     let text = format!(

@@ -285,16 +285,25 @@ fn the_every_feature_scenes_measured_file_is_the_synthetic_ggx_table() {
 
 /// scenes/pbrt/every-feature.pbrt (docs/performance.md's cold-compile figures) holds every
 /// feature a pbrt file can bring without an image file: the kernels it needs are
-/// specialized to every feature bit but the environment map's and unbounded depth's.
+/// specialized to every feature bit but the environment map's and unbounded depth's (and
+/// its alpha texture, a bilerp, needs only that texture's code in the alpha test).
 #[test]
 fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
-    use lightpath::abi::{FEATURE_ALL, FEATURE_ENVIRONMENT_MAP, FEATURE_UNBOUNDED};
+    use lightpath::abi::{
+        FEATURE_ALL, FEATURE_ALPHA_PROCEDURAL_TEXTURES, FEATURE_ALPHA_TEXTURE_GRAPHS,
+        FEATURE_ALPHA_TEXTURE_PROJECTIONS, FEATURE_ENVIRONMENT_MAP, FEATURE_UNBOUNDED,
+    };
     let s = scene::load(&repo().join("scenes/pbrt/every-feature.pbrt"))
         .expect("the every-feature scene parses");
     let features = lightpath::engine::scene_features(&s);
     assert_eq!(
         features,
-        FEATURE_ALL & !(FEATURE_ENVIRONMENT_MAP | FEATURE_UNBOUNDED),
+        FEATURE_ALL
+            & !(FEATURE_ENVIRONMENT_MAP
+                | FEATURE_UNBOUNDED
+                | FEATURE_ALPHA_TEXTURE_PROJECTIONS
+                | FEATURE_ALPHA_TEXTURE_GRAPHS
+                | FEATURE_ALPHA_PROCEDURAL_TEXTURES),
         "{features:b}"
     );
 }

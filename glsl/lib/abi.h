@@ -144,14 +144,23 @@
 // Coated materials whose layer scatters (pbrt-v4's albedo > 0: the walk's free flights
 // and phase function, layered.glsl).
 #define FEATURE_LAYER_MEDIUM 4096
-// Procedural textures: noise (fbm, wrinkled, windy, marble), dots and bilerp.
+// Procedural textures: noise (fbm, wrinkled, windy, marble) and dots.
 #define FEATURE_PROCEDURAL_TEXTURES 8192
 // Measured materials, the measured class (lib/measured.glsl's tables).
 #define FEATURE_MEASURED 16384
 // Hair, the hair class (lib/hair.glsl; surfaces give it their dp/du and offset).
 #define FEATURE_HAIR 32768
+// The bilerp texture.
+#define FEATURE_BILERP_TEXTURES 65536
+// The texture features of the alpha textures alone (the alpha test is inlined in every
+// traversal; texture.glsl's alpha_texture_features): projections, graphs, procedural
+// (noise, dots) and bilerp textures.
+#define FEATURE_ALPHA_TEXTURE_PROJECTIONS 131072
+#define FEATURE_ALPHA_TEXTURE_GRAPHS 262144
+#define FEATURE_ALPHA_PROCEDURAL_TEXTURES 524288
+#define FEATURE_ALPHA_BILERP_TEXTURES 1048576
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 65535
+#define FEATURE_ALL 2097151
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u

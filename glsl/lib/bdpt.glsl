@@ -202,24 +202,15 @@ bool light_walk_vertex(inout Walk w, float t, Surface s, out PathVertex v) {
     return true;
 }
 
-// Continue a subpath from its vertex v by sampling the BSDF with the numbers u: the
-// throughput, and (update_mis) the MIS sums, follow the new direction.
+// Continue a subpath from its vertex v after its BSDF sample bs (and the density back,
+// pdf_rev; the shade stages ask both where they ask the BSDF's other questions): the
+// throughput, and (update_mis) the MIS sums, follow the new direction. (The sample's
+// numbers are drawn from the walk's stream, camera or light; walk_survives then plays
+// the roulette beyond the cap.)
 //
 // A delta lobe (SmallVCM's specular update; Georgiev 2012, tech. rep. eqs. 53-55): no
 // connection can end at this vertex, so dVCM restarts at 0 and dVC keeps its sum, times
 // cos^2 (the lobe's forward and reverse pdfs are equal and cancel).
-bool walk_scatter_sampled(inout Walk w, PathVertex v, BsdfSample bs, float pdf_rev, uint transport, bool update_mis);
-
-bool walk_scatter(inout Walk w, PathVertex v, BsdfParams b, vec3 u, uint transport, bool update_mis) {
-    BsdfSample bs;
-    float pdf_rev;
-    if (!(dot(v.ns, v.w) > 0.0)) return false;
-    if (!bsdf_sample_rev(b, scene.sample_mode, v.ns, v.w, u, transport, update_mis, bs, pdf_rev)) return false;
-    return walk_scatter_sampled(w, v, bs, pdf_rev, transport, update_mis);
-}
-
-// walk_scatter after its BSDF sample bs (and the density back, pdf_rev): for a kernel that
-// asks the BSDF for the sample where it asks its other questions (bdpt_shade.glsl).
 bool walk_scatter_sampled(inout Walk w, PathVertex v, BsdfSample bs, float pdf_rev, uint transport, bool update_mis) {
     if (!shading_side_agrees(v.n, v.ns, bs.wi)) return false;
     bool delta = (bs.flags & BSDF_LOBE_DELTA) != 0u;
@@ -248,7 +239,7 @@ bool walk_scatter_sampled(inout Walk w, PathVertex v, BsdfSample bs, float pdf_r
 // no MIS sums).
 bool walk_beyond(Walk w, bool camera) { return walks_unbounded() && camera && w.vertices > max_scatter(); }
 
-// walk_extend's Russian roulette beyond the cap, after the scattering.
+// The camera walk's Russian roulette beyond the cap, after the scattering.
 bool walk_survives(inout Walk w, bool beyond) {
     if (beyond) {
         float survive = min(1.0, max(w.beta.x, max(w.beta.y, w.beta.z)));
@@ -256,17 +247,6 @@ bool walk_survives(inout Walk w, bool beyond) {
         w.beta /= survive;
     }
     return true;
-}
-
-// Continue a subpath from its vertex v: a light subpath (light stream, importance), or
-// a camera subpath (camera stream, radiance). Beyond max_scatter() a camera subpath is
-// in the roulette regime, where the MIS sums are not needed.
-// (b: the vertex's BSDF, vertex_bsdf(v).)
-bool walk_extend(inout Walk w, PathVertex v, BsdfParams b, bool camera) {
-    bool beyond = walk_beyond(w, camera);
-    vec3 u = sample_3d(camera ? STREAM_CAMERA : STREAM_LIGHT);
-    if (!walk_scatter(w, v, b, u, camera ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE, !beyond)) return false;
-    return walk_survives(w, beyond);
 }
 
 // ---- camera subpaths --------------------------------------------------------------

@@ -25,7 +25,7 @@ const bool SAMPLE_IN_LOOP = false;
 const bool SAMPLE_IN_LOOP = true;
 #endif
 
-// The walk's sample's numbers, drawn where walk_extend drew them, and its question; false
+// The walk's sample's numbers (from the walk's stream), and its question; false
 // when v is seen from behind (no sample).
 bool walk_sample_question(PathVertex v, bool camera, bool beyond, out vec3 u, out uint transport, out bool want_rev) {
     transport = camera ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE;
@@ -60,7 +60,8 @@ void main() {
     LightSample ls;
     float cos_s;
     BsdfParams b;
-    // The sample that continues the walk (asked last, where walk_extend would draw it).
+    // The sample that continues the walk (asked after the other questions: the draws keep
+    // their order).
     bool extending = own && (flags & BDPT_WALK_EXTEND) != 0u;
     bool beyond = walk_beyond(w, camera);
     bool sampled = false;

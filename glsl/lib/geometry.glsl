@@ -119,7 +119,7 @@ bool alpha_cut(GpuTriangle tri, vec2 bary, vec3 o, vec3 d) {
         vec2 uv = b0 * uv01.xy + bary.x * uv01.zw + bary.y * uv2;
         vec3 p = tri.v0.xyz + bary.x * (tri.v1.xyz - tri.v0.xyz) + bary.y * (tri.v2.xyz - tri.v0.xyz);
         vec3 ng = normalize(cross(tri.v1.xyz - tri.v0.xyz, tri.v2.xyz - tri.v0.xyz));
-        alpha = texture_value(floatBitsToUint(alpha), uv, p, ng).x;
+        alpha = texture_value(floatBitsToUint(alpha), uv, p, ng, alpha_texture_features()).x;
     }
     if (alpha >= 1.0) return false;
     if (alpha <= 0.0) return true;
@@ -252,7 +252,7 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
                 break;
             }
         }
-        vec3 v = index == NO_TEXTURE ? vec3(0.0) : texture_value(index, uv, p, s.ng);
+        vec3 v = index == NO_TEXTURE ? vec3(0.0) : texture_value(index, uv, p, s.ng, spec_features);
         if (mixing) {
             vec4 mix_params = materials[m].specular;
             float amount = index == NO_TEXTURE ? mix_params.z : v.x;

@@ -36,8 +36,8 @@ void main() {
         vec3 u = vec3(0.0);
         bool beyond = false;
         if (extend) {
-            // The sample that continues the walk (walk_extend's, asked where the
-            // questions are asked: one copy of the BSDF).
+            // The sample that continues the walk (asked where the questions are
+            // asked: one copy of the BSDF).
             pss_resume(slot, item);
             beyond = walk_beyond(w, cam);
             u = sample_3d(cam ? STREAM_CAMERA : STREAM_LIGHT);

@@ -26,7 +26,7 @@
 // evaluation did (per stream: the streams are separate), so the paths are its.
 #ifndef MMLT_WAVE_GLSL
 #define MMLT_WAVE_GLSL
-// Walks never go beyond max_scatter() here (lib/bdpt.glsl's walk_extend).
+// Walks never go beyond max_scatter() here (lib/bdpt.glsl's walk_beyond).
 #define BDPT_BOUNDED_WALKS
 #define OWN_PUSH_CONSTANTS
 #include "bindings.glsl"

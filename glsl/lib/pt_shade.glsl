@@ -11,6 +11,15 @@
 #include "geometry.glsl"
 #include "lights.glsl"
 
+// Whether the light sample's question and the sample are asked at one bsdf_ask (the
+// engine classes) or at two sites (the closed forms: lanes that draw would wait for
+// lanes that evaluate).
+#if SHADE_CLASS == MATERIAL_CLASS_BASIC || SHADE_CLASS == MATERIAL_CLASS_INTERFACE
+const bool ONE_ASK = false;
+#else
+const bool ONE_ASK = true;
+#endif
+
 void main() {
     uint i;
     if (!queue_take(WF_QUEUE_CLASS_BASIC + SHADE_CLASS, i)) return;
@@ -29,36 +38,63 @@ void main() {
     Rng rng = wf_rng(i, path.o.w);
     BsdfParams b = material_bsdf(materials[floatBitsToUint(path.hit.w)], path.ns.w != 0.0, path.tex0, path.tex1);
     bool delta = bsdf_is_delta(b);
+    // The questions to the BSDF: f and the pdf toward the light sample, then the sample
+    // that continues the path, in a kept loop through one bsdf_ask where the class's
+    // engine answers both (ONE_ASK: the coated walk, the measured tables, hair, inlined
+    // once); the small BSDFs of the basic and interface classes are asked at two sites.
+    bool light_question = false;
+    LightSample ls;
+    float cos_s;
+    bool mis = nee == NEE_MIS;
+    if ((flags & PT_PATH_LIGHT_SAMPLE_OK) != 0u) {
+        ls = unpack_light_sample(path.ls_wi, path.ls_le, path.ls_p, path.ls_n);
+        light_question = direct_light_faces(b, n, ns, wo, ls.wi, cos_s);
+    }
+    // With NEE on, emission found by the next bounce would not count (unless this
+    // vertex is a delta one): no sample.
+    bool sample_question = !(nee == NEE_ON && depth + 1u == max_vertices && !delta);
+    vec3 f = vec3(0.0);
+    float pdf_fwd = 0.0;
+    bool sampled = false;
+    BsdfSample bs;
+    [[dont_unroll]] for (uint q = ONE_ASK ? 0u : 1u; q < 2u; ++q) {
+        bool draw = ONE_ASK && q == 1u;
+        if (draw ? !sample_question : !light_question) continue;
+        BsdfSample s;
+        s.wi = ls.wi;
+        vec3 u = draw ? rng_next3(rng) : vec3(0.0);
+        float pdf_rev;
+        bool answered = bsdf_ask(b, mode, ns, wo, draw, u, TRANSPORT_RADIANCE, !draw && mis, false, s, pdf_rev);
+        if (draw) {
+            sampled = answered;
+            bs = s;
+        } else {
+            f = s.f;
+            pdf_fwd = s.pdf;
+        }
+    }
     if ((flags & PT_PATH_LIGHT_SAMPLE) != 0u) {
         bool queued = false;
-        if ((flags & PT_PATH_LIGHT_SAMPLE_OK) != 0u) {
-            LightSample ls = unpack_light_sample(path.ls_wi, path.ls_le, path.ls_p, path.ls_n);
-            vec3 f;
-            float cos_s, pdf_fwd, pdf_rev;
-            bool mis = nee == NEE_MIS;
-            if (direct_light_bsdf(b, n, ns, wo, mode, mis, false, ls, f, cos_s, pdf_fwd, pdf_rev)) {
-                float w = 1.0;
-                if (mis) w = light_sample_mis_weight(ls, pdf_fwd);
-                vec3 estimate = f * ls.L * (cos_s * w / ls.pdf);
-                vec3 so, sd;
-                float tmax;
-                light_sample_shadow_ray(p, n, ls, so, sd, tmax);
-                paths[i].ls_wi = vec4(so, tmax);
-                paths[i].ls_le = vec4(sd, 0.0);
-                paths[i].ls_p = vec4(estimate, 0.0);
-                paths[i].ls_n = vec4(beta, 0.0);
-                queue_push(WF_QUEUE_SHADOW, i);
-                queued = true;
-            }
+        if (light_question && f != vec3(0.0)) {
+            float w = 1.0;
+            if (mis) w = light_sample_mis_weight(ls, pdf_fwd);
+            vec3 estimate = f * ls.L * (cos_s * w / ls.pdf);
+            vec3 so, sd;
+            float tmax;
+            light_sample_shadow_ray(p, n, ls, so, sd, tmax);
+            paths[i].ls_wi = vec4(so, tmax);
+            paths[i].ls_le = vec4(sd, 0.0);
+            paths[i].ls_p = vec4(estimate, 0.0);
+            paths[i].ls_n = vec4(beta, 0.0);
+            queue_push(WF_QUEUE_SHADOW, i);
+            queued = true;
         }
         // A light sample that cannot contribute adds zero, as it would on one invocation.
         if (!queued) paths[i].radiance.xyz = path.radiance.xyz + beta * vec3(0.0);
     }
-    // With NEE on, emission found by the next bounce would not count (unless this
-    // vertex is a delta one): stop here.
-    if (nee == NEE_ON && depth + 1u == max_vertices && !delta) return;
-    BsdfSample bs;
-    if (!bsdf_sample(b, mode, ns, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) return;
+    if (!sample_question) return;
+    if (!ONE_ASK) sampled = bsdf_sample(b, mode, ns, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs);
+    if (!sampled) return;
     if (!shading_side_agrees(n, ns, bs.wi)) return;
     float cos_i = dot(n, bs.wi);
     beta *= bs.f * (abs(dot(ns, bs.wi)) / bs.pdf);

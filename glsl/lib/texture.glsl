@@ -24,10 +24,15 @@ int wrap_texel(float i, int n, bool repeat, bool black) {
     return clamp(int(i), 0, n - 1);
 }
 
+// The texture code a lookup holds is that of the FEATURE_* texture bits in `tf` (the
+// scene's, or for the alpha test those of the alpha textures: alpha_texture_features), a
+// constant at every call site.
+bool has_texture_feature(uint tf, uint feature) { return (tf & feature) != 0u; }
+
 // A texture's (s, t) at the surface coordinates uv and world point p (pbrt-v4's
 // TextureMapping2D: uv, spherical, cylindrical, planar).
-vec2 texture_st(GpuTexture t, vec2 uv, vec3 p) {
-    if (!has_feature(FEATURE_TEXTURE_PROJECTIONS) || t.flags.z == TEXTURE_MAP_UV) return t.mapping.xy * uv + t.mapping.zw;
+vec2 texture_st(GpuTexture t, vec2 uv, vec3 p, uint tf) {
+    if (!has_texture_feature(tf, FEATURE_TEXTURE_PROJECTIONS) || t.flags.z == TEXTURE_MAP_UV) return t.mapping.xy * uv + t.mapping.zw;
     vec4 h = vec4(p, 1.0);
     vec3 q = vec3(dot(t.proj0, h), dot(t.proj1, h), dot(t.proj2, h));
     if (t.flags.z == TEXTURE_MAP_PLANAR || t.flags.z == TEXTURE_MAP_SOLID) return q.xy;
@@ -39,18 +44,18 @@ vec2 texture_st(GpuTexture t, vec2 uv, vec3 p) {
 }
 
 // The value of a texture not made of textures (an image, a checkerboard, a procedural
-// texture) at the surface coordinates uv and world point p. `procedural` false (a
-// constant at the call site) leaves the procedural textures' code out of it: the
-// environment map, an image, looks up through it.
-vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, bool procedural) {
+// texture) at the surface coordinates uv and world point p, with the code of the texture
+// features tf (the environment map, an image, looks up through it without the
+// procedural textures').
+vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, uint tf) {
     bool noise = t.info.x == TEXTURE_NOISE;
-    vec2 st = noise ? vec2(0.0) : texture_st(t, uv, p);
-    if (procedural && has_feature(FEATURE_PROCEDURAL_TEXTURES) && (noise || t.info.x == TEXTURE_DOTS)) {
+    vec2 st = noise ? vec2(0.0) : texture_st(t, uv, p, tf);
+    if (has_texture_feature(tf, FEATURE_PROCEDURAL_TEXTURES) && (noise || t.info.x == TEXTURE_DOTS)) {
         vec4 h = vec4(p, 1.0);
         vec3 q = vec3(dot(t.proj0, h), dot(t.proj1, h), dot(t.proj2, h));
         return procedural_value(t, q, st);
     }
-    if (procedural && has_feature(FEATURE_PROCEDURAL_TEXTURES) && t.info.x == TEXTURE_BILERP) {
+    if (has_texture_feature(tf, FEATURE_BILERP_TEXTURES) && t.info.x == TEXTURE_BILERP) {
         uint i = t.info.y;
         vec3 v00 = vec3(texels[i], texels[i + 1u], texels[i + 2u]);
         vec3 v01 = vec3(texels[i + 3u], texels[i + 4u], texels[i + 5u]);
@@ -61,7 +66,7 @@ vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, bool procedural) {
     }
     if (t.info.x == TEXTURE_CHECKERBOARD) {
         float sum = floor(st.x) + floor(st.y);
-        if (has_feature(FEATURE_TEXTURE_PROJECTIONS) && t.flags.z == TEXTURE_MAP_SOLID) {
+        if (has_texture_feature(tf, FEATURE_TEXTURE_PROJECTIONS) && t.flags.z == TEXTURE_MAP_SOLID) {
             sum += floor(dot(t.proj2, vec4(p, 1.0)));
         }
         float parity = mod(sum, 2.0);
@@ -91,9 +96,10 @@ vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, bool procedural) {
 // The value of texture `index` at the surface coordinates uv and world point p, where the
 // surface's unit geometric normal is ng (read by a direction mix alone; either side).
 // A texture made of textures runs its program (abi.h TEXTURE_GRAPH): its records in
-// order, each into a register, leaves looked up here at one call site.
-vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng) {
-    if (!has_feature(FEATURE_TEXTURE_GRAPHS)) return texture_leaf(textures[index], uv, p, true);
+// order, each into a register, leaves looked up here at one call site. tf: the texture
+// features compiled in (has_texture_feature).
+vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng, uint tf) {
+    if (!has_texture_feature(tf, FEATURE_TEXTURE_GRAPHS)) return texture_leaf(textures[index], uv, p, tf);
     GpuTexture t = textures[index];
     uint first = index, count = 1u;
     if (t.info.x == TEXTURE_GRAPH) {
@@ -112,11 +118,20 @@ vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng) {
                          : n.flags.z == NO_TEXTURE ? n.mapping.x : regs[n.flags.z].x;
             v = n.info.x == TEXTURE_SCALE ? a * b.x : (1.0 - amount) * a + amount * b;
         } else {
-            v = texture_leaf(n, uv, p, true);
+            v = texture_leaf(n, uv, p, tf);
         }
         regs[i] = v;
     }
     return v;
+}
+
+// The texture features of the scene's alpha textures (abi.h's FEATURE_ALPHA_*): the
+// alpha test, inlined in every traversal, holds only their code.
+uint alpha_texture_features() {
+    return (has_feature(FEATURE_ALPHA_TEXTURE_PROJECTIONS) ? FEATURE_TEXTURE_PROJECTIONS : 0u)
+         | (has_feature(FEATURE_ALPHA_TEXTURE_GRAPHS) ? FEATURE_TEXTURE_GRAPHS : 0u)
+         | (has_feature(FEATURE_ALPHA_PROCEDURAL_TEXTURES) ? FEATURE_PROCEDURAL_TEXTURES : 0u)
+         | (has_feature(FEATURE_ALPHA_BILERP_TEXTURES) ? FEATURE_BILERP_TEXTURES : 0u);
 }
 
 // The texture of slot `slot` (< MATERIAL_TEXTURE_SLOTS) of material m, or NO_TEXTURE: 0 the

@@ -473,7 +473,9 @@ impl Engine {
 /// (glsl/lib/features.glsl), so a bit left out here would render that feature wrongly.
 pub fn scene_features(scene: &Scene) -> u32 {
     use crate::abi::{
-        FEATURE_ALPHA, FEATURE_COATED, FEATURE_COATED_CONDUCTOR, FEATURE_DIFFUSE_TRANSMISSION,
+        FEATURE_ALPHA, FEATURE_ALPHA_BILERP_TEXTURES, FEATURE_ALPHA_PROCEDURAL_TEXTURES,
+        FEATURE_ALPHA_TEXTURE_GRAPHS, FEATURE_ALPHA_TEXTURE_PROJECTIONS, FEATURE_BILERP_TEXTURES,
+        FEATURE_COATED, FEATURE_COATED_CONDUCTOR, FEATURE_DIFFUSE_TRANSMISSION,
         FEATURE_ENVIRONMENT_MAP, FEATURE_HAIR, FEATURE_INTERFACES, FEATURE_LAYER_MEDIUM,
         FEATURE_MATERIAL_TEXTURES, FEATURE_MEASURED, FEATURE_MIX, FEATURE_PROCEDURAL_TEXTURES,
         FEATURE_SHADING_MAPS, FEATURE_TEXTURE_GRAPHS, FEATURE_TEXTURE_PROJECTIONS,
@@ -518,33 +520,70 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if scene.environment.as_ref().is_some_and(|e| e.map.is_some()) {
         features |= FEATURE_ENVIRONMENT_MAP;
     }
-    if scene.textures.iter().any(|t| {
-        t.leaves()
-            .iter()
-            .any(|l| l.projection() != crate::texture::Projection::Uv)
-    }) {
-        features |= FEATURE_TEXTURE_PROJECTIONS;
-    }
-    if scene.textures.iter().any(|t| t.is_graph()) {
-        features |= FEATURE_TEXTURE_GRAPHS;
-    }
-    if scene.textures.iter().any(|t| {
-        t.leaves().iter().any(|l| {
-            matches!(
-                l,
-                crate::texture::Texture::Noise { .. }
-                    | crate::texture::Texture::Dots { .. }
-                    | crate::texture::Texture::Bilerp { .. }
-            )
-        })
-    }) {
-        features |= FEATURE_PROCEDURAL_TEXTURES;
-    }
+    features |= texture_features(scene.textures.iter());
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
     }
     if scene.triangles.iter().any(|t| t.alpha.is_some()) {
         features |= FEATURE_ALPHA;
+    }
+    // The alpha test is inlined in every traversal: it holds the code of the alpha
+    // textures' features only.
+    let mut alpha_textures: Vec<u32> = scene
+        .triangles
+        .iter()
+        .filter_map(|t| match t.alpha {
+            Some(crate::scene::Alpha::Texture(i)) => Some(i),
+            _ => None,
+        })
+        .collect();
+    alpha_textures.sort_unstable();
+    alpha_textures.dedup();
+    let alpha = texture_features(alpha_textures.iter().map(|&i| &scene.textures[i as usize]));
+    for (bit, alpha_bit) in [
+        (
+            FEATURE_TEXTURE_PROJECTIONS,
+            FEATURE_ALPHA_TEXTURE_PROJECTIONS,
+        ),
+        (FEATURE_TEXTURE_GRAPHS, FEATURE_ALPHA_TEXTURE_GRAPHS),
+        (
+            FEATURE_PROCEDURAL_TEXTURES,
+            FEATURE_ALPHA_PROCEDURAL_TEXTURES,
+        ),
+        (FEATURE_BILERP_TEXTURES, FEATURE_ALPHA_BILERP_TEXTURES),
+    ] {
+        if alpha & bit != 0 {
+            features |= alpha_bit;
+        }
+    }
+    features
+}
+
+/// The texture `FEATURE_*` bits (projections, graphs, procedural and bilerp textures)
+/// that a lookup of `textures` needs (texture.glsl's `has_texture_feature`).
+fn texture_features<'a>(textures: impl Iterator<Item = &'a crate::texture::Texture>) -> u32 {
+    use crate::abi::{
+        FEATURE_BILERP_TEXTURES, FEATURE_PROCEDURAL_TEXTURES, FEATURE_TEXTURE_GRAPHS,
+        FEATURE_TEXTURE_PROJECTIONS,
+    };
+    use crate::texture::{Projection, Texture};
+    let mut features = 0;
+    for t in textures {
+        if t.is_graph() {
+            features |= FEATURE_TEXTURE_GRAPHS;
+        }
+        for l in t.leaves() {
+            if l.projection() != Projection::Uv {
+                features |= FEATURE_TEXTURE_PROJECTIONS;
+            }
+            match l {
+                Texture::Noise { .. } | Texture::Dots { .. } => {
+                    features |= FEATURE_PROCEDURAL_TEXTURES
+                }
+                Texture::Bilerp { .. } => features |= FEATURE_BILERP_TEXTURES,
+                _ => {}
+            }
+        }
     }
     features
 }
@@ -627,6 +666,37 @@ mod tests {
             texture_from_world: glam::Mat4::IDENTITY,
         })];
         assert_eq!(scene_features(&s), FEATURE_TEXTURE_PROJECTIONS);
+        // The alpha test holds only the alpha textures' features: a bilerp alpha beside a
+        // projected material texture.
+        let bilerp = crate::texture::Texture::Bilerp {
+            v: [glam::Vec3::ONE; 4],
+            mapping: crate::texture::UV_MAPPING,
+            projection: crate::texture::Projection::Uv,
+        };
+        s.textures.push(bilerp);
+        s.triangles.push(crate::scene::Triangle {
+            v: [glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y],
+            material: 0,
+            uv: None,
+            normals: None,
+            alpha: Some(crate::scene::Alpha::Texture(1)),
+        });
+        assert_eq!(
+            scene_features(&s),
+            FEATURE_TEXTURE_PROJECTIONS
+                | FEATURE_BILERP_TEXTURES
+                | FEATURE_ALPHA
+                | FEATURE_ALPHA_BILERP_TEXTURES
+        );
+        s.triangles[0].alpha = Some(crate::scene::Alpha::Texture(0));
+        assert_eq!(
+            scene_features(&s),
+            FEATURE_TEXTURE_PROJECTIONS
+                | FEATURE_BILERP_TEXTURES
+                | FEATURE_ALPHA
+                | FEATURE_ALPHA_TEXTURE_PROJECTIONS
+        );
+        s.triangles.clear();
         s.textures.clear();
         // maxdepth -1: BDPT's camera walks beyond the strategies' cap.
         s.settings.max_depth = -1;
@@ -647,7 +717,12 @@ mod tests {
             | FEATURE_LAYER_MEDIUM
             | FEATURE_PROCEDURAL_TEXTURES
             | FEATURE_MEASURED
-            | FEATURE_HAIR;
+            | FEATURE_HAIR
+            | FEATURE_BILERP_TEXTURES
+            | FEATURE_ALPHA_TEXTURE_PROJECTIONS
+            | FEATURE_ALPHA_TEXTURE_GRAPHS
+            | FEATURE_ALPHA_PROCEDURAL_TEXTURES
+            | FEATURE_ALPHA_BILERP_TEXTURES;
         assert_eq!(FEATURE_ALL, every);
     }
 }
