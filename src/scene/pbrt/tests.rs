@@ -1543,3 +1543,31 @@ fn hair_reads_its_absorption_and_roughness_as_pbrt_v4() {
     );
     assert!(e.to_string().contains("hair: a textured beta_m"), "{e}");
 }
+
+/// pbrt-v4's `dots` shows `outside` in its dots and `inside` between them (its Create
+/// passes them to a constructor that takes them the other way round); lightpath renders
+/// what pbrt-v4 renders (docs/pbrt.md, "Side by side with pbrt-v4").
+#[test]
+fn dots_show_their_colours_where_pbrt_v4_shows_them() {
+    let s = parse(
+        "WorldBegin\nTexture \"d\" \"spectrum\" \"dots\" \"rgb inside\" [ 0.9 0.2 0.1 ] \
+         \"rgb outside\" [ 0.7 0.7 0.7 ]\n",
+    );
+    match &s.textures[0] {
+        crate::texture::Texture::Dots {
+            inside, outside, ..
+        } => {
+            assert_eq!(
+                *inside,
+                glam::Vec3::splat(0.7),
+                "within the dots: `outside`"
+            );
+            assert_eq!(
+                *outside,
+                glam::Vec3::new(0.9, 0.2, 0.1),
+                "between them: `inside`"
+            );
+        }
+        t => panic!("{t:?}"),
+    }
+}

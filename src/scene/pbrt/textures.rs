@@ -266,9 +266,14 @@ impl Parser {
                     Value::Const(Vec3::splat(0.5))
                 } else {
                     self.scene.textures.push(if class == "dots" {
+                        // pbrt-v4 hands `inside` and `outside` to a constructor that takes
+                        // them the other way round (textures.cpp's Create against
+                        // textures.h's DotsTexture): its dots show `outside` and the
+                        // space between them `inside`. The published scenes look as
+                        // pbrt-v4 renders them, so lightpath does the same.
                         Texture::Dots {
-                            inside: v[0],
-                            outside: v[1],
+                            inside: v[1],
+                            outside: v[0],
                             mapping,
                             projection,
                         }
