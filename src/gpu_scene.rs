@@ -91,6 +91,37 @@ pub fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
     (c, ((hi - lo).length() * 0.5).max(1e-3))
 }
 
+/// A goniometric or projection light's sampling weights, one per pixel of its image (its
+/// mean channel times the solid angle per unit of image area at the pixel's centre, so
+/// that directions are drawn in proportion to intensity), and its flux per unit of its
+/// colour (the weights' sum over the pixel count: ∫ value dω). None for other lights.
+pub fn profile_weights(scene: &Scene, l: &DeltaLight) -> Option<(Vec<f32>, f32)> {
+    let profile = match l {
+        DeltaLight::Goniometric { profile, .. } | DeltaLight::Projection { profile, .. } => {
+            &scene.light_profiles[*profile as usize]
+        }
+        _ => return None,
+    };
+    let (w, h) = (profile.width, profile.height);
+    let weights: Vec<f32> = profile
+        .means()
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            let uv = Vec2::new(
+                ((i as u32 % w) as f32 + 0.5) / w as f32,
+                ((i as u32 / w) as f32 + 0.5) / h as f32,
+            );
+            let jac = l
+                .profile_direction(&scene.light_profiles, uv)
+                .map_or(0.0, |(_, j)| j);
+            (v.max(0.0) * jac).max(0.0)
+        })
+        .collect();
+    let flux = weights.iter().map(|&x| x as f64).sum::<f64>() / (w * h) as f64;
+    Some((weights, flux as f32))
+}
+
 pub fn emitter_table(scene: &Scene) -> EmitterTable {
     let pi = std::f32::consts::PI;
     let mut emitters = Vec::new();
@@ -153,6 +184,8 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
         DeltaLight::Point { intensity, .. } => avg(*intensity) > 0.0,
         DeltaLight::Directional { radiance, .. } => avg(*radiance) > 0.0,
         DeltaLight::Spot { intensity, .. } => avg(*intensity) > 0.0,
+        DeltaLight::Goniometric { intensity, .. } => avg(*intensity) > 0.0,
+        DeltaLight::Projection { scale, .. } => avg(*scale) > 0.0,
     }) {
         match *l {
             DeltaLight::Point {
@@ -186,6 +219,37 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
                     p2: [cos_falloff_start, 0.0, 0.0, 0.0],
                     radiance: intensity.extend(0.0).to_array(),
                     info: [EMITTER_SPOT, 0, 0, 0],
+                });
+            }
+            DeltaLight::Goniometric {
+                position,
+                light_from_world: m,
+                intensity: colour,
+                profile,
+            }
+            | DeltaLight::Projection {
+                position,
+                screen_from_world: m,
+                scale: colour,
+                profile,
+            } => {
+                let image = &scene.light_profiles[profile as usize];
+                let (_, flux) = profile_weights(scene, l).expect("a profiled light");
+                power.push(avg(colour) * flux);
+                let (r0, r1, r2) = (m.row(0), m.row(1), m.row(2));
+                let kind = if matches!(l, DeltaLight::Goniometric { .. }) {
+                    EMITTER_GONIOMETRIC
+                } else {
+                    EMITTER_PROJECTION
+                };
+                emitters.push(GpuEmitter {
+                    p0: position.extend(r2.x).to_array(),
+                    p1: r0.extend(r2.y).to_array(),
+                    p2: r1.extend(r2.z).to_array(),
+                    radiance: colour.extend(0.0).to_array(),
+                    // (info.y: the image's index in Scene::light_profiles, made its first
+                    // texel by GpuScene::new.)
+                    info: [kind, profile, image.width | image.height << 16, 0],
                 });
             }
             DeltaLight::Directional {
@@ -267,6 +331,10 @@ pub struct TextureData {
     /// The texel index of each measured material's tables (`Scene::measured`'s order,
     /// `MeasuredBsdf::pack`'s layout).
     pub measured: Vec<u32>,
+    /// The texel index of each light profile (`Scene::light_profiles`' order): its values,
+    /// then its distribution's marginal CDF (height + 1) and conditional CDFs (height ×
+    /// (width + 1)); 0 for a profile no light shows.
+    pub light_profiles: Vec<u32>,
 }
 
 fn push_image(texels: &mut Vec<f32>, image: &Image) -> u32 {
@@ -497,11 +565,35 @@ pub fn texture_data(scene: &Scene) -> TextureData {
             first
         })
         .collect();
+    // Each goniometric or projection light's image, then its sampling distribution
+    // (marginal and conditional CDFs), from the first light that shows it.
+    let mut light_profiles = vec![None; scene.light_profiles.len()];
+    for l in &scene.delta_lights {
+        let Some((weights, _)) = profile_weights(scene, l) else {
+            continue;
+        };
+        let (DeltaLight::Goniometric { profile, .. } | DeltaLight::Projection { profile, .. }) = l
+        else {
+            continue;
+        };
+        let slot = &mut light_profiles[*profile as usize];
+        if slot.is_some() {
+            continue;
+        }
+        let image = &scene.light_profiles[*profile as usize];
+        let first = texels.floats.len() as u32;
+        texels.floats.extend(&image.values);
+        let d = Distribution2D::new(&weights, image.width as usize, image.height as usize);
+        texels.floats.extend(&d.marginal);
+        texels.floats.extend(&d.conditional);
+        *slot = Some(first);
+    }
     TextureData {
         textures,
         texels: texels.floats,
         environment,
         measured,
+        light_profiles: light_profiles.into_iter().map(|x| x.unwrap_or(0)).collect(),
     }
 }
 
@@ -697,6 +789,12 @@ impl GpuScene {
             })
             .collect();
         let materials = material_records(scene, &textures);
+        let mut table = table;
+        for e in &mut table.emitters {
+            if matches!(e.info[0], EMITTER_GONIOMETRIC | EMITTER_PROJECTION) {
+                e.info[1] = textures.light_profiles[e.info[1] as usize];
+            }
+        }
         let mut params = params;
         params.emitter_count = table.emitters.len() as u32;
         params.environment = table.environment;
@@ -871,6 +969,73 @@ mod tests {
         assert!((share - 0.5).abs() < 1e-5, "{share}");
         let none = emitter_table(&parse_str("envlight 0 0 0\n", "t").unwrap());
         assert_eq!(none.environment, NO_EMITTER);
+    }
+
+    /// Goniometric and projection lights: their records (the map's rows, the image's
+    /// size) and their power, the image's value integrated over the directions it covers
+    /// (`profile_weights`): 4π for a uniform goniometric image; for a projection of a
+    /// uniform image of aspect 2 at fov 90°, the solid angle of a 4 × 2 rectangle at
+    /// distance 1, 4 atan(2 / √6).
+    #[test]
+    fn goniometric_and_projection_lights_have_their_records_and_power() {
+        use crate::scene::LightProfile;
+        let pi = std::f32::consts::PI;
+        let mut s = Scene::default();
+        s.light_profiles.push(LightProfile {
+            width: 8,
+            height: 8,
+            channels: 1,
+            values: vec![1.0; 64],
+        });
+        s.light_profiles.push(LightProfile {
+            width: 64,
+            height: 32,
+            channels: 3,
+            values: vec![1.0; 64 * 32 * 3],
+        });
+        let turn = Mat3::from_rotation_y(0.3);
+        s.delta_lights.push(DeltaLight::Goniometric {
+            position: Vec3::new(1.0, 2.0, 3.0),
+            light_from_world: turn,
+            intensity: Vec3::splat(2.0),
+            profile: 0,
+        });
+        s.delta_lights.push(DeltaLight::Projection {
+            position: Vec3::ZERO,
+            screen_from_world: Mat3::from_diagonal(Vec3::new(1.0, -1.0, 1.0)),
+            scale: Vec3::ONE,
+            profile: 1,
+        });
+        let (_, flux) = profile_weights(&s, &s.delta_lights[0]).unwrap();
+        assert!((flux - 4.0 * pi).abs() < 1e-4, "{flux}");
+        let (weights, flux) = profile_weights(&s, &s.delta_lights[1]).unwrap();
+        let rectangle = 4.0 * (2.0 / 6.0f32.sqrt()).atan();
+        assert!(
+            (flux - rectangle).abs() < 0.005 * rectangle,
+            "{flux} vs {rectangle}"
+        );
+        // (Directions are drawn in proportion to intensity: the image's centre's pixels
+        // subtend the most.)
+        assert!(weights[16 * 64 + 32] > 2.0 * weights[0]);
+        let t = emitter_table(&s);
+        assert_eq!(t.emitters[0].info[0], EMITTER_GONIOMETRIC);
+        assert_eq!(t.emitters[0].info[1], 0);
+        assert_eq!(t.emitters[0].info[2], 8 | 8 << 16);
+        assert_eq!(t.emitters[1].info[0], EMITTER_PROJECTION);
+        assert_eq!(t.emitters[1].info[2], 64 | 32 << 16);
+        let e = &t.emitters[0];
+        assert_eq!(&e.p0[..3], &[1.0, 2.0, 3.0]);
+        let rows = [
+            Vec3::new(e.p1[0], e.p1[1], e.p1[2]),
+            Vec3::new(e.p2[0], e.p2[1], e.p2[2]),
+            Vec3::new(e.p0[3], e.p1[3], e.p2[3]),
+        ];
+        for (i, r) in rows.iter().enumerate() {
+            assert!((*r - turn.row(i)).length() < 1e-6, "row {i}");
+        }
+        // Power: 2 · 4π and 1 · the rectangle's solid angle.
+        let p = e.radiance[3];
+        assert!((p - 8.0 * pi / (8.0 * pi + rectangle)).abs() < 1e-3, "{p}");
     }
 
     #[test]

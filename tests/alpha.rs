@@ -80,32 +80,42 @@ fn brute(s: &Scene, textures: &[Texture], o: Vec3, d: Vec3, tmax: f32) -> Option
     best
 }
 
+/// 2000 rays (extent 100) from uniform points of the rectangle of width `from.0`, height
+/// `from.1` centred on the z axis at z = `from.2` toward uniform points of the rectangle
+/// `to` likewise, drawn from the seed.
+fn rays_between(seed: u64, from: (f32, f32, f32), to: (f32, f32, f32)) -> Vec<(Vec3, Vec3, f32)> {
+    let mut state = seed;
+    let mut point = |(w, h, z): (f32, f32, f32)| {
+        let x = w * (rng(&mut state) - 0.5);
+        Vec3::new(x, h * (rng(&mut state) - 0.5), z)
+    };
+    (0..2000)
+        .map(|_| {
+            let o = point(from);
+            (o, (point(to) - o).normalize(), 100.0)
+        })
+        .collect()
+}
+
+/// The closest hits and occlusion of `rays` in `s` on the backend `accel` (the trace probe).
+fn trace(
+    accel: AccelChoice,
+    s: &Scene,
+    rays: &[(Vec3, Vec3, f32)],
+) -> Vec<lightpath::probe::ProbeHit> {
+    let mut r = renderer(accel);
+    lightpath::probe::trace_rays(&mut r.engine, s, rays).expect("trace probe")
+}
+
 #[test]
 fn alpha_cut_outs_match_their_mirror_on_every_backend() {
     let dir = temp_dir("alpha-panels");
     let s = panels(&dir);
     assert_eq!(s.triangles.iter().filter(|t| t.alpha.is_some()).count(), 6);
-    let mut state = 11u64;
-    let mut rays = Vec::new();
-    for _ in 0..2000 {
-        let o = Vec3::new(
-            3.0 * (rng(&mut state) - 0.5),
-            3.0 * (rng(&mut state) - 0.5),
-            4.0,
-        );
-        let target = Vec3::new(
-            3.6 * (rng(&mut state) - 0.5),
-            3.6 * (rng(&mut state) - 0.5),
-            -3.0,
-        );
-        rays.push((o, (target - o).normalize(), 100.0));
-    }
+    let rays = rays_between(11, (3.0, 3.0, 4.0), (3.6, 3.6, -3.0));
     let ntri = s.triangles.len() as u32;
     for accel in [AccelChoice::Bvh, AccelChoice::Bvh2, AccelChoice::RayQuery] {
-        let hits = {
-            let mut r = renderer(accel);
-            lightpath::probe::trace_rays(&mut r.engine, &s, &rays).expect("trace probe")
-        };
+        let hits = trace(accel, &s, &rays);
         let (mut layers, mut differ) = ([0u32; 5], 0u32);
         for ((o, d, tmax), h) in rays.iter().zip(&hits) {
             let want = brute(&s, &s.textures, *o, *d, *tmax);
@@ -199,26 +209,9 @@ fn alpha_textures_of_every_kind_match_their_mirror_on_every_backend() {
         alpha_bits,
         "the alpha textures need every alpha texture feature"
     );
-    let mut state = 5u64;
-    let mut rays = Vec::new();
-    for _ in 0..2000 {
-        let o = Vec3::new(
-            8.0 * (rng(&mut state) - 0.5),
-            2.0 * (rng(&mut state) - 0.5),
-            4.0,
-        );
-        let target = Vec3::new(
-            8.0 * (rng(&mut state) - 0.5),
-            1.9 * (rng(&mut state) - 0.5),
-            -1.0,
-        );
-        rays.push((o, (target - o).normalize(), 100.0));
-    }
+    let rays = rays_between(5, (8.0, 2.0, 4.0), (8.0, 1.9, -1.0));
     for accel in [AccelChoice::Bvh, AccelChoice::Bvh2, AccelChoice::RayQuery] {
-        let hits = {
-            let mut r = renderer(accel);
-            lightpath::probe::trace_rays(&mut r.engine, &s, &rays).expect("trace probe")
-        };
+        let hits = trace(accel, &s, &rays);
         // Per panel: rays that stop on it and rays that pass it (to the wall).
         let (mut kept, mut passed, mut differ) = ([0u32; 4], [0u32; 4], 0u32);
         for ((o, d, tmax), h) in rays.iter().zip(&hits) {

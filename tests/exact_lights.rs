@@ -74,11 +74,21 @@ fn room_scaled(light: &str, open: bool, max_depth: i32, k: f32) -> Scene {
     scene::parse_pbrt_str(&text, "exact-lights.pbrt").expect("the test scene parses")
 }
 
+/// The goniometric and projection lights' images (written once per test binary).
+fn profile_images() -> (std::path::PathBuf, std::path::PathBuf) {
+    static IMAGES: std::sync::OnceLock<(std::path::PathBuf, std::path::PathBuf)> =
+        std::sync::OnceLock::new();
+    IMAGES
+        .get_or_init(|| light_profile_images(&temp_dir("exact-lights-profiles")))
+        .clone()
+}
+
 /// The lights of the matrix: name, kind, pbrt directives.
 fn lights() -> Vec<(&'static str, Kind, String)> {
     let area = "Material \"diffuse\" \"rgb reflectance\" [ 0 0 0 ]\n\
                 AreaLightSource \"diffuse\" \"rgb L\" [ 4 4 4 ]";
     let sky = repo().join("tests/data/sky-square.pfm");
+    let (goniometric, slide) = profile_images();
     vec![
         (
             "quad",
@@ -165,6 +175,30 @@ fn lights() -> Vec<(&'static str, Kind, String)> {
             "LightSource \"spot\" \"point3 from\" [ 0 2.5 0 ] \"point3 to\" [ 0.3 0 -0.5 ] \
              \"float coneangle\" [ 40 ] \"float conedeltaangle\" [ 15 ] \"rgb I\" [ 10 10 10 ]"
                 .into(),
+        ),
+        (
+            // pbrt-v4's goniometric light: a point light whose intensity an equal-area
+            // image sets per direction (with dark cells), turned and unevenly scaled (the
+            // solid angle's Jacobian in light subpaths' densities).
+            "goniometric",
+            Kind::Delta,
+            format!(
+                "Translate 0 2.2 0.2\nRotate 40 0 0 1\nScale 1 1.4 0.8\n\
+                 LightSource \"goniometric\" \"string filename\" \"{}\" \"rgb I\" [ 3 2.5 2 ]",
+                goniometric.display()
+            ),
+        ),
+        (
+            // pbrt-v4's projection light: a slide of distinct colours (one black)
+            // projected down toward the floor and the wall.
+            "projection",
+            Kind::Delta,
+            format!(
+                "Translate 0.3 2.4 0.4\nRotate 100 1 0 0\nScale 1.2 1 1\n\
+                 LightSource \"projection\" \"string filename\" \"{}\" \"float fov\" [ 70 ] \
+                 \"float scale\" [ 5 ]",
+                slide.display()
+            ),
         ),
         (
             "distant",
@@ -304,7 +338,18 @@ fn strategy_images(s: &Scene, spp: u32, max_depth: i32, seed: u32) -> Vec<(u32, 
 /// Each complete strategy of depths 0..=max_depth alone equals the path tracer's image
 /// of its depth.
 fn assert_each_strategy_alone_matches_pt(name: &str, kind: Kind, s: &Scene, max_depth: u32) {
-    let runs = strategy_runs(s, 256, max_depth as i32);
+    assert_each_strategy_alone_matches_pt_at(name, kind, s, max_depth, 256);
+}
+
+/// The same with the strategies at `spp` samples per pixel.
+fn assert_each_strategy_alone_matches_pt_at(
+    name: &str,
+    kind: Kind,
+    s: &Scene,
+    max_depth: u32,
+    spp: u32,
+) {
+    let runs = strategy_runs(s, spp, max_depth as i32);
     for depth in 0..=max_depth {
         let reference = pt_depth_estimate(s, depth as i32, 1024, 1);
         for sl in 0..=depth + 1 {
@@ -770,7 +815,16 @@ fn alpha_cut_outs_render_alike_in_every_strategy_and_integrator() {
 #[test]
 fn every_bdpt_strategy_alone_matches_the_path_tracer_for_every_light() {
     for (name, kind, light) in lights() {
-        assert_each_strategy_alone_matches_pt(name, kind, &room(&light, false, 3), 3);
+        // (Under the image lights, whose light is uneven, the s = 2, t = 2 strategy's
+        // samples are heavy-tailed: at 256 spp its mean over 8 seeds falls 4 % short
+        // (1.8 % at 1024, +0.8 % at 4096 over 4 seeds), with too small a spread to
+        // bound it. More samples.)
+        let spp = if matches!(name, "goniometric" | "projection") {
+            1024
+        } else {
+            256
+        };
+        assert_each_strategy_alone_matches_pt_at(name, kind, &room(&light, false, 3), 3, spp);
     }
 }
 
@@ -784,7 +838,15 @@ fn direct_light_matches_the_closed_forms() {
             continue; // (no closed form in analyticdirect)
         }
         let s = room(&light, true, 1);
-        let exact = estimate(&with(&s, IntegratorKind::AnalyticDirect, 64, 1), 2, 2, Bvh);
+        // (The closed form is exact per sample, but averaged over each pixel's area: the
+        // image lights' pixels cross edges of their images, whose noise takes as many
+        // samples and seeds to bound as the path tracer's.)
+        let exact = estimate(
+            &with(&s, IntegratorKind::AnalyticDirect, 1024, 1),
+            SEEDS,
+            2,
+            Bvh,
+        );
         // (The portal is lit from the whole environment's samples, most of which miss
         // it: more samples and seeds for the same bound.)
         let (more, seeds) = if name == "portal" {

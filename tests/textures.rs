@@ -7,41 +7,10 @@ mod common;
 
 use common::*;
 use glam::{Vec2, Vec3};
-use lightpath::gpu_scene::scene_params;
 use lightpath::io::Image;
 use lightpath::render::AccelChoice::Bvh;
-use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene, Texture};
+use lightpath::scene::{IntegratorKind, NextEventEstimation, Texture};
 use lightpath::texture::{environment_radiance, texture_value, Operand, Wrap};
-
-/// The camera ray direction through film point (fx, fy) ∈ [0,1)² (camera.glsl's).
-fn camera_ray(s: &Scene, fx: f32, fy: f32) -> (Vec3, Vec3) {
-    lightpath::gpu_scene::camera_ray(&scene_params(s, 0), Vec2::new(fx, fy), Vec2::ZERO)
-}
-
-/// Each pixel's mean of `f` over an 8 × 8 grid of camera rays through it.
-fn expected_image(s: &Scene, f: impl Fn(Vec3, Vec3) -> Vec3) -> Image {
-    let n = 8;
-    let mut pixels = Vec::new();
-    for y in 0..s.height {
-        for x in 0..s.width {
-            let mut sum = Vec3::ZERO;
-            for j in 0..n {
-                for i in 0..n {
-                    let fx = (x as f32 + (i as f32 + 0.5) / n as f32) / s.width as f32;
-                    let fy = (y as f32 + (j as f32 + 0.5) / n as f32) / s.height as f32;
-                    let (o, d) = camera_ray(s, fx, fy);
-                    sum += f(o, d);
-                }
-            }
-            pixels.push((sum / (n * n) as f32).to_array());
-        }
-    }
-    Image {
-        width: s.width,
-        height: s.height,
-        pixels,
-    }
-}
 
 /// The largest red value of an image less its smallest (in [0, 1]): a lookup that
 /// shows many texels spreads wide.

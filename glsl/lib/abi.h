@@ -73,6 +73,8 @@
 #define EMITTER_DIRECTIONAL 3
 #define EMITTER_SPOT 4
 #define EMITTER_INFINITE 5
+#define EMITTER_GONIOMETRIC 6
+#define EMITTER_PROJECTION 7
 // GpuEmitter.info.w of pbrt-v4's invisible area light (a triangle emitter whose alpha is
 // 0: lights.glsl's emitter_is_hidden); 0 for every other emitter.
 #define EMITTER_HIDDEN 1
@@ -159,8 +161,11 @@
 #define FEATURE_ALPHA_TEXTURE_GRAPHS 262144
 #define FEATURE_ALPHA_PROCEDURAL_TEXTURES 524288
 #define FEATURE_ALPHA_BILERP_TEXTURES 1048576
+// Goniometric and projection lights (lights.glsl: point lights whose intensity an image
+// sets per direction).
+#define FEATURE_PROFILE_LIGHTS 2097152
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 2097151
+#define FEATURE_ALL 4194303
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -407,6 +412,9 @@ struct GpuMaterial {
 // p0 the position. Directional: p0 the unit direction toward the light. Spot: p0 the
 // position, p1.xyz the unit axis, p1.w the cosine of the cone angle, p2.x the cosine of
 // the angle where the falloff starts (pbrt-v4's cosFalloffEnd and cosFalloffStart).
+// Goniometric and projection: p0.xyz the position; the 3x3 map from world directions to
+// the light's image space, its rows p1.xyz, p2.xyz and (p0.w, p1.w, p2.w); info.y the
+// first texel of the image (then its sampling distribution), info.z its width | height << 16.
 // Infinite (the environment): radiance the constant radiance arriving from every direction.
 // radiance.w: the probability of picking this emitter. info: x kind, y primitive,
 // z 1 when two-sided, w EMITTER_HIDDEN for an invisible light (else 0). p0.w: area (triangles, spheres).

@@ -27,9 +27,11 @@ uint pick_emitter(uint x) {
 
 float emitter_pick_pdf(uint e) { return emitters[e].radiance.w; }
 
-// Point, spot and directional lights: positions or directions no ray can hit.
+// Point, spot, directional, goniometric and projection lights: positions or directions
+// no ray can hit.
 bool emitter_kind_is_delta(uint kind) {
-    return kind == EMITTER_POINT || kind == EMITTER_SPOT || kind == EMITTER_DIRECTIONAL;
+    return kind == EMITTER_POINT || kind == EMITTER_SPOT || kind == EMITTER_DIRECTIONAL
+           || (has_feature(FEATURE_PROFILE_LIGHTS) && (kind == EMITTER_GONIOMETRIC || kind == EMITTER_PROJECTION));
 }
 
 // pbrt-v4's invisible area light (GpuEmitter.info.w, EMITTER_HIDDEN: an area light whose
@@ -57,13 +59,9 @@ vec3 env_to_world(vec3 l) {
     return l.x * scene.env_x.xyz + l.y * scene.env_y.xyz + l.z * scene.env_z.xyz;
 }
 
-// The map point (u right, v down from the top row) of the unit direction l in the map's
-// frame, and back (src/texture.rs EnvMapping).
-vec2 env_uv(vec3 l) {
-    if (scene.env_mapping == ENV_MAPPING_LATLONG) {
-        return vec2(atan(l.x, -l.z) * (0.5 * INV_PI) + 0.5, acos(clamp(l.y, -1.0, 1.0)) * INV_PI);
-    }
-    // Equal-area square (Clarberg): the inverse of env_direction below.
+// The equal-area square (Clarberg; pbrt-v4's): the point of [0,1]^2 of the unit direction
+// l, and back (src/texture.rs equal_area_sphere_to_square and _square_to_sphere).
+vec2 equal_area_sphere_to_square(vec3 l) {
     vec3 a = abs(l);
     float r = sqrt(max(1.0 - a.z, 0.0));
     float big = max(a.x, a.y);
@@ -82,13 +80,7 @@ vec2 env_uv(vec3 l) {
     return 0.5 * vec2(u + 1.0, v + 1.0);
 }
 
-vec3 env_direction(vec2 uv) {
-    if (scene.env_mapping == ENV_MAPPING_LATLONG) {
-        float theta = PI * uv.y;
-        float phi = TWO_PI * (uv.x - 0.5);
-        float s = sin(theta);
-        return vec3(s * sin(phi), cos(theta), -s * cos(phi));
-    }
+vec3 equal_area_square_to_sphere(vec2 uv) {
     float u = 2.0 * uv.x - 1.0;
     float v = 2.0 * uv.y - 1.0;
     float signed_d = 1.0 - (abs(u) + abs(v));
@@ -101,6 +93,25 @@ vec3 env_direction(vec2 uv) {
     return vec3((u < 0.0 ? -c : c) * s, (v < 0.0 ? -sn : sn) * s, z);
 }
 
+// The map point (u right, v down from the top row) of the unit direction l in the map's
+// frame, and back (src/texture.rs EnvMapping).
+vec2 env_uv(vec3 l) {
+    if (scene.env_mapping == ENV_MAPPING_LATLONG) {
+        return vec2(atan(l.x, -l.z) * (0.5 * INV_PI) + 0.5, acos(clamp(l.y, -1.0, 1.0)) * INV_PI);
+    }
+    return equal_area_sphere_to_square(l);
+}
+
+vec3 env_direction(vec2 uv) {
+    if (scene.env_mapping == ENV_MAPPING_LATLONG) {
+        float theta = PI * uv.y;
+        float phi = TWO_PI * (uv.x - 0.5);
+        float s = sin(theta);
+        return vec3(s * sin(phi), cos(theta), -s * cos(phi));
+    }
+    return equal_area_square_to_sphere(uv);
+}
+
 // Solid angle per unit of map area at uv. Within 1e-4 rad of a latitude-longitude map's
 // poles it is taken as 0 (those directions, 3e-8 sr, are left to BSDF sampling): there
 // the density 1/sin(theta) of a sampled direction grows without bound, and its square in
@@ -111,8 +122,14 @@ float env_jacobian(vec2 uv) {
     return s > 1e-4 ? 2.0 * PI * PI * s : 0.0;
 }
 
+// ---- piecewise-constant distributions over [0,1]^2 -------------------------------------
+// A w x h grid (row 0 at v = 0) stored in texels as a marginal CDF over rows (h + 1
+// entries from `marginal`) and a CDF per row (h rows of w + 1 from `conditional`); the
+// CPU mirror and builder is src/texture.rs Distribution2D. Sampling and the density both
+// read only the CDFs, so a sample's density is exactly the one it was drawn with.
+
 // The last i in 0 .. n-1 with cdf[i] <= u, for the n + 1 CDF entries from texels[first].
-uint env_find_interval(uint first, uint n, float u) {
+uint distribution_find_interval(uint first, uint n, float u) {
     uint lo = 0u;
     uint hi = n - 1u;
     while (lo < hi) {
@@ -122,16 +139,34 @@ uint env_find_interval(uint first, uint n, float u) {
     return lo;
 }
 
-// The map distribution's density at uv (with respect to map area).
-float env_map_pdf(vec2 uv) {
-    GpuTexture t = textures[scene.env_texture];
-    uint w = t.info.z;
-    uint h = t.info.w;
+// The distribution's density at uv (with respect to area).
+float distribution_pdf(uint marginal, uint conditional, uint w, uint h, vec2 uv) {
     uint x = min(uint(uv.x * float(w)), w - 1u);
     uint y = min(uint(uv.y * float(h)), h - 1u);
-    uint row = scene.env_conditional + y * (w + 1u);
-    float marginal = texels[scene.env_marginal + y + 1u] - texels[scene.env_marginal + y];
-    return marginal * (texels[row + x + 1u] - texels[row + x]) * float(w * h);
+    uint row = conditional + y * (w + 1u);
+    float m = texels[marginal + y + 1u] - texels[marginal + y];
+    return m * (texels[row + x + 1u] - texels[row + x]) * float(w * h);
+}
+
+// A point of [0,1]^2 for uniforms u, with its density (0 where a cell has none).
+vec2 sample_distribution(uint marginal, uint conditional, uint w, uint h, vec2 u, out float pdf) {
+    uint y = distribution_find_interval(marginal, h, u.y);
+    float m0 = texels[marginal + y];
+    float m1 = texels[marginal + y + 1u];
+    uint row = conditional + y * (w + 1u);
+    uint x = distribution_find_interval(row, w, u.x);
+    float c0 = texels[row + x];
+    float c1 = texels[row + x + 1u];
+    float fy = m1 > m0 ? clamp((u.y - m0) / (m1 - m0), 0.0, 1.0) : 0.5;
+    float fx = c1 > c0 ? clamp((u.x - c0) / (c1 - c0), 0.0, 1.0) : 0.5;
+    pdf = (m1 - m0) * (c1 - c0) * float(w * h);
+    return min(vec2((float(x) + fx) / float(w), (float(y) + fy) / float(h)), vec2(0.99999994));
+}
+
+// The environment map distribution's density at uv (with respect to map area).
+float env_map_pdf(vec2 uv) {
+    GpuTexture t = textures[scene.env_texture];
+    return distribution_pdf(scene.env_marginal, scene.env_conditional, t.info.z, t.info.w, uv);
 }
 
 // Whether the point q of the portal's plane lies in the portal.
@@ -200,20 +235,10 @@ vec3 sample_environment_direction(vec2 u, out float pdf) {
         return sample_uniform_sphere(u);
     }
     GpuTexture t = textures[scene.env_texture];
-    uint w = t.info.z;
-    uint h = t.info.w;
-    uint y = env_find_interval(scene.env_marginal, h, u.y);
-    float m0 = texels[scene.env_marginal + y];
-    float m1 = texels[scene.env_marginal + y + 1u];
-    uint row = scene.env_conditional + y * (w + 1u);
-    uint x = env_find_interval(row, w, u.x);
-    float c0 = texels[row + x];
-    float c1 = texels[row + x + 1u];
-    float fy = m1 > m0 ? clamp((u.y - m0) / (m1 - m0), 0.0, 1.0) : 0.5;
-    float fx = c1 > c0 ? clamp((u.x - c0) / (c1 - c0), 0.0, 1.0) : 0.5;
-    vec2 uv = min(vec2((float(x) + fx) / float(w), (float(y) + fy) / float(h)), vec2(0.99999994));
+    float pdf_uv;
+    vec2 uv = sample_distribution(scene.env_marginal, scene.env_conditional, t.info.z, t.info.w, u, pdf_uv);
     float jac = env_jacobian(uv);
-    pdf = jac > 0.0 ? (m1 - m0) * (c1 - c0) * float(w * h) / jac : 0.0;
+    pdf = jac > 0.0 ? pdf_uv / jac : 0.0;
     return env_to_world(env_direction(uv));
 }
 
@@ -237,6 +262,114 @@ float spot_falloff(GpuEmitter em, vec3 w) {
 float spot_cone_pdf(GpuEmitter em, vec3 w) {
     float cos_end = em.p1.w;
     return dot(em.p1.xyz, w) >= cos_end ? 1.0 / (TWO_PI * (1.0 - cos_end)) : 0.0;
+}
+
+// ---- goniometric and projection lights ------------------------------------------------
+// pbrt-v4's GoniometricLight and ProjectionLight: point lights whose intensity an image
+// sets per direction, at its nearest pixel (FEATURE_PROFILE_LIGHTS). The record (abi.h
+// GpuEmitter): the map M from world directions to the light's image space. Goniometric:
+// the direction M w (normalized) on the equal-area square, one value per pixel.
+// Projection: the screen point (M w).xy / (M w).z on pbrt-v4's screen bounds (half
+// extents (a, 1) for an image of aspect a > 1, else (1, 1/a); y down the image, fov
+// folded into M), RGB per pixel, dark where (M w).z <= 0 or beyond the bounds. Light
+// subpaths draw directions from the image's distribution (its texels follow the image),
+// in proportion to intensity. CPU mirror: src/scene/mod.rs DeltaLight::profile_uv.
+
+bool emitter_kind_is_profiled(uint kind) {
+    return has_feature(FEATURE_PROFILE_LIGHTS) && (kind == EMITTER_GONIOMETRIC || kind == EMITTER_PROJECTION);
+}
+
+mat3 profile_map(GpuEmitter em) {
+    return transpose(mat3(em.p1.xyz, em.p2.xyz, vec3(em.p0.w, em.p1.w, em.p2.w)));
+}
+
+uint profile_width(GpuEmitter em) { return em.info.z & 0xffffu; }
+uint profile_height(GpuEmitter em) { return em.info.z >> 16; }
+uint profile_channels(GpuEmitter em) { return em.info.x == EMITTER_GONIOMETRIC ? 1u : 3u; }
+uint profile_marginal(GpuEmitter em) {
+    return em.info.y + profile_width(em) * profile_height(em) * profile_channels(em);
+}
+uint profile_conditional(GpuEmitter em) { return profile_marginal(em) + profile_height(em) + 1u; }
+
+vec2 projection_half_extent(GpuEmitter em) {
+    float aspect = float(profile_width(em)) / float(profile_height(em));
+    return aspect > 1.0 ? vec2(aspect, 1.0) : vec2(1.0, 1.0 / aspect);
+}
+
+// The image point uv toward the unit world direction w, and the solid angle of directions
+// per unit of image area there (jac). False where the light is dark.
+bool profile_uv(GpuEmitter em, vec3 w, out vec2 uv, out float jac) {
+    mat3 m = profile_map(em);
+    vec3 q = m * w;
+    float det = abs(determinant(m));
+    uv = vec2(0.0);
+    jac = 0.0;
+    if (em.info.x == EMITTER_GONIOMETRIC) {
+        float len = length(q);
+        uv = equal_area_sphere_to_square(q / len);
+        jac = 4.0 * PI * len * len * len / det;
+        return true;
+    }
+    if (!(q.z > 0.0)) return false;
+    vec2 half_extent = projection_half_extent(em);
+    uv = (q.xy / q.z + half_extent) / (2.0 * half_extent);
+    jac = 4.0 * half_extent.x * half_extent.y * q.z * q.z * q.z / det;
+    return all(greaterThanEqual(uv, vec2(0.0))) && all(lessThanEqual(uv, vec2(1.0)));
+}
+
+// The unit world direction of the image point uv, and the solid angle per unit of image
+// area there.
+vec3 profile_direction(GpuEmitter em, vec2 uv, out float jac) {
+    mat3 m = profile_map(em);
+    mat3 inv = inverse(m);
+    float det = abs(determinant(m));
+    vec3 v;
+    if (em.info.x == EMITTER_GONIOMETRIC) {
+        v = inv * equal_area_square_to_sphere(uv);
+        jac = 4.0 * PI;
+    } else {
+        vec2 half_extent = projection_half_extent(em);
+        v = inv * vec3((2.0 * uv - 1.0) * half_extent, 1.0);
+        jac = 4.0 * half_extent.x * half_extent.y;
+    }
+    float len = length(v);
+    // |M w| = 1 / |v| for w = v / |v|.
+    jac /= len * len * len * det;
+    return v / len;
+}
+
+// The intensity toward the unit world direction w.
+vec3 profile_intensity(GpuEmitter em, vec3 w) {
+    vec2 uv;
+    float jac;
+    if (!profile_uv(em, w, uv, jac)) return vec3(0.0);
+    uint width = profile_width(em);
+    uint height = profile_height(em);
+    uint x = min(uint(uv.x * float(width)), width - 1u);
+    uint y = min(uint(uv.y * float(height)), height - 1u);
+    uint i = em.info.y + (y * width + x) * profile_channels(em);
+    vec3 value = em.info.x == EMITTER_GONIOMETRIC ? vec3(texels[i]) : vec3(texels[i], texels[i + 1u], texels[i + 2u]);
+    return em.radiance.xyz * value;
+}
+
+// The solid-angle density with which light subpaths draw the direction w (no pick).
+float profile_direction_pdf(GpuEmitter em, vec3 w) {
+    vec2 uv;
+    float jac;
+    if (!profile_uv(em, w, uv, jac) || !(jac > 0.0)) return 0.0;
+    return distribution_pdf(profile_marginal(em), profile_conditional(em), profile_width(em), profile_height(em), uv)
+           / jac;
+}
+
+// A direction drawn from the image's distribution for uniforms u, with its solid-angle density.
+vec3 sample_profile_direction(GpuEmitter em, vec2 u, out float pdf) {
+    float pdf_uv;
+    vec2 uv = sample_distribution(profile_marginal(em), profile_conditional(em), profile_width(em),
+                                  profile_height(em), u, pdf_uv);
+    float jac;
+    vec3 w = profile_direction(em, uv, jac);
+    pdf = jac > 0.0 ? pdf_uv / jac : 0.0;
+    return w;
 }
 
 // Radiance leaving an emissive surface point with unit normal ng toward w.
@@ -328,6 +461,18 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
         ls.dist = sqrt(d2);
         ls.wi = to / ls.dist;
         ls.L = em.radiance.xyz * (spot_falloff(em, -ls.wi) / d2);
+        ls.pdf = pick;
+        ls.delta = true;
+        ls.p = em.p0.xyz;
+        return ls.L != vec3(0.0);
+    }
+    if (emitter_kind_is_profiled(em.info.x)) {
+        vec3 to = em.p0.xyz - ref;
+        float d2 = dot(to, to);
+        if (d2 == 0.0) return false;
+        ls.dist = sqrt(d2);
+        ls.wi = to / ls.dist;
+        ls.L = profile_intensity(em, -ls.wi) / d2;
         ls.pdf = pick;
         ls.delta = true;
         ls.p = em.p0.xyz;
@@ -492,7 +637,7 @@ float emitter_hit_mis_weight(uint e, vec3 prev_p, float prev_pdf, vec3 p, vec3 n
 //   pdf_emit: pdf_pos * solid-angle pdf of the direction. Area lights emit cosine-weighted
 //             around the normal (over both sides, each with probability 1/2, when
 //             two-sided); point lights uniformly over the sphere; spot lights uniformly
-//             over their cone; the environment from a disk of the scene's bounding
+//             over their cone; goniometric and projection lights by their images; the environment from a disk of the scene's bounding
 //             radius facing a uniformly drawn direction, pdf_emit = pdf_pos / (pi R^2);
 //             directional lights
 //             from a disk of the scene's bounding radius, pdf_emit = pick / (pi R^2).
@@ -536,6 +681,14 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
         le.dir = to_world(sample_uniform_cone(u_dir.yz, em.p1.w), em.p1.xyz);
         le.Le = em.radiance.xyz * spot_falloff(em, le.dir);
         le.pdf_emit = pick * spot_cone_pdf(em, le.dir);
+        return le.pdf_emit > 0.0 && le.Le != vec3(0.0);
+    }
+    if (emitter_kind_is_profiled(em.info.x)) {
+        le.p = em.p0.xyz;
+        float pdf_dir;
+        le.dir = sample_profile_direction(em, u_dir.yz, pdf_dir);
+        le.Le = profile_intensity(em, le.dir);
+        le.pdf_emit = pick * pdf_dir;
         return le.pdf_emit > 0.0 && le.Le != vec3(0.0);
     }
     if (em.info.x == EMITTER_INFINITE) {
@@ -594,6 +747,8 @@ void emitter_emission_pdfs(uint e, vec3 p, vec3 ng, vec3 w, out float pdf_pos, o
         pdf_emit = pdf_pos / (PI * scene.bounds.w * scene.bounds.w);
     } else if (em.info.x == EMITTER_SPOT) {
         pdf_emit = pick * spot_cone_pdf(em, w);
+    } else if (emitter_kind_is_profiled(em.info.x)) {
+        pdf_emit = pick * profile_direction_pdf(em, w);
     } else if (em.info.x == EMITTER_DIRECTIONAL) {
         pdf_emit = pick / (PI * scene.bounds.w * scene.bounds.w);
     } else {
@@ -659,6 +814,11 @@ vec3 emitter_unoccluded_irradiance(uint e, vec3 p, vec3 n, uint prim) {
         float d2 = dot(to, to);
         vec3 w = to / sqrt(d2);
         return em.radiance.xyz * spot_falloff(em, -w) * max(0.0, dot(n, w)) / d2;
+    } else if (emitter_kind_is_profiled(em.info.x)) {
+        vec3 to = em.p0.xyz - p;
+        float d2 = dot(to, to);
+        vec3 w = to / sqrt(d2);
+        return profile_intensity(em, -w) * max(0.0, dot(n, w)) / d2;
     } else if (em.info.x == EMITTER_DIRECTIONAL) {
         return em.radiance.xyz * max(0.0, dot(n, em.p0.xyz));
     } else if (em.info.x == EMITTER_SPHERE) {

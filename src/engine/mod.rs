@@ -478,8 +478,8 @@ pub fn scene_features(scene: &Scene) -> u32 {
         FEATURE_COATED, FEATURE_COATED_CONDUCTOR, FEATURE_DIFFUSE_TRANSMISSION,
         FEATURE_ENVIRONMENT_MAP, FEATURE_HAIR, FEATURE_INTERFACES, FEATURE_LAYER_MEDIUM,
         FEATURE_MATERIAL_TEXTURES, FEATURE_MEASURED, FEATURE_MIX, FEATURE_PROCEDURAL_TEXTURES,
-        FEATURE_SHADING_MAPS, FEATURE_TEXTURE_GRAPHS, FEATURE_TEXTURE_PROJECTIONS,
-        FEATURE_UNBOUNDED,
+        FEATURE_PROFILE_LIGHTS, FEATURE_SHADING_MAPS, FEATURE_TEXTURE_GRAPHS,
+        FEATURE_TEXTURE_PROJECTIONS, FEATURE_UNBOUNDED,
     };
     let mut features = 0;
     for m in &scene.materials {
@@ -519,6 +519,15 @@ pub fn scene_features(scene: &Scene) -> u32 {
     }
     if scene.environment.as_ref().is_some_and(|e| e.map.is_some()) {
         features |= FEATURE_ENVIRONMENT_MAP;
+    }
+    if scene.delta_lights.iter().any(|l| {
+        matches!(
+            l,
+            crate::scene::DeltaLight::Goniometric { .. }
+                | crate::scene::DeltaLight::Projection { .. }
+        )
+    }) {
+        features |= FEATURE_PROFILE_LIGHTS;
     }
     features |= texture_features(scene.textures.iter());
     if scene.settings.max_depth < 0 {
@@ -722,7 +731,8 @@ mod tests {
             | FEATURE_ALPHA_TEXTURE_PROJECTIONS
             | FEATURE_ALPHA_TEXTURE_GRAPHS
             | FEATURE_ALPHA_PROCEDURAL_TEXTURES
-            | FEATURE_ALPHA_BILERP_TEXTURES;
+            | FEATURE_ALPHA_BILERP_TEXTURES
+            | FEATURE_PROFILE_LIGHTS;
         assert_eq!(FEATURE_ALL, every);
     }
 }

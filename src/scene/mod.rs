@@ -27,7 +27,7 @@ pub fn load(path: &std::path::Path) -> Result<Scene, ParseError> {
     }
 }
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -425,6 +425,150 @@ pub enum DeltaLight {
         cos_falloff_start: f32,
         cos_falloff_end: f32,
     },
+    /// pbrt-v4's goniometric light: intensity `intensity` × the value of the image
+    /// `Scene::light_profiles[profile]` (one channel) at the direction
+    /// `light_from_world · w` on the equal-area square (normalized), 1/d² with distance.
+    Goniometric {
+        position: Vec3,
+        light_from_world: Mat3,
+        intensity: Vec3,
+        profile: u32,
+    },
+    /// pbrt-v4's projection light: `scale` × the RGB image `Scene::light_profiles[profile]`
+    /// projected from `position`: the direction w shows the pixel at the screen point
+    /// (q.x / q.z, q.y / q.z), q = `screen_from_world · w`, on the image's screen bounds
+    /// (\[-a, a\] × \[-1, 1\] for an image of aspect a ≥ 1, \[-1, 1\] × \[-1/a, 1/a\] below;
+    /// y down the image), dark where q.z ≤ 0 or outside; 1/d² with distance.
+    Projection {
+        position: Vec3,
+        screen_from_world: Mat3,
+        scale: Vec3,
+        profile: u32,
+    },
+}
+
+/// The half extents (a, 1) or (1, 1/a) of pbrt-v4's screen bounds for a projection
+/// light's image of aspect a = width / height.
+pub fn projection_half_extent(width: u32, height: u32) -> Vec2 {
+    let aspect = width as f32 / height as f32;
+    if aspect > 1.0 {
+        Vec2::new(aspect, 1.0)
+    } else {
+        Vec2::new(1.0, 1.0 / aspect)
+    }
+}
+
+impl DeltaLight {
+    /// A goniometric or projection light's map, its image and whether it projects.
+    fn profiled(&self) -> Option<(Mat3, u32, bool)> {
+        match *self {
+            DeltaLight::Goniometric {
+                light_from_world,
+                profile,
+                ..
+            } => Some((light_from_world, profile, false)),
+            DeltaLight::Projection {
+                screen_from_world,
+                profile,
+                ..
+            } => Some((screen_from_world, profile, true)),
+            _ => None,
+        }
+    }
+
+    /// For a goniometric or projection light (CPU mirror of lights.glsl `profile_uv`): the
+    /// image point toward the unit world direction `w` and the solid angle of directions
+    /// per unit of image area there; None where the light is dark (behind or beside a
+    /// projection, or not such a light).
+    pub fn profile_uv(&self, profiles: &[LightProfile], w: Vec3) -> Option<(Vec2, f32)> {
+        let (m, profile, projects) = self.profiled()?;
+        let p = &profiles[profile as usize];
+        let q = m * w;
+        let det = m.determinant().abs();
+        if !projects {
+            let len = q.length();
+            let uv = crate::texture::equal_area_sphere_to_square(q / len);
+            return Some((uv, 4.0 * std::f32::consts::PI * len * len * len / det));
+        }
+        if !(q.z > 0.0) {
+            return None;
+        }
+        let half = projection_half_extent(p.width, p.height);
+        let uv = (Vec2::new(q.x, q.y) / q.z + half) / (2.0 * half);
+        if !(uv.cmpge(Vec2::ZERO).all() && uv.cmple(Vec2::ONE).all()) {
+            return None;
+        }
+        Some((uv, 4.0 * half.x * half.y * q.z * q.z * q.z / det))
+    }
+
+    /// The unit world direction of the image point uv of a goniometric or projection
+    /// light, with the solid angle per unit of image area there (lights.glsl
+    /// `profile_direction`).
+    pub fn profile_direction(&self, profiles: &[LightProfile], uv: Vec2) -> Option<(Vec3, f32)> {
+        let (m, profile, projects) = self.profiled()?;
+        let p = &profiles[profile as usize];
+        let inv = m.inverse();
+        let det = m.determinant().abs();
+        if !projects {
+            let v = inv * crate::texture::equal_area_square_to_sphere(uv);
+            let len = v.length();
+            // |M w| = 1 / |v| for w = v / |v|.
+            return Some((
+                v / len,
+                4.0 * std::f32::consts::PI / (len * len * len * det),
+            ));
+        }
+        let half = projection_half_extent(p.width, p.height);
+        let s = (2.0 * uv - Vec2::ONE) * half;
+        let v = inv * s.extend(1.0);
+        let len = v.length();
+        Some((v / len, 4.0 * half.x * half.y / (len * len * len * det)))
+    }
+
+    /// A goniometric or projection light's intensity toward the unit world direction w.
+    pub fn profile_intensity(&self, profiles: &[LightProfile], w: Vec3) -> Vec3 {
+        let colour = match *self {
+            DeltaLight::Goniometric { intensity, .. } => intensity,
+            DeltaLight::Projection { scale, .. } => scale,
+            _ => return Vec3::ZERO,
+        };
+        let (_, profile, _) = self.profiled().expect("a profiled light");
+        self.profile_uv(profiles, w).map_or(Vec3::ZERO, |(uv, _)| {
+            colour * profiles[profile as usize].nearest(uv)
+        })
+    }
+}
+
+/// The image of a goniometric or projection light: `channels` (1 or 3) linear values per
+/// pixel, row-major from the top row, none negative.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightProfile {
+    pub width: u32,
+    pub height: u32,
+    pub channels: u32,
+    pub values: Vec<f32>,
+}
+
+impl LightProfile {
+    /// The value at the pixel holding the point uv of \[0,1\]² (pbrt-v4's nearest lookup).
+    pub fn nearest(&self, uv: Vec2) -> Vec3 {
+        let x = ((uv.x * self.width as f32) as u32).min(self.width - 1);
+        let y = ((uv.y * self.height as f32) as u32).min(self.height - 1);
+        let i = ((y * self.width + x) * self.channels) as usize;
+        if self.channels == 1 {
+            Vec3::splat(self.values[i])
+        } else {
+            Vec3::new(self.values[i], self.values[i + 1], self.values[i + 2])
+        }
+    }
+
+    /// Each pixel's mean channel (the weights its sampling distribution starts from).
+    pub fn means(&self) -> Vec<f32> {
+        self.values
+            .chunks(self.channels as usize)
+            .map(|c| c.iter().sum::<f32>() / c.len() as f32)
+            .collect()
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -595,6 +739,8 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// The measured materials' tables (`Material::measured` indexes them).
     pub measured: Vec<Arc<crate::measured::MeasuredBsdf>>,
+    /// The goniometric and projection lights' images (`DeltaLight::profile` indexes them).
+    pub light_profiles: Vec<LightProfile>,
 }
 
 impl Default for Scene {
@@ -614,6 +760,7 @@ impl Default for Scene {
             environment: None,
             textures: Vec::new(),
             measured: Vec::new(),
+            light_profiles: Vec::new(),
         }
     }
 }

@@ -233,3 +233,66 @@ pub fn write_pfm(path: &std::path::Path, w: u32, h: u32, f: impl Fn(u32, u32) ->
     }
     std::fs::write(path, bytes).unwrap();
 }
+
+/// The camera ray direction through film point (fx, fy) ∈ [0,1)² (camera.glsl's).
+pub fn camera_ray(s: &Scene, fx: f32, fy: f32) -> (glam::Vec3, glam::Vec3) {
+    lightpath::gpu_scene::camera_ray(
+        &lightpath::gpu_scene::scene_params(s, 0),
+        glam::Vec2::new(fx, fy),
+        glam::Vec2::ZERO,
+    )
+}
+
+/// Each pixel's mean of `f` over an 8 × 8 grid of camera rays through it.
+pub fn expected_image(s: &Scene, f: impl Fn(glam::Vec3, glam::Vec3) -> glam::Vec3) -> Image {
+    let n = 8;
+    let mut pixels = Vec::new();
+    for y in 0..s.height {
+        for x in 0..s.width {
+            let mut sum = glam::Vec3::ZERO;
+            for j in 0..n {
+                for i in 0..n {
+                    let fx = (x as f32 + (i as f32 + 0.5) / n as f32) / s.width as f32;
+                    let fy = (y as f32 + (j as f32 + 0.5) / n as f32) / s.height as f32;
+                    let (o, d) = camera_ray(s, fx, fy);
+                    sum += f(o, d);
+                }
+            }
+            pixels.push((sum / (n * n) as f32).to_array());
+        }
+    }
+    Image {
+        width: s.width,
+        height: s.height,
+        pixels,
+    }
+}
+
+/// The images of the test scenes' goniometric and projection lights, written into `dir`:
+/// a 16 × 16 equal-area square whose cells vary in value and colour (their mean is what
+/// a goniometric light reads) with a band of dark cells, and a 6 × 4 slide of distinct
+/// colours with a black cell.
+pub fn light_profile_images(dir: &std::path::Path) -> (PathBuf, PathBuf) {
+    let goniometric = dir.join("goniometric.pfm");
+    write_pfm(&goniometric, 16, 16, |x, y| {
+        if (x / 4 + y / 4) % 3 == 0 {
+            [0.0; 3]
+        } else {
+            let v = 0.4 + x as f32 / 8.0 + (y % 5) as f32 / 10.0;
+            [v, 0.7 * v, 1.3 * v]
+        }
+    });
+    let slide = dir.join("slide.pfm");
+    write_pfm(&slide, 6, 4, |x, y| {
+        if x == 4 && y == 1 {
+            [0.0; 3]
+        } else {
+            [
+                0.2 + 0.15 * x as f32,
+                0.3 + 0.2 * y as f32,
+                1.0 - 0.1 * (x + y) as f32,
+            ]
+        }
+    });
+    (goniometric, slide)
+}

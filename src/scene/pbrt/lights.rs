@@ -300,6 +300,7 @@ impl Parser {
                     },
                 });
             }
+            "goniometric" | "projection" => self.profiled_light(ty, params, power, file, line)?,
             other => {
                 self.unsupported(file, line, format!("LightSource \"{other}\""));
                 for p in &params.0 {
@@ -308,6 +309,157 @@ impl Parser {
             }
         }
         self.check_used(d, &format!("\"{ty}\""), params);
+        Ok(())
+    }
+
+    /// pbrt-v4's goniometric and projection lights: point lights at the light space's
+    /// origin whose intensity an image sets per direction (its nearest pixel).
+    fn profiled_light(
+        &mut self,
+        ty: &str,
+        params: &Params,
+        power: Option<f32>,
+        file: u32,
+        line: u32,
+    ) -> Result<(), ParseError> {
+        let d = "LightSource";
+        let ctm = self.gs.ctm;
+        let linear = Mat3::from_mat4(ctm);
+        if linear.determinant() == 0.0 {
+            return Err(self.err_at(file, line, d, format!("{ty}: the transform is singular")));
+        }
+        let position = ctm.transform_point3(Vec3::ZERO);
+        // (The numbers first: the image is read last.)
+        let colour = if ty == "goniometric" {
+            self.light_colour(params, "I", Vec3::ONE, d)?
+        } else {
+            Vec3::splat(
+                params
+                    .find("scale")
+                    .and_then(|p| p.nums.first().copied())
+                    .unwrap_or(1.0) as f32,
+            )
+        };
+        let fov = if ty == "projection" {
+            params
+                .find("fov")
+                .and_then(|p| p.nums.first().copied())
+                .unwrap_or(90.0) as f32
+        } else {
+            0.0
+        };
+        let image = match params.find("filename").cloned() {
+            Some(p) => {
+                let path = self.dirs[p.file as usize].join(&p.strs[0]);
+                // (8-bit images decoded from sRGB, as pbrt-v4's Image::Read tags them.)
+                let image = load_image(&path, Encoding::Srgb)
+                    .map_err(|e| self.err_at(p.file, p.line, d, e))?;
+                if image.pixels.iter().flatten().any(|x| !x.is_finite()) {
+                    return Err(self.err_at(p.file, p.line, d, format!("{}: the image has infinite or not-a-number pixels and cannot be a light", path.display())));
+                }
+                if ty == "goniometric" && image.width != image.height {
+                    return Err(self.err_at(p.file, p.line, d, format!("{}: a goniometric light's image is an equal-area square, this one is {}x{}", path.display(), image.width, image.height)));
+                }
+                Some(image)
+            }
+            None if ty == "projection" => {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    d,
+                    "projection: a \"string filename\" is required (the image it projects)",
+                ))
+            }
+            None => {
+                self.warn(
+                    "goniometric without an image",
+                    format!(
+                        "{}:{line}: LightSource \"goniometric\" without a \"filename\": lit alike in every direction",
+                        self.files[file as usize]
+                    ),
+                );
+                None
+            }
+        };
+        let profile = self.scene.light_profiles.len() as u32;
+        let mut light = if ty == "goniometric" {
+            // One channel, pbrt-v4's mean of R, G and B; its y and z axes swapped.
+            let values = image.as_ref().map_or(vec![1.0], |im| {
+                im.pixels
+                    .iter()
+                    .map(|p| ((p[0] + p[1] + p[2]) / 3.0).max(0.0))
+                    .collect()
+            });
+            let n = image.as_ref().map_or(1, |im| im.width);
+            self.scene.light_profiles.push(LightProfile {
+                width: n,
+                height: n,
+                channels: 1,
+                values,
+            });
+            let swap_yz = Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::Y);
+            DeltaLight::Goniometric {
+                position,
+                light_from_world: swap_yz * linear.inverse(),
+                intensity: colour,
+                profile,
+            }
+        } else {
+            let image = image.expect("projection: an image");
+            if !(fov > 0.0 && fov < 180.0) {
+                return Err(self.err_at(file, line, d, "projection: fov must be in (0, 180)"));
+            }
+            self.scene.light_profiles.push(LightProfile {
+                width: image.width,
+                height: image.height,
+                channels: 3,
+                values: image.pixels.iter().flatten().map(|x| x.max(0.0)).collect(),
+            });
+            // pbrt-v4's screen space: the light space with y flipped, x and y over
+            // tan(fov / 2).
+            let k = 1.0 / (fov.to_radians() / 2.0).tan();
+            let screen = Mat3::from_diagonal(Vec3::new(k, -k, 1.0));
+            DeltaLight::Projection {
+                position,
+                screen_from_world: screen * linear.inverse(),
+                scale: colour,
+                profile,
+            }
+        };
+        if let Some(phi) = power {
+            // pbrt-v4: the flux of the image's luminance (a goniometric light's one
+            // channel, a projection's RGB) over the sphere becomes `power`.
+            let profiles = &self.scene.light_profiles;
+            let p = &profiles[profile as usize];
+            let (w, h) = (p.width, p.height);
+            let mut sum = 0.0f64;
+            for y in 0..h {
+                for x in 0..w {
+                    let uv = Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
+                    let v = p.nearest(uv);
+                    let luminance = 0.212_672_9 * v.x + 0.715_152_2 * v.y + 0.072_175 * v.z;
+                    let jac = light
+                        .profile_direction(profiles, uv)
+                        .map_or(0.0, |(_, j)| j);
+                    sum += (luminance * jac) as f64;
+                }
+            }
+            let k_e = (sum / (w * h) as f64) as f32;
+            if !(k_e > 0.0) {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    d,
+                    format!("{ty}: \"power\" asks to scale an image that emits nothing"),
+                ));
+            }
+            match &mut light {
+                DeltaLight::Goniometric { intensity: c, .. }
+                | DeltaLight::Projection { scale: c, .. } => *c *= phi / k_e,
+                _ => {}
+            }
+        }
+        self.scene.delta_lights.push(light);
         Ok(())
     }
 

@@ -36,9 +36,9 @@ use shapes::*;
 use super::parse::MaterialKey;
 use super::spectrum;
 use super::{
-    BsdfKind, Camera, DeltaLight, Environment, EnvironmentMap, IntegratorKind, Material,
-    MaterialMix, NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture, Triangle,
-    MAX_MIX_DEPTH,
+    BsdfKind, Camera, DeltaLight, Environment, EnvironmentMap, IntegratorKind, LightProfile,
+    Material, MaterialMix, NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture,
+    Triangle, MAX_MIX_DEPTH,
 };
 use crate::texture::{load_image, Encoding, EnvMapping, Projection, Wrap};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -729,9 +729,12 @@ impl Parser {
         let ratio = self.imaging_ratio();
         for l in &mut self.scene.delta_lights {
             match l {
-                DeltaLight::Point { intensity, .. } | DeltaLight::Spot { intensity, .. } => {
-                    *intensity *= ratio
-                }
+                DeltaLight::Point { intensity, .. }
+                | DeltaLight::Spot { intensity, .. }
+                | DeltaLight::Goniometric { intensity, .. }
+                | DeltaLight::Projection {
+                    scale: intensity, ..
+                } => *intensity *= ratio,
                 DeltaLight::Directional { radiance, .. } => *radiance *= ratio,
             }
         }

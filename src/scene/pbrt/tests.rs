@@ -66,16 +66,21 @@ fn every_parameter_name_read_is_pbrt_v4s_own() {
     ] {
         files.push(format!("Integrator \"{ty}\"\nWorldBegin\n"));
     }
-    for ty in [
-        "point",
-        "spot",
-        "distant",
-        "infinite",
-        "goniometric",
-        "projection",
-    ] {
+    for ty in ["point", "spot", "distant", "infinite", "goniometric"] {
         files.push(world(&format!("LightSource \"{ty}\"")));
     }
+    // (A projection needs its image.)
+    let slide = write_pfm(
+        &std::env::temp_dir(),
+        &format!("lightpath-names-{}.pfm", std::process::id()),
+        2,
+        2,
+        |_, _| [1.0; 3],
+    );
+    files.push(world(&format!(
+        "LightSource \"projection\" \"string filename\" \"{}\"",
+        slide.display()
+    )));
     for ty in ["sphere", "disk", "cylinder", "curve", "plymesh"] {
         files.push(world(&format!("Shape \"{ty}\"")));
     }
@@ -151,6 +156,7 @@ fn every_parameter_name_read_is_pbrt_v4s_own() {
     // (The check has teeth: the directives it covers were read.)
     for (d, ty) in [
         ("LightSource", "spot"),
+        ("LightSource", "projection"),
         ("Shape", "sphere"),
         ("Material", "coateddiffuse"),
         ("Film", "rgb"),
@@ -1072,7 +1078,7 @@ fn unsupported_features_are_listed_together() {
         Shape "hyperboloid"
         Material "subsurface"
         Shape "sphere" "float alpha" 0.5
-        LightSource "goniometric"
+        AreaLightSource "diffuse" "string filename" "glow.png"
         "#
     ));
     let text = e.to_string();
@@ -1081,7 +1087,7 @@ fn unsupported_features_are_listed_together() {
         "t.pbrt:3: Shape \"hyperboloid\"",
         "t.pbrt:4: Material \"subsurface\"",
         "alpha",
-        "t.pbrt:6: LightSource \"goniometric\"",
+        "t.pbrt:6: AreaLightSource: an image",
     ] {
         assert!(text.contains(what), "{what} missing from:\n{text}");
     }
@@ -1570,4 +1576,94 @@ fn dots_show_their_colours_where_pbrt_v4_shows_them() {
         }
         t => panic!("{t:?}"),
     }
+}
+
+/// A PFM image of `w` × `h` pixels, `f(x, y)` with y = 0 the top row, in `dir`.
+fn write_pfm(dir: &Path, name: &str, w: u32, h: u32, f: impl Fn(u32, u32) -> [f32; 3]) -> PathBuf {
+    let mut bytes = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
+    for y in (0..h).rev() {
+        for x in 0..w {
+            for c in f(x, y) {
+                bytes.extend(c.to_le_bytes());
+            }
+        }
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// pbrt-v4's goniometric and projection lights: at the light space's origin; the
+/// goniometric image's centre (the equal-area square's +z) faces the light space's +y
+/// (pbrt-v4 swaps y and z) and its one value is the mean of R, G and B; the projection
+/// looks along +z with the image's top-left pixel toward -x and +y, and is dark behind;
+/// `power` sets the flux; a projection needs an image; a goniometric image is square.
+#[test]
+fn goniometric_and_projection_lights() {
+    let d = std::env::temp_dir().join(format!("lightpath-profiled-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let g = write_pfm(&d, "g.pfm", 4, 4, |x, y| {
+        let v = 1.0 + x as f32 + 4.0 * y as f32;
+        [v - 1.0, v, v + 1.0]
+    });
+    let s = parse(&format!(
+        "WorldBegin Translate 1 2 3 LightSource \"goniometric\" \"string filename\" \"{}\" \"rgb I\" [ 2 2 2 ]",
+        g.display()
+    ));
+    let l = s.delta_lights[0];
+    let DeltaLight::Goniometric { position, .. } = l else {
+        panic!("not a goniometric light: {l:?}");
+    };
+    assert_eq!(position, Vec3::new(1.0, 2.0, 3.0));
+    let (uv, jac) = l.profile_uv(&s.light_profiles, Vec3::Y).unwrap();
+    assert!((uv - Vec2::splat(0.5)).length() < 1e-6, "{uv}");
+    assert!((jac - 4.0 * std::f32::consts::PI).abs() < 1e-4);
+    // uv (0.5, 0.5) is pixel (2, 2): 1 + 2 + 8.
+    assert_eq!(
+        l.profile_intensity(&s.light_profiles, Vec3::Y),
+        Vec3::splat(22.0)
+    );
+    // Down is a corner of the square: pixel (0, 0), (3, 3), (0, 3) or (3, 0).
+    let down = l.profile_intensity(&s.light_profiles, Vec3::NEG_Y).x / 2.0;
+    assert!([1.0, 4.0, 13.0, 16.0].contains(&down), "{down}");
+    // power: the flux of a uniform image is 4π I.
+    let one = write_pfm(&d, "one.pfm", 2, 2, |_, _| [1.0; 3]);
+    let s = parse(&format!(
+        "WorldBegin Rotate 30 1 1 0 LightSource \"goniometric\" \"string filename\" \"{}\" \"float power\" [ 10 ]",
+        one.display()
+    ));
+    let i = s.delta_lights[0].profile_intensity(&s.light_profiles, Vec3::X);
+    assert!(
+        (i.x - 10.0 / (4.0 * std::f32::consts::PI)).abs() < 1e-5,
+        "{i}"
+    );
+
+    let p = write_pfm(&d, "p.pfm", 2, 2, |x, y| [x as f32, y as f32, 0.5]);
+    let s = parse(&format!(
+        "WorldBegin LightSource \"projection\" \"string filename\" \"{}\" \"float scale\" [ 3 ]",
+        p.display()
+    ));
+    let l = s.delta_lights[0];
+    let toward = |x: f32, y: f32, z: f32| {
+        l.profile_intensity(&s.light_profiles, Vec3::new(x, y, z).normalize())
+    };
+    assert_eq!(toward(-0.5, 0.5, 1.0), Vec3::new(0.0, 0.0, 1.5));
+    assert_eq!(toward(0.5, 0.5, 1.0), Vec3::new(3.0, 0.0, 1.5));
+    assert_eq!(toward(-0.5, -0.5, 1.0), Vec3::new(0.0, 3.0, 1.5));
+    // fov 90: the screen is z · [-1, 1]²; beyond it, and behind, dark.
+    assert_eq!(toward(1.1, 0.0, 1.0), Vec3::ZERO);
+    assert_eq!(toward(0.1, 0.1, -1.0), Vec3::ZERO);
+
+    let e = parse_err("WorldBegin\nLightSource \"projection\" \"float fov\" [ 30 ]\n");
+    assert!(
+        e.to_string().contains("\"string filename\" is required"),
+        "{e}"
+    );
+    assert_eq!(e.line, 2);
+    let wide = write_pfm(&d, "wide.pfm", 2, 1, |_, _| [1.0; 3]);
+    let e = parse_err(&format!(
+        "WorldBegin\nLightSource \"goniometric\" \"string filename\" \"{}\"\n",
+        wide.display()
+    ));
+    assert!(e.to_string().contains("equal-area square"), "{e}");
 }
