@@ -681,6 +681,39 @@ pub fn camera_ray(p: &SceneParams, film: Vec2, u_lens: Vec2) -> (Vec3, Vec3) {
     (o, (focus - o).normalize())
 }
 
+/// The pixel footprint (dp/dx, dp/dy) at the surface point `point` with unit geometric
+/// normal `n` (geometry.glsl's `surface_footprint`, mirrored): where the camera rays
+/// through the pixels beside the point's film position meet its tangent plane, less the
+/// point, times 1/8; zero where undefined.
+pub fn surface_footprint(p: &SceneParams, point: Vec3, n: Vec3) -> (Vec3, Vec3) {
+    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+    let to = point - v(p.cam_eye);
+    let z = to.dot(v(p.cam_forward));
+    let k = if z > 0.0 { z } else { to.length() };
+    let w = p.cam_window;
+    let sx = (w[1] - w[0]) / p.width as f32;
+    let sy = (w[3] - w[2]) / p.height as f32;
+    let rx = to + (k * sx) * v(p.cam_right);
+    let ry = to - (k * sy) * v(p.cam_up);
+    let pn = n.dot(to);
+    let (ax, ay) = (n.dot(rx), n.dot(ry));
+    let dpdx = if ax != 0.0 {
+        0.125 * ((pn / ax) * rx - to)
+    } else {
+        Vec3::ZERO
+    };
+    let dpdy = if ay != 0.0 {
+        0.125 * ((pn / ay) * ry - to)
+    } else {
+        Vec3::ZERO
+    };
+    if dpdx.is_finite() && dpdy.is_finite() {
+        (dpdx, dpdy)
+    } else {
+        (Vec3::ZERO, Vec3::ZERO)
+    }
+}
+
 /// The scene's parameters for a render with `seed`: the camera, bounds, counts and the
 /// settings every integrator reads (`emitter_count` is filled in by `GpuScene::new`). `max_depth` is the scene's (0 for -1, with
 /// `unbounded` set); integrators adjust their own fields before upload.
@@ -969,6 +1002,32 @@ mod tests {
         assert!((share - 0.5).abs() < 1e-5, "{share}");
         let none = emitter_table(&parse_str("envlight 0 0 0\n", "t").unwrap());
         assert_eq!(none.environment, NO_EMITTER);
+    }
+
+    /// The footprint of a pixel on a plane facing the camera at distance 4 is 4 times the
+    /// film's pixel (at distance 1) along the image's right and up, over 8; on the plane
+    /// turned 60 degrees about the image's up it is twice as long along right (to first
+    /// order in the pixel's size).
+    #[test]
+    fn a_pixel_footprint_grows_with_distance_and_tilt() {
+        let s = parse_str("size 4000 2000\ncamera 0 0 0  0 0 -1  0 1 0  90\n", "t").unwrap();
+        let p = scene_params(&s, 0);
+        // fovy 90: the film spans 2 vertically at distance 1, 4 horizontally: 0.001 a pixel.
+        let pixel = 4.0 * 0.001 / 8.0;
+        let (dx, dy) = surface_footprint(&p, Vec3::new(0.0, 0.0, -4.0), Vec3::Z);
+        assert!((dx.length() - pixel).abs() < 1e-6 * pixel, "{dx}");
+        assert!((dy.length() - pixel).abs() < 1e-6 * pixel, "{dy}");
+        assert!(
+            dx.y.abs() < 1e-9 && dx.z.abs() < 1e-9,
+            "{dx} along the right"
+        );
+        let n = Vec3::new((60f32).to_radians().sin(), 0.0, (60f32).to_radians().cos());
+        let (dx, dy) = surface_footprint(&p, Vec3::new(0.0, 0.0, -4.0), n);
+        assert!((dx.length() - 2.0 * pixel).abs() < 0.01 * pixel, "{dx}");
+        assert!((dy.length() - pixel).abs() < 0.01 * pixel, "{dy}");
+        // Grazing: no footprint rather than an infinite one.
+        let (dx, _) = surface_footprint(&p, Vec3::new(0.0, 0.0, -4.0), Vec3::X);
+        assert!(dx.is_finite());
     }
 
     /// Goniometric and projection lights: their records (the map's rows, the image's

@@ -111,41 +111,74 @@ pub fn noise(p: Vec3) -> f32 {
     lerp(wz, y0, y1)
 }
 
-/// Fractional Brownian motion: octaves of noise, each at 1.99 times the frequency and
-/// omega times the weight of the last. Every octave: lightpath has no ray differentials,
-/// and pbrt-v4 drops only octaves finer than a pixel, whose average over it is about 0.
-pub fn fbm(p: Vec3, omega: f32, octaves: u32) -> f32 {
+/// pbrt-v4's count of octaves for a footprint of squared length `len2` in the noise's
+/// space: the octaves coarser than it, the last in part (0 for none: every octave).
+fn octaves_for(len2: f32, max_octaves: u32) -> f32 {
+    (-1.0 - 0.5 * len2.log2()).clamp(0.0, max_octaves as f32)
+}
+
+fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Fractional Brownian motion (pbrt-v4's `FBm`): octaves of noise, each at 1.99 times the
+/// frequency and omega times the weight of the last, as many as are coarser than the
+/// footprint (`len2`, its squared length in the noise's space; 0: all), the last weighted
+/// by a smoothstep of its fraction.
+pub fn fbm(p: Vec3, len2: f32, omega: f32, octaves: u32) -> f32 {
+    noise_sum(p, len2, omega, octaves, false)
+}
+
+/// Turbulence (pbrt-v4's `Turbulence`): as [`fbm`] of |noise|, the partial octave blended
+/// toward 0.2, and 0.2 for each octave left out (pbrt-v4 counts the first of them twice;
+/// with no footprint, one 0.2 for the octave after the last).
+pub fn turbulence(p: Vec3, len2: f32, omega: f32, octaves: u32) -> f32 {
+    noise_sum(p, len2, omega, octaves, true)
+}
+
+fn noise_sum(p: Vec3, len2: f32, omega: f32, octaves: u32, turbulence: bool) -> f32 {
+    let n = octaves_for(len2, octaves);
+    let whole = n.floor();
+    let partial = n - whole;
     let (mut sum, mut lambda, mut o) = (0.0, 1.0f32, 1.0f32);
-    for _ in 0..octaves {
-        sum += o * noise(lambda * p);
+    for _ in 0..whole as u32 {
+        let v = noise(lambda * p);
+        sum += o * if turbulence { v.abs() } else { v };
         lambda *= 1.99;
         o *= omega;
+    }
+    let w = smoothstep(0.3, 0.7, partial);
+    if w > 0.0 {
+        let v = noise(lambda * p);
+        sum += o * if turbulence {
+            (1.0 - w) * 0.2 + w * v.abs()
+        } else {
+            w * v
+        };
+    } else if turbulence {
+        sum += o * 0.2;
+    }
+    if turbulence {
+        for _ in whole as u32..octaves {
+            sum += o * 0.2;
+            o *= omega;
+        }
     }
     sum
 }
 
-/// Turbulence: as [`fbm`] of |noise|, plus pbrt-v4's 0.2 for the octave after the last.
-pub fn turbulence(p: Vec3, omega: f32, octaves: u32) -> f32 {
-    let (mut sum, mut lambda, mut o) = (0.0, 1.0f32, 1.0f32);
-    for _ in 0..octaves {
-        sum += o * noise(lambda * p).abs();
-        lambda *= 1.99;
-        o *= omega;
-    }
-    sum + o * 0.2
-}
-
 /// pbrt-v4's windy waves: the height of six octaves scaled by the strength of three
-/// octaves at a tenth of the frequency.
-pub fn windy(p: Vec3) -> f32 {
-    fbm(0.1 * p, 0.5, 3).abs() * fbm(p, 0.5, 6)
+/// octaves at a tenth of the frequency (and of the footprint).
+pub fn windy(p: Vec3, len2: f32) -> f32 {
+    fbm(0.1 * p, 0.01 * len2, 0.5, 3).abs() * fbm(p, len2, 0.5, 6)
 }
 
 /// pbrt-v4's marble: the sine of y perturbed by `variation` times fBm, through the
 /// colour spline, at p scaled by `scale`.
-pub fn marble(p: Vec3, omega: f32, octaves: u32, scale: f32, variation: f32) -> Vec3 {
+pub fn marble(p: Vec3, len2: f32, omega: f32, octaves: u32, scale: f32, variation: f32) -> Vec3 {
     let p = p * scale;
-    let m = p.y + variation * fbm(p, omega, octaves);
+    let m = p.y + variation * fbm(p, len2 * scale * scale, omega, octaves);
     let t = 0.5 + 0.5 * m.sin();
     let segments = (MARBLE_COLOURS.len() - 3) as f32;
     let first = (t * segments).floor().min(segments - 1.0).max(0.0);
@@ -204,19 +237,41 @@ mod tests {
     #[test]
     fn fbm_turbulence_windy_marble_and_dots_follow_their_definitions() {
         let p = Vec3::new(0.37, 1.91, -2.53);
-        assert_eq!(fbm(p, 0.5, 1), noise(p));
+        assert_eq!(fbm(p, 0.0, 0.5, 1), noise(p));
         let two = noise(p) + 0.5 * noise(1.99 * p);
-        assert!((fbm(p, 0.5, 2) - two).abs() < 1e-6);
+        assert!((fbm(p, 0.0, 0.5, 2) - two).abs() < 1e-6);
         let t = noise(p).abs() + 0.5 * noise(1.99 * p).abs() + 0.25 * 0.2;
-        assert!((turbulence(p, 0.5, 2) - t).abs() < 1e-6);
-        assert!((windy(p) - fbm(0.1 * p, 0.5, 3).abs() * fbm(p, 0.5, 6)).abs() < 1e-6);
+        assert!((turbulence(p, 0.0, 0.5, 2) - t).abs() < 1e-6);
+        assert!(
+            (windy(p, 0.0) - fbm(0.1 * p, 0.0, 0.5, 3).abs() * fbm(p, 0.0, 0.5, 6)).abs() < 1e-6
+        );
+        // A footprint drops the octaves finer than it, as pbrt-v4's: of squared length
+        // 2^-6, n = -1 - log2(len2) / 2 = 2 octaves exactly.
+        let fine = 2f32.powi(-6);
+        assert!((fbm(p, fine, 0.5, 8) - two).abs() < 1e-6);
+        // Turbulence adds 0.2 for each octave left out (pbrt-v4's loop counts the first
+        // twice: once for the partial octave, whose fraction is 0, once in the loop).
+        let t4 = noise(p).abs() + 0.5 * noise(1.99 * p).abs() + 0.25 * 0.2 * 2.0 + 0.125 * 0.2;
+        assert!((turbulence(p, fine, 0.5, 4) - t4).abs() < 1e-6);
+        // Half an octave more: the third weighted by smoothstep(0.3, 0.7, 0.5) = 1/2.
+        let half = fine / 2.0;
+        let third = 0.25 * noise(1.99 * 1.99 * p);
+        assert!((fbm(p, half, 0.5, 8) - (two + 0.5 * third)).abs() < 1e-5);
+        // A footprint as large as the noise's lattice: no octave.
+        assert_eq!(fbm(p, 1.0, 0.5, 8), 0.0);
+        // Windy's strength is at a tenth of the frequency: its footprint a tenth too.
+        assert_eq!(
+            windy(p, fine),
+            fbm(0.1 * p, 0.01 * fine, 0.5, 3).abs() * fbm(p, fine, 0.5, 6)
+        );
         // Marble: the spline's ends are its control points (t = 0 and t = 1, 1.5 x).
         for m in [0.0f32, 1.0, 2.5, -4.0] {
-            let c = marble(Vec3::new(0.0, m, 0.0), 0.5, 0, 1.0, 0.0);
+            let c = marble(Vec3::new(0.0, m, 0.0), 0.0, 0.5, 0, 1.0, 0.0);
             assert!(c.min_element() >= 0.0 && c.max_element() <= 1.0, "{c}");
         }
         let low = marble(
             Vec3::new(0.0, -std::f32::consts::FRAC_PI_2, 0.0),
+            0.0,
             0.5,
             0,
             1.0,

@@ -4,16 +4,16 @@
 //! integrator then shades with it (and corrects importance for it, as for interpolated
 //! normals).
 //!
-//! Choices (docs/pbrt.md): the bump map's finite differences step [`BUMP_DELTA`] in u and
-//! v, pbrt-v4's step for a point without ray differentials (pbrt-v4 steps half the
-//! pixel footprint in u where it has one; the two agree where the displacement is smooth
-//! at that scale). A sphere's dn/du is the derivative of its unit world normal (pbrt-v4
+//! Choices (docs/pbrt.md): the bump map's finite differences step half the pixel
+//! footprint in u and in v ([`bump_steps`], over the footprint of
+//! [`crate::gpu_scene::surface_footprint`]), as pbrt-v4's; [`BUMP_DELTA`], pbrt-v4's step
+//! for a point without a footprint, where it has none. A sphere's dn/du is the derivative of its unit world normal (pbrt-v4
 //! transforms the object-space one as a normal, which differs under a scaling transform;
 //! the term matters only where the displacement is comparable to the radius).
 use crate::abi::BUMP_DELTA;
 use crate::bsdf::sampling::{build_onb, PI, TWO_PI};
 use crate::scene::{Scene, ShadingMap};
-use crate::texture::texture_value;
+use crate::texture::texture_value_in;
 use glam::{Mat3, Vec2, Vec3};
 
 /// pbrt-v4's shading geometry at a point: the unit shading normal and the partial
@@ -114,22 +114,49 @@ fn facing(ns: Vec3, ng: Vec3) -> Vec3 {
     }
 }
 
+/// pbrt-v4's steps in u and v for a bump map's differences (shading_map.glsl's
+/// `bump_steps`): half the pixel footprint's extent in u and in v, the least-squares
+/// (du/dx, dv/dx) and (du/dy, dv/dy) of dp/dx and dp/dy over dp/du and dp/dv (each
+/// clamped to 1e8); [`BUMP_DELTA`] where that is 0.
+pub fn bump_steps(g: &ShadingGeometry, dpdx: Vec3, dpdy: Vec3) -> Vec2 {
+    let a00 = g.dpdu.dot(g.dpdu);
+    let a01 = g.dpdu.dot(g.dpdv);
+    let a11 = g.dpdv.dot(g.dpdv);
+    let det = a00 * a11 - a01 * a01;
+    let inv = if det != 0.0 && (1.0 / det).is_finite() {
+        1.0 / det
+    } else {
+        0.0
+    };
+    let solve = |d: Vec3| {
+        let (b0, b1) = (g.dpdu.dot(d), g.dpdv.dot(d));
+        Vec2::new(a11 * b0 - a01 * b1, a00 * b1 - a01 * b0) * inv
+    };
+    let clamp = |v: Vec2| v.clamp(Vec2::splat(-1e8), Vec2::splat(1e8));
+    let steps = 0.5 * (clamp(solve(dpdx)).abs() + clamp(solve(dpdy)).abs());
+    Vec2::new(
+        if steps.x > 0.0 { steps.x } else { BUMP_DELTA },
+        if steps.y > 0.0 { steps.y } else { BUMP_DELTA },
+    )
+}
+
 /// pbrt-v4's `BumpMap`: `displacement(uv, p)` is the height along n; the shading normal is
 /// the displaced surface's, on `ng`'s side (n where that is degenerate). The lookups step
-/// as the GLSL's (`p + su dp/du + sv dp/dv`).
+/// `delta` ([`bump_steps`]) as the GLSL's (`p + su dp/du + sv dp/dv`).
 pub fn bump_mapped_normal(
     g: &ShadingGeometry,
     displacement: impl Fn(Vec2, Vec3) -> f32,
     uv: Vec2,
     p: Vec3,
     ng: Vec3,
+    delta: Vec2,
 ) -> Vec3 {
     let h = |su: f32, sv: f32| displacement(uv + Vec2::new(su, sv), p + su * g.dpdu + sv * g.dpdv);
     let d = h(0.0, 0.0);
-    let d_u = h(BUMP_DELTA, 0.0);
-    let d_v = h(0.0, BUMP_DELTA);
-    let dpdu = g.dpdu + (d_u - d) / BUMP_DELTA * g.n + d * g.dndu;
-    let dpdv = g.dpdv + (d_v - d) / BUMP_DELTA * g.n + d * g.dndv;
+    let d_u = h(delta.x, 0.0);
+    let d_v = h(0.0, delta.y);
+    let dpdu = g.dpdu + (d_u - d) / delta.x * g.n + d * g.dndu;
+    let dpdv = g.dpdv + (d_v - d) / delta.y * g.n + d * g.dndv;
     let ns = dpdu.cross(dpdv);
     let l = ns.length();
     // (Zero, infinite or NaN: degenerate.)
@@ -209,21 +236,27 @@ pub fn shading_normal(scene: &Scene, prim: usize, p: Vec3) -> Vec3 {
         uv = Vec2::new(phi / TWO_PI, 1.0 - qn.z.clamp(-1.0, 1.0).acos() / PI);
         geometry = Box::new(move || sphere_shading_geometry(linear, q, n));
     }
+    // The pixel footprint there, as the kernels find it with the scene's camera.
+    let footprint =
+        crate::gpu_scene::surface_footprint(&crate::gpu_scene::scene_params(scene, 0), p, ng);
     match scene.materials[material as usize].shading_map {
         None => ns,
         Some(ShadingMap::Bump(tex)) => {
             let t = &scene.textures[tex as usize];
+            let g = geometry();
+            let delta = bump_steps(&g, footprint.0, footprint.1);
             bump_mapped_normal(
-                &geometry(),
-                |uv, p| texture_value(t, uv, p, ng).x,
+                &g,
+                |uv, p| texture_value_in(t, uv, p, ng, footprint).x,
                 uv,
                 p,
                 ng,
+                delta,
             )
         }
         Some(ShadingMap::Normal(tex)) => {
             let t = &scene.textures[tex as usize];
-            normal_mapped_normal(&geometry(), texture_value(t, uv, p, ng), ng)
+            normal_mapped_normal(&geometry(), texture_value_in(t, uv, p, ng, footprint), ng)
         }
     }
 }
@@ -234,6 +267,29 @@ mod tests {
 
     /// A plane z = 0 with u along x and v along y (dp/du = (L, 0, 0)) displaced by
     /// d = k u has the normal (−k, 0, L) / |…|.
+    /// The steps are half the footprint's extent in u and v: a plane with dp/du = (2, 0, 0)
+    /// and dp/dv = (0, 4, 0) under a footprint of (0.1, 0, 0) and (0, 0.2, 0) steps
+    /// u by (0.05 + 0) / 2 and v by (0 + 0.05) / 2; no footprint steps BUMP_DELTA.
+    #[test]
+    fn bump_steps_are_half_the_footprint_in_u_and_v() {
+        let g = ShadingGeometry {
+            n: Vec3::Z,
+            dpdu: Vec3::new(2.0, 0.0, 0.0),
+            dpdv: Vec3::new(0.0, 4.0, 0.0),
+            dndu: Vec3::ZERO,
+            dndv: Vec3::ZERO,
+        };
+        let s = bump_steps(&g, Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.0, 0.2, 0.0));
+        assert!((s - Vec2::new(0.025, 0.025)).length() < 1e-7, "{s}");
+        // A footprint turned 90 degrees: the same steps.
+        let s = bump_steps(&g, Vec3::new(0.0, 0.2, 0.0), Vec3::new(0.1, 0.0, 0.0));
+        assert!((s - Vec2::new(0.025, 0.025)).length() < 1e-7, "{s}");
+        assert_eq!(
+            bump_steps(&g, Vec3::ZERO, Vec3::ZERO),
+            Vec2::splat(BUMP_DELTA)
+        );
+    }
+
     #[test]
     fn a_linear_displacement_tilts_the_normal_by_its_slope() {
         let l = 2.0;
@@ -246,7 +302,15 @@ mod tests {
         assert!((g.dpdu - Vec3::new(l, 0.0, 0.0)).length() < 1e-6);
         assert!((g.dpdv - Vec3::new(0.0, l, 0.0)).length() < 1e-6);
         let k = 0.7;
-        let n = bump_mapped_normal(&g, |uv, _| k * uv.x, Vec2::splat(0.3), Vec3::ZERO, Vec3::Z);
+        let delta = Vec2::splat(BUMP_DELTA);
+        let n = bump_mapped_normal(
+            &g,
+            |uv, _| k * uv.x,
+            Vec2::splat(0.3),
+            Vec3::ZERO,
+            Vec3::Z,
+            delta,
+        );
         let want = Vec3::new(-k, 0.0, l).normalize();
         assert!((n - want).length() < 1e-3, "{n} vs {want}");
         // Seen from the other side (ng = -z) the tilt is the same, the normal flipped.
@@ -257,6 +321,7 @@ mod tests {
             Vec2::splat(0.3),
             Vec3::ZERO,
             -Vec3::Z,
+            delta,
         );
         assert!(
             (n2 - Vec3::new(-k, 0.0, -l).normalize()).length() < 1e-3,

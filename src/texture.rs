@@ -108,10 +108,10 @@ pub enum Operand {
 }
 
 impl Operand {
-    fn value(&self, uv: Vec2, p: Vec3, ng: Vec3) -> Vec3 {
+    fn value(&self, uv: Vec2, p: Vec3, ng: Vec3, footprint: (Vec3, Vec3)) -> Vec3 {
         match self {
             Operand::Const(c) => *c,
-            Operand::Texture(t) => texture_value(t, uv, p, ng),
+            Operand::Texture(t) => texture_value_in(t, uv, p, ng, footprint),
         }
     }
 }
@@ -490,15 +490,23 @@ pub fn bilinear(image: &Image, p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
 /// and world point p where the surface's unit geometric normal is ng (either side; only a
 /// direction mix reads it).
 pub fn texture_value(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3) -> Vec3 {
+    texture_value_in(t, uv, p, ng, (Vec3::ZERO, Vec3::ZERO))
+}
+
+/// [`texture_value`] where the pixel footprint is `footprint` (dp/dx, dp/dy: the
+/// kernels' `surface_footprint`, [`crate::gpu_scene::surface_footprint`]): the noise
+/// textures drop the octaves finer than it.
+pub fn texture_value_in(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3, footprint: (Vec3, Vec3)) -> Vec3 {
+    let f = footprint;
     match t {
-        Texture::Scale { tex, scale } => tex.value(uv, p, ng) * scale.value(uv, p, ng).x,
+        Texture::Scale { tex, scale } => tex.value(uv, p, ng, f) * scale.value(uv, p, ng, f).x,
         Texture::Mix { tex1, tex2, amount } => {
-            let a = amount.value(uv, p, ng).x;
-            (1.0 - a) * tex1.value(uv, p, ng) + a * tex2.value(uv, p, ng)
+            let a = amount.value(uv, p, ng, f).x;
+            (1.0 - a) * tex1.value(uv, p, ng, f) + a * tex2.value(uv, p, ng, f)
         }
         Texture::DirectionMix { tex1, tex2, dir } => {
             let w = ng.dot(*dir).abs();
-            w * tex1.value(uv, p, ng) + (1.0 - w) * tex2.value(uv, p, ng)
+            w * tex1.value(uv, p, ng, f) + (1.0 - w) * tex2.value(uv, p, ng, f)
         }
         Texture::Noise {
             kind,
@@ -512,11 +520,20 @@ pub fn texture_value(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3) -> Vec3 {
                 unreachable!("a noise texture's point is in its texture space")
             };
             let q = (*texture_from_world * p.extend(1.0)).truncate();
+            // The footprint in the texture's space.
+            let linear = glam::Mat3::from_mat4(*texture_from_world);
+            let len2 = (linear * f.0)
+                .length_squared()
+                .max((linear * f.1).length_squared());
             match kind {
-                NoiseKind::Fbm => Vec3::splat(crate::noise::fbm(q, *omega, *octaves)),
-                NoiseKind::Wrinkled => Vec3::splat(crate::noise::turbulence(q, *omega, *octaves)),
-                NoiseKind::Windy => Vec3::splat(crate::noise::windy(q)),
-                NoiseKind::Marble => crate::noise::marble(q, *omega, *octaves, *scale, *variation),
+                NoiseKind::Fbm => Vec3::splat(crate::noise::fbm(q, len2, *omega, *octaves)),
+                NoiseKind::Wrinkled => {
+                    Vec3::splat(crate::noise::turbulence(q, len2, *omega, *octaves))
+                }
+                NoiseKind::Windy => Vec3::splat(crate::noise::windy(q, len2)),
+                NoiseKind::Marble => {
+                    crate::noise::marble(q, len2, *omega, *octaves, *scale, *variation)
+                }
             }
         }
         Texture::Dots {

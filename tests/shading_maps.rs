@@ -257,8 +257,10 @@ fn procedural_bump_maps_on_the_device_match_their_mirror() {
         "\"bilerp\" \"float v00\" 0 \"float v01\" 0.5 \"float v10\" 1 \"float v11\" -0.5",
     ];
     let mut text = String::from(
+        // (A film of 1024 pixels: the pixel footprint, by which the noise drops its
+        // octaves, is small beside the bumps.)
         "LookAt 0 5 5  0 0 0  0 1 0\nCamera \"perspective\"\n\
-         Film \"rgb\" \"integer xresolution\" [ 8 ] \"integer yresolution\" [ 8 ]\nWorldBegin\n",
+         Film \"rgb\" \"integer xresolution\" [ 1024 ] \"integer yresolution\" [ 1024 ]\nWorldBegin\n",
     );
     for (k, t) in textures.iter().enumerate() {
         let x = 6.0 * k as f32;

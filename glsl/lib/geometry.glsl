@@ -119,7 +119,8 @@ bool alpha_cut(GpuTriangle tri, vec2 bary, vec3 o, vec3 d) {
         vec2 uv = b0 * uv01.xy + bary.x * uv01.zw + bary.y * uv2;
         vec3 p = tri.v0.xyz + bary.x * (tri.v1.xyz - tri.v0.xyz) + bary.y * (tri.v2.xyz - tri.v0.xyz);
         vec3 ng = normalize(cross(tri.v1.xyz - tri.v0.xyz, tri.v2.xyz - tri.v0.xyz));
-        alpha = texture_value(floatBitsToUint(alpha), uv, p, ng, alpha_texture_features()).x;
+        // (pbrt-v4's alpha test looks its texture up without a footprint.)
+        alpha = texture_value(floatBitsToUint(alpha), uv, p, ng, vec3(0.0), vec3(0.0), alpha_texture_features()).x;
     }
     if (alpha >= 1.0) return false;
     if (alpha <= 0.0) return true;
@@ -181,6 +182,36 @@ ShadingGeometry map_geometry(Hit hit, Surface s) {
                                    s.ns);
 }
 
+// The footprint of a pixel at the surface point p with unit geometric normal n: pbrt-v4's
+// dp/dx and dp/dy, by which its textures filter (noise octaves, bump map steps): where the
+// camera rays through the pixels beside p's own film point (one right, one down) meet p's
+// tangent plane, less p, times 1/8 (pbrt-v4's max(1/8, 1/sqrt(spp)) at 64 samples per
+// pixel or more: fixed here, so that a render converges to one image at any spp). A
+// function of the point alone, so every subpath reaching it (camera or light; PT, BDPT,
+// MMLT) meets the same texture: where the camera sees p directly it is pbrt-v4's
+// camera-ray differential (a thin lens's taken at its centre); elsewhere pbrt-v4
+// approximates with the image's smallest differential, and this takes the one of the film
+// point p projects to (behind the camera, the film centre's angle about the ray to p).
+// Zero (no footprint) where undefined. CPU mirror: src/gpu_scene.rs surface_footprint.
+void surface_footprint(vec3 p, vec3 n, out vec3 dpdx, out vec3 dpdy) {
+    vec3 to = p - scene.cam_eye.xyz;
+    float z = dot(to, scene.cam_forward.xyz);
+    float k = z > 0.0 ? z : length(to);
+    float sx = (scene.cam_window.y - scene.cam_window.x) / float(scene.width);
+    float sy = (scene.cam_window.w - scene.cam_window.z) / float(scene.height);
+    vec3 rx = to + (k * sx) * scene.cam_right.xyz;
+    vec3 ry = to - (k * sy) * scene.cam_up.xyz;
+    float pn = dot(n, to);
+    float ax = dot(n, rx);
+    float ay = dot(n, ry);
+    dpdx = ax != 0.0 ? 0.125 * ((pn / ax) * rx - to) : vec3(0.0);
+    dpdy = ay != 0.0 ? 0.125 * ((pn / ay) * ry - to) : vec3(0.0);
+    if (any(isinf(dpdx)) || any(isnan(dpdx)) || any(isinf(dpdy)) || any(isnan(dpdy))) {
+        dpdx = vec3(0.0);
+        dpdy = vec3(0.0);
+    }
+}
+
 // s's material with its mixes resolved, then the shading normal of that material's bump
 // or normal map (MATERIAL_BUMP_MAP / MATERIAL_NORMAL_MAP, texture in roughness.w), then
 // the values of the material's own textures (material_texture's slots, into s.tex0 and
@@ -190,7 +221,8 @@ ShadingGeometry map_geometry(Hit hit, Surface s) {
 // each point by a hash of its position (and the mix), so that every subpath reaching
 // the point meets the same material: the second with probability `amount`. Nested
 // mixes resolve in turn. pbrt-v4's BumpMap looks the displacement up three times (at
-// (u, v), a step BUMP_DELTA along u, one along v), its NormalMap once.
+// (u, v), a step along u, one along v: half the pixel footprint's extent in each,
+// bump_steps), its NormalMap once.
 //
 // Every texture lookup of a surface point is made here, at the loop's one call of
 // texture_value (the mixes' amounts first, then the map's, then the material's), so that
@@ -216,6 +248,14 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
     ShadingGeometry g;
     vec3 c = vec3(0.0);
     vec3 h = vec3(0.0);
+    // The pixel footprint at the point (surface_footprint), for the noise textures and
+    // the bump map's steps.
+    vec3 dpdx = vec3(0.0);
+    vec3 dpdy = vec3(0.0);
+    if (has_texture_feature(spec_features, FEATURE_PROCEDURAL_TEXTURES) || has_feature(FEATURE_SHADING_MAPS)) {
+        surface_footprint(s.p, s.ng, dpdx, dpdy);
+    }
+    vec2 delta = vec2(BUMP_DELTA);
     for (uint step = 0u; step < MAX_MATERIAL_MIX_DEPTH + 3u + MATERIAL_TEXTURE_SLOTS; ++step) {
         uint index = NO_TEXTURE;
         vec2 uv = s.uv;
@@ -238,11 +278,12 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
                 if (map) {
                     tex = floatBitsToUint(materials[m].roughness.w);
                     lookups = (flags & MATERIAL_NORMAL_MAP) != 0u ? 1u : 3u;
+                    if (lookups == 3u) delta = bump_steps(g, dpdx, dpdy);
                 }
             }
             if (k < lookups) {
-                float su = k == 1u ? BUMP_DELTA : 0.0;
-                float sv = k == 2u ? BUMP_DELTA : 0.0;
+                float su = k == 1u ? delta.x : 0.0;
+                float sv = k == 2u ? delta.y : 0.0;
                 index = tex;
                 uv = s.uv + vec2(su, sv);
                 p = s.p + su * g.dpdu + sv * g.dpdv;
@@ -252,7 +293,7 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
                 break;
             }
         }
-        vec3 v = index == NO_TEXTURE ? vec3(0.0) : texture_value(index, uv, p, s.ng, spec_features);
+        vec3 v = index == NO_TEXTURE ? vec3(0.0) : texture_value(index, uv, p, s.ng, dpdx, dpdy, spec_features);
         if (mixing) {
             vec4 mix_params = materials[m].specular;
             float amount = index == NO_TEXTURE ? mix_params.z : v.x;
@@ -278,7 +319,7 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
     if (hair) s.tex1 = vec4(g.dpdu, -1.0 + 2.0 * s.uv.y);
     if (lookups > 0u) {
         s.ns = (flags & MATERIAL_NORMAL_MAP) != 0u ? normal_mapped_normal(g, c, s.ng)
-                                                   : bump_mapped_normal(g, h, s.ng);
+                                                   : bump_mapped_normal(g, h, s.ng, delta);
     }
 }
 

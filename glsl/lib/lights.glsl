@@ -195,8 +195,8 @@ bool portal_passes(vec3 p, vec3 dir) {
 vec3 environment_value(vec3 dir) {
     vec3 L = emitters[scene.environment].radiance.xyz;
     if (!has_feature(FEATURE_ENVIRONMENT_MAP) || scene.env_texture == NO_TEXTURE) return L;
-    return L * texture_leaf(textures[scene.env_texture], env_uv(env_to_local(dir)), vec3(0.0),
-                     spec_features & FEATURE_TEXTURE_PROJECTIONS);
+    return L * texture_leaf(textures[scene.env_texture], env_uv(env_to_local(dir)), vec3(0.0), vec3(0.0),
+                            vec3(0.0), spec_features & FEATURE_TEXTURE_PROJECTIONS);
 }
 
 // The environment's radiance arriving at p from the direction dir (zero where a portal

@@ -54,51 +54,94 @@ vec3 noise_marble_colour(uint table, float t) {
     return clamp(1.5 * rgb, vec3(0.0), vec3(1.0));
 }
 
+// pbrt-v4's count of octaves of a noise sum for a footprint of squared length len2 in the
+// noise's space: the octaves coarser than the footprint, the last of them in part.
+float noise_octaves(float len2, uint max_octaves) {
+    return clamp(-1.0 - 0.5 * log2(len2), 0.0, float(max_octaves));
+}
+
 // A noise texture (abi.h TEXTURE_NOISE: NOISE_* in info.z, octaves in info.w, omega,
-// marble's scale and variation in mapping.xyz) at the texture-space point q, or dots
-// (TEXTURE_DOTS) at (s, t): fBm (turbulence: of |noise|, plus pbrt-v4's 0.2 for the
-// octave after the last; every octave: no ray differentials, see noise.rs), windy (three
-// octaves at a tenth of the frequency, then six), marble (fBm perturbing a sine through
-// the colour spline), or the polka dot of (s, t)'s cell (three noise values).
-vec3 procedural_value(GpuTexture t, vec3 q, vec2 st) {
+// marble's scale and variation in mapping.xyz) at the texture-space point q, whose pixel
+// footprint there has squared length len2 (0: none, every octave), or dots
+// (TEXTURE_DOTS) at (s, t). As pbrt-v4's: fBm sums the octaves coarser than the
+// footprint, the last weighted by a smoothstep of its fraction; turbulence sums |noise|
+// likewise, the partial octave blended toward 0.2, and 0.2 for each octave left out
+// (pbrt-v4 counts the first of them twice); windy is three octaves of fBm at a tenth of
+// the frequency (its strength) times six (its height); marble perturbs a sine by fBm and
+// reads the colour spline; dots are three noise values of (s, t)'s cell. One loop and
+// one noise3 call serve them all (the passes: windy's strength, then every sum's own).
+vec3 procedural_value(GpuTexture t, vec3 q, vec2 st, float len2) {
     uint table = t.info.y;
     bool dots = t.info.x == TEXTURE_DOTS;
     uint kind = t.info.z;
     bool windy = !dots && kind == NOISE_WINDY;
+    bool turbulence = !dots && kind == NOISE_WRINKLED;
     float omega = windy ? 0.5 : t.mapping.x;
-    if (!dots && kind == NOISE_MARBLE) q *= t.mapping.y;
+    if (!dots && kind == NOISE_MARBLE) {
+        q *= t.mapping.y;
+        len2 *= t.mapping.y * t.mapping.y;
+    }
     vec2 cell = floor(st + 0.5);
-    uint count = dots ? 3u : windy ? 9u : t.info.w;
+    // The pass: windy's strength first (at a tenth of the frequency), then the sum.
+    bool strength_pass = windy;
+    uint max_octaves = windy ? 3u : t.info.w;
+    float n = dots ? 2.0 : noise_octaves(strength_pass ? 0.01 * len2 : len2, max_octaves);
+    uint whole = uint(floor(n));
+    float partial = dots ? 1.0 : n - floor(n);
     float sum = 0.0, strength = 0.0, lambda = 1.0, o = 1.0;
     float n0 = 0.0, n1 = 0.0, n2 = 0.0;
-    [[dont_unroll]] for (uint k = 0u; k < count; ++k) {
-        vec3 x;
-        if (dots) {
-            x = vec3(cell + (k == 0u ? vec2(0.5) : k == 1u ? vec2(1.5, 2.8) : vec2(4.5, 9.8)), 0.5);
-        } else {
-            if (windy && k == 3u) {
-                strength = sum;
-                sum = 0.0;
-                lambda = 1.0;
-                o = 1.0;
+    uint k = 0u;
+    [[dont_unroll]] while (true) {
+        bool last = k == whole;
+        float w = last ? (dots ? 1.0 : smoothstep(0.3, 0.7, partial)) : 1.0;
+        if (w > 0.0) {
+            vec3 x;
+            if (dots) {
+                x = vec3(cell + (k == 0u ? vec2(0.5) : k == 1u ? vec2(1.5, 2.8) : vec2(4.5, 9.8)), 0.5);
+            } else {
+                x = lambda * (strength_pass ? 0.1 * q : q);
             }
-            x = lambda * (windy && k < 3u ? 0.1 * q : q);
+            float v = noise3(table, x);
+            if (dots) {
+                if (k == 0u) n0 = v; else if (k == 1u) n1 = v; else n2 = v;
+            } else {
+                if (turbulence) v = abs(v);
+                sum += o * (!last ? v : turbulence ? mix(0.2, v, w) : w * v);
+            }
+        } else if (turbulence) {
+            sum += o * 0.2;
         }
-        float n = noise3(table, x);
-        if (dots) {
-            if (k == 0u) n0 = n; else if (k == 1u) n1 = n; else n2 = n;
-        } else {
-            sum += o * (kind == NOISE_WRINKLED ? abs(n) : n);
+        if (!last) {
             lambda *= 1.99;
             o *= omega;
+            k += 1u;
+            continue;
         }
+        if (dots) break;
+        // The octaves left out.
+        if (turbulence) {
+            for (uint i = whole; i < max_octaves; ++i) {
+                sum += o * 0.2;
+                o *= omega;
+            }
+        }
+        if (!strength_pass) break;
+        strength = sum;
+        strength_pass = false;
+        max_octaves = 6u;
+        n = noise_octaves(len2, max_octaves);
+        whole = uint(floor(n));
+        partial = n - floor(n);
+        sum = 0.0;
+        lambda = 1.0;
+        o = 1.0;
+        k = 0u;
     }
     if (dots) {
         float radius = 0.35;
         vec2 d = st - (cell + (0.5 - radius) * vec2(n1, n2));
         return n0 > 0.0 && dot(d, d) < radius * radius ? t.scale.xyz : t.other.xyz;
     }
-    if (kind == NOISE_WRINKLED) return vec3(sum + o * 0.2);
     if (windy) return vec3(abs(strength) * sum);
     if (kind == NOISE_MARBLE) return noise_marble_colour(table, 0.5 + 0.5 * sin(q.y + t.mapping.z * sum));
     return vec3(sum);

@@ -93,13 +93,32 @@ ShadingGeometry sphere_shading_geometry(vec3 o2w0, vec3 o2w1, vec3 o2w2, vec3 w2
     return g;
 }
 
+// pbrt-v4's steps in u and v for a bump map's differences: half the footprint's extent
+// in u and in v, (|du/dx| + |du/dy|) / 2 and likewise, where (du/dx, dv/dx) is the least-
+// squares solution of dp/dx = du/dx dp/du + dv/dx dp/dv (clamped to 1e8 as pbrt-v4's);
+// BUMP_DELTA where that is 0 (no footprint). (pbrt-v4 solves with the surface's
+// geometric dp/du; this with the shading geometry's, the same but on meshes with normals.)
+vec2 bump_steps(ShadingGeometry g, vec3 dpdx, vec3 dpdy) {
+    float a00 = dot(g.dpdu, g.dpdu);
+    float a01 = dot(g.dpdu, g.dpdv);
+    float a11 = dot(g.dpdv, g.dpdv);
+    float det = a00 * a11 - a01 * a01;
+    float inv = det != 0.0 && !isinf(1.0 / det) ? 1.0 / det : 0.0;
+    vec2 bx = vec2(dot(g.dpdu, dpdx), dot(g.dpdv, dpdx));
+    vec2 by = vec2(dot(g.dpdu, dpdy), dot(g.dpdv, dpdy));
+    vec2 ddx = clamp(vec2(a11 * bx.x - a01 * bx.y, a00 * bx.y - a01 * bx.x) * inv, -1e8, 1e8);
+    vec2 ddy = clamp(vec2(a11 * by.x - a01 * by.y, a00 * by.y - a01 * by.x) * inv, -1e8, 1e8);
+    vec2 steps = 0.5 * (abs(ddx) + abs(ddy));
+    return vec2(steps.x > 0.0 ? steps.x : BUMP_DELTA, steps.y > 0.0 ? steps.y : BUMP_DELTA);
+}
+
 // pbrt-v4's BumpMap: the displacement texture's values h = (d at (uv, p), d a step
-// BUMP_DELTA along u, d a step along v) move the surface along n; the shading normal is
-// the displaced surface's, cross(dp/du, dp/dv), on ng's side. Unchanged where that is
-// degenerate.
-vec3 bump_mapped_normal(ShadingGeometry g, vec3 h, vec3 ng) {
-    vec3 dpdu = g.dpdu + (h.y - h.x) / BUMP_DELTA * g.n + h.x * g.dndu;
-    vec3 dpdv = g.dpdv + (h.z - h.x) / BUMP_DELTA * g.n + h.x * g.dndv;
+// delta.x along u, d a step delta.y along v; bump_steps) move the surface along n; the
+// shading normal is the displaced surface's, cross(dp/du, dp/dv), on ng's side.
+// Unchanged where that is degenerate.
+vec3 bump_mapped_normal(ShadingGeometry g, vec3 h, vec3 ng, vec2 delta) {
+    vec3 dpdu = g.dpdu + (h.y - h.x) / delta.x * g.n + h.x * g.dndu;
+    vec3 dpdv = g.dpdv + (h.z - h.x) / delta.y * g.n + h.x * g.dndv;
     vec3 ns = cross(dpdu, dpdv);
     float l = length(ns);
     if (!(l > 0.0) || isinf(l)) return g.n;

@@ -44,16 +44,19 @@ vec2 texture_st(GpuTexture t, vec2 uv, vec3 p, uint tf) {
 }
 
 // The value of a texture not made of textures (an image, a checkerboard, a procedural
-// texture) at the surface coordinates uv and world point p, with the code of the texture
-// features tf (the environment map, an image, looks up through it without the
-// procedural textures').
-vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, uint tf) {
+// texture) at the surface coordinates uv and world point p, whose pixel footprint is
+// (dpdx, dpdy) (surface_footprint; zero: none), with the code of the texture features tf
+// (the environment map, an image, looks up through it without the procedural textures').
+vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, vec3 dpdx, vec3 dpdy, uint tf) {
     bool noise = t.info.x == TEXTURE_NOISE;
     vec2 st = noise ? vec2(0.0) : texture_st(t, uv, p, tf);
     if (has_texture_feature(tf, FEATURE_PROCEDURAL_TEXTURES) && (noise || t.info.x == TEXTURE_DOTS)) {
         vec4 h = vec4(p, 1.0);
         vec3 q = vec3(dot(t.proj0, h), dot(t.proj1, h), dot(t.proj2, h));
-        return procedural_value(t, q, st);
+        // The footprint in the texture's space (pbrt-v4's TextureMapping3D maps dp/dx too).
+        vec3 qx = vec3(dot(t.proj0.xyz, dpdx), dot(t.proj1.xyz, dpdx), dot(t.proj2.xyz, dpdx));
+        vec3 qy = vec3(dot(t.proj0.xyz, dpdy), dot(t.proj1.xyz, dpdy), dot(t.proj2.xyz, dpdy));
+        return procedural_value(t, q, st, max(dot(qx, qx), dot(qy, qy)));
     }
     if (has_texture_feature(tf, FEATURE_BILERP_TEXTURES) && t.info.x == TEXTURE_BILERP) {
         uint i = t.info.y;
@@ -94,12 +97,13 @@ vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, uint tf) {
     return t.scale.xyz * mix(top, bottom, ay);
 }
 // The value of texture `index` at the surface coordinates uv and world point p, where the
-// surface's unit geometric normal is ng (read by a direction mix alone; either side).
+// surface's unit geometric normal is ng (read by a direction mix alone; either side) and
+// the pixel footprint (dpdx, dpdy) (zero: none; the procedural textures read it).
 // A texture made of textures runs its program (abi.h TEXTURE_GRAPH): its records in
 // order, each into a register, leaves looked up here at one call site. tf: the texture
 // features compiled in (has_texture_feature).
-vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng, uint tf) {
-    if (!has_texture_feature(tf, FEATURE_TEXTURE_GRAPHS)) return texture_leaf(textures[index], uv, p, tf);
+vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng, vec3 dpdx, vec3 dpdy, uint tf) {
+    if (!has_texture_feature(tf, FEATURE_TEXTURE_GRAPHS)) return texture_leaf(textures[index], uv, p, dpdx, dpdy, tf);
     GpuTexture t = textures[index];
     uint first = index, count = 1u;
     if (t.info.x == TEXTURE_GRAPH) {
@@ -118,7 +122,7 @@ vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng, uint tf) {
                          : n.flags.z == NO_TEXTURE ? n.mapping.x : regs[n.flags.z].x;
             v = n.info.x == TEXTURE_SCALE ? a * b.x : (1.0 - amount) * a + amount * b;
         } else {
-            v = texture_leaf(n, uv, p, tf);
+            v = texture_leaf(n, uv, p, dpdx, dpdy, tf);
         }
         regs[i] = v;
     }
