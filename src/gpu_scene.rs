@@ -96,30 +96,9 @@ pub fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
 /// that directions are drawn in proportion to intensity), and its flux per unit of its
 /// colour (the weights' sum over the pixel count: ∫ value dω). None for other lights.
 pub fn profile_weights(scene: &Scene, l: &DeltaLight) -> Option<(Vec<f32>, f32)> {
-    let profile = match l {
-        DeltaLight::Goniometric { profile, .. } | DeltaLight::Projection { profile, .. } => {
-            &scene.light_profiles[*profile as usize]
-        }
-        _ => return None,
-    };
-    let (w, h) = (profile.width, profile.height);
-    let weights: Vec<f32> = profile
-        .means()
-        .iter()
-        .enumerate()
-        .map(|(i, &v)| {
-            let uv = Vec2::new(
-                ((i as u32 % w) as f32 + 0.5) / w as f32,
-                ((i as u32 / w) as f32 + 0.5) / h as f32,
-            );
-            let jac = l
-                .profile_direction(&scene.light_profiles, uv)
-                .map_or(0.0, |(_, j)| j);
-            (v.max(0.0) * jac).max(0.0)
-        })
-        .collect();
-    let flux = weights.iter().map(|&x| x as f64).sum::<f64>() / (w * h) as f64;
-    Some((weights, flux as f32))
+    l.profile_pixel_integral(&scene.light_profiles, |c| {
+        c.iter().sum::<f32>() / c.len() as f32
+    })
 }
 
 pub fn emitter_table(scene: &Scene) -> EmitterTable {

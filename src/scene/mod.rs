@@ -525,6 +525,35 @@ impl DeltaLight {
         Some((v / len, 4.0 * half.x * half.y / (len * len * len * det)))
     }
 
+    /// For a goniometric or projection light: `weight` of each pixel of its image (given
+    /// the pixel's channels) times the solid angle of directions per unit of image area
+    /// at the pixel's centre, row-major, and the integral of the weight over directions
+    /// (their sum over the pixel count). None for other lights.
+    pub fn profile_pixel_integral(
+        &self,
+        profiles: &[LightProfile],
+        weight: impl Fn(&[f32]) -> f32,
+    ) -> Option<(Vec<f32>, f32)> {
+        let (_, profile, _) = self.profiled()?;
+        let p = &profiles[profile as usize];
+        let (w, h) = (p.width, p.height);
+        let weights: Vec<f32> = p
+            .values
+            .chunks(p.channels as usize)
+            .enumerate()
+            .map(|(i, c)| {
+                let uv = Vec2::new(
+                    ((i as u32 % w) as f32 + 0.5) / w as f32,
+                    ((i as u32 / w) as f32 + 0.5) / h as f32,
+                );
+                let jac = self.profile_direction(profiles, uv).map_or(0.0, |(_, j)| j);
+                (weight(c).max(0.0) * jac).max(0.0)
+            })
+            .collect();
+        let integral = weights.iter().map(|&x| x as f64).sum::<f64>() / (w * h) as f64;
+        Some((weights, integral as f32))
+    }
+
     /// A goniometric or projection light's intensity toward the unit world direction w.
     pub fn profile_intensity(&self, profiles: &[LightProfile], w: Vec3) -> Vec3 {
         let colour = match *self {
@@ -560,14 +589,6 @@ impl LightProfile {
         } else {
             Vec3::new(self.values[i], self.values[i + 1], self.values[i + 2])
         }
-    }
-
-    /// Each pixel's mean channel (the weights its sampling distribution starts from).
-    pub fn means(&self) -> Vec<f32> {
-        self.values
-            .chunks(self.channels as usize)
-            .map(|c| c.iter().sum::<f32>() / c.len() as f32)
-            .collect()
     }
 }
 

@@ -11,8 +11,11 @@ pub(super) struct AreaLight {
     pub(super) power: Option<f32>,
 }
 
-/// Named spectra lightpath knows, as RGB (docs/scene-format.md): the metals' η and k at
-/// the sRGB primaries' dominant wavelengths (about 610, 550 and 465 nm).
+/// The luminance of a linear sRGB colour.
+fn luminance(c: Vec3) -> f32 {
+    0.212_672_9 * c.x + 0.715_152_2 * c.y + 0.072_175 * c.z
+}
+
 /// The illuminance an equal-area environment map (radiance in linear sRGB) gives a
 /// surface facing its +z: the sum over the pixels above the horizon of their luminance
 /// times cos θ times their solid angle (4π over the pixel count).
@@ -25,8 +28,7 @@ pub(super) fn upper_hemisphere_illuminance(image: &crate::io::Image) -> f32 {
             let z = crate::texture::equal_area_square_to_sphere(uv).z;
             if z > 0.0 {
                 let p = image.pixels[y * w + x];
-                let luminance = 0.212_672_9 * p[0] + 0.715_152_2 * p[1] + 0.072_175 * p[2];
-                sum += (luminance * z) as f64;
+                sum += (luminance(Vec3::from(p)) * z) as f64;
             }
         }
     }
@@ -429,22 +431,15 @@ impl Parser {
         if let Some(phi) = power {
             // pbrt-v4: the flux of the image's luminance (a goniometric light's one
             // channel, a projection's RGB) over the sphere becomes `power`.
-            let profiles = &self.scene.light_profiles;
-            let p = &profiles[profile as usize];
-            let (w, h) = (p.width, p.height);
-            let mut sum = 0.0f64;
-            for y in 0..h {
-                for x in 0..w {
-                    let uv = Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
-                    let v = p.nearest(uv);
-                    let luminance = 0.212_672_9 * v.x + 0.715_152_2 * v.y + 0.072_175 * v.z;
-                    let jac = light
-                        .profile_direction(profiles, uv)
-                        .map_or(0.0, |(_, j)| j);
-                    sum += (luminance * jac) as f64;
-                }
-            }
-            let k_e = (sum / (w * h) as f64) as f32;
+            let (_, k_e) = light
+                .profile_pixel_integral(&self.scene.light_profiles, |c| {
+                    luminance(if c.len() == 1 {
+                        Vec3::splat(c[0])
+                    } else {
+                        Vec3::new(c[0], c[1], c[2])
+                    })
+                })
+                .expect("a profiled light");
             if !(k_e > 0.0) {
                 return Err(self.err_at(
                     file,
