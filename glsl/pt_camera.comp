@@ -4,6 +4,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "wavefront.glsl"
 #include "camera.glsl"
+#include "features.glsl"
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -12,7 +13,9 @@ void main() {
     vec3 o, d;
     camera_sample(wf_pixel(i), rng, o, d);
     paths[i].o = vec4(o, uintBitsToFloat(rng.counter));
-    paths[i].d = vec4(d, uintBitsToFloat(0u));
+    // (In media, the path starts in the camera's medium.)
+    uint flags = has_feature(FEATURE_MEDIA) ? scene.camera_medium << PT_PATH_MEDIUM_SHIFT : 0u;
+    paths[i].d = vec4(d, uintBitsToFloat(flags));
     paths[i].beta = vec4(vec3(1.0), 0.0);
     paths[i].radiance = vec4(vec3(0.0), uintBitsToFloat(0u));
     paths[i].prev_p = vec4(o, 0.0);

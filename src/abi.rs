@@ -75,6 +75,15 @@ pub struct GpuEmitter {
     pub info: [u32; 4],
 }
 
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuMedium {
+    pub sigma_a: [f32; 4],
+    pub sigma_s: [f32; 4],
+    pub emission: [f32; 4],
+    pub info: [u32; 4],
+}
+
 /// The uniform scene parameters (abi.h explains each field).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -107,7 +116,7 @@ pub struct SceneParams {
     pub env_mapping: u32,
     pub env_marginal: u32,
     pub env_conditional: u32,
-    pub reserved1: u32,
+    pub camera_medium: u32,
     pub env_x: [f32; 4],
     pub env_y: [f32; 4],
     pub env_z: [f32; 4],
@@ -396,6 +405,7 @@ pub fn layouts() -> Vec<StructLayout> {
             base
         ),
         layout!(GpuEmitter, p0, p1, p2, radiance, info),
+        layout!(GpuMedium, sigma_a, sigma_s, emission, info),
         layout!(
             SceneParams,
             cam_eye,
@@ -426,7 +436,7 @@ pub fn layouts() -> Vec<StructLayout> {
             env_mapping,
             env_marginal,
             env_conditional,
-            reserved1,
+            camera_medium,
             env_x,
             env_y,
             env_z,

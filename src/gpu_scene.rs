@@ -31,6 +31,7 @@ pub struct GpuScene {
     pub textures: Buffer,
     pub texels: Buffer,
     pub triangle_attributes: Buffer,
+    pub media: Buffer,
     pub bvh_nodes: Option<Buffer>,
     pub bvh_prims: Option<Buffer>,
 }
@@ -593,6 +594,25 @@ pub fn material_records(scene: &Scene, textures: &TextureData) -> Vec<GpuMateria
         .collect()
 }
 
+/// The media as the kernels read them (abi.h `GpuMedium`; one unused record for a scene
+/// without media, so that the buffer is never empty).
+pub fn medium_records(scene: &Scene) -> Vec<GpuMedium> {
+    let mut records: Vec<GpuMedium> = scene
+        .media
+        .iter()
+        .map(|m| GpuMedium {
+            sigma_a: m.sigma_a.extend(m.g).to_array(),
+            sigma_s: m.sigma_s.extend(0.0).to_array(),
+            emission: m.emission.extend(0.0).to_array(),
+            info: [MEDIUM_HOMOGENEOUS, 0, 0, 0],
+        })
+        .collect();
+    if records.is_empty() {
+        records.push(GpuMedium::default());
+    }
+    records
+}
+
 /// The per-triangle attribute records and each triangle's index into them
 /// (NO_ATTRIBUTES for a triangle with neither texture coordinates nor shading normals).
 pub fn triangle_attributes(scene: &Scene) -> (Vec<GpuTriangleAttributes>, Vec<u32>) {
@@ -662,8 +682,8 @@ pub fn camera_ray(p: &SceneParams, film: Vec2, u_lens: Vec2) -> (Vec3, Vec3) {
 
 /// The pixel footprint (dp/dx, dp/dy) at the surface point `point` with unit geometric
 /// normal `n` (geometry.glsl's `surface_footprint`, mirrored): where the camera rays
-/// through the pixels beside the point's film position meet its tangent plane, less the
-/// point, times 1/8; zero where undefined.
+/// toward 1/8 of a pixel beside the point's film position meet its tangent plane, less
+/// the point; zero where undefined.
 pub fn surface_footprint(p: &SceneParams, point: Vec3, n: Vec3) -> (Vec3, Vec3) {
     let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
     let to = point - v(p.cam_eye);
@@ -672,17 +692,17 @@ pub fn surface_footprint(p: &SceneParams, point: Vec3, n: Vec3) -> (Vec3, Vec3) 
     let w = p.cam_window;
     let sx = (w[1] - w[0]) / p.width as f32;
     let sy = (w[3] - w[2]) / p.height as f32;
-    let rx = to + (k * sx) * v(p.cam_right);
-    let ry = to - (k * sy) * v(p.cam_up);
+    let rx = to + (0.125 * k * sx) * v(p.cam_right);
+    let ry = to - (0.125 * k * sy) * v(p.cam_up);
     let pn = n.dot(to);
     let (ax, ay) = (n.dot(rx), n.dot(ry));
     let dpdx = if ax != 0.0 {
-        0.125 * ((pn / ax) * rx - to)
+        (pn / ax) * rx - to
     } else {
         Vec3::ZERO
     };
     let dpdy = if ay != 0.0 {
-        0.125 * ((pn / ay) * ry - to)
+        (pn / ay) * ry - to
     } else {
         Vec3::ZERO
     };
@@ -745,7 +765,7 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
         env_mapping: env_map.map_or(ENV_MAPPING_LATLONG, |m| m.mapping.code()),
         env_marginal: 0,
         env_conditional: 0,
-        reserved1: 0,
+        camera_medium: crate::scene::MediumInterface::code(scene.camera_medium),
         cam_window: c.film_window(scene.width, scene.height),
         lens_radius: c.lens_radius,
         focal_distance: c.focal_distance,
@@ -909,6 +929,12 @@ impl GpuScene {
                 bytemuck::cast_slice(&attributes),
                 storage,
             )?,
+            media: Buffer::with_data(
+                device,
+                "media",
+                bytemuck::cast_slice(&medium_records(scene)),
+                storage,
+            )?,
             bvh_nodes,
             bvh_prims,
         })
@@ -930,6 +956,7 @@ impl GpuScene {
                 BINDING_TRIANGLE_ATTRIBUTES,
                 Resource::Buffer(self.triangle_attributes.raw),
             ),
+            (BINDING_MEDIA, Resource::Buffer(self.media.raw)),
         ];
         if let (Some(n), Some(p)) = (&self.bvh_nodes, &self.bvh_prims) {
             list.push((BINDING_BVH_NODES, Resource::Buffer(n.raw)));

@@ -13,6 +13,7 @@ pub mod hair;
 pub mod integrators;
 pub mod io;
 pub mod measured;
+pub mod media;
 pub mod noise;
 pub mod plinear2d;
 pub mod probe;

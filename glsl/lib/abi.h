@@ -65,6 +65,8 @@
 // per GpuBdptWalk slot, beside it rather than in it: a larger walk slowed BDPT on lavapipe
 // by 5 %), in scenes with FEATURE_MATERIAL_TEXTURES (a placeholder elsewhere).
 #define BINDING_WALK_TEXTURES 33
+// Participating media (the scene, continued): GpuMedium records (lib/media.glsl).
+#define BINDING_MEDIA 34
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -164,8 +166,11 @@
 // Goniometric and projection lights (lights.glsl: point lights whose intensity an image
 // sets per direction).
 #define FEATURE_PROFILE_LIGHTS 2097152
+// Participating media (lib/media.glsl): paths in media, surfaces that bound them, shadow
+// rays through them (the path tracer's; BDPT and MMLT refuse such scenes for now).
+#define FEATURE_MEDIA 4194304
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 4194303
+#define FEATURE_ALL 8388607
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -183,6 +188,14 @@
 // pbrt-v4's NormalMap: roughness.w (uint bits) is the texture of the tangent-space normal
 // (RGB in [0, 1], linear, repeating).
 #define MATERIAL_NORMAL_MAP 16
+// pbrt-v4's MediumInterface where it is a transition: emission.w (uint bits) holds the
+// media inside (low 16 bits) and outside (high 16 bits) as medium codes (MEDIUM_*
+// below); a ray leaving the surface along w is in the outside one where w is on the
+// geometric normal's side. Other surfaces leave a ray in the medium it was in.
+#define MATERIAL_MEDIUM_INTERFACE 32
+// pbrt-v4's interface material ("", "interface", "none"): no surface, only the boundary
+// of media; rays pass through it unchanged (not a scattering vertex).
+#define MATERIAL_PASS_THROUGH 64
 // The step in u and in v of the bump map's finite differences (pbrt-v4's du when a
 // point has no differentials).
 #define BUMP_DELTA 0.0005
@@ -303,7 +316,10 @@
 #define WF_QUEUE_CLASS_COATED 4
 #define WF_QUEUE_CLASS_MEASURED 5
 #define WF_QUEUE_CLASS_HAIR 6
-#define WF_QUEUE_COUNT 7
+// Media (FEATURE_MEDIA): scattering vertices in a medium and pass-through surfaces to
+// cross, for pt_medium.
+#define WF_QUEUE_MEDIUM 7
+#define WF_QUEUE_COUNT 8
 // Material classes, each shaded by its own kernel: the course BRDFs (Phong, GGX); the
 // interfaces (dielectric, thin dielectric, conductor) and diffuse transmission; coated
 // diffuse and coated conductor; measured; hair.
@@ -339,6 +355,14 @@
 
 // Hard cap on path length when maxdepth is -1 (unbounded, ended by Russian roulette).
 #define UNBOUNDED_DEPTH_CAP 1024
+
+// A medium code: 0 vacuum, else the index of the medium's GpuMedium record + 1.
+#define MEDIUM_VACUUM 0
+// Medium kinds (GpuMedium.info.x).
+#define MEDIUM_HOMOGENEOUS 0
+// The most pass-through surfaces (MATERIAL_PASS_THROUGH) a path or a shadow ray crosses:
+// a path ends there, a shadow ray is blocked.
+#define MAX_PASS_THROUGH 64
 
 #ifdef GL_core_profile
 // A world-space triangle. v0.w: material index, v1.w: emitter index (NO_EMITTER if
@@ -418,6 +442,16 @@ struct GpuMaterial {
 // Infinite (the environment): radiance the constant radiance arriving from every direction.
 // radiance.w: the probability of picking this emitter. info: x kind, y primitive,
 // z 1 when two-sided, w EMITTER_HIDDEN for an invisible light (else 0). p0.w: area (triangles, spheres).
+// A participating medium (pbrt-v4's homogeneous): sigma_a and sigma_s per channel
+// (pbrt's `scale` applied), w of sigma_a the Henyey-Greenstein g; emission the radiance
+// Le it emits (pbrt-v4's Le times Lescale: the emission per unit length is sigma_a Le).
+struct GpuMedium {
+    vec4 sigma_a;
+    vec4 sigma_s;
+    vec4 emission;
+    uvec4 info;         // x kind (MEDIUM_*)
+};
+
 struct GpuEmitter {
     vec4 p0;
     vec4 p1;
@@ -457,7 +491,7 @@ struct SceneParams {
     uint env_mapping;    // ENV_MAPPING_*
     uint env_marginal;   // first float of the map's marginal CDF (height + 1) ..
     uint env_conditional;// .. and of its rows' CDFs (height rows of width + 1), in the texel buffer
-    uint reserved1;
+    uint camera_medium; // the medium code (MEDIUM_VACUUM, index + 1) the camera is in
     vec4 env_x;          // the world directions of the map frame's axes
     vec4 env_y;
     vec4 env_z;
@@ -586,6 +620,13 @@ struct GpuPtPath {
 #define PT_PATH_PREV_DELTA 1
 #define PT_PATH_LIGHT_SAMPLE 2
 #define PT_PATH_LIGHT_SAMPLE_OK 4
+// The path's hit is a pass-through surface (MATERIAL_PASS_THROUGH) for pt_medium to cross.
+#define PT_PATH_PASS_THROUGH 8
+// ... and above them (FEATURE_MEDIA): the medium code of the path's ray in bits 8-23,
+// the pass-through surfaces it has crossed in bits 24-31 (the path's scattering vertices
+// are WavefrontParams.depth less those).
+#define PT_PATH_MEDIUM_SHIFT 8
+#define PT_PATH_CROSSINGS_SHIFT 24
 
 // MMLT's push constants (mmlt.comp).
 struct MmltParams {

@@ -179,31 +179,6 @@ bool coat_base_sample(BsdfParams b, vec3 wo, vec2 u, out LocalSample s) {
     return ok;
 }
 
-// The Henyey-Greenstein phase function between wo and wi, both pointing away from the
-// scattering point (pbrt-v4's convention: for g > 0 light goes on forwards, wi near
-// -wo); it is also the density of coat_hg_sample. CPU mirror: coated.rs `hg`.
-float coat_hg(vec3 wo, vec3 wi, float g) {
-    g = clamp(g, -0.99, 0.99);   // (at +-1 the function is a delta, as pbrt-v4 avoids)
-    float d = 1.0 + g * g + 2.0 * g * dot(wo, wi);
-    return (1.0 - g * g) / (4.0 * PI * d * sqrt(max(d, 0.0)));
-}
-
-// A direction from the phase function around wo: the cosine by inverting the
-// distribution's CDF, the azimuth uniform.
-vec3 coat_hg_sample(vec3 wo, float g, vec2 u) {
-    g = clamp(g, -0.99, 0.99);
-    float c;
-    if (abs(g) < 1e-3) {
-        c = 1.0 - 2.0 * u.x;
-    } else {
-        float q = (1.0 - g * g) / (1.0 + g - 2.0 * g * u.x);
-        c = -(1.0 + g * g - q * q) / (2.0 * g);
-    }
-    float sn = sqrt(max(1.0 - c * c, 0.0));
-    float phi = 2.0 * PI * u.y;
-    return to_world(vec3(sn * cos(phi), sn * sin(phi), c), wo);
-}
-
 float coat_tr(float thickness, vec3 w) {
     return abs(thickness) <= 1.17549435e-38 ? 1.0 : exp(-abs(thickness / w.z));
 }
@@ -445,7 +420,7 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                     // direction, then the phase function's new direction (and light
                     // leaving along it through the interface towards wi).
                     at_interface = false;
-                    float ph = coat_hg(-w, -wis.wi, b.g);
+                    float ph = hg_phase(-w, -wis.wi, b.g);
                     float wt = top_smooth ? 1.0 : power_heuristic(wis.pdf, ph);
                     vec3 nee = vec3(ph * wt * coat_tr(zp - thick, wis.wi));
                     if (top_smooth && base_smooth) {
@@ -456,12 +431,12 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                         vec3 fb = fr_conductor(abs(up.z), b.base_eta, b.base_k);
                         float rr = fr_dielectric(abs(up.z), 1.0 / eta);
                         float tl = coat_tr(thick, up);
-                        nee = (vec3(ph * coat_tr(zp - thick, up)) + coat_hg(-w, v, b.g) * coat_tr(zp, v) * fb * tl)
+                        nee = (vec3(ph * coat_tr(zp - thick, up)) + hg_phase(-w, v, b.g) * coat_tr(zp, v) * fb * tl)
                             / (vec3(1.0) - rr * fb * tl * tl);
                     }
                     f += beta * b.albedo * nee * wis.f / wis.pdf;
-                    vec3 wp = coat_hg_sample(-w, b.g, coat_next2(rng));
-                    float p = coat_hg(-w, wp, b.g);
+                    vec3 wp = hg_sample(-w, b.g, coat_next2(rng));
+                    float p = hg_phase(-w, wp, b.g);
                     if (p > 0.0 && wp.z != 0.0) {
                         beta *= b.albedo;
                         w = wp;
@@ -671,8 +646,8 @@ bool coated_engine(BsdfParams b, vec3 n, vec3 wo_w, vec3 wi_w, vec3 u3, uint t, 
                     stage = CS_FAIL;
                 } else if (0.0 < zp && zp < thick) {
                     at_interface = false;
-                    vec3 wp = coat_hg_sample(-w, b.g, coat_next2(rng));
-                    float p = coat_hg(-w, wp, b.g);
+                    vec3 wp = hg_sample(-w, b.g, coat_next2(rng));
+                    float p = hg_phase(-w, wp, b.g);
                     if (!(p > 0.0) || wp.z == 0.0) {
                         stage = CS_FAIL;
                     } else {

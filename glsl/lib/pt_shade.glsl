@@ -10,6 +10,7 @@
 #include "bsdf.glsl"
 #include "geometry.glsl"
 #include "lights.glsl"
+#include "media.glsl"
 
 // Whether the light sample's question and the sample are asked at one bsdf_ask (the
 // engine classes) or at two sites (the closed forms: lanes that draw would wait for
@@ -30,13 +31,22 @@ void main() {
     uint mode = scene.sample_mode;
     uint max_vertices = scene.unbounded != 0u ? UNBOUNDED_DEPTH_CAP : scene.max_depth;
     uint flags = floatBitsToUint(path.d.w);
+    // In media: the medium the path arrived in, and pbrt's geometric normal (the side of
+    // the material's outside), by which the rays leaving here find theirs.
+    uint medium = MEDIUM_VACUUM;
+    vec3 ng = path.ns.w != 0.0 ? path.n.xyz : -path.n.xyz;
+    if (has_feature(FEATURE_MEDIA)) {
+        depth -= flags >> PT_PATH_CROSSINGS_SHIFT;
+        medium = (flags >> PT_PATH_MEDIUM_SHIFT) & 0xFFFFu;
+    }
+    uint material = floatBitsToUint(path.hit.w);
     vec3 beta = path.beta.xyz;
     vec3 p = path.p.xyz;
     vec3 n = path.n.xyz;
     vec3 ns = path.ns.xyz;
     vec3 wo = -path.d.xyz;
     Rng rng = wf_rng(i, path.o.w);
-    BsdfParams b = material_bsdf(materials[floatBitsToUint(path.hit.w)], path.ns.w != 0.0, path.tex0, path.tex1);
+    BsdfParams b = material_bsdf(materials[material], path.ns.w != 0.0, path.tex0, path.tex1);
     bool delta = bsdf_is_delta(b);
     // The questions to the BSDF: f and the pdf toward the light sample, then the sample
     // that continues the path, in a kept loop through one bsdf_ask where the class's
@@ -83,7 +93,8 @@ void main() {
             float tmax;
             light_sample_shadow_ray(p, n, ls, so, sd, tmax);
             paths[i].ls_wi = vec4(so, tmax);
-            paths[i].ls_le = vec4(sd, 0.0);
+            uint shadow_medium = has_feature(FEATURE_MEDIA) ? medium_after(material, ng, sd, medium) : 0u;
+            paths[i].ls_le = vec4(sd, uintBitsToFloat(shadow_medium));
             paths[i].ls_p = vec4(estimate, 0.0);
             paths[i].ls_n = vec4(beta, 0.0);
             queue_push(WF_QUEUE_SHADOW, i);
@@ -104,7 +115,12 @@ void main() {
         if (rng_next(rng) >= survive) return;
         beta /= survive;
     }
-    flags = (bs.flags & BSDF_LOBE_DELTA) != 0u ? PT_PATH_PREV_DELTA : 0u;
+    uint kept = 0u;
+    if (has_feature(FEATURE_MEDIA)) {
+        kept = (medium_after(material, ng, bs.wi, medium) << PT_PATH_MEDIUM_SHIFT)
+             | (flags & (0xFFu << PT_PATH_CROSSINGS_SHIFT));
+    }
+    flags = ((bs.flags & BSDF_LOBE_DELTA) != 0u ? PT_PATH_PREV_DELTA : 0u) | kept;
     paths[i].o = vec4(offset_ray_origin(p, cos_i > 0.0 ? n : -n), uintBitsToFloat(rng.counter));
     paths[i].d = vec4(bs.wi, uintBitsToFloat(flags));
     paths[i].beta = vec4(beta, bs.pdf);

@@ -103,4 +103,30 @@ float power_heuristic(float a, float b) {
     return 1.0 / (1.0 + r * r);
 }
 
+// The Henyey-Greenstein phase function between wo and wi, both pointing away from the
+// scattering point (pbrt-v4's convention: for g > 0 light goes on forwards, wi near
+// -wo); it is also the density of hg_sample. Used by coated layers (layered.glsl) and media
+// (media.glsl). CPU mirror: bsdf/coated.rs `hg`.
+float hg_phase(vec3 wo, vec3 wi, float g) {
+    g = clamp(g, -0.99, 0.99);   // (at +-1 the function is a delta, as pbrt-v4 avoids)
+    float d = 1.0 + g * g + 2.0 * g * dot(wo, wi);
+    return (1.0 - g * g) / (4.0 * PI * d * sqrt(max(d, 0.0)));
+}
+
+// A direction from the phase function around wo: the cosine by inverting the
+// distribution's CDF, the azimuth uniform.
+vec3 hg_sample(vec3 wo, float g, vec2 u) {
+    g = clamp(g, -0.99, 0.99);
+    float c;
+    if (abs(g) < 1e-3) {
+        c = 1.0 - 2.0 * u.x;
+    } else {
+        float q = (1.0 - g * g) / (1.0 + g - 2.0 * g * u.x);
+        c = -(1.0 + g * g - q * q) / (2.0 * g);
+    }
+    float sn = sqrt(max(1.0 - c * c, 0.0));
+    float phi = 2.0 * PI * u.y;
+    return to_world(vec3(sn * cos(phi), sn * sin(phi), c), wo);
+}
+
 #endif

@@ -187,6 +187,12 @@ impl Engine {
         })?;
         let mut p = scene_params(&scene, seed);
         params(&mut p);
+        if !scene.media.is_empty() && p.integrator != crate::abi::INTEGRATOR_PATHTRACER {
+            anyhow::bail!(
+                "this scene has participating media, which lightpath renders with the path \
+                 tracer only so far (--integrator pathtracer; BDPT and MMLT in media are to come)"
+            );
+        }
         let gpu_scene = trace.cpu("scene upload", || {
             GpuScene::new(&self.device, &scene, &bvh, backend, p)
         })?;
@@ -530,6 +536,9 @@ pub fn scene_features(scene: &Scene) -> u32 {
         features |= FEATURE_PROFILE_LIGHTS;
     }
     features |= texture_features(scene.textures.iter());
+    if !scene.media.is_empty() {
+        features |= crate::abi::FEATURE_MEDIA;
+    }
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
     }
@@ -732,7 +741,8 @@ mod tests {
             | FEATURE_ALPHA_TEXTURE_GRAPHS
             | FEATURE_ALPHA_PROCEDURAL_TEXTURES
             | FEATURE_ALPHA_BILERP_TEXTURES
-            | FEATURE_PROFILE_LIGHTS;
+            | FEATURE_PROFILE_LIGHTS
+            | crate::abi::FEATURE_MEDIA;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -194,6 +194,8 @@ struct WavefrontPlan {
     trace: Stage,
     hit: Stage,
     shade: Vec<(u32, Stage)>,
+    /// Scenes with media: pt_medium (scattering vertices in media, pass-through surfaces).
+    medium: Option<Stage>,
     shadow: Stage,
     finish: Stage,
     queue_buffer: vk::Buffer,
@@ -327,7 +329,11 @@ impl WavefrontPlan {
         for (class, stage) in &self.shade {
             list.push(self.indirect(stage, &p, WF_QUEUE_CLASS_BASIC + class));
         }
-        let classes = ((1 << MATERIAL_CLASS_COUNT) - 1) << WF_QUEUE_CLASS_BASIC;
+        if let Some(stage) = &self.medium {
+            list.push(self.indirect(stage, &p, WF_QUEUE_MEDIUM));
+        }
+        let classes =
+            ((1 << MATERIAL_CLASS_COUNT) - 1) << WF_QUEUE_CLASS_BASIC | 1 << WF_QUEUE_MEDIUM;
         list.push(self.queues(&p, classes));
         list.push(self.indirect(&self.shadow, &p, WF_QUEUE_SHADOW));
     }
@@ -497,7 +503,13 @@ impl Integrator for WavefrontPathTracer {
                 .into_iter()
                 .map(|c| Ok((c, stage(shade_kernel(c), shade_span(c))?)))
                 .collect::<Result<Vec<_>>>()?;
+            let medium = if scene.media.is_empty() {
+                None
+            } else {
+                Some(stage("pt_medium", "pt medium")?)
+            };
             Ok((
+                medium,
                 stage("wf_queues", "wf queues")?,
                 stage("pt_camera", "pt camera")?,
                 stage("pt_trace", "pt trace")?,
@@ -507,14 +519,24 @@ impl Integrator for WavefrontPathTracer {
                 shade,
             ))
         })?;
-        let (queues, camera, trace_stage, hit, shadow, finish, shade) = stages;
+        let (medium, queues, camera, trace_stage, hit, shadow, finish, shade) = stages;
         let params = prepared.params();
-        let unbounded = params.unbounded != 0;
-        let max_vertices = if unbounded {
+        let max_vertices = if params.unbounded != 0 {
             UNBOUNDED_DEPTH_CAP
         } else {
             params.max_depth
         };
+        // A path's bounces are its vertices and, in media, the pass-through surfaces it
+        // crosses (MAX_PASS_THROUGH at most): their number is not known ahead, so such
+        // wavefronts run until no path is left, as at unbounded depth.
+        let unbounded = params.unbounded != 0 || medium.is_some();
+        let bounces = max_vertices
+            + 1
+            + if medium.is_some() {
+                MAX_PASS_THROUGH
+            } else {
+                0
+            };
         let plan = WavefrontPlan {
             queues,
             camera,
@@ -523,12 +545,13 @@ impl Integrator for WavefrontPathTracer {
             shadow,
             finish,
             shade,
+            medium,
             queue_buffer: queue_buffer.raw,
             width,
             height,
             band_rows: rows,
             samples,
-            bounces: max_vertices + 1,
+            bounces,
             unbounded,
         };
         // Compile every stage before the first timed dispatch (a zero-sized wavefront
@@ -544,6 +567,7 @@ impl Integrator for WavefrontPathTracer {
         ]
         .into_iter()
         .chain(plan.shade.iter().map(|(_, s)| s))
+        .chain(plan.medium.iter())
         {
             engine.warm_up(
                 Dispatch::new(&stage.kernel, stage.set, &idle, [1, 1, 1]),

@@ -33,8 +33,9 @@ use std::sync::Arc;
 
 pub use crate::abi::{BsdfKind, SampleMode};
 use crate::abi::{
-    GpuMaterial, MATERIAL_BUMP_MAP, MATERIAL_MIX, MATERIAL_NORMAL_MAP, MATERIAL_REMAP_ROUGHNESS,
-    MATERIAL_TWO_SIDED_EMISSION, MAX_MATERIAL_MIX_DEPTH, NO_TEXTURE,
+    GpuMaterial, MATERIAL_BUMP_MAP, MATERIAL_MEDIUM_INTERFACE, MATERIAL_MIX, MATERIAL_NORMAL_MAP,
+    MATERIAL_PASS_THROUGH, MATERIAL_REMAP_ROUGHNESS, MATERIAL_TWO_SIDED_EMISSION,
+    MAX_MATERIAL_MIX_DEPTH, MEDIUM_VACUUM, NO_TEXTURE,
 };
 pub use crate::texture::{Environment, EnvironmentMap, Texture, UV_MAPPING};
 
@@ -105,7 +106,49 @@ pub struct Material {
     /// (the BSDF fields are unused; `emission` is the emitter's, and both materials
     /// carry it too).
     pub mix: Option<MaterialMix>,
+    /// The media on either side of the surface, where they differ (pbrt-v4's
+    /// `MediumInterface` when it is a transition); `None`: a ray leaving the surface is in
+    /// the medium it arrived in.
+    pub medium_interface: Option<MediumInterface>,
+    /// pbrt-v4's interface material: no surface, only a boundary between media, which
+    /// rays cross unchanged (the BSDF fields are unused).
+    pub pass_through: bool,
 }
+
+/// The media inside and outside a surface (the side its geometric normal points to is
+/// the outside): indices into `Scene::media`, `None` for vacuum.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MediumInterface {
+    pub inside: Option<u32>,
+    pub outside: Option<u32>,
+}
+
+impl MediumInterface {
+    /// abi.h's medium code of a medium: 0 vacuum, else its index + 1.
+    pub fn code(medium: Option<u32>) -> u32 {
+        medium.map_or(MEDIUM_VACUUM, |m| m + 1)
+    }
+
+    /// The two codes as GpuMaterial.emission.w holds them (inside low, outside high).
+    pub fn packed(&self) -> u32 {
+        Self::code(self.inside) | Self::code(self.outside) << 16
+    }
+}
+
+/// A homogeneous participating medium (pbrt-v4's `homogeneous`): absorption and
+/// scattering coefficients per channel (per unit length, its `scale` applied), the
+/// Henyey–Greenstein asymmetry `g` of its phase function, and the radiance it emits
+/// (`Le` × `Lescale`; it adds sigma_a Le per unit length).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Medium {
+    pub sigma_a: Vec3,
+    pub sigma_s: Vec3,
+    pub g: f32,
+    pub emission: Vec3,
+}
+
+/// The most media a scene may hold (their codes fill 16 bits).
+pub const MAX_MEDIA: usize = 65534;
 
 /// What perturbs a material's shading normal (textures are indices into
 /// `Scene::textures`).
@@ -170,6 +213,8 @@ impl Default for Material {
             shading_map: None,
             measured: None,
             mix: None,
+            medium_interface: None,
+            pass_through: false,
         }
     }
 }
@@ -179,12 +224,30 @@ impl Material {
         self.emission.max_element() > 0.0
     }
 
+    /// The flags of the material's medium interface and pass-through, and the word
+    /// (GpuMaterial.emission.w, as float bits) of its media.
+    fn media_record(&self) -> (u32, f32) {
+        let mut flags = 0;
+        if self.pass_through {
+            flags |= MATERIAL_PASS_THROUGH;
+        }
+        match self.medium_interface {
+            Some(mi) => (
+                flags | MATERIAL_MEDIUM_INTERFACE,
+                f32::from_bits(mi.packed()),
+            ),
+            None => (flags, 0.0),
+        }
+    }
+
     /// The material as the kernels read it (abi.h `GpuMaterial`). Two materials are the
     /// same material exactly when their records are equal, so the parser deduplicates by
     /// the whole record.
     pub fn record(&self) -> GpuMaterial {
+        let (media_flags, media) = self.media_record();
         if let Some(mix) = self.mix {
             let flags = MATERIAL_MIX
+                | media_flags
                 | if self.two_sided_emission {
                     MATERIAL_TWO_SIDED_EMISSION
                 } else {
@@ -197,7 +260,7 @@ impl Material {
                     mix.amount,
                     0.0,
                 ],
-                emission: self.emission.extend(0.0).to_array(),
+                emission: self.emission.extend(media).to_array(),
                 info: [
                     BsdfKind::Phong as u32,
                     flags,
@@ -226,7 +289,7 @@ impl Material {
             }
             .extend(0.0)
             .to_array(),
-            emission: self.emission.extend(0.0).to_array(),
+            emission: self.emission.extend(media).to_array(),
             // Only the fields of the material's own kind, so that materials differing
             // only in another kind's parameters are one material.
             eta: match self.bsdf {
@@ -285,7 +348,7 @@ impl Material {
                     Some(ShadingMap::Bump(_)) => MATERIAL_BUMP_MAP,
                     Some(ShadingMap::Normal(_)) => MATERIAL_NORMAL_MAP,
                     None => 0,
-                },
+                } | media_flags,
                 self.diffuse_texture.unwrap_or(NO_TEXTURE),
                 if transmits {
                     self.transmittance_texture
@@ -762,6 +825,10 @@ pub struct Scene {
     pub measured: Vec<Arc<crate::measured::MeasuredBsdf>>,
     /// The goniometric and projection lights' images (`DeltaLight::profile` indexes them).
     pub light_profiles: Vec<LightProfile>,
+    /// Participating media (`Material::medium_interface` and `camera_medium` index them).
+    pub media: Vec<Medium>,
+    /// The medium the camera is in (`None`: vacuum).
+    pub camera_medium: Option<u32>,
 }
 
 impl Default for Scene {
@@ -782,6 +849,8 @@ impl Default for Scene {
             textures: Vec::new(),
             measured: Vec::new(),
             light_profiles: Vec::new(),
+            media: Vec::new(),
+            camera_medium: None,
         }
     }
 }

@@ -7,7 +7,8 @@
 
 use super::{
     BsdfKind, Camera, DeltaLight, Environment, EnvironmentMap, IntegratorKind, Material,
-    NextEventEstimation, QuadLight, SampleMode, Scene, Sphere, Texture, Triangle, UV_MAPPING,
+    MediumInterface, NextEventEstimation, QuadLight, SampleMode, Scene, Sphere, Texture, Triangle,
+    UV_MAPPING,
 };
 use crate::texture::{load_image, Encoding, EnvMapping};
 use glam::{Mat3, Mat4, Vec2, Vec3};
@@ -269,6 +270,10 @@ const COMMANDS: &[(&str, &str)] = &[
     ("reflectance", "r g b"),
     ("envmap", "FILE SCALE"),
     ("envmapsquare", "FILE SCALE"),
+    ("medium", "NAME sar sag sab ssr ssg ssb g [ler] [leg] [leb]"),
+    ("mediuminterface", "INSIDE OUTSIDE"),
+    ("cameramedium", "NAME"),
+    ("passthrough", "on|off"),
 ];
 
 /// The most arguments any command takes (`quadLight`).
@@ -499,6 +504,8 @@ struct Parser {
     base: PathBuf,
     /// Image textures already read: (path, encoding) to their texture index.
     image_textures: HashMap<(PathBuf, Encoding), u32>,
+    /// `medium` names: their index in `scene.media`.
+    media: HashMap<String, u32>,
 }
 
 impl Default for Parser {
@@ -513,6 +520,7 @@ impl Default for Parser {
             material_lookup: HashMap::new(),
             base: PathBuf::new(),
             image_textures: HashMap::new(),
+            media: HashMap::new(),
         }
     }
 }
@@ -541,6 +549,60 @@ impl Parser {
     }
 
     /// Applies a change to the sticky material state.
+    /// `medium NAME  σa (3)  σs (3)  g  [Le (3)]`: a homogeneous medium.
+    fn medium(&mut self, cmd: &Command) -> Result<(), ParseError> {
+        if cmd.count != 8 && cmd.count != 11 {
+            return Err(cmd.error(format!(
+                "expected 8 or 11 arguments (medium NAME sar sag sab ssr ssg ssb g [ler leg leb]), got {}",
+                cmd.count
+            )));
+        }
+        let name = cmd.args[0];
+        if name == "vacuum" {
+            return Err(cmd.error("'vacuum' names no medium (it is the space outside media)"));
+        }
+        if self.media.contains_key(name) {
+            return Err(cmd.error(format!("medium '{name}' is defined twice")));
+        }
+        let sigma_a = cmd.color(1, "sigma_a")?;
+        let sigma_s = cmd.color(4, "sigma_s")?;
+        let g = cmd.float(7)?;
+        if !(g > -1.0 && g < 1.0) {
+            return Err(cmd.error(format!("g must lie in (-1, 1), got {g}")));
+        }
+        let emission = if cmd.count == 11 {
+            cmd.color(8, "the emission")?
+        } else {
+            Vec3::ZERO
+        };
+        if self.scene.media.len() >= super::MAX_MEDIA {
+            return Err(cmd.error(format!("more than {} media", super::MAX_MEDIA)));
+        }
+        self.media
+            .insert(name.to_owned(), self.scene.media.len() as u32);
+        self.scene.media.push(super::Medium {
+            sigma_a,
+            sigma_s,
+            g,
+            emission,
+        });
+        Ok(())
+    }
+
+    /// Argument `index` as a medium: a name `medium` defined, or `vacuum`.
+    fn medium_named(&self, cmd: &Command, index: usize) -> Result<Option<u32>, ParseError> {
+        let name = cmd.args[index];
+        if name == "vacuum" {
+            return Ok(None);
+        }
+        match self.media.get(name) {
+            Some(&i) => Ok(Some(i)),
+            None => Err(cmd.error(format!(
+                "no medium named '{name}' (define it with `medium` first, or say 'vacuum')"
+            ))),
+        }
+    }
+
     fn set_material(&mut self, change: impl FnOnce(&mut Material)) {
         change(&mut self.material);
         self.material_index = None;
@@ -779,6 +841,25 @@ impl Parser {
             }
             "envmap" => self.envmap(cmd, EnvMapping::LatLong)?,
             "envmapsquare" => self.envmap(cmd, EnvMapping::EqualArea)?,
+            "medium" => self.medium(cmd)?,
+            "mediuminterface" => {
+                let inside = self.medium_named(cmd, 0)?;
+                let outside = self.medium_named(cmd, 1)?;
+                self.set_material(|m| {
+                    m.medium_interface =
+                        (inside != outside).then_some(MediumInterface { inside, outside })
+                });
+            }
+            "cameramedium" => self.scene.camera_medium = self.medium_named(cmd, 0)?,
+            "passthrough" => {
+                let on = cmd.choice(&[("on", true), ("off", false)])?;
+                if on && self.media.is_empty() {
+                    return Err(cmd.error(
+                        "no medium defined yet (pass-through shapes are boundaries of media)",
+                    ));
+                }
+                self.set_material(|m| m.pass_through = on);
+            }
             "texture" => {
                 let texture = self.image_texture_argument(cmd)?;
                 self.set_material(|m| m.diffuse_texture = texture);
@@ -1798,8 +1879,67 @@ mod tests {
         "layersamples 2",
         "envmap tests/data/sky.pfm 2",
         "envmapsquare tests/data/sky-square.pfm 2",
+        "medium fog  0.1 0.2 0.3  1 1 1  0.5",
+        "mediuminterface vacuum vacuum",
+        "cameramedium vacuum",
+        "passthrough off",
     ];
     const PREAMBLE: &str = "vertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\npushTransform\n";
+
+    /// The media commands: a medium's coefficients, the sticky interface and
+    /// pass-through of the shapes that follow, the camera's medium; their errors.
+    #[test]
+    fn media_commands() {
+        let s = parse(
+            "medium fog  0.1 0.2 0.3  1 2 3  0.5\nmedium glow 1 1 1  0 0 0  0  2 1 0\n\
+             cameramedium fog\nmediuminterface glow fog\npassthrough on\nsphere 0 0 0 1\n\
+             passthrough off\nmediuminterface fog fog\nsphere 0 0 0 2\n",
+        );
+        assert_eq!(s.media.len(), 2);
+        assert_eq!(s.media[0].sigma_s, Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!(s.media[0].g, 0.5);
+        assert_eq!(s.media[1].emission, Vec3::new(2.0, 1.0, 0.0));
+        assert_eq!(s.camera_medium, Some(0));
+        let a = &s.materials[s.spheres[0].material as usize];
+        assert!(a.pass_through);
+        assert_eq!(
+            a.medium_interface,
+            Some(MediumInterface {
+                inside: Some(1),
+                outside: Some(0)
+            })
+        );
+        let b = &s.materials[s.spheres[1].material as usize];
+        assert!(!b.pass_through);
+        assert_eq!(b.medium_interface, None);
+        check_err(
+            "medium fog 1 1 1 1 1 1 0 1\n",
+            1,
+            "medium",
+            "expected 8 or 11 arguments",
+        );
+        check_err("medium fog 1 1 1 1 1 1 1\n", 1, "medium", "g must lie");
+        check_err(
+            "medium fog 1 -1 1 1 1 1 0\n",
+            1,
+            "medium",
+            "sigma_a must not be negative",
+        );
+        check_err(
+            "medium f 1 1 1 1 1 1 0\nmedium f 1 1 1 1 1 1 0\n",
+            2,
+            "medium",
+            "twice",
+        );
+        check_err(
+            "\nmediuminterface smoke vacuum\n",
+            2,
+            "mediuminterface",
+            "no medium named 'smoke'",
+        );
+        check_err("cameramedium fog\n", 1, "cameramedium", "no medium named");
+        check_err("passthrough on\n", 1, "passthrough", "no medium defined");
+    }
 
     #[test]
     fn examples_cover_every_command() {

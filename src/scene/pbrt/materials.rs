@@ -543,16 +543,25 @@ impl Parser {
         Ok(MaterialRef::Mix(Box::new([a, b]), amount))
     }
 
-    /// The scene's index of a shape's material, with the emission of its area light (a
-    /// mix's materials carry it too, since the kernels resolve a mix to one of them).
-    pub(super) fn intern_ref(&mut self, r: &MaterialRef, emission: Option<(Vec3, bool)>) -> u32 {
+    /// The scene's index of a shape's material, with the emission of its area light and
+    /// the media it bounds (a mix's materials carry both too, since the kernels resolve a
+    /// mix to one of them).
+    pub(super) fn intern_ref(
+        &mut self,
+        r: &MaterialRef,
+        emission: Option<(Vec3, bool)>,
+        media: Option<crate::scene::MediumInterface>,
+    ) -> u32 {
         let mut m = match r {
             MaterialRef::Material(m) => *m,
-            MaterialRef::Interface => diffuse(Vec3::splat(0.5)),
+            MaterialRef::Interface => Material {
+                pass_through: true,
+                ..Material::default()
+            },
             MaterialRef::Mix(refs, amount) => {
                 let materials = [
-                    self.intern_ref(&refs[0], emission),
-                    self.intern_ref(&refs[1], emission),
+                    self.intern_ref(&refs[0], emission, media),
+                    self.intern_ref(&refs[1], emission, media),
                 ];
                 let (amount, amount_texture) = match *amount {
                     Value::Const(c) => (c.x, None),
@@ -572,6 +581,7 @@ impl Parser {
             m.emission = e;
             m.two_sided_emission = two_sided;
         }
+        m.medium_interface = media;
         self.intern(m)
     }
 

@@ -21,6 +21,7 @@ mod camera;
 mod curves;
 mod lights;
 mod materials;
+mod media;
 mod params;
 mod shapes;
 #[cfg(test)]
@@ -63,6 +64,9 @@ struct GraphicsState {
     area: Option<AreaLight>,
     /// `Attribute` defaults: (target, parameter), the latest of a name first.
     attributes: Vec<(String, Param)>,
+    /// `MediumInterface`: the media (indices into `Scene::media`, `None` vacuum) inside
+    /// and outside the shapes that follow; the outside one is the camera's.
+    media: (Option<u32>, Option<u32>),
 }
 
 struct Parser {
@@ -77,6 +81,8 @@ struct Parser {
     stack: Vec<(GraphicsState, bool)>,
     named_coords: HashMap<String, Mat4>,
     named_materials: HashMap<String, MaterialRef>,
+    /// `MakeNamedMedium`'s names: index into `Scene::media` + 1 (0: a refused medium).
+    named_media: HashMap<String, u32>,
     textures: HashMap<String, Value>,
     float_textures: HashMap<String, Value>,
     material_lookup: HashMap<MaterialKey, u32>,
@@ -139,10 +145,12 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
             material: MaterialRef::Material(diffuse(Vec3::splat(0.5))),
             area: None,
             attributes: Vec::new(),
+            media: (None, None),
         },
         stack: Vec::new(),
         named_coords: HashMap::new(),
         named_materials: HashMap::new(),
+        named_media: HashMap::new(),
         textures: HashMap::new(),
         float_textures: HashMap::new(),
         material_lookup: HashMap::new(),
@@ -446,6 +454,8 @@ impl Parser {
                 }
                 self.named_coords.insert("camera".into(), ctm.inverse());
                 self.camera_seen = true;
+                // pbrt-v4's camera is in the current outside medium.
+                self.scene.camera_medium = self.gs.media.1;
                 self.camera(ctm, &params, file, line)?;
             }
             "Film" => {
@@ -496,9 +506,9 @@ impl Parser {
             }
             "WorldEnd" => {}
             "MakeNamedMedium" => {
-                self.expect_string(d, "a name")?;
-                self.params(d)?;
-                self.unsupported(file, line, "MakeNamedMedium (participating media)");
+                let name = self.expect_string(d, "a name")?;
+                let params = self.params(d)?;
+                self.named_medium(name, &params, file, line)?;
             }
             "MediumInterface" => {
                 let inside = self.expect_string(d, "a medium name")?;
@@ -510,9 +520,10 @@ impl Parser {
                     self.pos += 1;
                     outside = s;
                 }
-                if !inside.is_empty() || !outside.is_empty() {
-                    self.unsupported(file, line, "MediumInterface (participating media)");
-                }
+                self.gs.media = (
+                    self.medium_named(&inside, file, line, d)?,
+                    self.medium_named(&outside, file, line, d)?,
+                );
             }
             "Material" => {
                 let ty = self.expect_string(d, "a material type")?;
@@ -740,6 +751,9 @@ impl Parser {
         }
         if let Some(e) = &mut self.scene.environment {
             e.radiance *= ratio;
+        }
+        for m in &mut self.scene.media {
+            m.emission *= ratio;
         }
         Ok(self.scene)
     }

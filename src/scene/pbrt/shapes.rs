@@ -22,6 +22,8 @@ pub(super) struct ShapeDecl {
     pub(super) material: MaterialRef,
     pub(super) area: Option<AreaLight>,
     pub(super) alpha: Option<crate::scene::Alpha>,
+    /// The media it bounds, where they differ (`MediumInterface`).
+    pub(super) media: Option<crate::scene::MediumInterface>,
 }
 
 #[derive(Clone, Debug)]
@@ -475,7 +477,18 @@ impl Parser {
             material: self.gs.material.clone(),
             area: self.gs.area.clone(),
             alpha,
+            media: self.medium_transition(),
         };
+        if matches!(decl.material, MaterialRef::Interface)
+            && decl.media.is_some()
+            && decl.area.is_some()
+        {
+            self.unsupported(
+                file,
+                line,
+                format!("Shape \"{ty}\": an area light on an interface material"),
+            );
+        }
         if self.defining.is_some() {
             if decl.area.is_some() {
                 self.unsupported(file, line, "an area light inside an object instance");
@@ -490,7 +503,8 @@ impl Parser {
 
     /// Adds a declared shape to the scene, in world space.
     pub(super) fn emit(&mut self, s: ShapeDecl) -> Result<(), ParseError> {
-        if matches!(s.material, MaterialRef::Interface) {
+        // An interface material bounds media; where it bounds none it is nothing.
+        if matches!(s.material, MaterialRef::Interface) && s.media.is_none() {
             return Ok(());
         }
         let ctm = s.ctm;
@@ -549,7 +563,7 @@ impl Parser {
                     a.power
                         .map(|phi| (phi, if a.two_sided { 2.0 } else { 1.0 }))
                 });
-                let index = self.intern_ref(&s.material, emission);
+                let index = self.intern_ref(&s.material, emission, s.media);
                 for mut t in tris {
                     t.material = match (power, emission) {
                         // pbrt-v4 makes one light per triangle of a mesh, each emitting
@@ -557,7 +571,7 @@ impl Parser {
                         (Some((phi, sides)), Some((e, two_sided))) => {
                             let scale = phi
                                 / (sides * area(std::slice::from_ref(&t)) * std::f32::consts::PI);
-                            self.intern_ref(&s.material, Some((e * scale, two_sided)))
+                            self.intern_ref(&s.material, Some((e * scale, two_sided)), s.media)
                         }
                         _ => index,
                     };
@@ -576,7 +590,7 @@ impl Parser {
                     }
                     (e, a.two_sided)
                 });
-                let material = self.intern_ref(&s.material, emission);
+                let material = self.intern_ref(&s.material, emission, s.media);
                 self.scene.spheres.push(Sphere {
                     object_to_world: ctm * Mat4::from_scale(Vec3::splat(radius)),
                     material,

@@ -85,6 +85,9 @@ fn every_parameter_name_read_is_pbrt_v4s_own() {
         files.push(world(&format!("Shape \"{ty}\"")));
     }
     files.push(world(
+        "MakeNamedMedium \"m\" \"string type\" \"homogeneous\"",
+    ));
+    files.push(world(
         "Shape \"curve\" \"point3 P\" [ 0 0 0  1 0 0  2 0 0  3 0 0 ] \"string type\" \"ribbon\" \"normal N\" [ 0 0 1  0 0 1 ]",
     ));
     for ty in [
@@ -1074,7 +1077,7 @@ fn emission_faces_pbrts_side() {
 fn unsupported_features_are_listed_together() {
     let e = parse_err(&format!(
         r#"WorldBegin
-        MakeNamedMedium "fog" "string type" "homogeneous"
+        MakeNamedMedium "fog" "string type" "uniformgrid"
         Shape "hyperboloid"
         Material "subsurface"
         Shape "sphere" "float alpha" 0.5
@@ -1666,4 +1669,87 @@ fn goniometric_and_projection_lights() {
         wide.display()
     ));
     assert!(e.to_string().contains("equal-area square"), "{e}");
+}
+
+/// pbrt-v4's homogeneous medium: sigma_a and sigma_s times `scale` (1 by default each),
+/// `g`, `Le` times `Lescale`; the camera in the outside medium current at `Camera`;
+/// shapes under a `MediumInterface` that is a transition carry it (the inside first), an
+/// interface material among them passes rays through, and where the two media are the
+/// same the shape bounds nothing (an interface material is then no shape at all).
+#[test]
+fn homogeneous_media_and_their_interfaces() {
+    let s = parse(&format!(
+        r#"MakeNamedMedium "fog" "string type" "homogeneous" "rgb sigma_a" [0.1 0.2 0.3]
+        "rgb sigma_s" [1 2 3] "float scale" 2 "float g" 0.25 "rgb Le" [1 0.5 0] "float Lescale" 3
+        MakeNamedMedium "thin" "string type" "homogeneous"
+        MediumInterface "" "fog"
+        Camera "perspective"
+        WorldBegin
+        AttributeBegin
+        MediumInterface "thin" "fog"
+        Material "interface"
+        {QUAD}
+        Material "diffuse"
+        Shape "sphere"
+        AttributeEnd
+        MediumInterface "fog"
+        Material "interface"
+        Shape "sphere" "float radius" 3
+        Material "diffuse"
+        Shape "sphere" "float radius" 4
+        "#
+    ));
+    assert_eq!(s.media.len(), 2);
+    let fog = s.media[0];
+    assert_eq!(fog.sigma_a, Vec3::new(0.2, 0.4, 0.6));
+    assert_eq!(fog.sigma_s, Vec3::new(2.0, 4.0, 6.0));
+    assert_eq!(fog.g, 0.25);
+    assert_eq!(fog.emission, Vec3::new(3.0, 1.5, 0.0));
+    assert_eq!(s.media[1].sigma_a, Vec3::ONE);
+    assert_eq!(s.media[1].sigma_s, Vec3::ONE);
+    assert_eq!(s.camera_medium, Some(0));
+    let interface = Some(crate::scene::MediumInterface {
+        inside: Some(1),
+        outside: Some(0),
+    });
+    let quad = &s.materials[s.triangles[0].material as usize];
+    assert!(quad.pass_through);
+    assert_eq!(quad.medium_interface, interface);
+    assert_eq!(s.triangles.len(), 2);
+    // The diffuse sphere bounds the same media; the interface sphere of radius 3 is no
+    // shape; the last sphere has no interface.
+    assert_eq!(s.spheres.len(), 2);
+    let inner = &s.materials[s.spheres[0].material as usize];
+    assert!(!inner.pass_through);
+    assert_eq!(inner.medium_interface, interface);
+    let outer = &s.materials[s.spheres[1].material as usize];
+    assert_eq!(outer.medium_interface, None);
+    // The record: flags and the two codes (index + 1), inside low.
+    let r = quad.record();
+    assert_ne!(r.info[1] & crate::abi::MATERIAL_PASS_THROUGH, 0);
+    assert_ne!(r.info[1] & crate::abi::MATERIAL_MEDIUM_INTERFACE, 0);
+    assert_eq!(r.emission[3].to_bits(), 2 | 1 << 16);
+}
+
+#[test]
+fn bad_media_are_errors_with_their_line() {
+    let e = parse_err("WorldBegin\nMediumInterface \"smoke\" \"\"\n");
+    assert_eq!(e.line, 2, "{e}");
+    assert!(e.message.contains("no medium named \"smoke\""), "{e}");
+    for (params, what) in [
+        ("\"rgb sigma_a\" [-1 0 0]", "sigma_a"),
+        ("\"rgb sigma_s\" [1 1 1] \"float scale\" -2", "scale"),
+        ("\"float g\" 1", "g must"),
+        ("\"rgb Le\" [1 1 1] \"float Lescale\" -1", "Lescale"),
+    ] {
+        let e = parse_err(&format!(
+            "WorldBegin\n\nMakeNamedMedium \"m\" \"string type\" \"homogeneous\" {params}\n"
+        ));
+        assert_eq!(e.line, 3, "{e}");
+        assert!(e.message.contains(what), "{what}: {e}");
+    }
+    let e = parse_err("WorldBegin\nMakeNamedMedium \"m\" \"float g\" 0\n");
+    assert!(e.message.contains("type"), "{e}");
+    let e = parse_err("WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"nanovdb\" \"string filename\" \"x.nvdb\"\n");
+    assert!(e.to_string().contains("nanovdb"), "{e}");
 }

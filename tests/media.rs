@@ -1,0 +1,264 @@
+//! Participating media (pbrt-v4's homogeneous medium) in the path tracer, on the Vulkan
+//! device (lavapipe in CI), against closed forms: Beer–Lambert transmittance and a slab's
+//! emission seen through pass-through boundaries, white furnaces of non-absorbing media
+//! (seen from outside their boundary and from inside), and a point light's single
+//! scattering integrated numerically on the host; next-event estimation with MIS against
+//! phase-function sampling alone in a chromatic medium; BDPT and MMLT refusing media.
+mod common;
+
+use common::*;
+use glam::Vec3;
+use lightpath::render::AccelChoice::{self, Bvh, RayQuery};
+use lightpath::scene::{self, IntegratorKind, NextEventEstimation, Scene};
+use lightpath::trace::Trace;
+
+fn pbrt(text: &str) -> Scene {
+    scene::parse_pbrt_str(text, "media.pbrt").expect("the test scene parses")
+}
+
+/// A square of half-size 10 at depth z, its geometric normal along +z (`up`) or −z.
+fn square(z: f32, up: bool) -> String {
+    let idx = if up { "0 1 2 0 2 3" } else { "0 2 1 0 3 2" };
+    format!(
+        "Shape \"trianglemesh\" \"integer indices\" [{idx}] \
+         \"point3 P\" [-10 -10 {z}  10 -10 {z}  10 10 {z}  -10 10 {z}]\n"
+    )
+}
+
+const SIGMA_A: [f32; 3] = [0.5, 1.5, 0.0];
+const LE: [f32; 3] = [0.3, 0.2, 0.1];
+
+/// A slab of absorbing, emitting medium (chromatic, and clear in blue: a channel that
+/// never collides must not keep the others' collisions from being drawn) between z = 1 and z = 2 (bounded by two
+/// pass-through squares whose normals face out of it), before a two-sided white light at
+/// z = 3 that reflects nothing (else it would send the slab's emission back through it);
+/// the camera at the origin looks along +z.
+fn slab() -> Scene {
+    let [a0, a1, a2] = SIGMA_A;
+    let [l0, l1, l2] = LE;
+    pbrt(&format!(
+        "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" 50\n\
+         Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n\
+         Sampler \"independent\" \"integer pixelsamples\" 32\n\
+         WorldBegin\n\
+         MakeNamedMedium \"slab\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [{a0} {a1} {a2}] \
+         \"rgb sigma_s\" [0 0 0] \"rgb Le\" [{l0} {l1} {l2}]\n\
+         AttributeBegin\nMediumInterface \"slab\" \"\"\nMaterial \"interface\"\n{}{}AttributeEnd\n\
+         AttributeBegin\nMaterial \"diffuse\" \"rgb reflectance\" [0 0 0]\n\
+         AreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"bool twosided\" true\n{}AttributeEnd\n",
+        square(1.0, false),
+        square(2.0, true),
+        square(3.0, true),
+    ))
+}
+
+/// Radiance through the slab along d: the light's 1 · exp(−σa ℓ) and the slab's own
+/// Le (1 − exp(−σa ℓ)), ℓ = 1 / d.z its length along the ray.
+fn through_slab(d: Vec3) -> Vec3 {
+    let l = 1.0 / d.z;
+    let a = Vec3::from(SIGMA_A);
+    let tr = (-a * l).exp();
+    tr + Vec3::from(LE) * (Vec3::ONE - tr)
+}
+
+#[test]
+fn a_slab_transmits_as_beer_lambert_and_adds_its_emission() {
+    let s = slab();
+    assert_eq!(s.media.len(), 1);
+    let expected = expected_image(&s, |_, d| through_slab(d));
+    let reference = estimate_from_runs(&[region_means(&expected, 4)]);
+    for accel in [Bvh, RayQuery] {
+        let e = estimate(&s, 4, 4, accel);
+        assert_agree(
+            &format!("slab ({accel:?})"),
+            &e,
+            &exact_like(&reference),
+            5.0,
+            0.003,
+        );
+    }
+    // Without the medium's boundary the camera ray would not enter it: only the light.
+    let mut open = s.clone();
+    open.materials
+        .iter_mut()
+        .for_each(|m| m.medium_interface = None);
+    let img = render(&open, 1, Bvh);
+    let m = img.mean();
+    assert!(
+        (m[0] - 1.0).abs() < 1e-4 && (m[2] - 1.0).abs() < 1e-4,
+        "{m:?}"
+    );
+}
+
+/// `reference` with its noise set to zero (a closed form).
+fn exact_like(reference: &Estimate) -> Estimate {
+    Estimate {
+        mean: reference.mean.clone(),
+        stderr: vec![[0.0; 3]; reference.mean.len()],
+    }
+}
+
+/// A sphere of radius `r` bounding a non-absorbing medium (σs 2, asymmetry g) in a
+/// uniform white environment, seen from z = −4, or from inside (the camera at its
+/// centre, in the medium): whatever the medium scatters, every ray sees radiance 1.
+fn furnace(g: f32, inside: bool) -> Scene {
+    let camera = if inside {
+        "MediumInterface \"\" \"fog\"\nLookAt 0 0 0  0 0 1  0 1 0\n"
+    } else {
+        "LookAt 0 0 -4  0 0 0  0 1 0\n"
+    };
+    let medium = format!(
+        "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [0 0 0] \
+         \"rgb sigma_s\" [2 2 2] \"float g\" {g}\n"
+    );
+    pbrt(&format!(
+        "{medium}{camera}Camera \"perspective\" \"float fov\" 40\n\
+         Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n\
+         Sampler \"independent\" \"integer pixelsamples\" 64\n\
+         Integrator \"volpath\" \"integer maxdepth\" 100\n\
+         WorldBegin\nLightSource \"infinite\" \"rgb L\" [1 1 1]\n\
+         AttributeBegin\nMediumInterface \"fog\" \"\"\nMaterial \"interface\"\nShape \"sphere\" \"float radius\" 1.5\nAttributeEnd\n"
+    ))
+}
+
+/// The furnace in the `.test` format (docs/scene-format.md, "Media"): a medium of g 0.5
+/// in a sphere, and the camera in it.
+fn furnace_test_format() -> Scene {
+    parse(
+        "size 12 12\ncamera 0 0 0  0 0 1  0 1 0  40\nspp 64\nmaxdepth -1\n\
+         integrator pathtracer\nnexteventestimation mis\nrussianroulette on\n\
+         importancesampling brdf\nenvlight 1 1 1\n\
+         medium fog  0 0 0  1.5 1.5 1.5  0.5\ncameramedium fog\n\
+         mediuminterface fog vacuum\npassthrough on\nsphere 0 0 0 1.5\n",
+    )
+}
+
+#[test]
+fn non_absorbing_media_in_a_white_furnace_render_one() {
+    let mut scenes: Vec<(String, Scene)> = [(0.0, false), (0.7, false), (-0.4, true), (0.0, true)]
+        .into_iter()
+        .map(|(g, inside)| {
+            let s = furnace(g, inside);
+            assert_eq!(s.camera_medium.is_some(), inside);
+            (format!("furnace g {g} inside {inside}"), s)
+        })
+        .collect();
+    scenes.push(("furnace (.test)".into(), furnace_test_format()));
+    // (Paths that scatter many times make the estimates heavy-tailed: 4 seeds of 64
+    // samples per pixel, 2 × 2 regions.)
+    for (what, s) in scenes {
+        let e = estimate(&s, 4, 2, Bvh);
+        assert_agree(&what, &e, &exact([1.0; 3], e.mean.len()), 5.0, 0.005);
+    }
+}
+
+const SIGMA_S: [f32; 3] = [0.3, 0.2, 0.1];
+const SIGMA_A2: [f32; 3] = [0.05, 0.1, 0.2];
+const G: f32 = 0.4;
+const LIGHT: [f32; 3] = [0.3, 0.2, 3.0];
+
+/// A point light (intensity 5) in an unbounded chromatic medium, the camera in it too,
+/// maxdepth 1: every pixel is the single scattering of the light along its camera rays.
+fn point_in_fog() -> Scene {
+    let [a0, a1, a2] = SIGMA_A2;
+    let [s0, s1, s2] = SIGMA_S;
+    let [x, y, z] = LIGHT;
+    pbrt(&format!(
+        "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [{a0} {a1} {a2}] \
+         \"rgb sigma_s\" [{s0} {s1} {s2}] \"float g\" {G}\n\
+         MediumInterface \"\" \"fog\"\n\
+         LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+         Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n\
+         Sampler \"independent\" \"integer pixelsamples\" 64\n\
+         Integrator \"volpath\" \"integer maxdepth\" 1\n\
+         WorldBegin\nLightSource \"point\" \"point3 from\" [{x} {y} {z}] \"rgb I\" [5 5 5]\n"
+    ))
+}
+
+/// The Henyey–Greenstein phase function between wo and wi (both away from the point).
+fn hg(wo: Vec3, wi: Vec3, g: f32) -> f32 {
+    let d = 1.0 + g * g + 2.0 * g * wo.dot(wi);
+    (1.0 - g * g) / (4.0 * std::f32::consts::PI * d * d.sqrt())
+}
+
+/// ∫ σs Tr(t) p(−d, ω) I Tr(r) / r² dt along the ray, by the midpoint rule in the
+/// variable s with t = s / (1 − s) (the whole half-line).
+fn single_scattering(o: Vec3, d: Vec3) -> Vec3 {
+    let sigma_s = Vec3::from(SIGMA_S);
+    let sigma_t = sigma_s + Vec3::from(SIGMA_A2);
+    let light = Vec3::from(LIGHT);
+    let n = 4000;
+    let mut sum = Vec3::ZERO;
+    for k in 0..n {
+        let s = (k as f32 + 0.5) / n as f32;
+        let t = s / (1.0 - s);
+        let dt = 1.0 / ((1.0 - s) * (1.0 - s)) / n as f32;
+        let x = o + t * d;
+        let to = light - x;
+        let r = to.length();
+        let tr = (-sigma_t * (t + r)).exp();
+        sum += sigma_s * tr * (hg(-d, to / r, G) * 5.0 / (r * r) * dt);
+    }
+    sum
+}
+
+#[test]
+fn a_point_light_in_fog_scatters_as_the_single_scattering_integral() {
+    let s = point_in_fog();
+    let expected = expected_image(&s, single_scattering);
+    let reference = exact_like(&estimate_from_runs(&[region_means(&expected, 3)]));
+    let e = estimate(&s, 4, 3, Bvh);
+    assert_agree("single scattering", &e, &reference, 5.0, 0.005);
+}
+
+/// A large sphere light (radius 1, L 1) over a diffuse floor, all in a chromatic medium
+/// scattering forward (g 0.8: toward the light the phase function's density is as large
+/// as the light sample's, so MIS gives its draws much of the weight there), the camera in
+/// it too (maxdepth 3).
+fn sphere_light_in_fog() -> Scene {
+    pbrt(
+        "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [0.02 0.05 0.1] \
+         \"rgb sigma_s\" [0.25 0.2 0.1] \"float g\" 0.8\n\
+         MediumInterface \"\" \"fog\"\n\
+         LookAt 0 1 -4  0 0.5 0  0 1 0\nCamera \"perspective\" \"float fov\" 45\n\
+         Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n\
+         Sampler \"independent\" \"integer pixelsamples\" 64\n\
+         Integrator \"volpath\" \"integer maxdepth\" 3\n\
+         WorldBegin\n\
+         AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [1 1 1]\nTranslate 0 1.5 0\nShape \"sphere\" \"float radius\" 1\nAttributeEnd\n\
+         Material \"diffuse\" \"rgb reflectance\" [0.6 0.6 0.6]\n\
+         Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3] \"point3 P\" [-5 0 -5  -5 0 5  5 0 5  5 0 -5]\n",
+    )
+}
+
+/// Light sampling from medium and surface vertices (through the medium's transmittance),
+/// MIS-weighted against phase-function and BSDF sampling, agrees with the phase
+/// function's and the BSDF's sampling alone, and with light sampling alone (pbrt's NEE
+/// without MIS) where emission found by a bounce counts only at the camera.
+#[test]
+fn light_sampling_in_fog_agrees_with_phase_sampling_alone() {
+    let s = sphere_light_in_fog();
+    let mut mis = s.clone();
+    mis.settings.spp = 64;
+    let reference = estimate(&mis, 4, 3, Bvh);
+    let mut off = s.clone();
+    off.settings.nee = NextEventEstimation::Off;
+    off.settings.spp = 512;
+    assert_agree("nee off", &estimate(&off, 4, 3, Bvh), &reference, 5.0, 0.01);
+    let mut on = s.clone();
+    on.settings.nee = NextEventEstimation::On;
+    assert_agree("nee on", &estimate(&on, 4, 3, Bvh), &reference, 5.0, 0.01);
+}
+
+#[test]
+fn bdpt_and_mmlt_refuse_media_with_a_clear_message() {
+    for kind in [IntegratorKind::Bdpt, IntegratorKind::Mmlt] {
+        let s = with_integrator(slab(), kind, 1);
+        let mut r = renderer(AccelChoice::Bvh);
+        let e = match r.render(&s, 1, &mut Trace::new()) {
+            Ok(_) => panic!("{kind:?} rendered a scene with media"),
+            Err(e) => format!("{e:#}"),
+        };
+        assert!(e.contains("participating media"), "{e}");
+    }
+}
