@@ -149,6 +149,26 @@ pub fn measured(
     )
 }
 
+/// Runs the medium probe (glsl/medium_probe.comp) on `inputs` with the media `media`:
+/// free flights and the phase function as lib/media.glsl has them, in the BSDF probe's
+/// records (the kernel says how it reads them).
+pub fn medium(
+    engine: &mut Engine,
+    media: &[crate::abi::GpuMedium],
+    inputs: &[BsdfProbeInput],
+) -> Result<Vec<BsdfProbeOutput>> {
+    engine.kernels.reset_sets()?;
+    let buffer = engine.buffer_with("probe media", bytemuck::cast_slice(media))?;
+    run_bsdf_probe(
+        engine,
+        "medium_probe",
+        crate::abi::FEATURE_MEDIA,
+        &[(crate::abi::BINDING_MEDIA, &buffer)],
+        inputs,
+        "running the medium probe",
+    )
+}
+
 /// One dispatch of a BSDF probe kernel over `inputs`, with its material data at `data`
 /// (binding, buffer):
 /// the outputs, one per input.

@@ -102,6 +102,18 @@ fn kernel_bindings_come_from_the_spirv() {
             );
             continue;
         }
+        if kernel.starts_with("medium_probe") {
+            assert_eq!(
+                numbers,
+                vec![
+                    abi::BINDING_BSDF_PROBE_INPUTS,
+                    abi::BINDING_BSDF_PROBE_OUTPUTS,
+                    abi::BINDING_MEDIA
+                ],
+                "{kernel} ({backend})"
+            );
+            continue;
+        }
         if kernel.starts_with("bsdf_probe") {
             assert_eq!(
                 numbers,

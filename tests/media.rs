@@ -262,3 +262,131 @@ fn bdpt_and_mmlt_refuse_media_with_a_clear_message() {
         assert!(e.contains("participating media"), "{e}");
     }
 }
+
+/// lib/media.glsl's free flights and the phase function, run on the device by
+/// medium_probe.comp, against their CPU mirror (src/media.rs; bsdf/coated.rs's `hg`,
+/// `hg_sample`): 4000 inputs over three media (chromatic, one channel clear and emitting;
+/// a grey one scattering back; one that only absorbs), surfaces near and far and none.
+#[test]
+fn free_flights_and_the_phase_function_on_the_device_match_their_mirror() {
+    use lightpath::abi::{BsdfProbeInput, GpuMedium};
+    use lightpath::scene::Medium;
+    let media = [
+        Medium {
+            sigma_a: Vec3::new(0.3, 1.5, 0.0),
+            sigma_s: Vec3::new(0.9, 0.2, 0.0),
+            g: 0.6,
+            emission: Vec3::new(2.0, 0.5, 1.0),
+        },
+        Medium {
+            sigma_a: Vec3::splat(0.1),
+            sigma_s: Vec3::splat(3.0),
+            g: -0.3,
+            emission: Vec3::ZERO,
+        },
+        Medium {
+            sigma_a: Vec3::new(4.0, 2.0, 1.0),
+            sigma_s: Vec3::ZERO,
+            g: 0.0,
+            emission: Vec3::ONE,
+        },
+    ];
+    let records: Vec<GpuMedium> = media
+        .iter()
+        .map(|m| GpuMedium {
+            sigma_a: m.sigma_a.extend(m.g).to_array(),
+            sigma_s: m.sigma_s.extend(0.0).to_array(),
+            emission: m.emission.extend(0.0).to_array(),
+            info: [lightpath::abi::MEDIUM_HOMOGENEOUS, 0, 0, 0],
+        })
+        .collect();
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 40) as f32) / (1u64 << 24) as f32
+    };
+    fn unit(next: &mut impl FnMut() -> f32) -> Vec3 {
+        let z = 1.0 - 2.0 * next();
+        let phi = 2.0 * std::f32::consts::PI * next();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+    let mut inputs = Vec::new();
+    for i in 0..4000u32 {
+        let tmax = match i % 4 {
+            0 => -1.0,
+            1 => 0.05 + 0.2 * next(),
+            _ => 0.1 + 5.0 * next(),
+        };
+        let (wo, wi) = (unit(&mut next), unit(&mut next));
+        inputs.push(BsdfProbeInput {
+            info: [1 + i % 3, 0, 0, 0],
+            n: [next(), next(), 0.0, 0.0],
+            wo: wo.extend(0.0).to_array(),
+            wi: wi.extend(0.0).to_array(),
+            u: [next(), next(), tmax, 0.0],
+            tex1: [0.0; 4],
+        });
+    }
+    let got = {
+        let mut r = renderer(Bvh);
+        lightpath::probe::medium(&mut r.engine, &records, &inputs).expect("medium probe")
+    };
+    let close = |a: Vec3, b: Vec3, what: &str, k: usize| {
+        let scale = a.abs().max(b.abs()).max_element().max(1e-3);
+        assert!(
+            (a - b).abs().max_element() <= 2e-4 * scale,
+            "input {k}: {what}: device {a} vs mirror {b}"
+        );
+    };
+    let mut scattered = 0;
+    for (k, (input, out)) in inputs.iter().zip(&got).enumerate() {
+        let m = &media[input.info[0] as usize - 1];
+        let tmax = if input.u[2] < 0.0 {
+            f32::INFINITY
+        } else {
+            input.u[2]
+        };
+        let ev = lightpath::media::sample_medium(m, tmax, glam::Vec2::new(input.u[0], input.u[1]));
+        assert_eq!(
+            out.sample_dir[3] == 1.0,
+            ev.scattered,
+            "input {k}: scattered"
+        );
+        scattered += ev.scattered as u32;
+        if ev.t.is_finite() {
+            assert!(
+                (out.eval[3] - ev.t).abs() <= 2e-4 * ev.t.max(1e-3),
+                "input {k}: t {} vs {}",
+                out.eval[3],
+                ev.t
+            );
+        } else {
+            assert!(out.eval[3].is_infinite(), "input {k}: t {}", out.eval[3]);
+        }
+        close(Vec3::from_slice(&out.eval[..3]), ev.weight, "weight", k);
+        close(
+            Vec3::from_slice(&out.sample_dir[..3]),
+            ev.emitted,
+            "emission",
+            k,
+        );
+        let wo = Vec3::from_slice(&input.wo[..3]);
+        let wi = Vec3::from_slice(&input.wi[..3]);
+        let p = lightpath::bsdf::coated::hg(wo, wi, m.g);
+        assert!(
+            (out.sample_f[3] - p).abs() <= 2e-4 * p,
+            "input {k}: phase {} vs {p}",
+            out.sample_f[3]
+        );
+        let (s, _) =
+            lightpath::bsdf::coated::hg_sample(wo, m.g, glam::Vec2::new(input.n[0], input.n[1]));
+        close(Vec3::from_slice(&out.sample_f[..3]), s, "phase draw", k);
+    }
+    assert!(
+        scattered > 1000 && scattered < 3500,
+        "{scattered} of 4000 scattered"
+    );
+}
