@@ -682,8 +682,8 @@ pub fn camera_ray(p: &SceneParams, film: Vec2, u_lens: Vec2) -> (Vec3, Vec3) {
 
 /// The pixel footprint (dp/dx, dp/dy) at the surface point `point` with unit geometric
 /// normal `n` (geometry.glsl's `surface_footprint`, mirrored): where the camera rays
-/// toward 1/8 of a pixel beside the point's film position meet its tangent plane, less
-/// the point; zero where undefined.
+/// through the pixels beside the point's film position meet its tangent plane, less the
+/// point, times 1/8; zero where undefined.
 pub fn surface_footprint(p: &SceneParams, point: Vec3, n: Vec3) -> (Vec3, Vec3) {
     let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
     let to = point - v(p.cam_eye);
@@ -692,17 +692,17 @@ pub fn surface_footprint(p: &SceneParams, point: Vec3, n: Vec3) -> (Vec3, Vec3) 
     let w = p.cam_window;
     let sx = (w[1] - w[0]) / p.width as f32;
     let sy = (w[3] - w[2]) / p.height as f32;
-    let rx = to + (0.125 * k * sx) * v(p.cam_right);
-    let ry = to - (0.125 * k * sy) * v(p.cam_up);
+    let rx = to + (k * sx) * v(p.cam_right);
+    let ry = to - (k * sy) * v(p.cam_up);
     let pn = n.dot(to);
     let (ax, ay) = (n.dot(rx), n.dot(ry));
     let dpdx = if ax != 0.0 {
-        (pn / ax) * rx - to
+        0.125 * ((pn / ax) * rx - to)
     } else {
         Vec3::ZERO
     };
     let dpdy = if ay != 0.0 {
-        (pn / ay) * ry - to
+        0.125 * ((pn / ay) * ry - to)
     } else {
         Vec3::ZERO
     };

@@ -184,10 +184,9 @@ ShadingGeometry map_geometry(Hit hit, Surface s) {
 
 // The footprint of a pixel at the surface point p with unit geometric normal n: pbrt-v4's
 // dp/dx and dp/dy, by which its textures filter (noise octaves, bump map steps): where the
-// camera rays toward 1/8 of a pixel beside p's own film point (one right, one down) meet
-// p's tangent plane, less p: pbrt-v4 scales the ray's direction differential by
-// max(1/8, 1/sqrt(spp)), 1/8 at 64 samples per pixel or more (fixed here, so that a render
-// converges to one image at any spp), before it meets the plane. A
+// camera rays through the pixels beside p's own film point (one right, one down) meet p's
+// tangent plane, less p, times 1/8 (pbrt-v4's max(1/8, 1/sqrt(spp)) at 64 samples per
+// pixel or more: fixed here, so that a render converges to one image at any spp). A
 // function of the point alone, so every subpath reaching it (camera or light; PT, BDPT,
 // MMLT) meets the same texture: where the camera sees p directly it is pbrt-v4's
 // camera-ray differential (a thin lens's taken at its centre); elsewhere pbrt-v4
@@ -200,13 +199,13 @@ void surface_footprint(vec3 p, vec3 n, out vec3 dpdx, out vec3 dpdy) {
     float k = z > 0.0 ? z : length(to);
     float sx = (scene.cam_window.y - scene.cam_window.x) / float(scene.width);
     float sy = (scene.cam_window.w - scene.cam_window.z) / float(scene.height);
-    vec3 rx = to + (0.125 * k * sx) * scene.cam_right.xyz;
-    vec3 ry = to - (0.125 * k * sy) * scene.cam_up.xyz;
+    vec3 rx = to + (k * sx) * scene.cam_right.xyz;
+    vec3 ry = to - (k * sy) * scene.cam_up.xyz;
     float pn = dot(n, to);
     float ax = dot(n, rx);
     float ay = dot(n, ry);
-    dpdx = ax != 0.0 ? (pn / ax) * rx - to : vec3(0.0);
-    dpdy = ay != 0.0 ? (pn / ay) * ry - to : vec3(0.0);
+    dpdx = ax != 0.0 ? 0.125 * ((pn / ax) * rx - to) : vec3(0.0);
+    dpdy = ay != 0.0 ? 0.125 * ((pn / ay) * ry - to) : vec3(0.0);
     if (any(isinf(dpdx)) || any(isnan(dpdx)) || any(isinf(dpdy)) || any(isnan(dpdy))) {
         dpdx = vec3(0.0);
         dpdy = vec3(0.0);
