@@ -27,7 +27,7 @@ void main() {
     PathVertex v;
     if (found) {
         v = walk_vertex(slot, g);
-        v.emitter = primitive_emitter(prim);
+        v.emitter = has_feature(FEATURE_MEDIA) && prim == MEDIUM_HIT ? NO_EMITTER : primitive_emitter(prim);
     } else {
         v.emitter = NO_EMITTER;
     }

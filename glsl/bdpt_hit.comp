@@ -30,9 +30,14 @@ void main() {
     // textures' code.)
     Surface s;
     bool graze = true;
-    if (prim != NO_HIT) {
+    bool light = pass_params.side == BDPT_SIDE_LIGHT;
+    if (has_feature(FEATURE_MEDIA) && prim == MEDIUM_HIT) {
+        // A scattering vertex in the walk's medium (bdpt_trace's free flight).
+        if (light) light_walk_medium_vertex(w, hit.t, v); else camera_walk_medium_vertex(w, hit.t, v);
+        graze = false;
+    } else if (prim != NO_HIT) {
         s = surface_at(hit, w.o, w.d);
-        graze = pass_params.side == BDPT_SIDE_LIGHT ? !light_walk_vertex(w, hit.t, s, v) : !camera_walk_vertex(w, hit.t, s, v);
+        graze = light ? !light_walk_vertex(w, hit.t, s, v) : !camera_walk_vertex(w, hit.t, s, v);
     }
     bool found = prim != NO_HIT && !graze;
     if (pass_params.side == BDPT_SIDE_LIGHT) {

@@ -33,7 +33,7 @@ void main() {
                 g.ls_wi = vec4(o, tmax);
                 g.ls_le = vec4(d, uintBitsToFloat(px.y * scene.width + px.x));
                 g.ls_p = vec4(value, weight);
-                g.ls_n = vec4(uintBitsToFloat(1u), uintBitsToFloat(1u), 0.0, 0.0);
+                g.ls_n = vec4(uintBitsToFloat(1u), uintBitsToFloat(1u), uintBitsToFloat(light_medium(e, le.n, d)), 0.0);
                 flags |= BDPT_WALK_SHADOW | BDPT_WALK_SHADOW_SPLAT;
             }
             // Light vertices serve only paths of at most max_scatter() scattering vertices.

@@ -4,6 +4,15 @@
 // the shade stages have answered (each connection's contribution, MIS weight and shadow
 // ray; its sum kept in the walk for bdpt_finish), then the walk's closest hit. The only
 // kernel of BDPT's that holds the visibility backend.
+//
+// In media (FEATURE_MEDIA) the walk's ray is a free flight: a distance drawn in its medium
+// (the walk's stream) ends it at a scattering vertex (MEDIUM_HIT) or it reaches the
+// surface, through pass-through surfaces (boundaries of media, crossed here: no vertex),
+// the throughput times each segment's weight (lib/media.glsl's sample_medium); a camera
+// walk adds the media's emission on the way (s = 0: no other strategy finds it, weight
+// 1). Shadow rays go on through pass-through surfaces too, their light times the
+// transmittance of each medium they cross (the medium each starts in: ls_n.z for the
+// queued ray, the newest camera vertex's toward the light vertex for a connection).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_atomic_float : require
@@ -27,6 +36,10 @@ void main() {
     vec3 radiance = walks[slot].radiance.xyz;
     PathVertex z;
     if (connections > 0u) z = stored_vertex(base + vertex_stride() + counts.w - 1u);
+    bool media = has_feature(FEATURE_MEDIA);
+    bool camera = pass_params.side == BDPT_SIDE_CAMERA;
+    uint walk_medium = flags >> BDPT_WALK_MEDIUM_SHIFT;
+    bool emitted = false;
     // Every ray in one kept loop, through one trace_ray (each call site is a copy of the
     // backend): i = 0 the walk's own ray, for its closest hit, then (r = i - 1) r = 0 the
     // pending shadow ray and one per connection z_k - y_j. (The closest hits first, so
@@ -41,10 +54,12 @@ void main() {
         vec3 o, d, value;
         float tmax, weight;
         uint j = 0u;
+        uint medium = MEDIUM_VACUUM;
         if (closest) {
             o = walks[slot].o.xyz;
             d = walks[slot].d.xyz;
             tmax = INF;
+            medium = walk_medium;
         } else if (r == 0u) {
             vec4 ow = walks[slot].ls_wi;
             vec4 dw = walks[slot].ls_le;
@@ -54,6 +69,7 @@ void main() {
             d = dw.xyz;
             value = c.xyz;
             weight = c.w;
+            medium = floatBitsToUint(walks[slot].ls_n.z);
         } else {
             j = first + r - 1u;
             PathVertex y = stored_vertex(base + j - 1u);
@@ -65,17 +81,68 @@ void main() {
                                 answer(ay, 3u), answer(ay, 4u), value, weight, o, d, tmax))
                 continue;
             connected.w += 1.0;
+            medium = vertex_medium_toward(z, dir, walk_medium);
         }
-        // (A connection of no length has nothing to block it.)
+        // (A connection of no length has nothing to block it.) In media, segment by
+        // segment through the pass-through surfaces (closest hits).
         Hit hit;
-        bool found = (closest || r == 0u || tmax > 0.0) && trace_ray(o, d, tmax, !closest, hit);
+        bool found = false;
+        bool scattered = false;
+        vec3 tr = vec3(1.0);       // a shadow ray's transmittance
+        float travelled = 0.0;     // the walk's ray: the distance to the last crossing
+        [[dont_unroll]] for (uint k = 0u; k <= MAX_PASS_THROUGH; ++k) {
+            found = (closest || r == 0u || tmax > 0.0) && trace_ray(o, d, tmax, !closest && !media, hit);
+            if (!media) break;
+            if (medium != MEDIUM_VACUUM) {
+                if (closest) {
+                    Walk w = walk_load(walks[slot]);
+                    sampler_resume(index, walks[slot]);
+                    MediumEvent ev = sample_medium(medium, found ? hit.t : INF, sample_2d(camera ? STREAM_CAMERA : STREAM_LIGHT));
+                    walks[slot].o.w = uintBitsToFloat(sampler_rng.counter);
+                    uint max_vertices = scene.unbounded != 0u ? UNBOUNDED_DEPTH_CAP : max_scatter();
+                    if (camera && w.vertices < max_vertices && ev.emitted != vec3(0.0)) {
+                        add_camera(radiance, 0u, w.vertices + 2u, index, w.beta * ev.emitted, 1.0);
+                        emitted = true;
+                    }
+                    walks[slot].beta.xyz = w.beta * ev.weight;
+                    if (ev.scattered) {
+                        scattered = true;
+                        hit.t = travelled + ev.t;
+                        break;
+                    }
+                } else {
+                    tr *= medium_transmittance(medium_sigma_t(medium), found ? hit.t : tmax);
+                }
+            }
+            if (!found) break;
+            vec3 ng;
+            uint m = primitive_material(hit, o, d, ng);
+            if (!material_passes_through(m)) break;
+            if (k == MAX_PASS_THROUGH) {
+                // (Too many boundaries: the path ends, the shadow ray counts as blocked.)
+                if (closest) walks[slot].beta.xyz = vec3(0.0);
+                break;
+            }
+            medium = medium_after(m, ng, d, medium);
+            vec3 next = offset_ray_origin(o + hit.t * d, dot(d, ng) > 0.0 ? ng : -ng);
+            float step = dot(next - o, d);
+            travelled += step;
+            tmax = isinf(tmax) ? tmax : max(tmax - step, 0.0);
+            o = next;
+            counts.y++;
+        }
         if (closest) {
             counts.y++;
-            walks[slot].hit = vec4(uintBitsToFloat(found ? hit.prim : NO_HIT), hit.bary, hit.t);
+            // (The medium the ray ends in, past its crossings.)
+            if (media) flags = (flags & ((1u << BDPT_WALK_MEDIUM_SHIFT) - 1u)) | (medium << BDPT_WALK_MEDIUM_SHIFT);
+            uint prim = scattered ? MEDIUM_HIT : found ? hit.prim : NO_HIT;
+            walks[slot].hit = vec4(uintBitsToFloat(prim), hit.bary, travelled + (scattered ? 0.0 : hit.t));
+            if (scattered) walks[slot].hit.w = hit.t;
             walks[slot].counts.y = counts.y;
             continue;
         }
         if (found) continue;
+        value *= tr;
         uvec2 st = r > 0u ? uvec2(j + 1u, counts.w + 1u) : floatBitsToUint(walks[slot].ls_n.xy);
         if (r == 0u && (flags & BDPT_WALK_SHADOW_SPLAT) != 0u) {
             uint to = floatBitsToUint(walks[slot].ls_le.w);
@@ -87,7 +154,7 @@ void main() {
         add_camera(L, st.x, st.y, index, value, weight);
         if (r > 0u) connected.xyz = L; else radiance = L;
     }
-    if (shadow) walks[slot].radiance.xyz = radiance;
+    if (shadow || emitted) walks[slot].radiance.xyz = radiance;
     if (connections > 0u) walks[slot].connected = connected;
     flags &= ~(BDPT_WALK_SHADOW | BDPT_WALK_SHADOW_SPLAT | BDPT_WALK_CONNECTIONS);
     walks[slot].d.w = uintBitsToFloat(flags);

@@ -160,13 +160,20 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
     }
     let (_, radius) = scene_bounds(scene);
     // Delta lights that emit nothing are left out: they could never contribute.
-    for l in scene.delta_lights.iter().filter(|l| match l {
-        DeltaLight::Point { intensity, .. } => avg(*intensity) > 0.0,
-        DeltaLight::Directional { radiance, .. } => avg(*radiance) > 0.0,
-        DeltaLight::Spot { intensity, .. } => avg(*intensity) > 0.0,
-        DeltaLight::Goniometric { intensity, .. } => avg(*intensity) > 0.0,
-        DeltaLight::Projection { scale, .. } => avg(*scale) > 0.0,
-    }) {
+    for (index, l) in scene
+        .delta_lights
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| match l {
+            DeltaLight::Point { intensity, .. } => avg(*intensity) > 0.0,
+            DeltaLight::Directional { radiance, .. } => avg(*radiance) > 0.0,
+            DeltaLight::Spot { intensity, .. } => avg(*intensity) > 0.0,
+            DeltaLight::Goniometric { intensity, .. } => avg(*intensity) > 0.0,
+            DeltaLight::Projection { scale, .. } => avg(*scale) > 0.0,
+        })
+    {
+        // (info.w's high bits: the medium code of the light's place.)
+        let medium = crate::scene::MediumInterface::code(scene.delta_light_medium(index)) << 16;
         match *l {
             DeltaLight::Point {
                 position,
@@ -176,7 +183,7 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
                 emitters.push(GpuEmitter {
                     p0: position.extend(0.0).to_array(),
                     radiance: intensity.extend(0.0).to_array(),
-                    info: [EMITTER_POINT, 0, 0, 0],
+                    info: [EMITTER_POINT, 0, 0, medium],
                     ..Default::default()
                 });
             }
@@ -198,7 +205,7 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
                     p1: direction.extend(cos_falloff_end).to_array(),
                     p2: [cos_falloff_start, 0.0, 0.0, 0.0],
                     radiance: intensity.extend(0.0).to_array(),
-                    info: [EMITTER_SPOT, 0, 0, 0],
+                    info: [EMITTER_SPOT, 0, 0, medium],
                 });
             }
             DeltaLight::Goniometric {
@@ -229,7 +236,7 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
                     radiance: colour.extend(0.0).to_array(),
                     // (info.y: the image's index in Scene::light_profiles, made its first
                     // texel by GpuScene::new.)
-                    info: [kind, profile, image.width | image.height << 16, 0],
+                    info: [kind, profile, image.width | image.height << 16, medium],
                 });
             }
             DeltaLight::Directional {
@@ -240,6 +247,8 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
                 emitters.push(GpuEmitter {
                     p0: direction.normalize().extend(0.0).to_array(),
                     radiance: radiance.extend(0.0).to_array(),
+                    // (Its subpaths start outside the scene, in vacuum, as pbrt-v4's
+                    // distant light's: the medium where it is made is not theirs.)
                     info: [EMITTER_DIRECTIONAL, 0, 0, 0],
                     ..Default::default()
                 });

@@ -251,15 +251,114 @@ fn light_sampling_in_fog_agrees_with_phase_sampling_alone() {
 }
 
 #[test]
-fn bdpt_and_mmlt_refuse_media_with_a_clear_message() {
-    for kind in [IntegratorKind::Bdpt, IntegratorKind::Mmlt] {
-        let s = with_integrator(slab(), kind, 1);
-        let mut r = renderer(AccelChoice::Bvh);
-        let e = match r.render(&s, 1, &mut Trace::new()) {
-            Ok(_) => panic!("{kind:?} rendered a scene with media"),
-            Err(e) => format!("{e:#}"),
-        };
-        assert!(e.contains("participating media"), "{e}");
+fn mmlt_refuses_media_with_a_clear_message() {
+    let s = with_integrator(slab(), IntegratorKind::Mmlt, 1);
+    let mut r = renderer(AccelChoice::Bvh);
+    let e = match r.render(&s, 1, &mut Trace::new()) {
+        Ok(_) => panic!("MMLT rendered a scene with media"),
+        Err(e) => format!("{e:#}"),
+    };
+    assert!(e.contains("participating media"), "{e}");
+}
+
+// ---- BDPT in media ------------------------------------------------------------------
+
+/// A fog-filled sphere (a pass-through boundary, chromatic fog scattering forward) over a
+/// diffuse floor, lit by a small sphere light above it in vacuum, the camera outside:
+/// every subpath into the fog crosses its boundary.
+fn fog_ball() -> Scene {
+    pbrt(
+        "LookAt 0 0.5 -5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+         Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n\
+         Sampler \"independent\" \"integer pixelsamples\" 64\n\
+         WorldBegin\n\
+         MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [0.05 0.1 0.2] \
+         \"rgb sigma_s\" [0.6 0.4 0.2] \"float g\" 0.4\n\
+         AttributeBegin\nMediumInterface \"fog\" \"\"\nMaterial \"interface\"\nShape \"sphere\" \"float radius\" 1.5\nAttributeEnd\n\
+         AttributeBegin\nTranslate 0 2.5 0\nAreaLightSource \"diffuse\" \"rgb L\" [20 20 20]\n\
+         Shape \"sphere\" \"float radius\" 0.4\nAttributeEnd\n\
+         Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n\
+         Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3] \"point3 P\" [-8 -1.5 -8  -8 -1.5 8  8 -1.5 8  8 -1.5 -8]\n",
+    )
+}
+
+/// BDPT renders media as the path tracer does: a light in fog with the camera in it
+/// (subpaths that start in a medium), and a fog-filled sphere seen and lit from outside
+/// (subpaths that cross boundaries), at maxdepth 1, 2 and 5.
+#[test]
+fn bdpt_renders_media_as_the_path_tracer() {
+    for (name, s) in [
+        ("sphere light in fog", sphere_light_in_fog()),
+        ("fog ball", fog_ball()),
+    ] {
+        for depth in [1, 2, 5] {
+            let pt = estimate(&with(&s, IntegratorKind::PathTracer, 512, depth), 4, 2, Bvh);
+            let bdpt = estimate(&with(&s, IntegratorKind::Bdpt, 128, depth), 4, 2, Bvh);
+            assert_agree(
+                &format!("{name}, maxdepth {depth}: bdpt vs pt"),
+                &bdpt,
+                &pt,
+                5.0,
+                0.003,
+            );
+        }
+    }
+}
+
+/// Each BDPT strategy alone samples the paths of its depth through media: medium
+/// vertices in both subpaths, connections and light samples through transmittance,
+/// light tracing from medium vertices, across boundaries.
+#[test]
+fn every_bdpt_strategy_alone_matches_the_path_tracer_in_media() {
+    assert_each_strategy_alone_matches_pt_at(
+        "sphere light in fog",
+        Kind::Area,
+        &sphere_light_in_fog(),
+        2,
+        128,
+    );
+    assert_each_strategy_alone_matches_pt_at("fog ball", Kind::Area, &fog_ball(), 2, 128);
+}
+
+/// BDPT's closed forms in media: the point light's single scattering (a delta light in
+/// a medium: its subpaths start there), the emitting slab seen through its boundaries
+/// (the medium's emission is found by camera subpaths alone), and the white furnace
+/// (unbounded depth: Russian roulette beyond the strategies' cap).
+#[test]
+fn bdpt_in_media_matches_the_closed_forms() {
+    let s = with_integrator(point_in_fog(), IntegratorKind::Bdpt, 64);
+    let expected = expected_image(&s, single_scattering);
+    let reference = exact_like(&estimate_from_runs(&[region_means(&expected, 3)]));
+    assert_agree(
+        "bdpt single scattering",
+        &estimate(&s, 4, 3, Bvh),
+        &reference,
+        5.0,
+        0.005,
+    );
+
+    let s = with_integrator(slab(), IntegratorKind::Bdpt, 32);
+    let expected = expected_image(&s, |_, d| through_slab(d));
+    let reference = exact_like(&estimate_from_runs(&[region_means(&expected, 4)]));
+    assert_agree(
+        "bdpt slab",
+        &estimate(&s, 4, 4, Bvh),
+        &reference,
+        5.0,
+        0.003,
+    );
+
+    for inside in [false, true] {
+        let mut s = with_integrator(furnace(0.5, inside), IntegratorKind::Bdpt, 32);
+        s.settings.max_depth = -1;
+        let e = estimate(&s, 4, 2, Bvh);
+        assert_agree(
+            &format!("bdpt furnace, inside {inside}"),
+            &e,
+            &exact([1.0; 3], e.mean.len()),
+            5.0,
+            0.005,
+        );
     }
 }
 

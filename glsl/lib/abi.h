@@ -264,6 +264,15 @@
 
 // The bit of GpuPathVertex.p.w that marks a vertex seen from its material's outside.
 #define PATH_VERTEX_FRONT 2147483648
+// The bit of GpuPathVertex.p.w that marks a scattering vertex in a medium (FEATURE_MEDIA):
+// the low 16 bits are then its medium code, not a material (lib/bdpt.glsl).
+#define PATH_VERTEX_MEDIUM 1073741824
+// GpuBdptWalk.hit.x of a walk whose free flight ended in its medium (a scattering vertex
+// at hit.w), rather than at a surface (a primitive) or nowhere (NO_HIT).
+#define MEDIUM_HIT 4294967294
+// The shade class of medium vertices (BDPT's bdpt_shade_medium: the phase function), past
+// the material classes.
+#define SHADE_CLASS_MEDIUM 5
 
 // How directions are sampled (SceneParams.sample_mode: the scene's importancesampling);
 // src/abi.rs mirrors them as `SampleMode`.
@@ -594,6 +603,8 @@ struct GpuBdptWalk {
 #define BDPT_WALK_ESCAPED 512
 #define BDPT_WALK_CONNECTIONS 1024 // z_k's s, t >= 2 connections wait: answers (shade), then rays (trace)
 #define BDPT_WALK_EMIT 2048        // a camera walk's hit (or escape) waits for the emit stage
+// The flags' high 16 bits: the medium code of the walk's next ray (FEATURE_MEDIA).
+#define BDPT_WALK_MEDIUM_SHIFT 16
 // Floats per connection in the answers buffer: z's BSDF toward y (rgb, pdf there, pdf
 // back), then y's toward z (the same).
 #define BDPT_ANSWER_FLOATS 10

@@ -26,6 +26,7 @@
 #include "lights.glsl"
 #include "visibility.glsl"
 #include "camera.glsl"
+#include "media.glsl"
 
 // Scattering vertices of the longest path that gets every strategy.
 uint max_scatter() { return scene.max_depth; }
@@ -63,7 +64,10 @@ float material_pdf(BsdfParams b, vec3 n, vec3 wo, vec3 wi) {
     return bsdf_pdf(b, scene.sample_mode, n, wo, wi);
 }
 
-// A surface vertex of a subpath, with what later connections need.
+// A vertex of a subpath, with what later connections need: a surface's, or (in scenes
+// with media) a scattering point in a medium (vertex_is_medium: material holds
+// PATH_VERTEX_MEDIUM and the medium's code; n = ns = ng = w, so that the surfaces' side
+// tests pass; no cosine there: vertex_cos).
 struct PathVertex {
     vec3 p;
     uint material;
@@ -116,6 +120,52 @@ PathVertex unpack_vertex(GpuPathVertex g) {
     return y;
 }
 
+bool vertex_is_medium(PathVertex v) { return has_feature(FEATURE_MEDIA) && (v.material & PATH_VERTEX_MEDIUM) != 0u; }
+
+uint vertex_medium(PathVertex v) { return v.material & 0xFFFFu; }
+
+// The geometric cosine a vertex gives a segment along dir in the MIS sums' density
+// conversions and the geometry term: 1 in a medium (a volume density).
+float vertex_cos(PathVertex v, vec3 dir) { return vertex_is_medium(v) ? 1.0 : abs(dot(v.n, dir)); }
+
+// The cosine that multiplies the vertex's BSDF toward wi (shading_cosine): 1 in a medium.
+float vertex_shading_cos(PathVertex v, vec3 wi, uint transport) {
+    return vertex_is_medium(v) ? 1.0 : shading_cosine(v.n, v.ns, v.w, wi, transport);
+}
+
+// The normal a ray leaving the vertex along dir is offset along: none in a medium.
+vec3 vertex_side(PathVertex v, vec3 dir) {
+    if (vertex_is_medium(v)) return vec3(0.0);
+    return dot(v.n, dir) > 0.0 ? v.n : -v.n;
+}
+
+// The medium a ray leaving the vertex along dir is in, `current` the medium of the walk
+// that found it (the medium on both sides of a surface that bounds none).
+uint vertex_medium_toward(PathVertex v, vec3 dir, uint current) {
+    if (!has_feature(FEATURE_MEDIA) || vertex_is_medium(v)) return current;
+    return medium_after(v.material, v.ng, dir, current);
+}
+
+// The shade class of a vertex: its material's, SHADE_CLASS_MEDIUM in a medium.
+uint vertex_class(PathVertex v) {
+    return vertex_is_medium(v) ? SHADE_CLASS_MEDIUM : material_class(materials[v.material].info.x);
+}
+
+// The phase function at a medium vertex asked as bsdf_ask asks a BSDF (wi given, or drawn
+// when `draw`): the Henyey-Greenstein function of the vertex's medium, which is its own
+// density both ways (the scattering coefficient is in the walk's throughput: the free
+// flight's weight).
+bool phase_ask(PathVertex x, bool draw, vec3 u, inout BsdfSample q, out float pdf_rev) {
+    float g = medium_g(vertex_medium(x));
+    if (draw) q.wi = hg_sample(x.w, g, u.xy);
+    float p = hg_phase(x.w, q.wi, g);
+    q.f = vec3(p);
+    q.pdf = p;
+    q.flags = 0u;
+    pdf_rev = p;
+    return p > 0.0;
+}
+
 // The BSDF at a path vertex: its material, seen from the side of its normal n.
 BsdfParams vertex_bsdf(PathVertex v) {
     return material_bsdf(materials[v.material], dot(v.n, v.ng) > 0.0, v.tex0, v.tex1);
@@ -134,6 +184,7 @@ struct Walk {
     bool prev_delta;   // ... whether it was a delta lobe,
     vec3 prev_p;       // ... and the vertex it left from
     bool escaped;      // the last ray left the scene (toward the environment)
+    uint medium;       // the medium code of the next ray (FEATURE_MEDIA)
 };
 
 PathVertex vertex_at(Walk w, Surface s, vec3 toward_prev) {
@@ -154,6 +205,35 @@ PathVertex vertex_at(Walk w, Surface s, vec3 toward_prev) {
     return v;
 }
 
+// A scattering vertex of the walk in its medium at p.
+PathVertex medium_vertex_at(Walk w, vec3 p, vec3 toward_prev) {
+    PathVertex v;
+    v.p = p;
+    v.material = PATH_VERTEX_MEDIUM | w.medium;
+    v.n = toward_prev;
+    v.ns = toward_prev;
+    v.ng = toward_prev;
+    v.w = toward_prev;
+    v.beta = w.beta;
+    v.dvcm = w.dvcm;
+    v.dvc = w.dvc;
+    v.emitter = NO_EMITTER;
+    v.uv = vec2(0.0);
+    v.tex0 = vec4(0.0);
+    v.tex1 = vec4(0.0);
+    return v;
+}
+
+// The medium a light's subpath starts in: an area light's by its material's interface
+// (the side it emits toward), another light's its own (GpuEmitter.info.w's high bits).
+// (n: the point's normal, dir the direction the light leaves along).
+uint light_medium(uint e, vec3 n, vec3 dir) {
+    if (!has_feature(FEATURE_MEDIA)) return MEDIUM_VACUUM;
+    GpuEmitter em = emitters[e];
+    if (emitter_kind_has_surface(em.info.x)) return medium_after(emitter_material(em), n, dir, MEDIUM_VACUUM);
+    return em.info.w >> 16;
+}
+
 // ---- light subpaths ---------------------------------------------------------------
 
 // Start a light subpath: pick a light by power (light stream), place a point and a
@@ -170,6 +250,7 @@ bool light_walk_start(out Walk w, out LightEmission le, out uint e) {
     w.prev_delta = false;
     w.prev_p = vec3(0.0);
     w.escaped = false;
+    w.medium = MEDIUM_VACUUM;
     e = 0u;
     if (scene.emitter_count == 0u) return false;
     e = pick_emitter(sample_u32(STREAM_LIGHT));
@@ -184,6 +265,7 @@ bool light_walk_start(out Walk w, out LightEmission le, out uint e) {
     w.infinite = emitter_kind_is_at_infinity(le.kind);
     w.o = delta ? le.p : offset_ray_origin(le.p, dot(le.n, le.dir) > 0.0 ? le.n : -le.n);
     w.d = le.dir;
+    w.medium = light_medium(e, le.n, le.dir);
     return true;
 }
 
@@ -202,6 +284,13 @@ bool light_walk_vertex(inout Walk w, float t, Surface s, out PathVertex v) {
     return true;
 }
 
+// The next vertex of a light subpath in its medium, at distance t along its ray.
+void light_walk_medium_vertex(inout Walk w, float t, out PathVertex v) {
+    if (!(w.vertices == 0u && w.infinite)) w.dvcm *= mis(t * t);
+    w.vertices++;
+    v = medium_vertex_at(w, w.o + t * w.d, -w.d);
+}
+
 // Continue a subpath from its vertex v after its BSDF sample bs (and the density back,
 // pdf_rev; the shade stages ask both where they ask the BSDF's other questions): the
 // throughput, and (update_mis) the MIS sums, follow the new direction. (The sample's
@@ -214,9 +303,8 @@ bool light_walk_vertex(inout Walk w, float t, Surface s, out PathVertex v) {
 bool walk_scatter_sampled(inout Walk w, PathVertex v, BsdfSample bs, float pdf_rev, uint transport, bool update_mis) {
     if (!shading_side_agrees(v.n, v.ns, bs.wi)) return false;
     bool delta = (bs.flags & BSDF_LOBE_DELTA) != 0u;
-    float cos_signed = dot(v.n, bs.wi);
-    float cos_out = abs(cos_signed);   // geometric: for the MIS sums' densities
-    w.beta = v.beta * bs.f * (shading_cosine(v.n, v.ns, v.w, bs.wi, transport) / bs.pdf);
+    float cos_out = vertex_cos(v, bs.wi);   // geometric: for the MIS sums' densities
+    w.beta = v.beta * bs.f * (vertex_shading_cos(v, bs.wi, transport) / bs.pdf);
     if (w.beta == vec3(0.0)) return false;
     if (update_mis) {
         if (delta) {
@@ -230,8 +318,9 @@ bool walk_scatter_sampled(inout Walk w, PathVertex v, BsdfSample bs, float pdf_r
     w.prev_pdf_w = bs.pdf;
     w.prev_delta = delta;
     w.prev_p = v.p;
-    w.o = offset_ray_origin(v.p, cos_signed > 0.0 ? v.n : -v.n);
+    w.o = offset_ray_origin(v.p, vertex_side(v, bs.wi));
     w.d = bs.wi;
+    w.medium = vertex_medium_toward(v, bs.wi, w.medium);
     return true;
 }
 
@@ -265,6 +354,7 @@ void camera_walk_from(vec3 o, vec3 d, out Walk w) {
     w.prev_delta = false;
     w.prev_p = w.o;
     w.escaped = false;
+    w.medium = has_feature(FEATURE_MEDIA) ? scene.camera_medium : MEDIUM_VACUUM;
 }
 
 // Start a camera subpath through the film position `film` in [0,1)^2 (whole image);
@@ -294,6 +384,13 @@ bool camera_walk_vertex(inout Walk w, float t, Surface s, out PathVertex v) {
     }
     v = vertex_at(w, s, wo);
     return true;
+}
+
+// The next vertex of a camera subpath in its medium, at distance t along its ray.
+void camera_walk_medium_vertex(inout Walk w, float t, out PathVertex v) {
+    w.vertices++;
+    if (w.vertices - 1u <= max_scatter()) w.dvcm *= mis(t * t);
+    v = medium_vertex_at(w, w.o + t * w.d, -w.d);
 }
 
 // ---- strategies: each returns its unweighted contribution and its MIS weight ------
@@ -389,6 +486,8 @@ bool light_sample_draw(PathVertex z, out LightSample ls, out EmissionQuery q) {
 // forward pdf and, if light_sample_weighs_all, its reverse one), light_sample_end (the unweighted contribution, the MIS weight and the shadow ray
 // (o, d, tmax)). False when it cannot contribute.
 bool light_sample_faces(BsdfParams b, PathVertex z, LightSample ls, out float cos_s) {
+    cos_s = 1.0;
+    if (vertex_is_medium(z)) return true;
     return direct_light_faces(b, z.n, z.ns, z.w, ls.wi, cos_s);
 }
 
@@ -405,7 +504,7 @@ bool light_sample_end(Walk w, PathVertex z, LightSample ls, vec2 pdfs, float cos
     d = vec3(0.0, 0.0, 1.0);
     tmax = 0.0;
     if (f == vec3(0.0)) return false;
-    float cos_z = abs(dot(z.n, ls.wi));
+    float cos_z = vertex_cos(z, ls.wi);
     if (light_sample_weighs_all(w)) {
         float pdf_pos = pdfs.x;
         float pdf_emit = pdfs.y;
@@ -416,7 +515,7 @@ bool light_sample_end(Walk w, PathVertex z, LightSample ls, vec2 pdfs, float cos
     } else {
         if (walks_unbounded()) weight = light_sample_mis_weight(ls, pdf_dir);
     }
-    light_sample_shadow_ray(z.p, z.n, ls, o, d, tmax);
+    light_sample_shadow_ray(z.p, vertex_is_medium(z) ? vec3(0.0) : z.n, ls, o, d, tmax);
     value = z.beta * f * ls.L * (cos_s / ls.pdf);
     return true;
 }
@@ -451,15 +550,14 @@ bool camera_connection_end(PathVertex y, vec3 eye, vec3 to_eye, float dist, vec3
     d = vec3(0.0, 0.0, 1.0);
     tmax = 0.0;
     if (f == vec3(0.0)) return false;
-    float cos_signed = dot(y.n, to_eye);
-    float cos_y = abs(cos_signed);
+    float cos_y = vertex_cos(y, to_eye);
     // The measurement's cosine at y is the geometric cos_y (in pdf_cam_a) times the
     // adjoint BSDF's shading correction (shading_cosine's importance form).
-    f *= abs(dot(y.ns, y.w)) / abs(dot(y.n, y.w));
+    if (!vertex_is_medium(y)) f *= abs(dot(y.ns, y.w)) / abs(dot(y.n, y.w));
     float pdf_cam_a = camera_pdf_w(-to_eye) * cos_y / (dist * dist);
     float w_light = mis(pdf_cam_a / light_paths()) * (y.dvcm + y.dvc * mis(pdf_rev));
     weight = 1.0 / (1.0 + w_light);
-    shadow_ray_to(y.p, cos_signed > 0.0 ? y.n : -y.n, eye, o, d, tmax);
+    shadow_ray_to(y.p, vertex_side(y, to_eye), eye, o, d, tmax);
     value = y.beta * f * (pdf_cam_a / light_paths());
     return true;
 }
@@ -503,7 +601,7 @@ bool connection_faces(PathVertex z, PathVertex y, out vec3 dir, out float d2) {
     if (!(d2 > 0.0)) return false;
     dir = to * inversesqrt(d2);
     // (Either vertex may transmit: the cosines' signs say which side the segment leaves.)
-    if (!(abs(dot(z.n, dir)) > 0.0) || !(abs(dot(y.n, dir)) > 0.0)) return false;
+    if (!(vertex_cos(z, dir) > 0.0) || !(vertex_cos(y, dir) > 0.0)) return false;
     if (!(dot(z.ns, z.w) > 0.0) || !(dot(y.ns, y.w) > 0.0)) return false;
     return shading_side_agrees(z.n, z.ns, dir) && shading_side_agrees(y.n, y.ns, -dir);
 }
@@ -518,19 +616,16 @@ bool connection_end(PathVertex z, PathVertex y, vec3 dir, float d2, vec3 f_z, fl
     o = z.p;
     d = dir;
     tmax = 0.0;
-    float cz = dot(z.n, dir);
-    float cy = -dot(y.n, dir);
-    float cos_z = abs(cz);
-    float cos_y = abs(cy);
-    float g = shading_cosine(z.n, z.ns, z.w, dir, TRANSPORT_RADIANCE)
-            * shading_cosine(y.n, y.ns, y.w, -dir, TRANSPORT_IMPORTANCE) / d2;
+    float cos_z = vertex_cos(z, dir);
+    float cos_y = vertex_cos(y, -dir);
+    float g = vertex_shading_cos(z, dir, TRANSPORT_RADIANCE) * vertex_shading_cos(y, -dir, TRANSPORT_IMPORTANCE) / d2;
     vec3 c = z.beta * f_z * f_y * y.beta * g;
     if (c == vec3(0.0)) return false;
     // The densities convert with the geometric cosines.
     float w_light = mis(cam_dir * cos_y / d2) * (y.dvcm + y.dvc * mis(light_rev));
     float w_cam = mis(light_dir * cos_z / d2) * (z.dvcm + z.dvc * mis(cam_rev));
     weight = 1.0 / (w_light + 1.0 + w_cam);
-    shadow_ray_to(z.p, cz > 0.0 ? z.n : -z.n, offset_ray_origin(y.p, cy > 0.0 ? y.n : -y.n), o, d, tmax);
+    shadow_ray_to(z.p, vertex_side(z, dir), offset_ray_origin(y.p, vertex_side(y, -dir)), o, d, tmax);
     value = c;
     return true;
 }

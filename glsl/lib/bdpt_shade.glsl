@@ -19,11 +19,32 @@
 // classes are asked it after the loop, at a second site whose `draw` is constant (its
 // sampling code alone): inside the loop, lanes that draw would wait for lanes that still
 // evaluate and back (measured: 12 % of the basic shade stage's time on the Cornell box).
-#if SHADE_CLASS == MATERIAL_CLASS_BASIC || SHADE_CLASS == MATERIAL_CLASS_INTERFACE
+#if SHADE_CLASS == MATERIAL_CLASS_BASIC || SHADE_CLASS == MATERIAL_CLASS_INTERFACE || SHADE_CLASS == SHADE_CLASS_MEDIUM
 const bool SAMPLE_IN_LOOP = false;
 #else
 const bool SAMPLE_IN_LOOP = true;
 #endif
+
+// The class's BSDF at x (SHADE_CLASS_MEDIUM: none, the phase function is asked by
+// phase_ask) and the class's question (bsdf_ask's arguments).
+BsdfParams class_bsdf(PathVertex x) {
+#if SHADE_CLASS == SHADE_CLASS_MEDIUM
+    BsdfParams b;
+    b.kind = 0u;
+    return b;
+#else
+    return vertex_bsdf(x);
+#endif
+}
+
+bool class_ask(BsdfParams b, PathVertex x, bool draw, vec3 u, uint transport, bool want_fwd, bool want_rev,
+               inout BsdfSample q, out float pdf_rev) {
+#if SHADE_CLASS == SHADE_CLASS_MEDIUM
+    return phase_ask(x, draw, u, q, pdf_rev);
+#else
+    return bsdf_ask(b, scene.sample_mode, x.ns, x.w, draw, u, transport, want_fwd, want_rev, q, pdf_rev);
+#endif
+}
 
 // The walk's sample's numbers (from the walk's stream), and its question; false
 // when v is seen from behind (no sample).
@@ -43,7 +64,7 @@ void main() {
     GpuBdptWalk g = walks[slot];   // (the compiler loads only the members read)
     PathVertex v = walk_vertex(slot, g);
     // The vertex is this class's (its walk goes on here), or only some y_j it connects to is.
-    bool own = (flags & BDPT_WALK_VERTEX) != 0u && material_class(materials[v.material].info.x) == SHADE_CLASS;
+    bool own = (flags & BDPT_WALK_VERTEX) != 0u && vertex_class(v) == SHADE_CLASS;
     uint first, last;
     uint connections = 0u;
     if ((flags & BDPT_WALK_CONNECTIONS) != 0u && connection_range(g.counts.w, g.counts.z, first, last))
@@ -83,9 +104,9 @@ void main() {
         }
         [[dont_unroll]] for (uint side = 0u; side < (i == 0u || i == ext ? 1u : 2u); ++side) {
             PathVertex x = side == 0u ? v : y;
-            if (side == 0u ? !own : material_class(materials[x.material].info.x) != SHADE_CLASS) continue;
+            if (side == 0u ? !own : vertex_class(x) != SHADE_CLASS) continue;
             BsdfParams bx = b;
-            if (i == 0u || side == 1u) bx = vertex_bsdf(x);
+            if (i == 0u || side == 1u) bx = class_bsdf(x);
             if (i == 0u) b = bx;
             vec3 wi = side == 0u ? dir : -dir;
             uint transport = side == 0u ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE;
@@ -118,7 +139,7 @@ void main() {
             BsdfSample q;
             q.wi = wi;
             float pdf_rev;
-            bool answered = bsdf_ask(bx, scene.sample_mode, x.ns, x.w, draw, u, transport, want_fwd, want_rev, q, pdf_rev);
+            bool answered = class_ask(bx, x, draw, u, transport, want_fwd, want_rev, q, pdf_rev);
             if (draw) {
                 sampled = answered;
                 bs = q;
@@ -136,11 +157,13 @@ void main() {
             if (!camera) {
                 if (camera_connection_end(v, eye, to_eye, dist, f, pdf_rev, value, weight, o, d, tmax)) {
                     walks[slot].counts.y = g.counts.y + 1u;
-                    queue_shadow(slot, flags, o, d, tmax, w.vertices + 1u, 1u, px.y * scene.width + px.x, value, weight);
+                    queue_shadow(slot, flags, o, d, tmax, w.vertices + 1u, 1u, px.y * scene.width + px.x, value, weight,
+                                 vertex_medium_toward(v, to_eye, w.medium));
                 }
             } else if (light_sample_end(w, v, ls, g.ls_pdfs.xy, cos_s, f, pdf_fwd, pdf_rev, value, weight, o, d, tmax)) {
                 walks[slot].counts.y = g.counts.y + 1u;
-                queue_shadow(slot, flags, o, d, tmax, 1u, w.vertices + 1u, index, value, weight);
+                queue_shadow(slot, flags, o, d, tmax, 1u, w.vertices + 1u, index, value, weight,
+                             vertex_medium_toward(v, ls.wi, w.medium));
             }
         }
     }
@@ -151,7 +174,7 @@ void main() {
         uint transport;
         bool want_rev;
         if (walk_sample_question(v, camera, beyond, u, transport, want_rev))
-            sampled = bsdf_ask(b, scene.sample_mode, v.ns, v.w, true, u, transport, false, want_rev, bs, bs_rev);
+            sampled = class_ask(b, v, true, u, transport, false, want_rev, bs, bs_rev);
     }
     bool extend = sampled && walk_scatter_sampled(w, v, bs, bs_rev, camera ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE, !beyond)
                && walk_survives(w, beyond);

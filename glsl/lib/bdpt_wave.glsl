@@ -71,13 +71,13 @@ void sampler_resume(uint index, GpuBdptWalk g) {
 
 // A shadow ray for the trace stage and what it adds when nothing blocks it: strategy
 // (s, t), its unweighted value and MIS weight, added to the splat film at `pixel` (t = 1)
-// or to the walk's own pixel.
+// or to the walk's own pixel; `medium` the code of the medium it starts in.
 void queue_shadow(uint slot, inout uint flags, vec3 o, vec3 d, float tmax, uint s, uint t, uint pixel, vec3 value,
-                  float weight) {
+                  float weight, uint medium) {
     walks[slot].ls_wi = vec4(o, tmax);
     walks[slot].ls_le = vec4(d, uintBitsToFloat(pixel));
     walks[slot].ls_p = vec4(value, weight);
-    walks[slot].ls_n = vec4(uintBitsToFloat(s), uintBitsToFloat(t), 0.0, 0.0);
+    walks[slot].ls_n = vec4(uintBitsToFloat(s), uintBitsToFloat(t), uintBitsToFloat(medium), 0.0);
     flags |= BDPT_WALK_SHADOW;
     if (t == 1u) flags |= BDPT_WALK_SHADOW_SPLAT;
 }

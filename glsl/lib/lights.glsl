@@ -38,7 +38,7 @@ bool emitter_kind_is_delta(uint kind) {
 // shape has alpha 0): it emits as the area light it is, but its surface is cut out of
 // every ray (the alpha test), so no ray finds it and only light sampling does. For MIS it
 // is a delta light: the strategies that would hit it are not strategies.
-bool emitter_is_hidden(GpuEmitter em) { return em.info.w == EMITTER_HIDDEN; }
+bool emitter_is_hidden(GpuEmitter em) { return (em.info.w & 0xFFFFu) == EMITTER_HIDDEN; }
 
 // Triangles and spheres: emitters with a surface a camera can see.
 bool emitter_kind_has_surface(uint kind) { return kind == EMITTER_TRIANGLE || kind == EMITTER_SPHERE; }

@@ -23,12 +23,14 @@ Walk walk_load(GpuBdptWalk g) {
     w.prev_delta = (flags & BDPT_WALK_PREV_DELTA) != 0u;
     w.prev_p = g.prev_p.xyz;
     w.escaped = (flags & BDPT_WALK_ESCAPED) != 0u;
+    w.medium = flags >> BDPT_WALK_MEDIUM_SHIFT;
     return w;
 }
 
-// The flags with the walk's own (infinite, previous delta, escaped) set from w.
+// The flags with the walk's own (infinite, previous delta, escaped, its medium) set from w.
 uint walk_flags(Walk w, uint flags) {
-    flags &= ~(BDPT_WALK_INFINITE | BDPT_WALK_PREV_DELTA | BDPT_WALK_ESCAPED);
+    flags &= ~(BDPT_WALK_INFINITE | BDPT_WALK_PREV_DELTA | BDPT_WALK_ESCAPED) & ((1u << BDPT_WALK_MEDIUM_SHIFT) - 1u);
+    flags |= w.medium << BDPT_WALK_MEDIUM_SHIFT;
     if (w.infinite) flags |= BDPT_WALK_INFINITE;
     if (w.prev_delta) flags |= BDPT_WALK_PREV_DELTA;
     if (w.escaped) flags |= BDPT_WALK_ESCAPED;

@@ -187,10 +187,16 @@ impl Engine {
         })?;
         let mut p = scene_params(&scene, seed);
         params(&mut p);
-        if !scene.media.is_empty() && p.integrator != crate::abi::INTEGRATOR_PATHTRACER {
+        if !scene.media.is_empty()
+            && !matches!(
+                p.integrator,
+                crate::abi::INTEGRATOR_PATHTRACER | crate::abi::INTEGRATOR_BDPT
+            )
+        {
             anyhow::bail!(
                 "this scene has participating media, which lightpath renders with the path \
-                 tracer only so far (--integrator pathtracer; BDPT and MMLT in media are to come)"
+                 tracer and BDPT only so far (--integrator pathtracer or bdpt; MMLT in media is \
+                 to come)"
             );
         }
         let gpu_scene = trace.cpu("scene upload", || {

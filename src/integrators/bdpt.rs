@@ -364,7 +364,7 @@ impl Work for BdptWork<'_> {
 }
 
 /// The spans of BDPT's wavefront stages, for the device time of a run.
-pub(crate) const BDPT_SPANS: [&str; 10] = [
+pub(crate) const BDPT_SPANS: [&str; 11] = [
     "bdpt start",
     "bdpt trace",
     "bdpt hit",
@@ -374,6 +374,7 @@ pub(crate) const BDPT_SPANS: [&str; 10] = [
     "bdpt shade coated",
     "bdpt shade measured",
     "bdpt shade hair",
+    "bdpt shade medium",
     "bdpt finish",
 ];
 
@@ -436,7 +437,11 @@ pub(crate) fn bdpt_wave(
             engine.stage(name, variant, prepared, &all, span)
         };
         trace.cpu("pipeline creation", || -> Result<_> {
-            let shade = super::pt::class_stages(scene, shade_kernel, &mut stage)?;
+            let mut shade = super::pt::class_stages(scene, shade_kernel, &mut stage)?;
+            // Scattering vertices in media: the phase function's stage.
+            if !scene.media.is_empty() {
+                shade.push(stage("bdpt_shade_medium", "bdpt shade medium")?);
+            }
             Ok((
                 stage("bdpt_start", "bdpt start")?,
                 stage("bdpt_trace", "bdpt trace")?,

@@ -829,6 +829,9 @@ pub struct Scene {
     pub media: Vec<Medium>,
     /// The medium the camera is in (`None`: vacuum).
     pub camera_medium: Option<u32>,
+    /// The medium each of `delta_lights` is in, by index (`None`, or no entry: vacuum).
+    /// (An area light's is its material's `medium_interface`.)
+    pub delta_light_media: Vec<Option<u32>>,
 }
 
 impl Default for Scene {
@@ -851,6 +854,20 @@ impl Default for Scene {
             light_profiles: Vec::new(),
             media: Vec::new(),
             camera_medium: None,
+            delta_light_media: Vec::new(),
         }
+    }
+}
+
+impl Scene {
+    /// Say that the delta lights added since the last call are in `medium`.
+    pub fn place_new_delta_lights(&mut self, medium: Option<u32>) {
+        self.delta_light_media
+            .resize(self.delta_lights.len(), medium);
+    }
+
+    /// The medium of delta light `i`.
+    pub fn delta_light_medium(&self, i: usize) -> Option<u32> {
+        self.delta_light_media.get(i).copied().flatten()
     }
 }

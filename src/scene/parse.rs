@@ -115,6 +115,9 @@ fn parse_text(text: &str, name: &str, base: PathBuf) -> Result<Scene, ParseError
             command.count += 1;
         }
         parser.execute(&command)?;
+        // Lights are in the outside medium of the current `mediuminterface`.
+        let medium = parser.material.medium_interface.and_then(|m| m.outside);
+        parser.scene.place_new_delta_lights(medium);
     }
     Ok(parser.scene)
 }
@@ -845,9 +848,11 @@ impl Parser {
             "mediuminterface" => {
                 let inside = self.medium_named(cmd, 0)?;
                 let outside = self.medium_named(cmd, 1)?;
+                // (The same medium on both sides places the shapes and lights that follow in
+                // it: an area light's subpaths start there.)
                 self.set_material(|m| {
-                    m.medium_interface =
-                        (inside != outside).then_some(MediumInterface { inside, outside })
+                    m.medium_interface = (inside.is_some() || outside.is_some())
+                        .then_some(MediumInterface { inside, outside })
                 });
             }
             "cameramedium" => self.scene.camera_medium = self.medium_named(cmd, 0)?,
@@ -1220,6 +1225,7 @@ impl Parser {
             roughness: 0.0,
             emission: radiance,
             two_sided_emission: false,
+            medium_interface: self.material.medium_interface,
             ..Material::default()
         });
         // Both triangles' geometric normals cross(v1 - v0, v2 - v0) point along

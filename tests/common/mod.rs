@@ -3,8 +3,9 @@
 #![allow(dead_code)]
 
 use lightpath::io::Image;
+use lightpath::render::AccelChoice::Bvh;
 use lightpath::render::{AccelChoice, MmltReport, RenderOutput, Renderer, StrategyImages};
-use lightpath::scene::{self, IntegratorKind, Scene};
+use lightpath::scene::{self, IntegratorKind, NextEventEstimation, Scene};
 use lightpath::trace::Trace;
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard, OnceLock};
@@ -295,4 +296,150 @@ pub fn light_profile_images(dir: &std::path::Path) -> (PathBuf, PathBuf) {
         }
     });
     (goniometric, slide)
+}
+
+// ---- BDPT's strategies, each alone, against the path tracer's image of its depth ----
+// (The path tracer's image of depth d is its maxdepth-d image less its maxdepth-(d-1)
+// image for the same seed: the shorter render's paths are the longer one's prefixes
+// (counter-based random numbers), so the difference holds exactly the depth-d paths and
+// little noise.)
+
+/// Seeds of the path tracer's depth images.
+pub const DEPTH_SEEDS: u32 = 4;
+/// Strategies alone are compared on the whole image over more seeds: some (a camera
+/// subpath that must hit the light by BSDF sampling after several bounces) are
+/// heavy-tailed, and their standard error needs more runs to be estimated well.
+pub const STRATEGY_SEEDS: u32 = 8;
+
+/// What can sample a light: area lights are hit by rays and seen by the camera;
+/// delta lights neither; the environment is hit by escaping rays but has no point the
+/// camera could see (t = 1, s = 1).
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub enum Kind {
+    Area,
+    Delta,
+    Environment,
+}
+
+/// Can the strategy (s, t) sample every path of its depth?
+pub fn complete(kind: Kind, s: u32, t: u32) -> bool {
+    match kind {
+        Kind::Area => true,
+        Kind::Delta => s >= 1 && !(s == 1 && t == 1),
+        Kind::Environment => !(s == 1 && t == 1),
+    }
+}
+
+pub fn with(s: &Scene, integrator: IntegratorKind, spp: u32, max_depth: i32) -> Scene {
+    let mut s = with_integrator(s.clone(), integrator, spp);
+    s.settings.max_depth = max_depth;
+    s.settings.nee = NextEventEstimation::Mis;
+    s
+}
+
+pub fn subtract(a: &Image, b: &Image) -> Image {
+    let mut d = a.clone();
+    for (p, q) in d.pixels.iter_mut().zip(&b.pixels) {
+        for c in 0..3 {
+            p[c] -= q[c];
+        }
+    }
+    d
+}
+
+/// The path tracer's image of paths of exactly `depth` scattering vertices, per seed,
+/// as region means on a `grid` × `grid` grid (and the whole image).
+pub fn pt_depth_estimate(s: &Scene, depth: i32, spp: u32, grid: u32) -> Estimate {
+    let runs: Vec<_> = (0..DEPTH_SEEDS)
+        .map(|seed| {
+            let upto = render(
+                &with(s, IntegratorKind::PathTracer, spp, depth),
+                1000 + seed,
+                Bvh,
+            );
+            let img = if depth == 0 {
+                upto
+            } else {
+                let shorter = render(
+                    &with(s, IntegratorKind::PathTracer, spp, depth - 1),
+                    1000 + seed,
+                    Bvh,
+                );
+                subtract(&upto, &shorter)
+            };
+            region_means(&img, grid)
+        })
+        .collect();
+    estimate_from_runs(&runs)
+}
+
+/// Every strategy's unweighted image of a BDPT render at `max_depth`, per seed.
+pub fn strategy_runs(s: &Scene, spp: u32, max_depth: i32) -> Vec<Vec<(u32, u32, Image)>> {
+    (0..STRATEGY_SEEDS)
+        .map(|seed| strategy_images(s, spp, max_depth, 1000 + seed))
+        .collect()
+}
+
+/// Every strategy's unweighted image of one BDPT render.
+pub fn strategy_images(s: &Scene, spp: u32, max_depth: i32, seed: u32) -> Vec<(u32, u32, Image)> {
+    let mut r = renderer(Bvh);
+    r.options.bdpt.record_strategies = true;
+    let out = r.render(
+        &with(s, IntegratorKind::Bdpt, spp, max_depth),
+        seed,
+        &mut Trace::new(),
+    );
+    r.options.bdpt.record_strategies = false;
+    let out = out.expect("bdpt render");
+    assert_eq!(out.nonfinite_samples, 0, "NaN/Inf samples");
+    strategies(&out)
+        .iter()
+        .map(|st| (st.s, st.t, st.unweighted.clone()))
+        .collect()
+}
+
+/// Each complete strategy of depths 0..=max_depth alone equals the path tracer's image
+/// of its depth.
+pub fn assert_each_strategy_alone_matches_pt(name: &str, kind: Kind, s: &Scene, max_depth: u32) {
+    assert_each_strategy_alone_matches_pt_at(name, kind, s, max_depth, 256);
+}
+
+/// The same with the strategies at `spp` samples per pixel.
+pub fn assert_each_strategy_alone_matches_pt_at(
+    name: &str,
+    kind: Kind,
+    s: &Scene,
+    max_depth: u32,
+    spp: u32,
+) {
+    let runs = strategy_runs(s, spp, max_depth as i32);
+    for depth in 0..=max_depth {
+        let reference = pt_depth_estimate(s, depth as i32, 1024, 1);
+        for sl in 0..=depth + 1 {
+            let t = depth + 2 - sl;
+            if !complete(kind, sl, t) {
+                continue;
+            }
+            let per_seed: Vec<_> = runs
+                .iter()
+                .map(|r| {
+                    let img = &r
+                        .iter()
+                        .find(|x| x.0 == sl && x.1 == t)
+                        .expect("strategy image")
+                        .2;
+                    region_means(img, 1)
+                })
+                .collect();
+            assert_agree(
+                &format!(
+                    "{name}: strategy s={sl} t={t} alone vs the path tracer's depth-{depth} image"
+                ),
+                &estimate_from_runs(&per_seed),
+                &reference,
+                5.0,
+                0.002,
+            );
+        }
+    }
 }

@@ -576,6 +576,8 @@ impl Parser {
                 let params = self.params(d)?;
                 let params = self.with_attributes("light", params);
                 self.light(&ty, &params, file, line)?;
+                // pbrt-v4's lights are in the outside medium current where they are made.
+                self.scene.place_new_delta_lights(self.gs.media.1);
             }
             "AreaLightSource" => {
                 let ty = self.expect_string(d, "an area light type")?;

@@ -477,7 +477,16 @@ impl Parser {
             material: self.gs.material.clone(),
             area: self.gs.area.clone(),
             alpha,
-            media: self.medium_transition(),
+            media: self.medium_transition().or_else(|| {
+                // An area light in a medium (no transition): its subpaths start there.
+                let outside = self.gs.media.1;
+                (self.gs.area.is_some() && outside.is_some()).then_some(
+                    crate::scene::MediumInterface {
+                        inside: outside,
+                        outside,
+                    },
+                )
+            }),
         };
         if matches!(decl.material, MaterialRef::Interface)
             && decl.media.is_some()
