@@ -1915,9 +1915,36 @@ mod tests {
                 outside: Some(0)
             })
         );
+        // (The same medium on both sides: the shape is in it, a boundary of nothing.)
         let b = &s.materials[s.spheres[1].material as usize];
         assert!(!b.pass_through);
-        assert_eq!(b.medium_interface, None);
+        assert_eq!(
+            b.medium_interface,
+            Some(MediumInterface {
+                inside: Some(0),
+                outside: Some(0)
+            })
+        );
+        // Lights are in the outside medium of the current interface.
+        let l = parse(
+            "medium fog 0.1 0.2 0.3 1 2 3 0.5
+point 0 0 0 1 1 1
+mediuminterface vacuum fog
+             point 0 1 0 1 1 1
+spot 0 0 0 0 0 1 1 1 1 30 5
+quadLight 0 0 0 1 0 0 0 1 0 1 1 1
+             mediuminterface fog fog
+directional 0 0 1 1 1 1
+mediuminterface vacuum vacuum
+             point 0 0 1 1 1 1
+",
+        );
+        assert_eq!(
+            l.delta_light_media,
+            vec![None, Some(0), Some(0), Some(0), None]
+        );
+        let quad = &l.materials[l.triangles[0].material as usize];
+        assert_eq!(quad.medium_interface.and_then(|m| m.outside), Some(0));
         check_err(
             "medium fog 1 1 1 1 1 1 0 1\n",
             1,

@@ -1731,6 +1731,43 @@ fn homogeneous_media_and_their_interfaces() {
     assert_eq!(r.emission[3].to_bits(), 2 | 1 << 16);
 }
 
+/// Lights' media (BDPT's light subpaths start there): a `LightSource` is in the outside
+/// medium current where it is made, except distant and infinite lights (the emitter
+/// table starts them in vacuum); an area light on a shape in a medium (no transition)
+/// gets that medium on both sides of its material; one in vacuum none.
+#[test]
+fn lights_are_in_the_medium_current_where_they_are_made() {
+    let s = parse(
+        r#"MakeNamedMedium "fog" "string type" "homogeneous"
+        WorldBegin
+        LightSource "point" "point3 from" [0 0 0]
+        MediumInterface "fog"
+        LightSource "spot" "point3 from" [0 0 0] "point3 to" [0 0 1]
+        LightSource "distant"
+        AttributeBegin
+        AreaLightSource "diffuse"
+        Shape "sphere"
+        AttributeEnd
+        MediumInterface ""
+        AreaLightSource "diffuse"
+        Shape "sphere" "float radius" 2
+        "#,
+    );
+    assert_eq!(s.delta_light_media, vec![None, Some(0), Some(0)]);
+    let fogged = &s.materials[s.spheres[0].material as usize];
+    let both = crate::scene::MediumInterface {
+        inside: Some(0),
+        outside: Some(0),
+    };
+    assert_eq!(fogged.medium_interface, Some(both));
+    let clear = &s.materials[s.spheres[1].material as usize];
+    assert_eq!(clear.medium_interface, None);
+    let table = crate::gpu_scene::emitter_table(&s);
+    let media: Vec<u32> = table.emitters.iter().map(|e| e.info[3] >> 16).collect();
+    // (Area lights' media come from their materials; the distant light starts in vacuum.)
+    assert_eq!(&media[2..], &[0, 1, 0]);
+}
+
 #[test]
 fn bad_media_are_errors_with_their_line() {
     let e = parse_err("WorldBegin\nMediumInterface \"smoke\" \"\"\n");
