@@ -28,7 +28,8 @@ void main() {
     PathVertex v;
     if (ok) {
         v = walk_vertex(slot, g);
-        v.emitter = primitive_emitter(floatBitsToUint(g.hit.x));
+        uint prim = floatBitsToUint(g.hit.x);
+        v.emitter = has_feature(FEATURE_MEDIA) && prim == MEDIUM_HIT ? NO_EMITTER : primitive_emitter(prim);
     } else {
         v.emitter = NO_EMITTER;
     }

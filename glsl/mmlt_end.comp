@@ -38,7 +38,13 @@ void main() {
     }
     if (!shadow) return;
     uint wflags = floatBitsToUint(g.d.w);
-    queue_path_shadow(slot, wflags, o, d, tmax);
+    // (The medium the shadow ray starts in: the walk's at the vertex it leaves, y for
+    // t = 1 (no camera subpath), else z.)
+    uint medium = MEDIUM_VACUUM;
+    if (has_feature(FEATURE_MEDIA))
+        medium = vertex_medium_toward(kind == MMLT_KIND_CAMERA_CONNECTION ? path_y(slot) : walk_vertex(slot, g), d,
+                                      wflags >> BDPT_WALK_MEDIUM_SHIFT);
+    queue_path_shadow(slot, wflags, o, d, tmax, medium);
     walks[slot].d.w = uintBitsToFloat(wflags);
     mpaths[slot].value = vec4(value, weight);
 }

@@ -35,7 +35,11 @@ void main() {
     hit.bary = g.hit.yz;
     PathVertex v;
     bool ok = false;
-    if (prim != NO_HIT) {
+    if (has_feature(FEATURE_MEDIA) && prim == MEDIUM_HIT) {
+        // A scattering vertex in the walk's medium (mmlt_trace's free flight).
+        if (cam) camera_walk_medium_vertex(w, hit.t, v); else light_walk_medium_vertex(w, hit.t, v);
+        ok = true;
+    } else if (prim != NO_HIT) {
         Surface sf = surface_at(hit, w.o, w.d);
         ok = cam ? camera_walk_vertex(w, hit.t, sf, v) : light_walk_vertex(w, hit.t, sf, v);
     } else {

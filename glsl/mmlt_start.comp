@@ -41,7 +41,7 @@ void main() {
             kind = MMLT_KIND_LIGHT_POINT;
             vec3 o, d;
             float tmax;
-            if (light_point_seen(le, e, px, value, weight, o, d, tmax)) queue_path_shadow(slot, wflags, o, d, tmax);
+            if (light_point_seen(le, e, px, value, weight, o, d, tmax)) queue_path_shadow(slot, wflags, o, d, tmax, light_medium(e, le.n, d));
         } else if (lit) {
             wflags |= BDPT_WALK_RAY;
         }

@@ -229,7 +229,7 @@ pub fn mmlt_sampler(
     scene.settings.max_depth = depth_cap as i32;
     let mut trace = Trace::new();
     let prepared = engine.prepare(&scene, seed, |_| {}, &mut trace)?;
-    let streams = stream_sizes(depth_cap, false);
+    let streams = stream_sizes(depth_cap, false, false);
     let numbers: u32 = streams.iter().sum();
     let samples =
         engine.device_buffer("probe primary samples", chains as u64 * numbers as u64 * 16)?;

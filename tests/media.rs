@@ -251,14 +251,14 @@ fn light_sampling_in_fog_agrees_with_phase_sampling_alone() {
 }
 
 #[test]
-fn mmlt_refuses_media_with_a_clear_message() {
+fn mmlt_refuses_emitting_media_with_a_clear_message() {
     let s = with_integrator(slab(), IntegratorKind::Mmlt, 1);
     let mut r = renderer(AccelChoice::Bvh);
     let e = match r.render(&s, 1, &mut Trace::new()) {
-        Ok(_) => panic!("MMLT rendered a scene with media"),
+        Ok(_) => panic!("MMLT rendered a scene with an emitting medium"),
         Err(e) => format!("{e:#}"),
     };
-    assert!(e.contains("participating media"), "{e}");
+    assert!(e.contains("emitting participating medium"), "{e}");
 }
 
 // ---- BDPT in media ------------------------------------------------------------------
@@ -282,11 +282,11 @@ fn fog_ball() -> Scene {
     )
 }
 
-/// BDPT renders media as the path tracer does: a light in fog with the camera in it
-/// (subpaths that start in a medium), and a fog-filled sphere seen and lit from outside
-/// (subpaths that cross boundaries), at maxdepth 1, 2 and 5.
+/// BDPT and MMLT render media as the path tracer does: a light in fog with the camera
+/// in it (subpaths that start in a medium), and a fog-filled sphere seen and lit from
+/// outside (subpaths that cross boundaries), at maxdepth 1, 2 and 5.
 #[test]
-fn bdpt_renders_media_as_the_path_tracer() {
+fn bdpt_and_mmlt_render_media_as_the_path_tracer() {
     for (name, s) in [
         ("sphere light in fog", sphere_light_in_fog()),
         ("fog ball", fog_ball()),
@@ -300,6 +300,16 @@ fn bdpt_renders_media_as_the_path_tracer() {
                 &pt,
                 5.0,
                 0.003,
+            );
+            let mut m = with_mmlt(s.clone(), 1024);
+            m.settings.max_depth = depth;
+            let mmlt = estimate(&m, 4, 2, Bvh);
+            assert_agree(
+                &format!("{name}, maxdepth {depth}: mmlt vs pt"),
+                &mmlt,
+                &pt,
+                5.0,
+                0.005,
             );
         }
     }
@@ -332,6 +342,14 @@ fn bdpt_in_media_matches_the_closed_forms() {
     assert_agree(
         "bdpt single scattering",
         &estimate(&s, 4, 3, Bvh),
+        &reference,
+        5.0,
+        0.005,
+    );
+    let m = with_mmlt(point_in_fog(), 256);
+    assert_agree(
+        "mmlt single scattering",
+        &estimate(&m, 4, 3, Bvh),
         &reference,
         5.0,
         0.005,

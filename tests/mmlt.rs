@@ -344,7 +344,7 @@ fn the_device_sampler_matches_its_cpu_mirror() {
         large_step,
     )
     .expect("sampler probe");
-    let sizes = stream_sizes(depth_cap, false);
+    let sizes = stream_sizes(depth_cap, false, false);
     let dims: u32 = sizes.iter().sum();
     let (mut accepted, mut large) = (0u64, 0u64);
     for c in 0..chains {

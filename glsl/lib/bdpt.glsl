@@ -171,6 +171,30 @@ BsdfParams vertex_bsdf(PathVertex v) {
     return material_bsdf(materials[v.material], dot(v.n, v.ng) > 0.0, v.tex0, v.tex1);
 }
 
+#ifdef SHADE_CLASS
+// A shade stage's (BDPT's, MMLT's: SHADE_CLASS defined) BSDF at x (SHADE_CLASS_MEDIUM:
+// none, the phase function is asked by phase_ask) and its question (bsdf_ask's
+// arguments).
+BsdfParams class_bsdf(PathVertex x) {
+#if SHADE_CLASS == SHADE_CLASS_MEDIUM
+    BsdfParams b;
+    b.kind = 0u;
+    return b;
+#else
+    return vertex_bsdf(x);
+#endif
+}
+
+bool class_ask(BsdfParams b, PathVertex x, bool draw, vec3 u, uint transport, bool want_fwd, bool want_rev,
+               inout BsdfSample q, out float pdf_rev) {
+#if SHADE_CLASS == SHADE_CLASS_MEDIUM
+    return phase_ask(x, draw, u, q, pdf_rev);
+#else
+    return bsdf_ask(b, scene.sample_mode, x.ns, x.w, draw, u, transport, want_fwd, want_rev, q, pdf_rev);
+#endif
+}
+#endif
+
 // A subpath being walked: the next ray and the running throughput and MIS sums.
 struct Walk {
     vec3 o;

@@ -25,27 +25,6 @@ const bool SAMPLE_IN_LOOP = false;
 const bool SAMPLE_IN_LOOP = true;
 #endif
 
-// The class's BSDF at x (SHADE_CLASS_MEDIUM: none, the phase function is asked by
-// phase_ask) and the class's question (bsdf_ask's arguments).
-BsdfParams class_bsdf(PathVertex x) {
-#if SHADE_CLASS == SHADE_CLASS_MEDIUM
-    BsdfParams b;
-    b.kind = 0u;
-    return b;
-#else
-    return vertex_bsdf(x);
-#endif
-}
-
-bool class_ask(BsdfParams b, PathVertex x, bool draw, vec3 u, uint transport, bool want_fwd, bool want_rev,
-               inout BsdfSample q, out float pdf_rev) {
-#if SHADE_CLASS == SHADE_CLASS_MEDIUM
-    return phase_ask(x, draw, u, q, pdf_rev);
-#else
-    return bsdf_ask(b, scene.sample_mode, x.ns, x.w, draw, u, transport, want_fwd, want_rev, q, pdf_rev);
-#endif
-}
-
 // The walk's sample's numbers (from the walk's stream), and its question; false
 // when v is seen from behind (no sample).
 bool walk_sample_question(PathVertex v, bool camera, bool beyond, out vec3 u, out uint transport, out bool want_rev) {

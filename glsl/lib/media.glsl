@@ -79,4 +79,56 @@ MediumEvent sample_medium(uint code, float tmax, vec2 u) {
     }
     return ev;
 }
+
+// The same free flight drawn once for a whole ray through several media (pass-through
+// boundaries between them), from one pair of numbers: a channel c (u.x) and an optical
+// depth tau ~ Exp(1) (u.y) that the ray spends segment by segment in c's extinction;
+// the ray scatters where it is spent. Its distance has channel c's density
+// sigma_t[c](t) exp(-depth[c](t)) (depth: the optical depth from the ray's origin), and
+// the weights are those of sample_medium with the three channels' densities along the
+// whole ray. (MMLT's trace stage: its primary samples are a fixed number per ray,
+// however many boundaries it crosses.)
+struct FreeFlight {
+    uint c;
+    float tau;      // the optical depth left in channel c
+    vec3 depth;     // the optical depth so far, per channel
+};
+
+FreeFlight free_flight_start(vec2 u) {
+    FreeFlight f;
+    f.c = min(uint(u.x * 3.0), 2u);
+    f.tau = -log(1.0 - u.y);
+    f.depth = vec3(0.0);
+    return f;
+}
+
+// A segment of length len (INF: none ends it) in the medium `code`: true when the
+// flight ends in it, at t (from the segment's start), weight sigma_s Tr / p; else the
+// segment's optical depth is spent.
+bool free_flight_segment(inout FreeFlight f, uint code, float len, out float t, out vec3 weight) {
+    t = len;
+    weight = vec3(1.0);
+    if (code == MEDIUM_VACUUM) return false;
+    vec3 sigma_t = medium_sigma_t(code);
+    float sc = sigma_t[f.c];
+    if (sc > 0.0 && f.tau < sc * len) {
+        t = f.tau / sc;
+        vec3 tr = exp(-(f.depth + sigma_t * t));
+        weight = media[code - 1u].sigma_s.xyz * tr / dot(sigma_t * tr, vec3(1.0 / 3.0));
+        return true;
+    }
+    // (A clear channel spends nothing, even along an endless segment.)
+    vec3 spent = vec3(sigma_t.x > 0.0 ? sigma_t.x * len : 0.0, sigma_t.y > 0.0 ? sigma_t.y * len : 0.0,
+                      sigma_t.z > 0.0 ? sigma_t.z * len : 0.0);
+    f.tau -= spent[f.c];
+    f.depth += spent;
+    return false;
+}
+
+// The weight of a flight that reached the end of its ray: Tr / P(reaching it).
+vec3 free_flight_through(FreeFlight f) {
+    vec3 tr = exp(-f.depth);
+    float p = dot(tr, vec3(1.0 / 3.0));
+    return p > 0.0 ? tr / p : vec3(0.0);
+}
 #endif

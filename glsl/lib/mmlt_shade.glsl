@@ -26,8 +26,8 @@ void main() {
         uint bit = i == 0u ? MMLT_PATH_ASK_Z : MMLT_PATH_ASK_Y;
         if (!(i == 0u ? extend || (pflags & bit) != 0u : (pflags & bit) != 0u)) continue;
         PathVertex x = i == 0u ? walk_vertex(slot, g) : path_y(slot);
-        if (material_class(materials[x.material].info.x) != SHADE_CLASS) continue;
-        BsdfParams b = vertex_bsdf(x);
+        if (vertex_class(x) != SHADE_CLASS) continue;
+        BsdfParams b = class_bsdf(x);
         vec3 wi = vec3(0.0);
         uint transport = i == 0u ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE;
         bool want_fwd = true;
@@ -72,7 +72,7 @@ void main() {
         BsdfSample q;
         q.wi = wi;
         float pdf_rev;
-        bool answered = bsdf_ask(b, scene.sample_mode, x.ns, x.w, extend, u, transport, want_fwd, want_rev, q, pdf_rev);
+        bool answered = class_ask(b, x, extend, u, transport, want_fwd, want_rev, q, pdf_rev);
         if (extend) {
             extended = answered && walk_scatter_sampled(w, x, q, pdf_rev, transport, !beyond) && walk_survives(w, beyond);
             wflags &= ~BDPT_WALK_EXTEND;

@@ -98,10 +98,11 @@ void store_path_y(uint slot, PathVertex y) {
     }
 }
 
-// A shadow ray for mmlt_trace; the path's contribution counts when nothing blocks it.
-void queue_path_shadow(uint slot, inout uint walk_flags, vec3 o, vec3 d, float tmax) {
+// A shadow ray for mmlt_trace; the path's contribution counts when nothing blocks it
+// (times the transmittance of the media it crosses, from `medium` on).
+void queue_path_shadow(uint slot, inout uint walk_flags, vec3 o, vec3 d, float tmax, uint medium) {
     walks[slot].ls_wi = vec4(o, tmax);
-    walks[slot].ls_le = vec4(d, 0.0);
+    walks[slot].ls_le = vec4(d, uintBitsToFloat(medium));
     walk_flags |= BDPT_WALK_SHADOW;
 }
 #endif

@@ -187,16 +187,13 @@ impl Engine {
         })?;
         let mut p = scene_params(&scene, seed);
         params(&mut p);
-        if !scene.media.is_empty()
-            && !matches!(
-                p.integrator,
-                crate::abi::INTEGRATOR_PATHTRACER | crate::abi::INTEGRATOR_BDPT
-            )
+        if p.integrator == crate::abi::INTEGRATOR_MMLT
+            && scene.media.iter().any(|m| m.emission.max_element() > 0.0)
         {
             anyhow::bail!(
-                "this scene has participating media, which lightpath renders with the path \
-                 tracer and BDPT only so far (--integrator pathtracer or bdpt; MMLT in media is \
-                 to come)"
+                "this scene has an emitting participating medium, which lightpath renders with \
+                 the path tracer and BDPT only so far (--integrator pathtracer or bdpt; MMLT's \
+                 strategies do not yet count a medium's emission)"
             );
         }
         let gpu_scene = trace.cpu("scene upload", || {

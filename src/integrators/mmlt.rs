@@ -103,7 +103,11 @@ pub fn plan(
     let s = &scene.settings.mmlt;
     let depth_cap = bdpt_max_scatter(scene);
     let depths = depth_cap + 1;
-    let streams = stream_sizes(depth_cap, scene.camera.lens_radius > 0.0);
+    let streams = stream_sizes(
+        depth_cap,
+        scene.camera.lens_radius > 0.0,
+        !scene.media.is_empty(),
+    );
     let numbers: u32 = streams.iter().sum();
     if numbers > 0xffff {
         bail!("mmlt: maxdepth {depth_cap} needs {numbers} primary numbers per path, more than 65535; use a smaller maxdepth");
@@ -398,7 +402,7 @@ fn shade_kernel(class: u32) -> (&'static str, &'static str) {
 }
 
 /// The spans of MMLT's stages, for the device time of a run.
-const MMLT_SPANS: [&str; 11] = [
+const MMLT_SPANS: [&str; 12] = [
     "mmlt start",
     "mmlt trace",
     "mmlt hit",
@@ -408,6 +412,7 @@ const MMLT_SPANS: [&str; 11] = [
     "mmlt shade coated",
     "mmlt shade measured",
     "mmlt shade hair",
+    "mmlt shade medium",
     "mmlt end",
     "mmlt accept",
 ];
@@ -530,7 +535,11 @@ fn mmlt_wave(
         engine.stage(name, None, prepared, &all, span)
     };
     let wave = trace.cpu("pipeline creation", || -> Result<_> {
-        let shade = super::pt::class_stages(scene, shade_kernel, &mut stage)?;
+        let mut shade = super::pt::class_stages(scene, shade_kernel, &mut stage)?;
+        // Scattering vertices in media: the phase function's stage.
+        if !scene.media.is_empty() {
+            shade.push(stage("mmlt_shade_medium", "mmlt shade medium")?);
+        }
         Ok(MmltWave {
             start: stage("mmlt_start", "mmlt start")?,
             trace: stage("mmlt_trace", "mmlt trace")?,

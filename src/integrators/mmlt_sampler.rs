@@ -45,9 +45,15 @@ pub fn small_step_offset(g: f32, sigma: f32) -> u32 {
 
 /// Numbers per stream for chains of depths 0..=depth_cap: camera (strategy, film
 /// position, a thin lens's point when there is one, 3 per bounce), light (pick, point,
-/// direction, 3 per bounce), connection (pick, point; or, for t = 1, the lens point).
-pub fn stream_sizes(depth_cap: u32, lens: bool) -> [u32; 3] {
-    [3 + 2 * lens as u32 + 3 * depth_cap, 6 + 3 * depth_cap, 3]
+/// direction, 3 per bounce), connection (pick, point; or, for t = 1, the lens point);
+/// in scenes with media, 2 more per ray of either walk (its free flight).
+pub fn stream_sizes(depth_cap: u32, lens: bool, media: bool) -> [u32; 3] {
+    let flights = if media { 2 * (depth_cap + 1) } else { 0 };
+    [
+        3 + 2 * lens as u32 + 3 * depth_cap + flights,
+        6 + 3 * depth_cap + flights,
+        3,
+    ]
 }
 
 /// Number `dim` of bootstrap sample (index, depth) of a render with `seed`.
@@ -269,7 +275,7 @@ mod tests {
     use super::*;
 
     fn chain() -> ChainSampler {
-        ChainSampler::start(7, 3, 0.01, stream_sizes(4, false), 11, 2)
+        ChainSampler::start(7, 3, 0.01, stream_sizes(4, false, false), 11, 2)
     }
 
     #[test]
@@ -328,7 +334,7 @@ mod tests {
             let mut sum2 = 0.0f64;
             let trials = 4000;
             for t in 0..trials {
-                let mut c = ChainSampler::start(1, t, 0.01, stream_sizes(2, false), t, 0);
+                let mut c = ChainSampler::start(1, t, 0.01, stream_sizes(2, false, false), t, 0);
                 for _ in 0..n - 1 {
                     c.begin_with(false);
                     c.next(STREAM_CAMERA);
