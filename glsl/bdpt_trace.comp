@@ -90,6 +90,7 @@ void main() {
         bool scattered = false;
         vec3 tr = vec3(1.0);       // a shadow ray's transmittance
         float travelled = 0.0;     // the walk's ray: the distance to the last crossing
+        uint seed = media && !closest ? medium_ray_seed(o, d) : 0u;  // grids' ratio tracking
         [[dont_unroll]] for (uint k = 0u; k <= MAX_PASS_THROUGH; ++k) {
             found = (closest || r == 0u || tmax > 0.0) && trace_ray(o, d, tmax, !closest && !media, hit);
             if (!media) break;
@@ -97,7 +98,7 @@ void main() {
                 if (closest) {
                     Walk w = walk_load(walks[slot]);
                     sampler_resume(index, walks[slot]);
-                    MediumEvent ev = sample_medium(medium, found ? hit.t : INF, sample_2d(camera ? STREAM_CAMERA : STREAM_LIGHT));
+                    MediumEvent ev = sample_medium(medium, o, d, found ? hit.t : INF, sample_2d(camera ? STREAM_CAMERA : STREAM_LIGHT));
                     walks[slot].o.w = uintBitsToFloat(sampler_rng.counter);
                     uint max_vertices = scene.unbounded != 0u ? UNBOUNDED_DEPTH_CAP : max_scatter();
                     if (camera && w.vertices < max_vertices && ev.emitted != vec3(0.0)) {
@@ -111,7 +112,7 @@ void main() {
                         break;
                     }
                 } else {
-                    tr *= medium_transmittance(medium_sigma_t(medium), found ? hit.t : tmax);
+                    tr *= medium_segment_transmittance(medium, o, d, found ? hit.t : tmax, seed);
                 }
             }
             if (!found) break;

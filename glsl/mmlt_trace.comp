@@ -34,6 +34,7 @@ void main() {
         bool scattered = false;
         vec3 tr = vec3(1.0);
         float travelled = 0.0;
+        uint seed = media && !closest ? medium_ray_seed(o.xyz, d) : 0u;  // grids' ratio tracking
         // (The walk's free flight: one pair of numbers per ray, in media scenes.)
         FreeFlight flight;
         if (media && closest) {
@@ -47,13 +48,13 @@ void main() {
             if (!media) break;
             if (closest) {
                 float t;
-                if (free_flight_segment(flight, medium, found ? hit.t : INF, t, weight)) {
+                if (free_flight_segment(flight, medium, o.xyz, d, found ? hit.t : INF, t, weight)) {
                     scattered = true;
                     hit.t = travelled + t;
                     break;
                 }
             } else if (medium != MEDIUM_VACUUM) {
-                tr *= medium_transmittance(medium_sigma_t(medium), found ? hit.t : o.w);
+                tr *= medium_segment_transmittance(medium, o.xyz, d, found ? hit.t : o.w, seed);
             }
             if (!found) break;
             vec3 ng;

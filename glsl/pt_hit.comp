@@ -43,7 +43,7 @@ void main() {
         uint medium = (flags >> PT_PATH_MEDIUM_SHIFT) & 0xFFFFu;
         if (medium != MEDIUM_VACUUM) {
             Rng rng = wf_rng(i, path.o.w);
-            MediumEvent ev = sample_medium(medium, prim == NO_HIT ? INF : path.prev_p.w, rng_next2(rng));
+            MediumEvent ev = sample_medium(medium, o, d, prim == NO_HIT ? INF : path.prev_p.w, rng_next2(rng));
             path.o.w = uintBitsToFloat(rng.counter);
             paths[i].o.w = path.o.w;
             // The medium's emission counts as a vertex's would (pbrt-v4's volpath adds it

@@ -26,10 +26,11 @@ void main() {
         vec3 tr = vec3(1.0);
         uint medium = floatBitsToUint(path.ls_le.w);
         vec3 end = o + tmax * d;
+        uint seed = medium_ray_seed(o, d);
         for (uint k = 0u; k <= MAX_PASS_THROUGH; ++k) {
             Hit hit;
             bool found = trace_closest(o, d, tmax, hit);
-            if (medium != MEDIUM_VACUUM) tr *= medium_transmittance(medium_sigma_t(medium), found ? hit.t : tmax);
+            tr *= medium_segment_transmittance(medium, o, d, found ? hit.t : tmax, seed);
             if (!found) break;
             vec3 ng;
             uint m = primitive_material(hit, o, d, ng);

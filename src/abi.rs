@@ -82,6 +82,11 @@ pub struct GpuMedium {
     pub sigma_s: [f32; 4],
     pub emission: [f32; 4],
     pub info: [u32; 4],
+    pub unit_x: [f32; 4],
+    pub unit_y: [f32; 4],
+    pub unit_z: [f32; 4],
+    pub density_res: [u32; 4],
+    pub le_res: [u32; 4],
 }
 
 /// The uniform scene parameters (abi.h explains each field).
@@ -405,7 +410,18 @@ pub fn layouts() -> Vec<StructLayout> {
             base
         ),
         layout!(GpuEmitter, p0, p1, p2, radiance, info),
-        layout!(GpuMedium, sigma_a, sigma_s, emission, info),
+        layout!(
+            GpuMedium,
+            sigma_a,
+            sigma_s,
+            emission,
+            info,
+            unit_x,
+            unit_y,
+            unit_z,
+            density_res,
+            le_res
+        ),
         layout!(
             SceneParams,
             cam_eye,

@@ -32,6 +32,7 @@ pub struct GpuScene {
     pub texels: Buffer,
     pub triangle_attributes: Buffer,
     pub media: Buffer,
+    pub medium_grids: Buffer,
     pub bvh_nodes: Option<Buffer>,
     pub bvh_prims: Option<Buffer>,
 }
@@ -604,22 +605,53 @@ pub fn material_records(scene: &Scene, textures: &TextureData) -> Vec<GpuMateria
 }
 
 /// The media as the kernels read them (abi.h `GpuMedium`; one unused record for a scene
-/// without media, so that the buffer is never empty).
-pub fn medium_records(scene: &Scene) -> Vec<GpuMedium> {
-    let mut records: Vec<GpuMedium> = scene
-        .media
+/// without media, so that the buffer is never empty) and the grid media's floats
+/// (BINDING_MEDIUM_GRIDS: each grid's density, Le-scale and majorant grids; the
+/// majorants per unit length, times the largest channel's extinction per unit density).
+pub fn medium_records(scene: &Scene) -> (Vec<GpuMedium>, Vec<f32>) {
+    medium_data(&scene.media)
+}
+
+/// `medium_records` of a list of media (the medium probe's).
+pub fn medium_data(media: &[crate::scene::Medium]) -> (Vec<GpuMedium>, Vec<f32>) {
+    let mut floats = Vec::new();
+    let mut records: Vec<GpuMedium> = media
         .iter()
-        .map(|m| GpuMedium {
-            sigma_a: m.sigma_a.extend(m.g).to_array(),
-            sigma_s: m.sigma_s.extend(0.0).to_array(),
-            emission: m.emission.extend(0.0).to_array(),
-            info: [MEDIUM_HOMOGENEOUS, 0, 0, 0],
+        .map(|m| {
+            let mut r = GpuMedium {
+                sigma_a: m.sigma_a.extend(m.g).to_array(),
+                sigma_s: m.sigma_s.extend(0.0).to_array(),
+                emission: m.emission.extend(0.0).to_array(),
+                info: [MEDIUM_HOMOGENEOUS, 0, 0, 0],
+                ..Default::default()
+            };
+            if let Some(g) = &m.grid {
+                let first = |floats: &Vec<f32>| floats.len() as u32;
+                let density = first(&floats);
+                floats.extend_from_slice(&g.density.values);
+                let le = first(&floats);
+                floats.extend_from_slice(&g.le_scale.values);
+                let majorants = first(&floats);
+                let scale = crate::media::majorant_scale(m);
+                floats.extend(g.majorants.iter().map(|v| v * scale));
+                r.info = [crate::abi::MEDIUM_UNIFORMGRID, density, le, majorants];
+                let u = g.unit_from_world.transpose();
+                r.unit_x = u.x_axis.to_array();
+                r.unit_y = u.y_axis.to_array();
+                r.unit_z = u.z_axis.to_array();
+                r.density_res = [g.density.res[0], g.density.res[1], g.density.res[2], 0];
+                r.le_res = [g.le_scale.res[0], g.le_scale.res[1], g.le_scale.res[2], 0];
+            }
+            r
         })
         .collect();
     if records.is_empty() {
         records.push(GpuMedium::default());
     }
-    records
+    if floats.is_empty() {
+        floats.push(0.0);
+    }
+    (records, floats)
 }
 
 /// The per-triangle attribute records and each triangle's index into them
@@ -830,6 +862,7 @@ impl GpuScene {
             })
             .collect();
         let materials = material_records(scene, &textures);
+        let (media, medium_grids) = medium_records(scene);
         let mut table = table;
         for e in &mut table.emitters {
             if matches!(e.info[0], EMITTER_GONIOMETRIC | EMITTER_PROJECTION) {
@@ -865,6 +898,7 @@ impl GpuScene {
             ("texels", textures.texels.len() * 4),
             ("textures", textures.textures.len() * 80),
             ("triangle attributes", attributes.len() * 80),
+            ("medium grids", medium_grids.len() * 4),
         ] {
             if bytes as u64 > limit {
                 return Err(other_error(
@@ -938,10 +972,11 @@ impl GpuScene {
                 bytemuck::cast_slice(&attributes),
                 storage,
             )?,
-            media: Buffer::with_data(
+            media: Buffer::with_data(device, "media", bytemuck::cast_slice(&media), storage)?,
+            medium_grids: Buffer::with_data(
                 device,
-                "media",
-                bytemuck::cast_slice(&medium_records(scene)),
+                "medium grids",
+                bytemuck::cast_slice(&medium_grids),
                 storage,
             )?,
             bvh_nodes,
@@ -966,6 +1001,10 @@ impl GpuScene {
                 Resource::Buffer(self.triangle_attributes.raw),
             ),
             (BINDING_MEDIA, Resource::Buffer(self.media.raw)),
+            (
+                crate::abi::BINDING_MEDIUM_GRIDS,
+                Resource::Buffer(self.medium_grids.raw),
+            ),
         ];
         if let (Some(n), Some(p)) = (&self.bvh_nodes, &self.bvh_prims) {
             list.push((BINDING_BVH_NODES, Resource::Buffer(n.raw)));

@@ -154,16 +154,21 @@ pub fn measured(
 /// records (the kernel says how it reads them).
 pub fn medium(
     engine: &mut Engine,
-    media: &[crate::abi::GpuMedium],
+    media: &[crate::scene::Medium],
     inputs: &[BsdfProbeInput],
 ) -> Result<Vec<BsdfProbeOutput>> {
     engine.kernels.reset_sets()?;
-    let buffer = engine.buffer_with("probe media", bytemuck::cast_slice(media))?;
+    let (records, grids) = crate::gpu_scene::medium_data(media);
+    let buffer = engine.buffer_with("probe media", bytemuck::cast_slice(&records))?;
+    let grids = engine.buffer_with("probe medium grids", bytemuck::cast_slice(&grids))?;
     run_bsdf_probe(
         engine,
         "medium_probe",
-        crate::abi::FEATURE_MEDIA,
-        &[(crate::abi::BINDING_MEDIA, &buffer)],
+        crate::abi::FEATURE_MEDIA | crate::abi::FEATURE_GRID_MEDIA,
+        &[
+            (crate::abi::BINDING_MEDIA, &buffer),
+            (crate::abi::BINDING_MEDIUM_GRIDS, &grids),
+        ],
         inputs,
         "running the medium probe",
     )

@@ -67,6 +67,8 @@
 #define BINDING_WALK_TEXTURES 33
 // Participating media (the scene, continued): GpuMedium records (lib/media.glsl).
 #define BINDING_MEDIA 34
+// Grid media's floats (density, Le-scale and majorant grids; FEATURE_GRID_MEDIA).
+#define BINDING_MEDIUM_GRIDS 35
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -167,10 +169,12 @@
 // sets per direction).
 #define FEATURE_PROFILE_LIGHTS 2097152
 // Participating media (lib/media.glsl): paths in media, surfaces that bound them, shadow
-// rays through them (the path tracer's; BDPT and MMLT refuse such scenes for now).
+// rays through them, in all three integrators.
 #define FEATURE_MEDIA 4194304
+// Grid media (pbrt-v4's uniformgrid): delta and ratio tracking through majorant grids.
+#define FEATURE_GRID_MEDIA 8388608
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 8388607
+#define FEATURE_ALL 16777215
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -369,6 +373,9 @@
 #define MEDIUM_VACUUM 0
 // Medium kinds (GpuMedium.info.x).
 #define MEDIUM_HOMOGENEOUS 0
+#define MEDIUM_UNIFORMGRID 1
+// A grid medium's majorant grid: this many cells per axis over its bounds (pbrt-v4's).
+#define MEDIUM_MAJORANT_RES 16
 // The most pass-through surfaces (MATERIAL_PASS_THROUGH) a path or a shadow ray crosses:
 // a path ends there, a shadow ray is blocked.
 #define MAX_PASS_THROUGH 64
@@ -451,14 +458,27 @@ struct GpuMaterial {
 // Infinite (the environment): radiance the constant radiance arriving from every direction.
 // radiance.w: the probability of picking this emitter. info: x kind, y primitive,
 // z 1 when two-sided, w EMITTER_HIDDEN for an invisible light (else 0). p0.w: area (triangles, spheres).
-// A participating medium (pbrt-v4's homogeneous): sigma_a and sigma_s per channel
-// (pbrt's `scale` applied), w of sigma_a the Henyey-Greenstein g; emission the radiance
-// Le it emits (pbrt-v4's Le times Lescale: the emission per unit length is sigma_a Le).
+// A participating medium: sigma_a and sigma_s per channel (pbrt's `scale` applied; a
+// grid's per unit density), w of sigma_a the Henyey-Greenstein g; emission the radiance
+// Le it emits (pbrt-v4's Le times Lescale: the emission per unit length is sigma_a Le; a
+// grid's Le is also times its Le-scale grid). Grids (MEDIUM_UNIFORMGRID, FEATURE_GRID_MEDIA):
+// info.y the first float of the density grid in BINDING_MEDIUM_GRIDS, info.z that of the
+// Le-scale grid, info.w that of the majorant grid (MEDIUM_MAJORANT_RES^3 cells, each the
+// most the extinction reaches in it, per unit length, in its largest channel); unit_x,
+// unit_y and unit_z the rows of the affine map from world space to the grid's unit cube
+// (pbrt's bounds p0, p1 in the medium's space); density_res and le_res the two grids'
+// sample counts nx, ny, nz (pbrt's SampledGrid: samples at cell centres, trilinear, zero
+// outside).
 struct GpuMedium {
     vec4 sigma_a;
     vec4 sigma_s;
     vec4 emission;
     uvec4 info;         // x kind (MEDIUM_*)
+    vec4 unit_x;
+    vec4 unit_y;
+    vec4 unit_z;
+    uvec4 density_res;
+    uvec4 le_res;
 };
 
 struct GpuEmitter {

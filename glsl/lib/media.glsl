@@ -11,8 +11,10 @@
 // estimated without bias and none is sampled from a density that ignores it.
 #ifndef MEDIA_GLSL
 #define MEDIA_GLSL
+#extension GL_EXT_control_flow_attributes : require
 #include "bindings.glsl"
 #include "sampling.glsl"
+#include "features.glsl"
 
 layout(std430, set = 0, binding = BINDING_MEDIA) readonly buffer MediumBuffer { GpuMedium media[]; };
 
@@ -42,56 +44,63 @@ vec3 medium_transmittance(vec3 sigma_t, float d) {
                 sigma_t.z > 0.0 ? exp(-sigma_t.z * d) : 1.0);
 }
 
-// A path's next event along its ray in the medium `code`, tmax the distance to the
-// surface it meets (INF: none): from u, a channel c (u.x) and a distance t with density
-// sigma_t[c] exp(-sigma_t[c] t) (u.y). scattered: t < tmax, a scattering vertex at t,
-// and weight = sigma_s Tr(t) / p(t) (the phase function's draw goes on from there with
-// f / pdf = 1; absorption is in the weight, not an event); else the surface is reached,
-// weight = Tr(tmax) / P(t >= tmax). emitted: the medium's emission along [0, tmax), the
-// estimate sigma_a Le Tr(t) / p(t) where t < tmax (to be multiplied by the throughput
-// before this segment). p and P are the means of the three channels' densities.
-struct MediumEvent {
-    bool scattered;
-    float t;
-    vec3 weight;
-    vec3 emitted;
-};
+// Grid media (FEATURE_GRID_MEDIA, pbrt-v4's uniformgrid): the extinction is a density
+// grid's trilinear value times sigma_a + sigma_s, bounded in each cell of a coarse majorant
+// grid by a constant. Distances are drawn from that majorant (one for the three channels:
+// the largest's), cell by cell along the ray (a DDA), and each tentative collision is real
+// or null: a free flight chooses (delta tracking, by its channel's extinction), a shadow
+// ray's transmittance multiplies each channel by the null fraction 1 - sigma_t / majorant
+// (ratio tracking). The numbers after a ray's first come from a small generator seeded by a
+// hash (pbrt-v4's volpath seeds its tracking so, from two of the sampler's numbers), so
+// that a flight is a function of its ray and its two numbers in every integrator.
+layout(std430, set = 0, binding = BINDING_MEDIUM_GRIDS) readonly buffer MediumGrids { float medium_grids[]; };
 
-MediumEvent sample_medium(uint code, float tmax, vec2 u) {
-    GpuMedium m = media[code - 1u];
-    vec3 sigma_a = m.sigma_a.xyz;
-    vec3 sigma_s = m.sigma_s.xyz;
-    vec3 sigma_t = sigma_a + sigma_s;
-    uint c = min(uint(u.x * 3.0), 2u);
-    float sc = sigma_t[c];
-    MediumEvent ev;
-    ev.t = sc > 0.0 ? -log(1.0 - u.y) / sc : INF;
-    ev.scattered = ev.t < tmax;
-    ev.emitted = vec3(0.0);
-    if (ev.scattered) {
-        vec3 tr = medium_transmittance(sigma_t, ev.t);
-        float pdf = dot(sigma_t * tr, vec3(1.0 / 3.0));
-        ev.weight = sigma_s * tr / pdf;
-        ev.emitted = sigma_a * m.emission.xyz * tr / pdf;
-    } else {
-        vec3 tr = medium_transmittance(sigma_t, tmax);
-        ev.weight = tr / dot(tr, vec3(1.0 / 3.0));
-    }
-    return ev;
+bool medium_is_grid(uint code) {
+    return has_feature(FEATURE_GRID_MEDIA) && media[code - 1u].info.x == MEDIUM_UNIFORMGRID;
 }
 
-// The same free flight drawn once for a whole ray through several media (pass-through
-// boundaries between them), from one pair of numbers: a channel c (u.x) and an optical
-// depth tau ~ Exp(1) (u.y) that the ray spends segment by segment in c's extinction;
-// the ray scatters where it is spent. Its distance has channel c's density
-// sigma_t[c](t) exp(-depth[c](t)) (depth: the optical depth from the ray's origin), and
-// the weights are those of sample_medium with the three channels' densities along the
-// whole ray. (MMLT's trace stage: its primary samples are a fixed number per ray,
-// however many boundaries it crosses.)
+float medium_random(inout uint state) {
+    state = hash_pcg(state);
+    return float(state >> 8u) * (1.0 / 16777216.0);
+}
+
+// pbrt's SampledGrid lookup: the samples at the cells' centres of the unit cube, trilinear
+// between them, zero outside.
+float grid_sample(uint first, uvec3 res, ivec3 i) {
+    if (any(lessThan(i, ivec3(0))) || any(greaterThanEqual(i, ivec3(res)))) return 0.0;
+    return medium_grids[first + (uint(i.z) * res.y + uint(i.y)) * res.x + uint(i.x)];
+}
+
+float grid_lookup(uint first, uvec3 res, vec3 p) {
+    vec3 s = p * vec3(res) - 0.5;
+    vec3 f = floor(s);
+    ivec3 i = ivec3(f);
+    vec3 t = s - f;
+    float x00 = mix(grid_sample(first, res, i), grid_sample(first, res, i + ivec3(1, 0, 0)), t.x);
+    float x10 = mix(grid_sample(first, res, i + ivec3(0, 1, 0)), grid_sample(first, res, i + ivec3(1, 1, 0)), t.x);
+    float x01 = mix(grid_sample(first, res, i + ivec3(0, 0, 1)), grid_sample(first, res, i + ivec3(1, 0, 1)), t.x);
+    float x11 = mix(grid_sample(first, res, i + ivec3(0, 1, 1)), grid_sample(first, res, i + ivec3(1, 1, 1)), t.x);
+    return mix(mix(x00, x10, t.y), mix(x01, x11, t.y), t.z);
+}
+
+// A ray's next event in a medium, drawn once for the whole ray through the media it
+// crosses (pass-through boundaries between them), from one pair of numbers: a channel c
+// (u.x) and an exponential tau ~ Exp(1) (u.y) that the ray spends segment by segment (in
+// channel c's extinction in homogeneous media, in the majorant in grids); the ray
+// collides where it is spent. Each channel's technique (c = 0, 1, 2) would draw the same
+// events with its own probability; the flight keeps, per channel, the factors in which
+// they differ (`depth`, as -log), and weighs its event by f / the mean of the three
+// (the one-sample MIS of the channels, the balance heuristic: pbrt-v4's hero wavelength
+// with its spectral MIS, for three channels). A homogeneous segment of length t adds
+// sigma_t t; a null collision in a grid -log(1 - sigma_t / majorant). The medium's
+// emission is estimated at every collision, real or null, and summed in `emitted`
+// (relative to the throughput where the flight started).
 struct FreeFlight {
     uint c;
-    float tau;      // the optical depth left in channel c
-    vec3 depth;     // the optical depth so far, per channel
+    float tau;      // what is left of the current exponential
+    vec3 depth;     // per channel, -log of the factors the channels' techniques differ by
+    vec3 emitted;
+    uint rng;       // the grids' generator
 };
 
 FreeFlight free_flight_start(vec2 u) {
@@ -99,22 +108,115 @@ FreeFlight free_flight_start(vec2 u) {
     f.c = min(uint(u.x * 3.0), 2u);
     f.tau = -log(1.0 - u.y);
     f.depth = vec3(0.0);
+    f.emitted = vec3(0.0);
+    f.rng = hash_pcg(floatBitsToUint(u.x) ^ hash_pcg(floatBitsToUint(u.y)));
     return f;
 }
 
-// A segment of length len (INF: none ends it) in the medium `code`: true when the
-// flight ends in it, at t (from the segment's start), weight sigma_s Tr / p; else the
-// segment's optical depth is spent.
-bool free_flight_segment(inout FreeFlight f, uint code, float len, out float t, out vec3 weight) {
+// A grid segment [0, len) of the ray (o, d): the majorant cells it crosses (a DDA over
+// the unit cube's MEDIUM_MAJORANT_RES^3 cells), the tentative collisions in them. scatter:
+// delta tracking, a collision is real with probability sigma_t[c] / majorant (true, t
+// and weight sigma_s / the channels' mean extinction, both times exp(-depth)); else every
+// collision is null (ratio tracking: exp(-depth) is then the transmittance).
+bool grid_track(inout FreeFlight f, uint code, vec3 o, vec3 d, float len, bool scatter, out float t_hit,
+                out vec3 weight) {
+    t_hit = len;
+    weight = vec3(1.0);
+    GpuMedium m = media[code - 1u];
+    vec3 uo = vec3(dot(m.unit_x, vec4(o, 1.0)), dot(m.unit_y, vec4(o, 1.0)), dot(m.unit_z, vec4(o, 1.0)));
+    vec3 ud = vec3(dot(m.unit_x.xyz, d), dot(m.unit_y.xyz, d), dot(m.unit_z.xyz, d));
+    // The segment's part in the unit cube.
+    float t = 0.0;
+    float t1 = len;
+    for (int a = 0; a < 3; ++a) {
+        if (ud[a] != 0.0) {
+            float ta = -uo[a] / ud[a];
+            float tb = (1.0 - uo[a]) / ud[a];
+            t = max(t, min(ta, tb));
+            t1 = min(t1, max(ta, tb));
+        } else if (uo[a] < 0.0 || uo[a] > 1.0) {
+            t1 = -1.0;
+        }
+    }
+    if (!(t < t1)) return false;
+    const float R = float(MEDIUM_MAJORANT_RES);
+    ivec3 cell = clamp(ivec3(floor((uo + t * ud) * R)), ivec3(0), ivec3(MEDIUM_MAJORANT_RES - 1));
+    ivec3 stp = ivec3(0);
+    vec3 next = vec3(INF);
+    vec3 delta = vec3(INF);
+    for (int a = 0; a < 3; ++a) {
+        if (ud[a] > 0.0) {
+            stp[a] = 1;
+            next[a] = ((float(cell[a]) + 1.0) / R - uo[a]) / ud[a];
+            delta[a] = 1.0 / (R * ud[a]);
+        } else if (ud[a] < 0.0) {
+            stp[a] = -1;
+            next[a] = (float(cell[a]) / R - uo[a]) / ud[a];
+            delta[a] = -1.0 / (R * ud[a]);
+        }
+    }
+    vec3 sigma_t_unit = m.sigma_a.xyz + m.sigma_s.xyz;
+    bool emits = scatter && m.emission.xyz != vec3(0.0);
+    uvec3 res = m.density_res.xyz;
+    [[dont_unroll]] while (t < t1) {
+        float end = min(min(next.x, min(next.y, next.z)), t1);
+        float maj = medium_grids[m.info.w + (uint(cell.z) * uint(MEDIUM_MAJORANT_RES) + uint(cell.y)) * uint(MEDIUM_MAJORANT_RES) + uint(cell.x)];
+        [[dont_unroll]] while (maj > 0.0 && f.tau < maj * (end - t)) {
+            t += f.tau / maj;
+            vec3 p = uo + t * ud;
+            float density = grid_lookup(m.info.y, res, p);
+            vec3 sigma_t = density * sigma_t_unit;
+            vec3 a = exp(-f.depth);
+            float mean_a = dot(a, vec3(1.0 / 3.0));
+            if (emits) {
+                float le = grid_lookup(m.info.z, m.le_res.xyz, p);
+                f.emitted += a * (density * m.sigma_a.xyz) * (m.emission.xyz * le) / (maj * mean_a);
+            }
+            if (scatter && medium_random(f.rng) * maj < sigma_t[f.c]) {
+                t_hit = t;
+                weight = a * (density * m.sigma_s.xyz) / dot(a * sigma_t, vec3(1.0 / 3.0));
+                return true;
+            }
+            f.depth -= log(max(vec3(1.0) - sigma_t / maj, vec3(0.0)));
+            // (A flight's weights are ratios: its factors can be kept near 1.)
+            if (scatter) f.depth -= min(f.depth.x, min(f.depth.y, f.depth.z));
+            else if (all(isinf(f.depth))) return false;
+            f.tau = -log(1.0 - medium_random(f.rng));
+        }
+        if (maj > 0.0) f.tau -= maj * (end - t);
+        t = end;
+        if (next.x <= next.y && next.x <= next.z) {
+            cell.x += stp.x;
+            next.x += delta.x;
+        } else if (next.y <= next.z) {
+            cell.y += stp.y;
+            next.y += delta.y;
+        } else {
+            cell.z += stp.z;
+            next.z += delta.z;
+        }
+        if (any(lessThan(cell, ivec3(0))) || any(greaterThanEqual(cell, ivec3(MEDIUM_MAJORANT_RES)))) break;
+    }
+    return false;
+}
+
+// A segment of the ray (o, d) of length len (INF: none ends it) in the medium `code`:
+// true when the flight ends in it, at t (from the segment's start), weight
+// sigma_s / the channels' mean extinction, times the flight's factors; else the segment's
+// optical depth is spent.
+bool free_flight_segment(inout FreeFlight f, uint code, vec3 o, vec3 d, float len, out float t, out vec3 weight) {
     t = len;
     weight = vec3(1.0);
     if (code == MEDIUM_VACUUM) return false;
+    if (medium_is_grid(code)) return grid_track(f, code, o, d, len, true, t, weight);
     vec3 sigma_t = medium_sigma_t(code);
     float sc = sigma_t[f.c];
     if (sc > 0.0 && f.tau < sc * len) {
         t = f.tau / sc;
         vec3 tr = exp(-(f.depth + sigma_t * t));
-        weight = media[code - 1u].sigma_s.xyz * tr / dot(sigma_t * tr, vec3(1.0 / 3.0));
+        float pdf = dot(sigma_t * tr, vec3(1.0 / 3.0));
+        weight = media[code - 1u].sigma_s.xyz * tr / pdf;
+        f.emitted += media[code - 1u].sigma_a.xyz * media[code - 1u].emission.xyz * tr / pdf;
         return true;
     }
     // (A clear channel spends nothing, even along an endless segment.)
@@ -125,10 +227,57 @@ bool free_flight_segment(inout FreeFlight f, uint code, float len, out float t, 
     return false;
 }
 
-// The weight of a flight that reached the end of its ray: Tr / P(reaching it).
+// The weight of a flight that reached the end of its ray: its factors over their mean.
 vec3 free_flight_through(FreeFlight f) {
     vec3 tr = exp(-f.depth);
     float p = dot(tr, vec3(1.0 / 3.0));
     return p > 0.0 ? tr / p : vec3(0.0);
+}
+
+// A path's next event along one ray (o, d) in the medium `code` (the path tracer's and
+// BDPT's, which draw a new flight at each boundary), tmax the distance to the surface it
+// meets (INF: none): scattered, a scattering vertex at t with weight sigma_s Tr / p(t);
+// else the surface is reached with weight Tr / P(reaching it). emitted: the medium's
+// emission along the ray before the event (to be multiplied by the throughput before it).
+struct MediumEvent {
+    bool scattered;
+    float t;
+    vec3 weight;
+    vec3 emitted;
+};
+
+MediumEvent sample_medium(uint code, vec3 o, vec3 d, float tmax, vec2 u) {
+    FreeFlight f = free_flight_start(u);
+    MediumEvent ev;
+    ev.scattered = free_flight_segment(f, code, o, d, tmax, ev.t, ev.weight);
+    if (!ev.scattered) ev.weight = free_flight_through(f);
+    ev.emitted = f.emitted;
+    return ev;
+}
+
+// The transmittance of a shadow ray's segment (o, d) of length len in the medium `code`:
+// exact in a homogeneous medium, ratio-tracked in a grid with the generator `rng` (seeded
+// by the caller from a hash of the ray: medium_ray_seed).
+vec3 medium_segment_transmittance(uint code, vec3 o, vec3 d, float len, inout uint rng) {
+    if (code == MEDIUM_VACUUM) return vec3(1.0);
+    if (medium_is_grid(code)) {
+        FreeFlight f;
+        f.c = 0u;
+        f.tau = -log(1.0 - medium_random(rng));
+        f.depth = vec3(0.0);
+        f.emitted = vec3(0.0);
+        f.rng = rng;
+        float t;
+        vec3 w;
+        grid_track(f, code, o, d, len, false, t, w);
+        rng = f.rng;
+        return exp(-f.depth);
+    }
+    return medium_transmittance(medium_sigma_t(code), len);
+}
+
+uint medium_ray_seed(vec3 o, vec3 d) {
+    uvec3 a = floatBitsToUint(o), b = floatBitsToUint(d);
+    return hash_pcg(a.x ^ hash_pcg(a.y ^ hash_pcg(a.z ^ hash_pcg(b.x ^ hash_pcg(b.y ^ hash_pcg(b.z))))));
 }
 #endif

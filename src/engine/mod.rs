@@ -542,6 +542,9 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if !scene.media.is_empty() {
         features |= crate::abi::FEATURE_MEDIA;
     }
+    if scene.media.iter().any(|m| m.grid.is_some()) {
+        features |= crate::abi::FEATURE_GRID_MEDIA;
+    }
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
     }

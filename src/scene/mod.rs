@@ -135,16 +135,40 @@ impl MediumInterface {
     }
 }
 
-/// A homogeneous participating medium (pbrt-v4's `homogeneous`): absorption and
-/// scattering coefficients per channel (per unit length, its `scale` applied), the
-/// Henyey–Greenstein asymmetry `g` of its phase function, and the radiance it emits
-/// (`Le` × `Lescale`; it adds sigma_a Le per unit length).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A participating medium: absorption and scattering coefficients per channel (per unit
+/// length, its `scale` applied; a grid's per unit density), the Henyey–Greenstein
+/// asymmetry `g` of its phase function, and the radiance it emits (`Le` × `Lescale`; it
+/// adds sigma_a Le per unit length). Homogeneous (pbrt-v4's `homogeneous`) where `grid`
+/// is `None`; else pbrt-v4's `uniformgrid`.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Medium {
     pub sigma_a: Vec3,
     pub sigma_s: Vec3,
     pub g: f32,
     pub emission: Vec3,
+    pub grid: Option<Arc<MediumGrid>>,
+}
+
+/// Samples over the unit cube (pbrt-v4's `SampledGrid`): `res` = nx, ny, nz values at the
+/// cells' centres, x fastest then y then z; trilinear between them, zero outside
+/// (src/media.rs's `lookup`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SampledGrid {
+    pub res: [u32; 3],
+    pub values: Vec<f32>,
+}
+
+/// A grid medium's varying part (pbrt-v4's `uniformgrid`): its density (sigma_a and sigma_s
+/// are per unit density) and its Le scale (the emitted radiance is Le times it), both over
+/// the unit cube that `unit_from_world` (affine) maps the medium's bounds to, and the
+/// majorant grid of the density (`MEDIUM_MAJORANT_RES`³ cells, the most it reaches in
+/// each; src/media.rs's `density_majorants`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MediumGrid {
+    pub unit_from_world: Mat4,
+    pub density: SampledGrid,
+    pub le_scale: SampledGrid,
+    pub majorants: Vec<f32>,
 }
 
 /// The most media a scene may hold (their codes fill 16 bits).

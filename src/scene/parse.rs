@@ -588,6 +588,7 @@ impl Parser {
             sigma_s,
             g,
             emission,
+            grid: None,
         });
         Ok(())
     }

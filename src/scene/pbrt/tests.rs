@@ -1077,7 +1077,7 @@ fn emission_faces_pbrts_side() {
 fn unsupported_features_are_listed_together() {
     let e = parse_err(&format!(
         r#"WorldBegin
-        MakeNamedMedium "fog" "string type" "uniformgrid"
+        MakeNamedMedium "fog" "string type" "cloud"
         Shape "hyperboloid"
         Material "subsurface"
         Shape "sphere" "float alpha" 0.5
@@ -1700,7 +1700,7 @@ fn homogeneous_media_and_their_interfaces() {
         "#
     ));
     assert_eq!(s.media.len(), 2);
-    let fog = s.media[0];
+    let fog = s.media[0].clone();
     assert_eq!(fog.sigma_a, Vec3::new(0.2, 0.4, 0.6));
     assert_eq!(fog.sigma_s, Vec3::new(2.0, 4.0, 6.0));
     assert_eq!(fog.g, 0.25);
@@ -1789,4 +1789,88 @@ fn bad_media_are_errors_with_their_line() {
     assert!(e.message.contains("type"), "{e}");
     let e = parse_err("WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"nanovdb\" \"string filename\" \"x.nvdb\"\n");
     assert!(e.to_string().contains("nanovdb"), "{e}");
+}
+
+/// A uniformgrid: its densities and Le scales as given (x fastest), its bounds and the
+/// CTM where it is made mapped onto the unit cube, σ per unit density, and the majorant
+/// grid above every density; without "Lescale", one sample of 1 (pbrt-v4's).
+#[test]
+fn uniform_grid_media() {
+    let s = parse_pbrt_str(
+        "WorldBegin\nAttributeBegin\nTranslate 1 2 3\nScale 2 2 2\n\
+         MakeNamedMedium \"smoke\" \"string type\" \"uniformgrid\" \"integer nx\" 2 \"integer ny\" 1 \
+         \"integer nz\" 3 \"float density\" [0 1 2 3 4 5] \"float Lescale\" [1 1 2 2 3 3] \
+         \"rgb Le\" [1 1 1] \"point3 p0\" [-1 0 0] \"point3 p1\" [1 1 2] \"rgb sigma_a\" [0.5 1 2] \
+         \"rgb sigma_s\" [1 1 1] \"float scale\" 2 \"float g\" 0.3\n\
+         MakeNamedMedium \"plain\" \"string type\" \"uniformgrid\" \"float density\" [4]\n\
+         AttributeEnd\n",
+        "t.pbrt",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let m = &s.media[0];
+    let g = m.grid.as_ref().expect("a grid");
+    assert_eq!(g.density.res, [2, 1, 3]);
+    assert_eq!(g.density.values, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+    assert_eq!(g.le_scale.values, vec![1.0, 1.0, 2.0, 2.0, 3.0, 3.0]);
+    assert_eq!(m.sigma_a, Vec3::new(1.0, 2.0, 4.0));
+    assert_eq!(m.g, 0.3);
+    // p0 in the medium's space is the unit cube's origin, p1 its far corner.
+    let world = |p: Vec3| Vec3::new(1.0, 2.0, 3.0) + 2.0 * p;
+    for (p, u) in [
+        (Vec3::new(-1.0, 0.0, 0.0), Vec3::ZERO),
+        (Vec3::new(1.0, 1.0, 2.0), Vec3::ONE),
+        (Vec3::new(0.0, 0.5, 1.0), Vec3::splat(0.5)),
+    ] {
+        let got = g.unit_from_world.transform_point3(world(p));
+        assert!((got - u).length() < 1e-5, "{p}: {got} vs {u}");
+    }
+    // The sample at the centre of cell (1, 0, 1) is density[3].
+    let (density, le) = g.at(world(Vec3::new(0.5, 0.5, 1.0)));
+    assert!(
+        (density - 3.0).abs() < 1e-5 && (le - 2.0).abs() < 1e-5,
+        "{density} {le}"
+    );
+    assert_eq!(g.majorants.len(), 16 * 16 * 16);
+    assert!(g.majorants.iter().all(|&v| v <= 5.0) && g.majorants.contains(&5.0));
+    let plain = s.media[1].grid.as_ref().unwrap();
+    assert_eq!(
+        (plain.density.res, plain.le_scale.res),
+        ([1, 1, 1], [1, 1, 1])
+    );
+    assert_eq!(plain.le_scale.values, vec![1.0]);
+}
+
+/// A uniformgrid's bad input: too few or too many values, a negative density, no density,
+/// empty bounds, a bad count; the error names the file and the line of the value.
+#[test]
+fn bad_uniform_grids_are_errors_with_their_line() {
+    for (params, what) in [
+        (
+            "\"integer nx\" 2 \"float density\" [1 2 3]",
+            "3 values; nx × ny × nz",
+        ),
+        ("\"float density\" [1 2]", "2 values"),
+        ("\"float density\" [-1]", "not negative"),
+        ("\"rgb sigma_a\" [1 1 1]", "no \"density\""),
+        (
+            "\"float density\" [1] \"point3 p0\" [0 0 0] \"point3 p1\" [1 0 1]",
+            "empty",
+        ),
+        ("\"integer nx\" 0 \"float density\" [1]", "whole number"),
+        (
+            "\"integer nx\" 2 \"float density\" [1 2] \"float Lescale\" [1]",
+            "\"Lescale\" has 1 values",
+        ),
+    ] {
+        let e = parse_err(&format!(
+            "WorldBegin\n\nMakeNamedMedium \"m\" \"string type\" \"uniformgrid\"\n{params}\n"
+        ));
+        assert!(e.line == 3 || e.line == 4, "{what}: {e}");
+        assert!(e.message.contains(what), "{what}: {e}");
+        assert!(e.to_string().contains("t.pbrt"), "{e}");
+    }
+    let e = parse_err(
+        "WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"uniformgrid\" \"float density\" [1] \"float temperature\" [1]\n",
+    );
+    assert!(e.to_string().contains("temperature"), "{e}");
 }
