@@ -3,11 +3,13 @@
 use lightpath::scene::parse_pbrt_str;
 use proptest::prelude::*;
 
-/// The files mutated: the Cornell box and the scene of the later features (loopsubdiv,
-/// blackbody, sampled spectra, Attribute).
-const SCENES: [&str; 2] = [
+/// The files mutated: the Cornell box, the scene of the later features (loopsubdiv,
+/// blackbody, sampled spectra, Attribute) and the smoke grid (media: homogeneous and
+/// uniformgrid, interfaces, the camera's medium).
+const SCENES: [&str; 3] = [
     include_str!("../scenes/pbrt/cornell-box.pbrt"),
     include_str!("../scenes/pbrt/subdivision-blackbody.pbrt"),
+    include_str!("../scenes/pbrt/smoke-grid.pbrt"),
 ];
 
 /// Tokens to splice in: directives, parameter declarations of every type (right and
@@ -92,6 +94,19 @@ fn token() -> impl Strategy<Value = String> {
             "\"spectrum reflectance\"",
             "\"nothing.spd\"",
             "\"float illuminance\"",
+            "MakeNamedMedium \"smoke\"",
+            "MediumInterface",
+            "\"smoke\"",
+            "\"haze\"",
+            "\"homogeneous\"",
+            "\"uniformgrid\"",
+            "\"interface\"",
+            "\"float density\"",
+            "\"integer nx\"",
+            "\"point3 p0\"",
+            "\"float Lescale\"",
+            "\"rgb sigma_s\"",
+            "\"float g\"",
         ])
         .prop_map(str::to_string),
     ]
@@ -115,7 +130,7 @@ proptest! {
 
     #[test]
     fn mutated_pbrt_scenes_parse_or_fail_with_a_line(
-        scene in 0usize..2,
+        scene in 0usize..3,
         edits in prop::collection::vec((0usize..10_000, 0u8..4, token()), 1..10)
     ) {
         // Edit whitespace-separated words (strings with spaces split, which is a
