@@ -861,6 +861,6 @@ fn the_smoke_grid_scene_renders_alike_in_pt_bdpt_and_mmlt() {
         &estimate(&m, 8, 2, Bvh),
         &pt,
         5.0,
-        0.01,
+        0.005,
     );
 }
