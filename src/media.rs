@@ -1,6 +1,7 @@
-//! Participating media on the CPU: the mirror of glsl/lib/media.glsl (free-flight
-//! sampling with the one-sample MIS of the three channels, and transmittance), for the
-//! tests and for the host's own estimates.
+//! Participating media on the CPU: the mirror of glsl/lib/media.glsl (free flights with the
+//! one-sample MIS of the three channels — exponential in homogeneous media, delta tracking
+//! through a majorant grid in grid media — and transmittance, exact or ratio-tracked), the
+//! grids' trilinear lookups and majorants, for the tests and for the host's own estimates.
 
 use crate::abi::MEDIUM_MAJORANT_RES;
 use crate::scene::{Medium, MediumGrid, SampledGrid};

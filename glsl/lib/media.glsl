@@ -1,14 +1,16 @@
-// Participating media (FEATURE_MEDIA): pbrt-v4's homogeneous medium, the medium a ray is
-// in (a medium code: MEDIUM_VACUUM or the GpuMedium's index + 1), and the two questions
-// light transport asks of a medium along a ray: where a path's next event is (free-flight
-// sampling, with the emission it passes) and how much of a shadow ray's light gets through
-// (transmittance). CPU mirror: src/media.rs.
+// Participating media (FEATURE_MEDIA): pbrt-v4's homogeneous medium and, with
+// FEATURE_GRID_MEDIA, its uniformgrid; the medium a ray is in (a medium code:
+// MEDIUM_VACUUM or the GpuMedium's index + 1), and the two questions light transport asks
+// of a medium along a ray: where a path's next event is (free-flight sampling, with the
+// emission it passes: FreeFlight, sample_medium) and how much of a shadow ray's light gets
+// through (medium_segment_transmittance). CPU mirror: src/media.rs.
 //
 // RGB media are chromatic: sigma_t differs per channel. A distance is drawn from the
 // density of one channel picked uniformly, and weighed by the mean of the three channels'
 // densities (the one-sample MIS of the three, the balance heuristic: pbrt-v4's hero
 // wavelength with its spectral MIS, for three channels), so that every channel is
-// estimated without bias and none is sampled from a density that ignores it.
+// estimated without bias and none is sampled from a density that ignores it. Grids draw
+// tentative collisions from a majorant and decide real or null (below, grid_track).
 #ifndef MEDIA_GLSL
 #define MEDIA_GLSL
 #extension GL_EXT_control_flow_attributes : require

@@ -748,7 +748,8 @@ mod tests {
             | FEATURE_ALPHA_PROCEDURAL_TEXTURES
             | FEATURE_ALPHA_BILERP_TEXTURES
             | FEATURE_PROFILE_LIGHTS
-            | crate::abi::FEATURE_MEDIA;
+            | crate::abi::FEATURE_MEDIA
+            | crate::abi::FEATURE_GRID_MEDIA;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -1874,3 +1874,45 @@ fn bad_uniform_grids_are_errors_with_their_line() {
     );
     assert!(e.to_string().contains("temperature"), "{e}");
 }
+
+/// A homogeneous medium's `preset`: the measured σa and σs (per mm) in place of the
+/// parameters, times `scale`; an unknown name is an error at its line that lists the known
+/// ones; a grid's preset is unsupported (pbrt-v4 reads presets for homogeneous media only).
+#[test]
+fn medium_presets() {
+    let s = parse_pbrt_str(
+        "WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"string preset\" \"Ketchup\" \
+         \"rgb sigma_a\" [9 9 9] \"float scale\" 10\n\
+         MakeNamedMedium \"w\" \"string type\" \"homogeneous\" \"string preset\" \"Pacific Ocean Surface Water\"\n",
+        "t.pbrt",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        (s.media[0].sigma_s - Vec3::new(1.8, 0.7, 0.3))
+            .abs()
+            .max_element()
+            < 1e-5
+    );
+    assert!(
+        (s.media[0].sigma_a - Vec3::new(0.61, 9.7, 14.5))
+            .abs()
+            .max_element()
+            < 1e-4
+    );
+    assert!(
+        (s.media[1].sigma_a - Vec3::new(0.031845, 0.031324, 0.030147))
+            .abs()
+            .max_element()
+            < 1e-7
+    );
+    let e = parse_err("WorldBegin\n\nMakeNamedMedium \"m\" \"string type\" \"homogeneous\" \"string preset\" \"Ketchap\"\n");
+    assert_eq!(e.line, 3, "{e}");
+    assert!(
+        e.message.contains("no preset named \"Ketchap\"") && e.message.contains("Ketchup"),
+        "{e}"
+    );
+    let e = parse_err(
+        "WorldBegin\nMakeNamedMedium \"g\" \"string type\" \"uniformgrid\" \"float density\" [1] \"string preset\" \"Apple\"\n",
+    );
+    assert!(e.to_string().contains("preset"), "{e}");
+}
