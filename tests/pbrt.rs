@@ -102,7 +102,7 @@ fn the_command_line_reads_pbrt_files() {
     let bad = dir.join("bad.pbrt");
     std::fs::write(
         &bad,
-        "WorldBegin\nShape \"hyperboloid\"\nMakeNamedMedium \"m\" \"string type\" \"uniformgrid\"\n",
+        "WorldBegin\nShape \"hyperboloid\"\nMakeNamedMedium \"m\" \"string type\" \"cloud\"\n",
     )
     .unwrap();
     let out2 = dir.join("bad.exr");
@@ -286,15 +286,15 @@ fn the_every_feature_scenes_measured_file_is_the_synthetic_ggx_table() {
 /// scenes/pbrt/every-feature.pbrt (docs/performance.md's cold-compile figures) holds every
 /// feature a pbrt file can bring without an image file: the kernels it needs are
 /// specialized to every feature bit but the environment map's, the goniometric and
-/// projection lights' (whose images are files), media's (BDPT and MMLT refuse them so far,
-/// and the scene is the three integrators' benchmark) and unbounded depth's (and
+/// projection lights' (whose images are files), media's and grid media's (the scene is the
+/// three integrators' surface benchmark) and unbounded depth's (and
 /// its alpha texture, a bilerp, needs only that texture's code in the alpha test).
 #[test]
 fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
     use lightpath::abi::{
         FEATURE_ALL, FEATURE_ALPHA_PROCEDURAL_TEXTURES, FEATURE_ALPHA_TEXTURE_GRAPHS,
-        FEATURE_ALPHA_TEXTURE_PROJECTIONS, FEATURE_ENVIRONMENT_MAP, FEATURE_MEDIA,
-        FEATURE_PROFILE_LIGHTS, FEATURE_UNBOUNDED,
+        FEATURE_ALPHA_TEXTURE_PROJECTIONS, FEATURE_ENVIRONMENT_MAP, FEATURE_GRID_MEDIA,
+        FEATURE_MEDIA, FEATURE_PROFILE_LIGHTS, FEATURE_UNBOUNDED,
     };
     let s = scene::load(&repo().join("scenes/pbrt/every-feature.pbrt"))
         .expect("the every-feature scene parses");
@@ -308,7 +308,8 @@ fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
                 | FEATURE_ALPHA_TEXTURE_GRAPHS
                 | FEATURE_ALPHA_PROCEDURAL_TEXTURES
                 | FEATURE_PROFILE_LIGHTS
-                | FEATURE_MEDIA),
+                | FEATURE_MEDIA
+                | FEATURE_GRID_MEDIA),
         "{features:b}"
     );
 }
