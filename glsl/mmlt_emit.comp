@@ -1,6 +1,6 @@
 // MMLT's wavefront (lib/mmlt_wave.glsl): the strategy at the camera subpath's last vertex
 // z that mmlt_hit found (or where the camera subpath escaped): s = 0 the emission found,
-// whole; s = 1 a light sample (its BSDF half is the shade stage's); s, t >= 2 the
+// whole (beside the media's emission on the way, mmlt_trace's); s = 1 a light sample (its BSDF half is the shade stage's); s, t >= 2 the
 // connection's geometry. Every emitter's code of MMLT is here, each of the emitters'
 // densities asked in one place.
 #version 460
@@ -62,7 +62,10 @@ void main() {
     vec2 pdfs = vec2(0.0);
     if (ask) pdfs = emission_pdfs(q);
     if (kind == MMLT_KIND_EMISSION) {
-        mpaths[slot].value = vec4(value, emission_weight(w, v, escaped, q, pdfs));
+        vec4 c = vec4(value, emission_weight(w, v, escaped, q, pdfs));
+        // (With the media's emission on the way to z, weight 1: mmlt_trace's.)
+        if (has_feature(FEATURE_MEDIA) && (pflags & MMLT_PATH_FOUND) != 0u) c = vec4(c.xyz * c.w + mpaths[slot].value.xyz, 1.0);
+        mpaths[slot].value = c;
         pflags |= MMLT_PATH_FOUND;
     } else if (kind == MMLT_KIND_LIGHT_SAMPLE) {
         pack_light_sample(ls, walks[slot].ls_wi, walks[slot].ls_le, walks[slot].ls_p, walks[slot].ls_n);

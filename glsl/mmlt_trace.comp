@@ -3,7 +3,8 @@
 // closest hit, for mmlt_hit. In media (FEATURE_MEDIA) both go on through pass-through
 // surfaces: the shadow ray's contribution times the transmittance of each medium it
 // crosses, the walk's ray a free flight (as bdpt_trace's: its distance from the walk's
-// stream) that may end at a scattering vertex in its medium (MEDIUM_HIT).
+// stream) that may end at a scattering vertex in its medium (MEDIUM_HIT), and that
+// gathers the media's emission on its way (s = 0's, on the camera subpath's last ray).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_atomic_float : require
@@ -74,6 +75,17 @@ void main() {
         if (closest) {
             if (media) {
                 flags = (flags & ((1u << BDPT_WALK_MEDIUM_SHIFT) - 1u)) | (medium << BDPT_WALK_MEDIUM_SHIFT);
+                // s = 0: the media's emission along the camera subpath's last segment (from
+                // z_{t-2}) ends a path of this depth that no other strategy samples (lights
+                // are not in media): weight 1, as BDPT's camera subpaths count it, and below
+                // the depth cap only (pbrt-v4's volpath counts a medium's emission while
+                // depth < maxdepth). mmlt_emit adds an emitter's found at z_{t-1}.
+                uvec2 st = mpaths[slot].path.xy;
+                uint k = walks[slot].counts.x;
+                if (cam && st.x == 0u && k + 2u == st.y && k < max_scatter() && flight.emitted != vec3(0.0)) {
+                    mpaths[slot].value = vec4(walks[slot].beta.xyz * flight.emitted, 1.0);
+                    mpaths[slot].path.z |= MMLT_PATH_FOUND;
+                }
                 if (!scattered && any(notEqual(weight, vec3(0.0)))) weight = free_flight_through(flight);
                 walks[slot].beta.xyz *= weight;
             }

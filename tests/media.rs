@@ -8,9 +8,8 @@ mod common;
 
 use common::*;
 use glam::Vec3;
-use lightpath::render::AccelChoice::{self, Bvh, RayQuery};
+use lightpath::render::AccelChoice::{Bvh, RayQuery};
 use lightpath::scene::{self, IntegratorKind, NextEventEstimation, Scene};
-use lightpath::trace::Trace;
 
 fn pbrt(text: &str) -> Scene {
     scene::parse_pbrt_str(text, "media.pbrt").expect("the test scene parses")
@@ -250,36 +249,30 @@ fn light_sampling_in_fog_agrees_with_phase_sampling_alone() {
     assert_agree("nee on", &estimate(&on, 4, 3, Bvh), &reference, 5.0, 0.01);
 }
 
-#[test]
-fn mmlt_refuses_emitting_media_with_a_clear_message() {
-    let s = with_integrator(slab(), IntegratorKind::Mmlt, 1);
-    let mut r = renderer(AccelChoice::Bvh);
-    let e = match r.render(&s, 1, &mut Trace::new()) {
-        Ok(_) => panic!("MMLT rendered a scene with an emitting medium"),
-        Err(e) => format!("{e:#}"),
-    };
-    assert!(e.contains("emitting participating medium"), "{e}");
-}
-
 // ---- BDPT in media ------------------------------------------------------------------
 
 /// A fog-filled sphere (a pass-through boundary, chromatic fog scattering forward) over a
 /// diffuse floor, lit by a small sphere light above it in vacuum, the camera outside:
 /// every subpath into the fog crosses its boundary.
 fn fog_ball() -> Scene {
-    pbrt(
+    fog_ball_with("")
+}
+
+/// The fog ball with more of its medium's parameters (`Le`).
+fn fog_ball_with(more: &str) -> Scene {
+    pbrt(&format!(
         "LookAt 0 0.5 -5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
          Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n\
          Sampler \"independent\" \"integer pixelsamples\" 64\n\
          WorldBegin\n\
          MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [0.05 0.1 0.2] \
-         \"rgb sigma_s\" [0.6 0.4 0.2] \"float g\" 0.4\n\
+         \"rgb sigma_s\" [0.6 0.4 0.2] \"float g\" 0.4 {more}\n\
          AttributeBegin\nMediumInterface \"fog\" \"\"\nMaterial \"interface\"\nShape \"sphere\" \"float radius\" 1.5\nAttributeEnd\n\
          AttributeBegin\nTranslate 0 2.5 0\nAreaLightSource \"diffuse\" \"rgb L\" [20 20 20]\n\
          Shape \"sphere\" \"float radius\" 0.4\nAttributeEnd\n\
          Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n\
          Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3] \"point3 P\" [-8 -1.5 -8  -8 -1.5 8  8 -1.5 8  8 -1.5 -8]\n",
-    )
+    ))
 }
 
 /// BDPT and MMLT render media as the path tracer does: a light in fog with the camera
@@ -323,6 +316,38 @@ fn agree_with_pt_at_depths_1_2_5(name: &str, s: &Scene, seeds: u32) {
             0.005,
         );
     }
+}
+
+/// A glowing, scattering uniformgrid (chromatic, its Le scaled by a grid) in its sphere
+/// over a floor, the only light of the scene: light that starts in a medium.
+fn glowing_smoke() -> Scene {
+    pbrt(&format!(
+        "LookAt 0 0.5 -6  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+         Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n\
+         Sampler \"independent\" \"integer pixelsamples\" 64\n\
+         WorldBegin\n{}{}\
+         Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n\
+         Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3] \"point3 P\" [-8 -2 -8  -8 -2 8  8 -2 8  8 -2 -8]\n",
+        grid_medium(&format!(
+            "\"rgb sigma_a\" [0.3 0.4 0.5] \"rgb sigma_s\" [0.9 0.7 0.4] \"float g\" 0.3 \
+             \"rgb Le\" [2 1 0.5] \"float Lescale\" [{GRID_LE_SCALE}]"
+        )),
+        grid_boundary(),
+    ))
+}
+
+/// Emitting media in all three integrators: the fog ball glowing (homogeneous, its
+/// emission beside the sphere light's: s = 0 paths that find both) and the glowing smoke
+/// grid, at maxdepth 1, 2 and 5 (the medium's emission at each depth: MMLT counts it on
+/// the camera subpath's last ray, below maxdepth as the path tracer does).
+#[test]
+fn emitting_media_render_alike_in_pt_bdpt_and_mmlt() {
+    agree_with_pt_at_depths_1_2_5(
+        "glowing fog ball",
+        &fog_ball_with("\"rgb Le\" [6 3 1.5]"),
+        4,
+    );
+    agree_with_pt_at_depths_1_2_5("glowing smoke", &glowing_smoke(), 4);
 }
 
 /// A volumetric caustic: a glass sphere in fog (its surface a transition from the fog
@@ -379,8 +404,8 @@ fn every_bdpt_strategy_alone_matches_the_path_tracer_in_media() {
 }
 
 /// BDPT's closed forms in media: the point light's single scattering (a delta light in
-/// a medium: its subpaths start there), the emitting slab seen through its boundaries
-/// (the medium's emission is found by camera subpaths alone), and the white furnace
+/// a medium: its subpaths start there; MMLT too), the emitting slab seen through its
+/// boundaries (the medium's emission is found by camera subpaths alone; MMLT too), and the white furnace
 /// (unbounded depth: Russian roulette beyond the strategies' cap).
 #[test]
 fn bdpt_in_media_matches_the_closed_forms() {
@@ -412,6 +437,14 @@ fn bdpt_in_media_matches_the_closed_forms() {
         &reference,
         5.0,
         0.003,
+    );
+    // (MMLT: the slab's emission is s = 0's, found along the camera subpath's last ray.)
+    assert_agree(
+        "mmlt slab",
+        &estimate(&with_mmlt(slab(), 1024), 4, 4, Bvh),
+        &reference,
+        5.0,
+        0.005,
     );
 
     for inside in [false, true] {
@@ -762,8 +795,8 @@ fn through_grid(s: &Scene, o: Vec3, d: Vec3) -> Vec3 {
 
 /// A turned, emitting uniformgrid seen against a light: every pixel's transmittance and
 /// emission as the quadrature of the grid's density and Le scale, in the path tracer on
-/// both visibility backends and in BDPT (whose camera subpaths find the emission); MMLT
-/// (which refuses emitting media) on the grid without its emission.
+/// both visibility backends, in BDPT (whose camera subpaths find the emission) and in
+/// MMLT (s = 0's).
 #[test]
 fn a_grid_medium_transmits_and_emits_as_its_integrated_density() {
     let s = grid_slab(true);
@@ -787,9 +820,6 @@ fn a_grid_medium_transmits_and_emits_as_its_integrated_density() {
         5.0,
         0.003,
     );
-    let s = grid_slab(false);
-    let expected = expected_image(&s, |o, d| through_grid(&s, o, d));
-    let reference = exact_like(&estimate_from_runs(&[region_means(&expected, 4)]));
     // (MMLT's estimates of this scene vary more from seed to seed than 4 seeds show: 8.)
     let m = with_mmlt(s, 1024);
     assert_agree(

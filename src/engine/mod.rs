@@ -187,15 +187,6 @@ impl Engine {
         })?;
         let mut p = scene_params(&scene, seed);
         params(&mut p);
-        if p.integrator == crate::abi::INTEGRATOR_MMLT
-            && scene.media.iter().any(|m| m.emission.max_element() > 0.0)
-        {
-            anyhow::bail!(
-                "this scene has an emitting participating medium, which lightpath renders with \
-                 the path tracer and BDPT only so far (--integrator pathtracer or bdpt; MMLT's \
-                 strategies do not yet count a medium's emission)"
-            );
-        }
         let gpu_scene = trace.cpu("scene upload", || {
             GpuScene::new(&self.device, &scene, &bvh, backend, p)
         })?;
