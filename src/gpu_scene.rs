@@ -9,7 +9,7 @@ use crate::gpu::kernels::{Backend, Resource};
 use crate::gpu::rayquery::RayQueryScene;
 use crate::gpu::{other_error, Device};
 use crate::io::Image;
-use crate::scene::{DeltaLight, NextEventEstimation, Scene, Texture, UV_MAPPING};
+use crate::scene::{DeltaLight, GridValues, NextEventEstimation, Scene, Texture, UV_MAPPING};
 use crate::texture::{
     environment_mean, environment_weights, Distribution2D, EnvMapping, Operand, Wrap,
 };
@@ -627,20 +627,49 @@ pub fn medium_data(media: &[crate::scene::Medium]) -> (Vec<GpuMedium>, Vec<f32>)
             };
             if let Some(g) = &m.grid {
                 let first = |floats: &Vec<f32>| floats.len() as u32;
-                let density = first(&floats);
-                floats.extend_from_slice(&g.density.values);
-                let le = first(&floats);
-                floats.extend_from_slice(&g.le_scale.values);
-                let majorants = first(&floats);
-                let scale = crate::media::majorant_scale(m);
-                floats.extend(g.majorants.iter().map(|v| v * scale));
-                r.info = [crate::abi::MEDIUM_UNIFORMGRID, density, le, majorants];
                 let u = g.unit_from_world.transpose();
                 r.unit_x = u.x_axis.to_array();
                 r.unit_y = u.y_axis.to_array();
                 r.unit_z = u.z_axis.to_array();
-                r.density_res = [g.density.res[0], g.density.res[1], g.density.res[2], 0];
-                r.le_res = [g.le_scale.res[0], g.le_scale.res[1], g.le_scale.res[2], 0];
+                match &g.values {
+                    GridValues::Density { density, le_scale } => {
+                        let d = first(&floats);
+                        floats.extend_from_slice(&density.values);
+                        let le = first(&floats);
+                        floats.extend_from_slice(&le_scale.values);
+                        r.info = [crate::abi::MEDIUM_UNIFORMGRID, d, le, 0];
+                        r.density_res = [density.res[0], density.res[1], density.res[2], 0];
+                        r.le_res = [le_scale.res[0], le_scale.res[1], le_scale.res[2], 0];
+                    }
+                    GridValues::Rgb {
+                        sigma_a,
+                        sigma_s,
+                        le,
+                    } => {
+                        let mut rgb = |grid: &Option<crate::scene::SampledGrid<Vec3>>| match grid {
+                            None => (crate::abi::MEDIUM_NO_GRID, [0; 3]),
+                            Some(grid) => {
+                                let at = first(&floats);
+                                floats.extend(grid.values.iter().flat_map(|v| v.to_array()));
+                                (at, grid.res)
+                            }
+                        };
+                        let (a, a_res) = rgb(sigma_a);
+                        let (s, s_res) = rgb(sigma_s);
+                        let (l, l_res) = rgb(le);
+                        let res = if a == crate::abi::MEDIUM_NO_GRID {
+                            s_res
+                        } else {
+                            a_res
+                        };
+                        r.info = [crate::abi::MEDIUM_RGBGRID, a, l, 0];
+                        r.density_res = [res[0], res[1], res[2], s];
+                        r.le_res = [l_res[0], l_res[1], l_res[2], 0];
+                    }
+                }
+                r.info[3] = first(&floats);
+                let scale = crate::media::majorant_scale(m);
+                floats.extend(g.majorants.iter().map(|v| v * scale));
             }
             r
         })

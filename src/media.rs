@@ -4,7 +4,7 @@
 //! grids' trilinear lookups and majorants, for the tests and for the host's own estimates.
 
 use crate::abi::MEDIUM_MAJORANT_RES;
-use crate::scene::{Medium, MediumGrid, SampledGrid};
+use crate::scene::{GridValues, Medium, MediumGrid, SampledGrid};
 use glam::{Vec2, Vec3};
 
 /// exp(−σt d) per channel, 1 where σt is 0 (also at d = ∞).
@@ -51,26 +51,28 @@ pub fn medium_ray_seed(o: Vec3, d: Vec3) -> u32 {
     )
 }
 
-impl SampledGrid {
+impl<T: Copy + Default + std::ops::Add<Output = T> + std::ops::Mul<f32, Output = T>>
+    SampledGrid<T>
+{
     /// The sample at integer coordinates, zero outside.
-    pub fn sample(&self, i: [i64; 3]) -> f32 {
+    pub fn sample(&self, i: [i64; 3]) -> T {
         let r = self.res.map(i64::from);
         if (0..3).any(|a| i[a] < 0 || i[a] >= r[a]) {
-            return 0.0;
+            return T::default();
         }
         self.values[((i[2] * r[1] + i[1]) * r[0] + i[0]) as usize]
     }
 
     /// The value at `p` in the unit cube: trilinear between the samples at the cells'
-    /// centres (media.glsl's `grid_lookup`).
-    pub fn lookup(&self, p: Vec3) -> f32 {
+    /// centres (media.glsl's `grid_lookup`, `grid_lookup3`).
+    pub fn lookup(&self, p: Vec3) -> T {
         let s = p * Vec3::new(self.res[0] as f32, self.res[1] as f32, self.res[2] as f32)
             - Vec3::splat(0.5);
         let f = s.floor();
         let i = [f.x as i64, f.y as i64, f.z as i64];
         let t = s - f;
         let at = |dx, dy, dz| self.sample([i[0] + dx, i[1] + dy, i[2] + dz]);
-        let mix = |a: f32, b: f32, t: f32| a * (1.0 - t) + b * t;
+        let mix = |a: T, b: T, t: f32| a * (1.0 - t) + b * t;
         let x00 = mix(at(0, 0, 0), at(1, 0, 0), t.x);
         let x10 = mix(at(0, 1, 0), at(1, 1, 0), t.x);
         let x01 = mix(at(0, 0, 1), at(1, 0, 1), t.x);
@@ -78,10 +80,10 @@ impl SampledGrid {
         mix(mix(x00, x10, t.y), mix(x01, x11, t.y), t.z)
     }
 
-    /// The most `lookup` reaches in the box [lo, hi] of the unit cube: the largest of the
-    /// samples whose trilinear support meets it (and 0 where the box reaches outside the
-    /// samples, the value there).
-    pub fn max_in(&self, lo: Vec3, hi: Vec3) -> f32 {
+    /// The most `lookup` reaches in the box [lo, hi] of the unit cube, as `size` measures
+    /// a value: the largest of the samples whose trilinear support meets it (and 0 where
+    /// the box reaches outside the samples, the value there).
+    pub fn max_in_by(&self, lo: Vec3, hi: Vec3, size: impl Fn(T) -> f32) -> f32 {
         let mut range = [(0i64, 0i64); 3];
         let mut outside = false;
         for a in 0..3 {
@@ -95,7 +97,7 @@ impl SampledGrid {
         for z in range[2].0..=range[2].1 {
             for y in range[1].0..=range[1].1 {
                 for x in range[0].0..=range[0].1 {
-                    m = m.max(self.sample([x, y, z]));
+                    m = m.max(size(self.sample([x, y, z])));
                 }
             }
         }
@@ -103,21 +105,85 @@ impl SampledGrid {
     }
 }
 
-impl MediumGrid {
-    /// The density and Le scale at the world point `p`: the grids' lookups inside the
-    /// medium's bounds, 0 outside (pbrt-v4 clips rays to the bounds).
-    pub fn at(&self, p: Vec3) -> (f32, f32) {
-        let u = self.unit_from_world.transform_point3(p);
-        if u.cmplt(Vec3::ZERO).any() || u.cmpgt(Vec3::ONE).any() {
-            return (0.0, 0.0);
-        }
-        (self.density.lookup(u), self.le_scale.lookup(u))
+impl SampledGrid {
+    /// `max_in_by` of numbers.
+    pub fn max_in(&self, lo: Vec3, hi: Vec3) -> f32 {
+        self.max_in_by(lo, hi, |v| v)
     }
 }
 
-/// The density's majorant grid: per cell of `MEDIUM_MAJORANT_RES`³ over the unit cube, the
-/// most the density reaches in it (x fastest).
-pub fn density_majorants(density: &SampledGrid) -> Vec<f32> {
+/// What a medium is at a point: its coefficients and emitted radiance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MediumPoint {
+    pub sigma_t: Vec3,
+    pub sigma_a: Vec3,
+    pub sigma_s: Vec3,
+    pub le: Vec3,
+}
+
+/// A grid medium at `p` in its unit cube (media.glsl's `grid_point`): uniformgrid's
+/// density times the medium's coefficients, its Le times the Le scale; rgbgrid's grids
+/// times the medium's scales.
+pub fn grid_point(m: &Medium, g: &MediumGrid, p: Vec3) -> MediumPoint {
+    match &g.values {
+        GridValues::Density { density, le_scale } => {
+            let density = density.lookup(p);
+            MediumPoint {
+                sigma_t: density * (m.sigma_a + m.sigma_s),
+                sigma_a: density * m.sigma_a,
+                sigma_s: density * m.sigma_s,
+                le: m.emission * le_scale.lookup(p),
+            }
+        }
+        GridValues::Rgb {
+            sigma_a,
+            sigma_s,
+            le,
+        } => {
+            let or_one =
+                |g: &Option<SampledGrid<Vec3>>| g.as_ref().map_or(Vec3::ONE, |g| g.lookup(p));
+            let sigma_a = m.sigma_a * or_one(sigma_a);
+            let sigma_s = m.sigma_s * or_one(sigma_s);
+            MediumPoint {
+                sigma_t: sigma_a + sigma_s,
+                sigma_a,
+                sigma_s,
+                le: le.as_ref().map_or(Vec3::ZERO, |g| m.emission * g.lookup(p)),
+            }
+        }
+    }
+}
+
+impl Medium {
+    /// The medium at the world point `p`: a grid's inside its bounds, nothing outside
+    /// (pbrt-v4 clips rays to the bounds); a homogeneous medium's everywhere.
+    pub fn at(&self, p: Vec3) -> MediumPoint {
+        let Some(g) = &self.grid else {
+            return MediumPoint {
+                sigma_t: self.sigma_a + self.sigma_s,
+                sigma_a: self.sigma_a,
+                sigma_s: self.sigma_s,
+                le: self.emission,
+            };
+        };
+        let u = g.unit_from_world.transform_point3(p);
+        if u.cmplt(Vec3::ZERO).any() || u.cmpgt(Vec3::ONE).any() {
+            return MediumPoint {
+                sigma_t: Vec3::ZERO,
+                sigma_a: Vec3::ZERO,
+                sigma_s: Vec3::ZERO,
+                le: Vec3::ZERO,
+            };
+        }
+        grid_point(self, g, u)
+    }
+}
+
+/// A grid's majorant grid: per cell of `MEDIUM_MAJORANT_RES`³ over the unit cube (x
+/// fastest), the most the extinction reaches in it over `majorant_scale`: uniformgrid's
+/// density; rgbgrid's sigma_a + sigma_s in their largest channels (1 where not given, as
+/// pbrt-v4's).
+pub fn grid_majorants(values: &GridValues) -> Vec<f32> {
     let r = MEDIUM_MAJORANT_RES as usize;
     let mut out = Vec::with_capacity(r * r * r);
     for z in 0..r {
@@ -125,16 +191,31 @@ pub fn density_majorants(density: &SampledGrid) -> Vec<f32> {
             for x in 0..r {
                 let lo = Vec3::new(x as f32, y as f32, z as f32) / r as f32;
                 let hi = Vec3::new(x as f32 + 1.0, y as f32 + 1.0, z as f32 + 1.0) / r as f32;
-                out.push(density.max_in(lo, hi));
+                out.push(match values {
+                    GridValues::Density { density, .. } => density.max_in(lo, hi),
+                    GridValues::Rgb {
+                        sigma_a, sigma_s, ..
+                    } => {
+                        let most = |g: &Option<SampledGrid<Vec3>>| {
+                            g.as_ref()
+                                .map_or(1.0, |g| g.max_in_by(lo, hi, |v| v.max_element()))
+                        };
+                        most(sigma_a) + most(sigma_s)
+                    }
+                });
             }
         }
     }
     out
 }
 
-/// The extinction per unit density a grid medium's majorants are in: the largest channel's.
+/// What a grid medium's majorants are in units of: the extinction per unit density of a
+/// uniformgrid (its largest channel's), an rgbgrid's `scale` (its sigma_a, all channels).
 pub fn majorant_scale(m: &Medium) -> f32 {
-    (m.sigma_a + m.sigma_s).max_element()
+    match m.grid.as_deref().map(|g| &g.values) {
+        Some(GridValues::Rgb { .. }) => m.sigma_a.x,
+        _ => (m.sigma_a + m.sigma_s).max_element(),
+    }
 }
 
 /// media.glsl's `FreeFlight`: a ray's next event drawn once for the media it crosses.
@@ -235,7 +316,6 @@ impl FreeFlight {
                 delta[a] = -1.0 / (r * ud[a]);
             }
         }
-        let sigma_t_unit = m.sigma_a + m.sigma_s;
         let scale = majorant_scale(m);
         let emits = scatter && m.emission != Vec3::ZERO;
         while t < t1 {
@@ -245,16 +325,15 @@ impl FreeFlight {
             while maj > 0.0 && self.tau < maj * (end - t) {
                 t += self.tau / maj;
                 let p = uo + t * ud;
-                let density = g.density.lookup(p);
-                let sigma_t = density * sigma_t_unit;
+                let q = grid_point(m, g, p);
+                let sigma_t = q.sigma_t;
                 let a = (-self.depth).exp();
                 let mean_a = a.dot(Vec3::splat(1.0 / 3.0));
                 if emits {
-                    let le = g.le_scale.lookup(p);
-                    self.emitted += a * (density * m.sigma_a) * (m.emission * le) / (maj * mean_a);
+                    self.emitted += a * q.sigma_a * q.le / (maj * mean_a);
                 }
                 if scatter && medium_random(&mut self.rng) * maj < sigma_t[self.c] {
-                    let w = a * (density * m.sigma_s) / (a * sigma_t).dot(Vec3::splat(1.0 / 3.0));
+                    let w = a * q.sigma_s / (a * sigma_t).dot(Vec3::splat(1.0 / 3.0));
                     return Some((t, w));
                 }
                 self.depth -= Vec3::from(
@@ -329,7 +408,7 @@ pub fn segment_transmittance(m: &Medium, o: Vec3, d: Vec3, len: f32, rng: &mut u
 }
 
 /// The exact transmittance of the segment [0, len) of (o, d) through a grid medium, by the
-/// midpoint rule over `steps` pieces of the density's trilinear interpolant (the tests'
+/// midpoint rule over `steps` pieces of the grids' trilinear interpolants (the tests'
 /// reference for the trackers).
 pub fn grid_transmittance_by_quadrature(
     m: &Medium,
@@ -338,13 +417,12 @@ pub fn grid_transmittance_by_quadrature(
     len: f32,
     steps: u32,
 ) -> Vec3 {
-    let g = m.grid.as_ref().expect("a grid medium");
     let h = len / steps as f32;
-    let mut depth = 0.0f64;
+    let mut depth = glam::DVec3::ZERO;
     for i in 0..steps {
-        depth += g.at(o + (i as f32 + 0.5) * h * d).0 as f64 * h as f64;
+        depth += m.at(o + (i as f32 + 0.5) * h * d).sigma_t.as_dvec3() * h as f64;
     }
-    (-(m.sigma_a + m.sigma_s) * depth as f32).exp()
+    (-depth).exp().as_vec3()
 }
 
 #[cfg(test)]
@@ -444,39 +522,71 @@ mod tests {
         let world_from_unit = glam::Mat4::from_translation(Vec3::new(-1.0, 0.5, 2.0))
             * glam::Mat4::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 0.7)
             * glam::Mat4::from_scale(Vec3::new(2.0, 1.5, 3.0));
-        let majorants = density_majorants(&density);
         Medium {
             sigma_a: Vec3::new(0.3, 1.5, 0.0),
             sigma_s: Vec3::new(0.9, 0.2, 0.0),
             g: 0.0,
             emission: Vec3::new(2.0, 0.5, 1.0),
-            grid: Some(std::sync::Arc::new(crate::scene::MediumGrid {
-                unit_from_world: world_from_unit.inverse(),
+            grid: Some(std::sync::Arc::new(MediumGrid::density(
+                world_from_unit.inverse(),
                 density,
                 le_scale,
-                majorants,
-            })),
+            ))),
+        }
+    }
+
+    /// An rgbgrid over the same turned box: 4 × 3 × 3 samples of sigma_a (one channel
+    /// clear), sigma_s (absent where `uniform_s`: 1) and Le, times scale 0.8 and Lescale 1.5.
+    fn rgb_grid_medium(uniform_s: bool) -> Medium {
+        let mut state = 23u64;
+        let mut rgb = |k: [f32; 3]| SampledGrid {
+            res: [4, 3, 3],
+            values: (0..36)
+                .map(|_| {
+                    Vec3::new(
+                        k[0] * lcg(&mut state),
+                        k[1] * lcg(&mut state),
+                        k[2] * lcg(&mut state),
+                    )
+                })
+                .collect(),
+        };
+        let sigma_a = rgb([1.0, 3.0, 0.0]);
+        let sigma_s = rgb([2.0, 0.5, 0.0]);
+        let le = rgb([1.0, 2.0, 0.5]);
+        let world_from_unit = glam::Mat4::from_translation(Vec3::new(-1.0, 0.5, 2.0))
+            * glam::Mat4::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 0.7)
+            * glam::Mat4::from_scale(Vec3::new(2.0, 1.5, 3.0));
+        Medium {
+            sigma_a: Vec3::splat(0.8),
+            sigma_s: Vec3::splat(0.8),
+            g: 0.0,
+            emission: Vec3::splat(1.5),
+            grid: Some(std::sync::Arc::new(MediumGrid::rgb(
+                world_from_unit.inverse(),
+                Some(sigma_a),
+                (!uniform_s).then_some(sigma_s),
+                Some(le),
+            ))),
         }
     }
 
     /// By quadrature along (o, d) over [0, len): the transmittance, the first collisions'
     /// expected weight ∫ σs T and the emission ∫ σa Le T.
     fn grid_integrals(m: &Medium, o: Vec3, d: Vec3, len: f32) -> (Vec3, Vec3, Vec3) {
-        let g = m.grid.as_ref().unwrap();
         let steps = 40_000;
         let h = (len / steps as f32) as f64;
-        let sigma_t = (m.sigma_a + m.sigma_s).as_dvec3();
-        let (mut depth, mut collided, mut emitted) = (0.0f64, glam::DVec3::ZERO, glam::DVec3::ZERO);
+        let (mut depth, mut collided, mut emitted) =
+            (glam::DVec3::ZERO, glam::DVec3::ZERO, glam::DVec3::ZERO);
         for i in 0..steps {
-            let (density, le) = g.at(o + ((i as f64 + 0.5) * h) as f32 * d);
-            let (density, le) = (density as f64, le as f64);
-            let tr = (-sigma_t * (depth + 0.5 * density * h)).exp();
-            collided += m.sigma_s.as_dvec3() * density * tr * h;
-            emitted += m.sigma_a.as_dvec3() * m.emission.as_dvec3() * density * le * tr * h;
-            depth += density * h;
+            let q = m.at(o + ((i as f64 + 0.5) * h) as f32 * d);
+            let tr = (-(depth + 0.5 * q.sigma_t.as_dvec3() * h)).exp();
+            collided += q.sigma_s.as_dvec3() * tr * h;
+            emitted += (q.sigma_a * q.le).as_dvec3() * tr * h;
+            depth += q.sigma_t.as_dvec3() * h;
         }
         (
-            (-sigma_t * depth).exp().as_vec3(),
+            (-depth).exp().as_vec3(),
             collided.as_vec3(),
             emitted.as_vec3(),
         )
@@ -488,7 +598,17 @@ mod tests {
     /// each channel within 1.5 % (or 0.002) of the quadrature.
     #[test]
     fn delta_and_ratio_tracking_match_a_grid_by_quadrature() {
-        let m = grid_medium();
+        for (name, m) in [
+            ("uniformgrid", grid_medium()),
+            ("rgbgrid", rgb_grid_medium(false)),
+            ("rgbgrid, sigma_s 1", rgb_grid_medium(true)),
+        ] {
+            track_against_quadrature(name, &m);
+        }
+    }
+
+    fn track_against_quadrature(name: &str, m: &Medium) {
+        let m = m.clone();
         let g = m.grid.as_ref().unwrap();
         let world_from_unit = g.unit_from_world.inverse();
         let centre = world_from_unit.transform_point3(Vec3::splat(0.5));
@@ -531,7 +651,7 @@ mod tests {
                 for c in 0..3 {
                     if (got[c] - want[c]).abs() > 0.015 * want[c].abs() + 0.002 {
                         bad.push(format!(
-                            "ray {k}, {what}, channel {c}: {} vs {} by quadrature",
+                            "{name}, ray {k}, {what}, channel {c}: {} vs {} by quadrature",
                             got[c], want[c]
                         ));
                     }
@@ -552,7 +672,7 @@ mod tests {
             let mut state = seed;
             let n = (res[0] * res[1] * res[2]) as usize;
             let density = SampledGrid { res, values: (0..n).map(|_| 5.0 * lcg(&mut state)).collect() };
-            let maj = density_majorants(&density);
+            let maj = grid_majorants(&GridValues::Density { density: density.clone(), le_scale: SampledGrid { res: [1, 1, 1], values: vec![1.0] } });
             let r = MEDIUM_MAJORANT_RES as usize;
             for _ in 0..400 {
                 let cell = [0, 1, 2].map(|_| ((lcg(&mut state) * r as f32) as usize).min(r - 1));
@@ -563,6 +683,48 @@ mod tests {
                 );
                 let m = maj[(cell[2] * r + cell[1]) * r + cell[0]];
                 proptest::prop_assert!(density.lookup(p) <= m * (1.0 + 1e-6), "{} > {m} at {p}", density.lookup(p));
+            }
+        }
+
+        /// Nor does an rgbgrid's extinction (any channel of sigma_a + sigma_s, either grid
+        /// absent: 1) exceed its cell's majorant.
+        #[test]
+        fn rgb_grid_majorants_never_underestimate_the_extinction(
+            res in proptest::array::uniform3(1u32..7),
+            seed in 0u64..1_000_000,
+            absent in 0u32..3,
+        ) {
+            let mut state = seed;
+            let n = (res[0] * res[1] * res[2]) as usize;
+            let mut rgb = || SampledGrid {
+                res,
+                values: (0..n).map(|_| Vec3::new(3.0 * lcg(&mut state), lcg(&mut state), 2.0 * lcg(&mut state))).collect(),
+            };
+            let (a, s) = (rgb(), rgb());
+            let m = Medium {
+                sigma_a: Vec3::splat(1.7),
+                sigma_s: Vec3::splat(1.7),
+                g: 0.0,
+                emission: Vec3::ZERO,
+                grid: Some(std::sync::Arc::new(MediumGrid::rgb(
+                    glam::Mat4::IDENTITY,
+                    (absent != 1).then_some(a),
+                    (absent != 2).then_some(s),
+                    None,
+                ))),
+            };
+            let g = m.grid.as_ref().unwrap();
+            let r = MEDIUM_MAJORANT_RES as usize;
+            for _ in 0..400 {
+                let cell = [0, 1, 2].map(|_| ((lcg(&mut state) * r as f32) as usize).min(r - 1));
+                let p = Vec3::new(
+                    (cell[0] as f32 + lcg(&mut state)) / r as f32,
+                    (cell[1] as f32 + lcg(&mut state)) / r as f32,
+                    (cell[2] as f32 + lcg(&mut state)) / r as f32,
+                );
+                let maj = g.majorants[(cell[2] * r + cell[1]) * r + cell[0]] * majorant_scale(&m);
+                let most = grid_point(&m, g, p).sigma_t.max_element();
+                proptest::prop_assert!(most <= maj * (1.0 + 1e-5), "{most} > {maj} at {p}");
             }
         }
     }

@@ -599,7 +599,7 @@ fn free_flights_and_the_phase_function_on_the_device_match_their_mirror() {
 }
 
 /// media.glsl's delta and ratio tracking through a grid (a turned, chromatic, emitting
-/// uniformgrid), run by medium_probe.comp, against their CPU mirror input by input: the
+/// uniformgrid, and an rgbgrid of as many samples), run by medium_probe.comp, against their CPU mirror input by input: the
 /// same generators and the same steps, so the same events, save the few where the two
 /// sides' rounding lands on the other side of a decision (at most 2 %).
 #[test]
@@ -622,19 +622,45 @@ fn grid_tracking_on_the_device_matches_its_mirror() {
     };
     let world_from_unit = glam::Mat4::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 0.7)
         * glam::Mat4::from_scale(Vec3::new(2.0, 1.5, 3.0));
-    let majorants = lightpath::media::density_majorants(&density);
-    let media = [Medium {
-        sigma_a: Vec3::new(0.3, 1.5, 0.0),
-        sigma_s: Vec3::new(0.9, 0.2, 0.0),
-        g: 0.2,
-        emission: Vec3::new(2.0, 0.5, 1.0),
-        grid: Some(std::sync::Arc::new(MediumGrid {
-            unit_from_world: world_from_unit.inverse(),
-            density,
-            le_scale,
-            majorants,
-        })),
-    }];
+    // (The rgbgrid's per-channel grids from the same numbers: sigma_a with a clear
+    // channel, sigma_s, Le.)
+    let rgb = |f: &dyn Fn(f32, f32) -> Vec3| SampledGrid {
+        res: [4, 3, 2],
+        values: density
+            .values
+            .iter()
+            .zip(&le_scale.values)
+            .map(|(&d, &l)| f(d, l))
+            .collect(),
+    };
+    let rgb_a = rgb(&|d, l| Vec3::new(d, 0.5 * l, 0.0));
+    let rgb_s = rgb(&|d, l| Vec3::new(l, 0.3 * d, 0.0));
+    let rgb_le = rgb(&|d, l| Vec3::new(l, d, 0.5));
+    let media = [
+        Medium {
+            sigma_a: Vec3::new(0.3, 1.5, 0.0),
+            sigma_s: Vec3::new(0.9, 0.2, 0.0),
+            g: 0.2,
+            emission: Vec3::new(2.0, 0.5, 1.0),
+            grid: Some(std::sync::Arc::new(MediumGrid::density(
+                world_from_unit.inverse(),
+                density.clone(),
+                le_scale.clone(),
+            ))),
+        },
+        Medium {
+            sigma_a: Vec3::splat(0.7),
+            sigma_s: Vec3::splat(0.7),
+            g: -0.3,
+            emission: Vec3::splat(1.5),
+            grid: Some(std::sync::Arc::new(MediumGrid::rgb(
+                world_from_unit.inverse(),
+                Some(rgb_a),
+                Some(rgb_s),
+                Some(rgb_le),
+            ))),
+        },
+    ];
     let mut state = 0x2545_f491_4f6c_dd1du64;
     let mut next = || {
         state = state
@@ -657,7 +683,8 @@ fn grid_tracking_on_the_device_matches_its_mirror() {
         };
         let tmax = if i % 3 == 0 { -1.0 } else { 1.0 + 6.0 * next() };
         inputs.push(BsdfProbeInput {
-            info: [1, i.wrapping_mul(2654435761), 0, 0],
+            // (Medium code 1, the uniformgrid, or 2, the rgbgrid.)
+            info: [1 + (i / 2) % 2, i.wrapping_mul(2654435761), 0, 0],
             n: [next(), next(), 0.0, 0.0],
             wo: d.extend(0.0).to_array(),
             wi: d.extend(0.0).to_array(),
@@ -681,15 +708,11 @@ fn grid_tracking_on_the_device_matches_its_mirror() {
         } else {
             input.u[2]
         };
-        let ev = lightpath::media::sample_medium(
-            &media[0],
-            o,
-            d,
-            tmax,
-            glam::Vec2::new(input.u[0], input.u[1]),
-        );
+        let m = &media[input.info[0] as usize - 1];
+        let ev =
+            lightpath::media::sample_medium(m, o, d, tmax, glam::Vec2::new(input.u[0], input.u[1]));
         let mut seed = input.info[1];
-        let tr = lightpath::media::segment_transmittance(&media[0], o, d, tmax, &mut seed);
+        let tr = lightpath::media::segment_transmittance(m, o, d, tmax, &mut seed);
         scattered += ev.scattered as u32;
         let tr_gpu = Vec3::from_array([0, 1, 2].map(|c| f32::from_bits(out.info[c])));
         let same = (out.sample_dir[3] == 1.0) == ev.scattered
@@ -720,7 +743,7 @@ fn grid_tracking_on_the_device_matches_its_mirror() {
     );
 }
 
-// ---- Grid media (pbrt-v4's uniformgrid) ----------------------------------------------
+// ---- Grid media (pbrt-v4's uniformgrid, rgbgrid) ----------------------------------------------
 
 /// 4 × 3 × 2 densities (x fastest), uneven, with a hole (0) and a peak.
 const GRID_DENSITY: &str = "0.2 1.5 0.8 0.0  1.1 2.4 0.3 0.9  0.5 1.8 1.2 0.4 \
@@ -742,6 +765,35 @@ fn grid_medium(params: &str) -> String {
 
 fn grid_boundary() -> &'static str {
     "AttributeBegin\nMediumInterface \"smoke\" \"\"\nMaterial \"interface\"\nShape \"sphere\" \"float radius\" 2\nAttributeEnd\n"
+}
+
+/// An rgbgrid named "smoke" in the uniformgrid's place (the same box and samples): its
+/// RGB grids `f(density, Le scale)` per sample for each of `grids` (name, f), then `params`.
+fn rgb_grid_medium(grids: &[(&str, fn(f32, f32) -> [f32; 3])], params: &str) -> String {
+    let d: Vec<f32> = GRID_DENSITY
+        .split_whitespace()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let l: Vec<f32> = GRID_LE_SCALE
+        .split_whitespace()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let mut text = String::new();
+    for (name, f) in grids {
+        let values: Vec<String> = d
+            .iter()
+            .zip(&l)
+            .flat_map(|(&d, &l)| f(d, l))
+            .map(|v| format!("{v}"))
+            .collect();
+        text += &format!("\"rgb {name}\" [{}] ", values.join(" "));
+    }
+    format!(
+        "AttributeBegin\nRotate 20 1 0 0\nRotate 30 0 1 0\nTranslate 0.1 -0.1 0\n\
+         MakeNamedMedium \"smoke\" \"string type\" \"rgbgrid\" \"integer nx\" 4 \"integer ny\" 3 \
+         \"integer nz\" 2 {text}\"point3 p0\" [-1 -1 -1] \"point3 p1\" [1 1 1] {params}\n\
+         AttributeEnd\n"
+    )
 }
 
 /// The grid (absorbing only, chromatic with a clear channel, emitting through its Le
@@ -768,18 +820,103 @@ fn grid_slab(emits: bool) -> Scene {
     ))
 }
 
-/// Along (o, d) to the light at z = 3, by quadrature of the grid's own density and Le
-/// scale (`MediumGrid::at`): the light's 1 · T and the emission ∫ σa ρ Le s T.
+/// The grid slab's scene with an rgbgrid (absorbing: its sigma_s grid 0; chromatic, one
+/// channel clear; emitting through its Le grid, times scale 0.7 and Lescale 1.5).
+fn rgb_grid_slab() -> Scene {
+    pbrt(&format!(
+        "LookAt 0 0 -5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+         Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n\
+         Sampler \"independent\" \"integer pixelsamples\" 32\n\
+         WorldBegin\n{}{}\
+         AttributeBegin\nMaterial \"diffuse\" \"rgb reflectance\" [0 0 0]\n\
+         AreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"bool twosided\" true\n{}AttributeEnd\n",
+        rgb_grid_medium(
+            &[
+                ("sigma_a", |d, l| [d, 0.6 * l + 0.2 * d, 0.0]),
+                ("sigma_s", |_, _| [0.0; 3]),
+                ("Le", |d, l| [0.3 * l, 0.2 * d, 0.4]),
+            ],
+            "\"float scale\" 0.7 \"float Lescale\" 1.5"
+        ),
+        grid_boundary(),
+        square(3.0, true),
+    ))
+}
+
+/// An rgbgrid seen against a light: every pixel's transmittance and emission as the
+/// quadrature of its grids (exp(−∫σa) + ∫ σa Le T per channel), in the path tracer on
+/// both visibility backends, BDPT and MMLT.
+#[test]
+fn an_rgb_grid_medium_transmits_and_emits_as_its_integrated_grids() {
+    let s = rgb_grid_slab();
+    assert!(s.media[0].grid.is_some());
+    let expected = expected_image(&s, |o, d| through_grid(&s, o, d));
+    let reference = exact_like(&estimate_from_runs(&[region_means(&expected, 4)]));
+    for accel in [Bvh, RayQuery] {
+        assert_agree(
+            &format!("rgb grid, pt ({accel:?})"),
+            &estimate(&s, 4, 4, accel),
+            &reference,
+            5.0,
+            0.003,
+        );
+    }
+    let b = with_integrator(s.clone(), IntegratorKind::Bdpt, 32);
+    assert_agree(
+        "rgb grid, bdpt",
+        &estimate(&b, 4, 4, Bvh),
+        &reference,
+        5.0,
+        0.003,
+    );
+    assert_agree(
+        "rgb grid, mmlt",
+        &estimate(&with_mmlt(s, 1024), 8, 4, Bvh),
+        &reference,
+        5.0,
+        0.005,
+    );
+}
+
+/// A glowing, scattering rgbgrid (sigma_s 1 where its grid is not given, times scale;
+/// forward scattering) over a floor under a spot light: PT, BDPT and MMLT agree at
+/// maxdepth 1, 2 and 5.
+#[test]
+fn pt_bdpt_and_mmlt_agree_on_a_glowing_rgb_grid() {
+    let s = pbrt(&format!(
+        "LookAt 0 0.5 -6  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+         Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n\
+         Sampler \"independent\" \"integer pixelsamples\" 64\n\
+         WorldBegin\n{}{}\
+         LightSource \"spot\" \"point3 from\" [0 4 0] \"point3 to\" [0 0 0] \"float coneangle\" 30 \
+         \"float conedeltaangle\" 5 \"rgb I\" [20 20 20]\n\
+         Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n\
+         Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3] \"point3 P\" [-8 -2 -8  -8 -2 8  8 -2 8  8 -2 -8]\n",
+        rgb_grid_medium(
+            &[
+                ("sigma_a", |d, l| [0.2 * d, 0.1 + 0.3 * l, 0.4 * d]),
+                ("Le", |d, l| [l, 0.5 * d, 0.2 * l]),
+            ],
+            "\"float scale\" 0.6 \"float g\" 0.4"
+        ),
+        grid_boundary(),
+    ));
+    agree_with_pt_at_depths_1_2_5("glowing rgb grid", &s, 4);
+}
+
+/// Along (o, d) to the light at z = 3, by quadrature of the grid's own σa and Le
+/// (`Medium::at`; σs is 0): the light's 1 · T and the emission ∫ σa Le T.
 fn through_grid(s: &Scene, o: Vec3, d: Vec3) -> Vec3 {
     let m = &s.media[0];
-    let g = m.grid.as_ref().expect("a grid medium");
+    assert!(m.grid.is_some());
     let len = (3.0 - o.z) / d.z;
     let steps = 600;
     let h = len / steps as f32;
     let (mut depth, mut emitted) = (Vec3::ZERO, Vec3::ZERO);
     for i in 0..steps {
-        let (density, le) = g.at(o + (i as f32 + 0.5) * h * d);
-        let dt = m.sigma_a * density * h;
+        let q = m.at(o + (i as f32 + 0.5) * h * d);
+        assert_eq!(q.sigma_s, Vec3::ZERO, "the slab's grid only absorbs");
+        let dt = q.sigma_a * h;
         // (The emission of the step, with the step's own exact attenuation.)
         let step_tr = (-dt).exp();
         let own = Vec3::select(
@@ -787,7 +924,7 @@ fn through_grid(s: &Scene, o: Vec3, d: Vec3) -> Vec3 {
             (Vec3::ONE - step_tr) / dt.max(Vec3::splat(1e-30)),
             Vec3::ONE,
         );
-        emitted += (-depth).exp() * m.sigma_a * density * m.emission * le * h * own;
+        emitted += (-depth).exp() * q.sigma_a * q.le * h * own;
         depth += dt;
     }
     (-depth).exp() + emitted

@@ -374,6 +374,9 @@
 // Medium kinds (GpuMedium.info.x).
 #define MEDIUM_HOMOGENEOUS 0
 #define MEDIUM_UNIFORMGRID 1
+#define MEDIUM_RGBGRID 2
+// An rgbgrid's grid that is not given (GpuMedium offsets).
+#define MEDIUM_NO_GRID 4294967295
 // A grid medium's majorant grid: this many cells per axis over its bounds (pbrt-v4's).
 #define MEDIUM_MAJORANT_RES 16
 // The most pass-through surfaces (MATERIAL_PASS_THROUGH) a path or a shadow ray crosses:
@@ -468,7 +471,11 @@ struct GpuMaterial {
 // unit_y and unit_z the rows of the affine map from world space to the grid's unit cube
 // (pbrt's bounds p0, p1 in the medium's space); density_res and le_res the two grids'
 // sample counts nx, ny, nz (pbrt's SampledGrid: samples at cell centres, trilinear, zero
-// outside).
+// outside). RGB grids (MEDIUM_RGBGRID): sigma_a.xyz and sigma_s.xyz pbrt's `scale`,
+// emission.xyz its `Lescale` (0 without an Le grid); three floats per sample (RGB) in
+// BINDING_MEDIUM_GRIDS; info.y the first of the sigma_a grid, density_res.w that of the
+// sigma_s grid (MEDIUM_NO_GRID where not given: 1), info.z that of the Le grid, info.w the
+// majorants; density_res.xyz and le_res.xyz the grids' sample counts.
 struct GpuMedium {
     vec4 sigma_a;
     vec4 sigma_s;

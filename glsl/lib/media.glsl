@@ -1,5 +1,5 @@
 // Participating media (FEATURE_MEDIA): pbrt-v4's homogeneous medium and, with
-// FEATURE_GRID_MEDIA, its uniformgrid; the medium a ray is in (a medium code:
+// FEATURE_GRID_MEDIA, its uniformgrid and rgbgrid; the medium a ray is in (a medium code:
 // MEDIUM_VACUUM or the GpuMedium's index + 1), and the two questions light transport asks
 // of a medium along a ray: where a path's next event is (free-flight sampling, with the
 // emission it passes: FreeFlight, sample_medium) and how much of a shadow ray's light gets
@@ -46,8 +46,9 @@ vec3 medium_transmittance(vec3 sigma_t, float d) {
                 sigma_t.z > 0.0 ? exp(-sigma_t.z * d) : 1.0);
 }
 
-// Grid media (FEATURE_GRID_MEDIA, pbrt-v4's uniformgrid): the extinction is a density
-// grid's trilinear value times sigma_a + sigma_s, bounded in each cell of a coarse majorant
+// Grid media (FEATURE_GRID_MEDIA, pbrt-v4's uniformgrid and rgbgrid): the extinction is a
+// density grid's trilinear value times sigma_a + sigma_s (or an RGB grid's sigma_a +
+// sigma_s, grid_point), bounded in each cell of a coarse majorant
 // grid by a constant. Distances are drawn from that majorant (one for the three channels:
 // the largest's), cell by cell along the ray (a DDA), and each tentative collision is real
 // or null: a free flight chooses (delta tracking, by its channel's extinction), a shadow
@@ -58,7 +59,7 @@ vec3 medium_transmittance(vec3 sigma_t, float d) {
 layout(std430, set = 0, binding = BINDING_MEDIUM_GRIDS) readonly buffer MediumGrids { float medium_grids[]; };
 
 bool medium_is_grid(uint code) {
-    return has_feature(FEATURE_GRID_MEDIA) && media[code - 1u].info.x == MEDIUM_UNIFORMGRID;
+    return has_feature(FEATURE_GRID_MEDIA) && media[code - 1u].info.x != MEDIUM_HOMOGENEOUS;
 }
 
 float medium_random(inout uint state) {
@@ -83,6 +84,46 @@ float grid_lookup(uint first, uvec3 res, vec3 p) {
     float x01 = mix(grid_sample(first, res, i + ivec3(0, 0, 1)), grid_sample(first, res, i + ivec3(1, 0, 1)), t.x);
     float x11 = mix(grid_sample(first, res, i + ivec3(0, 1, 1)), grid_sample(first, res, i + ivec3(1, 1, 1)), t.x);
     return mix(mix(x00, x10, t.y), mix(x01, x11, t.y), t.z);
+}
+
+// The same of an RGB grid (three floats per sample).
+vec3 grid_sample3(uint first, uvec3 res, ivec3 i) {
+    if (any(lessThan(i, ivec3(0))) || any(greaterThanEqual(i, ivec3(res)))) return vec3(0.0);
+    uint k = first + 3u * ((uint(i.z) * res.y + uint(i.y)) * res.x + uint(i.x));
+    return vec3(medium_grids[k], medium_grids[k + 1u], medium_grids[k + 2u]);
+}
+
+vec3 grid_lookup3(uint first, uvec3 res, vec3 p) {
+    vec3 s = p * vec3(res) - 0.5;
+    vec3 f = floor(s);
+    ivec3 i = ivec3(f);
+    vec3 t = s - f;
+    vec3 x00 = mix(grid_sample3(first, res, i), grid_sample3(first, res, i + ivec3(1, 0, 0)), t.x);
+    vec3 x10 = mix(grid_sample3(first, res, i + ivec3(0, 1, 0)), grid_sample3(first, res, i + ivec3(1, 1, 0)), t.x);
+    vec3 x01 = mix(grid_sample3(first, res, i + ivec3(0, 0, 1)), grid_sample3(first, res, i + ivec3(1, 0, 1)), t.x);
+    vec3 x11 = mix(grid_sample3(first, res, i + ivec3(0, 1, 1)), grid_sample3(first, res, i + ivec3(1, 1, 1)), t.x);
+    return mix(mix(x00, x10, t.y), mix(x01, x11, t.y), t.z);
+}
+
+// A grid medium at p in its unit cube (CPU mirror: src/media.rs's grid_point): its
+// extinction, absorption and scattering, and (where `emits`) its emitted radiance.
+// uniformgrid: the density times the medium's coefficients, Le times the Le scale;
+// rgbgrid: its grids (1 where not given) times the medium's scales.
+void grid_point(GpuMedium m, vec3 p, bool emits, out vec3 sigma_t, out vec3 sigma_a, out vec3 sigma_s, out vec3 le) {
+    le = vec3(0.0);
+    if (m.info.x == MEDIUM_RGBGRID) {
+        uvec3 res = m.density_res.xyz;
+        sigma_a = m.sigma_a.xyz * (m.info.y == MEDIUM_NO_GRID ? vec3(1.0) : grid_lookup3(m.info.y, res, p));
+        sigma_s = m.sigma_s.xyz * (m.density_res.w == MEDIUM_NO_GRID ? vec3(1.0) : grid_lookup3(m.density_res.w, res, p));
+        sigma_t = sigma_a + sigma_s;
+        if (emits) le = m.emission.xyz * grid_lookup3(m.info.z, m.le_res.xyz, p);
+        return;
+    }
+    float density = grid_lookup(m.info.y, m.density_res.xyz, p);
+    sigma_t = density * (m.sigma_a.xyz + m.sigma_s.xyz);
+    sigma_a = density * m.sigma_a.xyz;
+    sigma_s = density * m.sigma_s.xyz;
+    if (emits) le = m.emission.xyz * grid_lookup(m.info.z, m.le_res.xyz, p);
 }
 
 // A ray's next event in a medium, drawn once for the whole ray through the media it
@@ -157,26 +198,21 @@ bool grid_track(inout FreeFlight f, uint code, vec3 o, vec3 d, float len, bool s
             delta[a] = -1.0 / (R * ud[a]);
         }
     }
-    vec3 sigma_t_unit = m.sigma_a.xyz + m.sigma_s.xyz;
     bool emits = scatter && m.emission.xyz != vec3(0.0);
-    uvec3 res = m.density_res.xyz;
     [[dont_unroll]] while (t < t1) {
         float end = min(min(next.x, min(next.y, next.z)), t1);
         float maj = medium_grids[m.info.w + (uint(cell.z) * uint(MEDIUM_MAJORANT_RES) + uint(cell.y)) * uint(MEDIUM_MAJORANT_RES) + uint(cell.x)];
         [[dont_unroll]] while (maj > 0.0 && f.tau < maj * (end - t)) {
             t += f.tau / maj;
             vec3 p = uo + t * ud;
-            float density = grid_lookup(m.info.y, res, p);
-            vec3 sigma_t = density * sigma_t_unit;
+            vec3 sigma_t, sigma_a, sigma_s, le;
+            grid_point(m, p, emits, sigma_t, sigma_a, sigma_s, le);
             vec3 a = exp(-f.depth);
             float mean_a = dot(a, vec3(1.0 / 3.0));
-            if (emits) {
-                float le = grid_lookup(m.info.z, m.le_res.xyz, p);
-                f.emitted += a * (density * m.sigma_a.xyz) * (m.emission.xyz * le) / (maj * mean_a);
-            }
+            if (emits) f.emitted += a * sigma_a * le / (maj * mean_a);
             if (scatter && medium_random(f.rng) * maj < sigma_t[f.c]) {
                 t_hit = t;
-                weight = a * (density * m.sigma_s.xyz) / dot(a * sigma_t, vec3(1.0 / 3.0));
+                weight = a * sigma_s / dot(a * sigma_t, vec3(1.0 / 3.0));
                 return true;
             }
             f.depth -= log(max(vec3(1.0) - sigma_t / maj, vec3(0.0)));

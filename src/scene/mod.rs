@@ -136,10 +136,11 @@ impl MediumInterface {
 }
 
 /// A participating medium: absorption and scattering coefficients per channel (per unit
-/// length, its `scale` applied; a grid's per unit density), the Henyey–Greenstein
-/// asymmetry `g` of its phase function, and the radiance it emits (`Le` × `Lescale`; it
-/// adds sigma_a Le per unit length). Homogeneous (pbrt-v4's `homogeneous`) where `grid`
-/// is `None`; else pbrt-v4's `uniformgrid`.
+/// length, its `scale` applied; a grid's per unit of its grid's values), the
+/// Henyey–Greenstein asymmetry `g` of its phase function, and the radiance it emits
+/// (`Le` × `Lescale`, a grid's times its grid's; it adds sigma_a Le per unit length).
+/// Homogeneous (pbrt-v4's `homogeneous`) where `grid` is `None`; else pbrt-v4's
+/// `uniformgrid` or `rgbgrid` (`GridValues`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Medium {
     pub sigma_a: Vec3,
@@ -151,24 +152,75 @@ pub struct Medium {
 
 /// Samples over the unit cube (pbrt-v4's `SampledGrid`): `res` = nx, ny, nz values at the
 /// cells' centres, x fastest then y then z; trilinear between them, zero outside
-/// (src/media.rs's `lookup`).
+/// (src/media.rs's `lookup`). Values are numbers (`f32`) or RGB triples (`Vec3`).
 #[derive(Clone, Debug, PartialEq)]
-pub struct SampledGrid {
+pub struct SampledGrid<T = f32> {
     pub res: [u32; 3],
-    pub values: Vec<f32>,
+    pub values: Vec<T>,
 }
 
-/// A grid medium's varying part (pbrt-v4's `uniformgrid`): its density (sigma_a and sigma_s
-/// are per unit density) and its Le scale (the emitted radiance is Le times it), both over
-/// the unit cube that `unit_from_world` (affine) maps the medium's bounds to, and the
-/// majorant grid of the density (`MEDIUM_MAJORANT_RES`³ cells, the most it reaches in
-/// each; src/media.rs's `density_majorants`).
+/// A grid medium's varying part over the unit cube that `unit_from_world` (affine) maps
+/// the medium's bounds to, and its majorant grid (`MEDIUM_MAJORANT_RES`³ cells, each the
+/// most the extinction reaches in it in units of src/media.rs's `majorant_scale`; its
+/// `grid_majorants`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MediumGrid {
     pub unit_from_world: Mat4,
-    pub density: SampledGrid,
-    pub le_scale: SampledGrid,
+    pub values: GridValues,
     pub majorants: Vec<f32>,
+}
+
+/// What a grid medium's grids hold.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GridValues {
+    /// pbrt-v4's `uniformgrid`: a density (the medium's sigma_a and sigma_s are per unit
+    /// density) and an Le scale (the emitted radiance is the medium's Le times it).
+    Density {
+        density: SampledGrid,
+        le_scale: SampledGrid,
+    },
+    /// pbrt-v4's `rgbgrid`: sigma_a, sigma_s and Le per channel, each times the medium's
+    /// (`scale` for both coefficients, `Lescale` for the emission); sigma_a and sigma_s
+    /// are 1 where their grid is not given, and there is no emission without an Le grid.
+    /// All of one resolution.
+    Rgb {
+        sigma_a: Option<SampledGrid<Vec3>>,
+        sigma_s: Option<SampledGrid<Vec3>>,
+        le: Option<SampledGrid<Vec3>>,
+    },
+}
+
+impl MediumGrid {
+    /// A uniformgrid's: the density's majorants.
+    pub fn density(unit_from_world: Mat4, density: SampledGrid, le_scale: SampledGrid) -> Self {
+        let values = GridValues::Density { density, le_scale };
+        let majorants = crate::media::grid_majorants(&values);
+        MediumGrid {
+            unit_from_world,
+            values,
+            majorants,
+        }
+    }
+
+    /// An rgbgrid's: the majorants of its sigma_a + sigma_s.
+    pub fn rgb(
+        unit_from_world: Mat4,
+        sigma_a: Option<SampledGrid<Vec3>>,
+        sigma_s: Option<SampledGrid<Vec3>>,
+        le: Option<SampledGrid<Vec3>>,
+    ) -> Self {
+        let values = GridValues::Rgb {
+            sigma_a,
+            sigma_s,
+            le,
+        };
+        let majorants = crate::media::grid_majorants(&values);
+        MediumGrid {
+            unit_from_world,
+            values,
+            majorants,
+        }
+    }
 }
 
 /// The most media a scene may hold (their codes fill 16 bits).

@@ -1,5 +1,5 @@
-//! pbrt-v4's media: `MakeNamedMedium` (the `homogeneous` and `uniformgrid` kinds; the
-//! RGB grid, NanoVDB and the procedural cloud are refused for now) and the names
+//! pbrt-v4's media: `MakeNamedMedium` (the `homogeneous`, `uniformgrid` and `rgbgrid`
+//! kinds; NanoVDB and the procedural cloud are refused for now) and the names
 //! `MediumInterface` and the camera refer to.
 
 use super::{Params, ParseError, Parser};
@@ -28,7 +28,7 @@ impl Parser {
                 ))
             }
         };
-        if ty != "homogeneous" && ty != "uniformgrid" {
+        if ty != "homogeneous" && ty != "uniformgrid" && ty != "rgbgrid" {
             // (Its parameters are not checked: the whole medium is unsupported.)
             for p in &params.0 {
                 p.used.set(true);
@@ -37,7 +37,7 @@ impl Parser {
                 file,
                 line,
                 format!(
-                    "MakeNamedMedium \"{ty}\" (participating media: homogeneous and uniformgrid only)"
+                    "MakeNamedMedium \"{ty}\" (participating media: homogeneous, uniformgrid and rgbgrid only)"
                 ),
             );
             self.named_media.insert(name, 0);
@@ -84,7 +84,15 @@ impl Parser {
                     None => Ok(None),
                 }
             };
+        // (An rgbgrid's sigma_a, sigma_s and Le are its grids: 1 here, times scale and
+        // Lescale below.)
+        let rgb_grid = if ty == "rgbgrid" {
+            Some(self.rgb_grid(&name, params, file, line)?)
+        } else {
+            None
+        };
         let (sigma_a, sigma_s) = match preset {
+            _ if rgb_grid.is_some() => (Vec3::ONE, Vec3::ONE),
             Some(preset) => {
                 params.find("sigma_a");
                 params.find("sigma_s");
@@ -95,7 +103,10 @@ impl Parser {
                 spectrum(self, "sigma_s", false)?.unwrap_or(Vec3::ONE),
             ),
         };
-        let le = spectrum(self, "Le", true)?.unwrap_or(Vec3::ZERO);
+        let le = match &rgb_grid {
+            Some((_, emits)) => Vec3::splat(if *emits { 1.0 } else { 0.0 }),
+            None => spectrum(self, "Le", true)?.unwrap_or(Vec3::ZERO),
+        };
         let num = |what: &str, default: f64| {
             params
                 .find(what)
@@ -106,10 +117,10 @@ impl Parser {
         let grid = if ty == "uniformgrid" {
             Some(self.uniform_grid(&name, params, file, line)?)
         } else {
-            None
+            rgb_grid.map(|(g, _)| g)
         };
-        // (A grid's Lescale is its grid of scales.)
-        let le_scale = if grid.is_some() {
+        // (A uniformgrid's Lescale is its grid of scales.)
+        let le_scale = if ty == "uniformgrid" {
             1.0
         } else {
             num("Lescale", 1.0)
@@ -167,6 +178,102 @@ impl Parser {
         file: u32,
         line: u32,
     ) -> Result<Arc<MediumGrid>, ParseError> {
+        let (res, unit_from_world) = self.grid_frame(name, params, file, line)?;
+        if let Some(p) = params.find("temperature") {
+            let (f, l) = (p.file, p.line);
+            self.unsupported(
+                f,
+                l,
+                "MakeNamedMedium \"uniformgrid\": \"temperature\" (blackbody emission)",
+            );
+        }
+        for what in ["temperaturecutoff", "temperatureoffset", "temperaturescale"] {
+            params.find(what);
+        }
+        let Some(density) = self.grid_values(name, params, "density", res, 1)? else {
+            return Err(self.err_at(
+                file,
+                line,
+                "MakeNamedMedium",
+                format!("medium \"{name}\": no \"density\" values (a uniformgrid needs them)"),
+            ));
+        };
+        let le_scale = match self.grid_values(name, params, "Lescale", res, 1)? {
+            Some(values) => SampledGrid { res, values },
+            None => SampledGrid {
+                res: [1, 1, 1],
+                values: vec![1.0],
+            },
+        };
+        Ok(Arc::new(MediumGrid::density(
+            unit_from_world,
+            SampledGrid {
+                res,
+                values: density,
+            },
+            le_scale,
+        )))
+    }
+
+    /// An `rgbgrid` medium's grids, and whether it emits: "rgb sigma_a", "rgb sigma_s"
+    /// (nx × ny × nz RGB values each, x fastest, none negative; at least one of the two;
+    /// one not given is 1, as pbrt-v4's), "rgb Le" (as many; it needs sigma_a, as
+    /// pbrt-v4), over the box "p0" to "p1" of the medium's space (the CTM here).
+    fn rgb_grid(
+        &mut self,
+        name: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<(Arc<MediumGrid>, bool), ParseError> {
+        let (res, unit_from_world) = self.grid_frame(name, params, file, line)?;
+        let grid = |this: &Self, what: &str| -> Result<Option<SampledGrid<Vec3>>, ParseError> {
+            Ok(this
+                .grid_values(name, params, what, res, 3)?
+                .map(|v| SampledGrid {
+                    res,
+                    values: v.chunks(3).map(Vec3::from_slice).collect(),
+                }))
+        };
+        let sigma_a = grid(self, "sigma_a")?;
+        let sigma_s = grid(self, "sigma_s")?;
+        let le = grid(self, "Le")?;
+        let bad = |this: &Self, what: &str| {
+            this.err_at(
+                file,
+                line,
+                "MakeNamedMedium",
+                format!("medium \"{name}\": {what}"),
+            )
+        };
+        if sigma_a.is_none() && sigma_s.is_none() {
+            return Err(bad(
+                self,
+                "an rgbgrid needs \"rgb sigma_a\" or \"rgb sigma_s\" values (or both)",
+            ));
+        }
+        if le.is_some() && sigma_a.is_none() {
+            return Err(bad(
+                self,
+                "an rgbgrid with \"Le\" needs \"rgb sigma_a\" values (its emission is sigma_a Le)",
+            ));
+        }
+        let emits = le.is_some();
+        Ok((
+            Arc::new(MediumGrid::rgb(unit_from_world, sigma_a, sigma_s, le)),
+            emits,
+        ))
+    }
+
+    /// A grid medium's sample counts "nx", "ny", "nz" (1 each by default) and the map from
+    /// world space to the unit cube of its box "p0" to "p1" in the medium's space (the CTM).
+    fn grid_frame(
+        &self,
+        name: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<([u32; 3], Mat4), ParseError> {
         let d = "MakeNamedMedium";
         let bad = |this: &Self, (f, l): (u32, u32), what: String| {
             this.err_at(f, l, d, format!("medium \"{name}\": {what}"))
@@ -188,58 +295,6 @@ impl Parser {
             }
         };
         let res = [int(self, "nx")?, int(self, "ny")?, int(self, "nz")?];
-        let count = res.iter().map(|&r| r as u64).product::<u64>();
-        if let Some(p) = params.find("temperature") {
-            let (f, l) = (p.file, p.line);
-            self.unsupported(
-                f,
-                l,
-                "MakeNamedMedium \"uniformgrid\": \"temperature\" (blackbody emission)",
-            );
-        }
-        for what in ["temperaturecutoff", "temperatureoffset", "temperaturescale"] {
-            params.find(what);
-        }
-        let floats = |this: &Self, what: &str| -> Result<Option<Vec<f32>>, ParseError> {
-            let Some(p) = params.find(what) else {
-                return Ok(None);
-            };
-            if p.nums.len() as u64 != count {
-                return Err(bad(
-                    this,
-                    (p.file, p.line),
-                    format!(
-                        "\"{what}\" has {} values; nx × ny × nz = {} × {} × {} = {count} expected",
-                        p.nums.len(),
-                        res[0],
-                        res[1],
-                        res[2]
-                    ),
-                ));
-            }
-            if let Some(v) = p.nums.iter().find(|v| !v.is_finite() || **v < 0.0) {
-                return Err(bad(
-                    this,
-                    (p.file, p.line),
-                    format!("\"{what}\" must be finite and not negative, got {v}"),
-                ));
-            }
-            Ok(Some(p.nums.iter().map(|&v| v as f32).collect()))
-        };
-        let Some(density) = floats(self, "density")? else {
-            return Err(bad(
-                self,
-                (file, line),
-                "no \"density\" values (a uniformgrid needs them)".into(),
-            ));
-        };
-        let le_scale = match floats(self, "Lescale")? {
-            Some(values) => SampledGrid { res, values },
-            None => SampledGrid {
-                res: [1, 1, 1],
-                values: vec![1.0],
-            },
-        };
         let point = |this: &Self, what: &str, default: Vec3| -> Result<Vec3, ParseError> {
             match params.find(what) {
                 None => Ok(default),
@@ -275,17 +330,53 @@ impl Parser {
                 "its transformation is singular".into(),
             ));
         }
-        let density = SampledGrid {
-            res,
-            values: density,
+        Ok((res, world_from_unit.inverse()))
+    }
+
+    /// A grid's values `what`: nx × ny × nz samples of `channels` numbers each (an RGB
+    /// grid's: "rgb" values), finite and not negative; `None` where not given.
+    fn grid_values(
+        &self,
+        name: &str,
+        params: &Params,
+        what: &str,
+        res: [u32; 3],
+        channels: u64,
+    ) -> Result<Option<Vec<f32>>, ParseError> {
+        let Some(p) = params.find(what) else {
+            return Ok(None);
         };
-        let majorants = crate::media::density_majorants(&density);
-        Ok(Arc::new(MediumGrid {
-            unit_from_world: world_from_unit.inverse(),
-            density,
-            le_scale,
-            majorants,
-        }))
+        let bad = |what: String| {
+            self.err_at(
+                p.file,
+                p.line,
+                "MakeNamedMedium",
+                format!("medium \"{name}\": {what}"),
+            )
+        };
+        if channels == 3 && p.ty != "rgb" {
+            return Err(bad(format!(
+                "\"{} {what}\": an rgbgrid's values are \"rgb\" (nx × ny × nz triples)",
+                p.ty
+            )));
+        }
+        let count = res.iter().map(|&r| r as u64).product::<u64>();
+        if p.nums.len() as u64 != count * channels {
+            let unit = if channels == 3 { " RGB triples" } else { "" };
+            return Err(bad(format!(
+                "\"{what}\" has {} values; nx × ny × nz = {} × {} × {} = {count}{unit} expected",
+                p.nums.len(),
+                res[0],
+                res[1],
+                res[2]
+            )));
+        }
+        if let Some(v) = p.nums.iter().find(|v| !v.is_finite() || **v < 0.0) {
+            return Err(bad(format!(
+                "\"{what}\" must be finite and not negative, got {v}"
+            )));
+        }
+        Ok(Some(p.nums.iter().map(|&v| v as f32).collect()))
     }
 
     /// The medium a name stands for: "" is vacuum; an unknown name is an error.

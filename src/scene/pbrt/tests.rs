@@ -1809,9 +1809,12 @@ fn uniform_grid_media() {
     .unwrap_or_else(|e| panic!("{e}"));
     let m = &s.media[0];
     let g = m.grid.as_ref().expect("a grid");
-    assert_eq!(g.density.res, [2, 1, 3]);
-    assert_eq!(g.density.values, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
-    assert_eq!(g.le_scale.values, vec![1.0, 1.0, 2.0, 2.0, 3.0, 3.0]);
+    let crate::scene::GridValues::Density { density, le_scale } = &g.values else {
+        panic!("not a density grid: {:?}", g.values)
+    };
+    assert_eq!(density.res, [2, 1, 3]);
+    assert_eq!(density.values, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+    assert_eq!(le_scale.values, vec![1.0, 1.0, 2.0, 2.0, 3.0, 3.0]);
     assert_eq!(m.sigma_a, Vec3::new(1.0, 2.0, 4.0));
     assert_eq!(m.g, 0.3);
     // p0 in the medium's space is the unit cube's origin, p1 its far corner.
@@ -1824,20 +1827,107 @@ fn uniform_grid_media() {
         let got = g.unit_from_world.transform_point3(world(p));
         assert!((got - u).length() < 1e-5, "{p}: {got} vs {u}");
     }
-    // The sample at the centre of cell (1, 0, 1) is density[3].
-    let (density, le) = g.at(world(Vec3::new(0.5, 0.5, 1.0)));
+    // The sample at the centre of cell (1, 0, 1) is density[3] (σa per unit density 1, 2,
+    // 4), its Le scale 2.
+    let q = m.at(world(Vec3::new(0.5, 0.5, 1.0)));
     assert!(
-        (density - 3.0).abs() < 1e-5 && (le - 2.0).abs() < 1e-5,
-        "{density} {le}"
+        (q.sigma_a - 3.0 * Vec3::new(1.0, 2.0, 4.0))
+            .abs()
+            .max_element()
+            < 1e-4
+            && (q.le - Vec3::splat(2.0) * m.emission).abs().max_element() < 1e-5,
+        "{q:?}"
     );
     assert_eq!(g.majorants.len(), 16 * 16 * 16);
     assert!(g.majorants.iter().all(|&v| v <= 5.0) && g.majorants.contains(&5.0));
     let plain = s.media[1].grid.as_ref().unwrap();
+    let crate::scene::GridValues::Density { density, le_scale } = &plain.values else {
+        panic!("not a density grid")
+    };
+    assert_eq!((density.res, le_scale.res), ([1, 1, 1], [1, 1, 1]));
+    assert_eq!(le_scale.values, vec![1.0]);
+}
+
+/// An rgbgrid: its RGB samples as given (x fastest), sigma_s not given (1), `scale` and
+/// `Lescale` as the medium's factors, its bounds under the CTM, and majorants of the most
+/// sigma_a + sigma_s reaches in any channel.
+#[test]
+fn rgb_grid_media() {
+    let s = parse_pbrt_str(
+        "WorldBegin\nAttributeBegin\nTranslate 1 2 3\n\
+         MakeNamedMedium \"rgb\" \"string type\" \"rgbgrid\" \"integer nx\" 2 \"integer ny\" 1 \
+         \"integer nz\" 1 \"rgb sigma_a\" [1 2 3  4 5 6] \"rgb Le\" [0.5 0.5 0.5  1 2 0] \
+         \"float scale\" 2 \"float Lescale\" 3 \"float g\" -0.2 \"point3 p1\" [2 1 1]\n\
+         AttributeEnd\n",
+        "t.pbrt",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let m = &s.media[0];
     assert_eq!(
-        (plain.density.res, plain.le_scale.res),
-        ([1, 1, 1], [1, 1, 1])
+        (m.sigma_a, m.sigma_s, m.emission, m.g),
+        (Vec3::splat(2.0), Vec3::splat(2.0), Vec3::splat(3.0), -0.2)
     );
-    assert_eq!(plain.le_scale.values, vec![1.0]);
+    let g = m.grid.as_ref().expect("a grid");
+    let crate::scene::GridValues::Rgb {
+        sigma_a,
+        sigma_s,
+        le,
+    } = &g.values
+    else {
+        panic!("not an RGB grid: {:?}", g.values)
+    };
+    let sigma_a = sigma_a.as_ref().expect("sigma_a");
+    assert_eq!(sigma_a.res, [2, 1, 1]);
+    assert_eq!(
+        sigma_a.values,
+        vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(4.0, 5.0, 6.0)]
+    );
+    assert!(sigma_s.is_none());
+    assert_eq!(le.as_ref().unwrap().values[1], Vec3::new(1.0, 2.0, 0.0));
+    // At the second sample's centre (x 1.5 of the box [0, 2], moved by the CTM): sigma_a
+    // 2 × (4, 5, 6), sigma_s 2 × 1, Le 3 × (1, 2, 0).
+    let q = m.at(Vec3::new(2.5, 2.5, 3.5));
+    assert!(
+        (q.sigma_a - Vec3::new(8.0, 10.0, 12.0)).abs().max_element() < 1e-4,
+        "{q:?}"
+    );
+    assert!(
+        (q.sigma_s - Vec3::splat(2.0)).abs().max_element() < 1e-5,
+        "{q:?}"
+    );
+    assert!(
+        (q.le - Vec3::new(3.0, 6.0, 0.0)).abs().max_element() < 1e-5,
+        "{q:?}"
+    );
+    // Majorants (times the scale): the most is 2 × (6 + 1).
+    let most = g.majorants.iter().cloned().fold(0.0f32, f32::max) * crate::media::majorant_scale(m);
+    assert!((most - 14.0).abs() < 1e-5, "{most}");
+}
+
+/// An rgbgrid's bad input, each an error at its line: neither sigma_a nor sigma_s, Le
+/// without sigma_a (pbrt-v4's rules), a count that is not nx × ny × nz triples, values of
+/// another type than rgb, a negative value.
+#[test]
+fn bad_rgb_grids_are_errors_with_their_line() {
+    for (params, what) in [
+        ("\"rgb Le\" [1 1 1]", "needs \"rgb sigma_a\" or"),
+        (
+            "\"rgb sigma_s\" [1 1 1] \"rgb Le\" [1 1 1]",
+            "with \"Le\" needs",
+        ),
+        (
+            "\"integer nx\" 2 \"rgb sigma_a\" [1 1 1]",
+            "RGB triples expected",
+        ),
+        ("\"float sigma_a\" [1 1 1]", "values are \"rgb\""),
+        ("\"rgb sigma_s\" [1 -1 1]", "not negative"),
+    ] {
+        let e = parse_err(&format!(
+            "WorldBegin\n\nMakeNamedMedium \"m\" \"string type\" \"rgbgrid\"\n{params}\n"
+        ));
+        assert!(e.line == 3 || e.line == 4, "{what}: {e}");
+        assert!(e.message.contains(what), "{what}: {e}");
+    }
 }
 
 /// A uniformgrid's bad input: too few or too many values, a negative density, no density,
