@@ -8,6 +8,7 @@
 #   scripts/equal-time.sh                  # 128x128, 20 s, 3 trials, 2048-spp reference
 #   SIZE=64x64 TIME=5 REF_SPP=512 scripts/equal-time.sh
 #   INTEGRATORS=mmlt MMLT_OPTS="--mmlt-chains 1024" scripts/equal-time.sh
+#   SCENES="pbrt/volumetric-caustic.pbrt pbrt/smoke-grid.pbrt" scripts/equal-time.sh
 #
 # Output files go to $OUT (default /tmp/lightpath-equal-time); an existing reference is
 # reused. The path tracer uses the scene's settings (NEE with MIS, BRDF sampling, RR).
@@ -29,9 +30,15 @@ lp() { if [ -n "${LIGHTPATH_BIN:-}" ]; then "$LIGHTPATH_BIN" "$@"; else "$root/l
 echo "| scene | integrator | time limit (s) | spp (mutations per pixel) reached | Msamples/s | relMSE (mean of $TRIALS) |"
 echo "|---|---|---|---|---|---|"
 for scene in $SCENES; do
+  # A name (scenes/NAME.test) or a path under scenes/ with its extension (pbrt/x.pbrt).
+  case "$scene" in
+    *.test|*.pbrt) file="$root/scenes/$scene" ;;
+    *) file="$root/scenes/$scene.test" ;;
+  esac
+  scene="$(basename "${scene%.*}")"
   ref="$OUT/$scene-ref-$SIZE.exr"
   if [ ! -f "$ref" ]; then
-    lp render "$root/scenes/$scene.test" --integrator bdpt --size "$SIZE" --spp "$REF_SPP" \
+    lp render "$file" --integrator bdpt --size "$SIZE" --spp "$REF_SPP" \
       --seed 4242 -o "$ref" 2>"$OUT/$scene-ref.log"
   fi
   for integrator in $INTEGRATORS; do
@@ -41,7 +48,7 @@ for scene in $SCENES; do
     for trial in $(seq 1 "$TRIALS"); do
       img="$OUT/$scene-$integrator-$trial.exr"
       log="$OUT/$scene-$integrator-$trial.log"
-      lp render "$root/scenes/$scene.test" --integrator "$integrator" --size "$SIZE" \
+      lp render "$file" --integrator "$integrator" --size "$SIZE" \
         --spp 1000000 --time-limit "$TIME" --seed "$trial" -o "$img" "${opts[@]}" 2>"$log"
       line=$(grep -E " spp, .* Msamples/s" "$log")
       spp=$(echo "$line" | sed -E 's/.* ([0-9]+) spp,.*/\1/')

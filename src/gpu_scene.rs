@@ -325,6 +325,8 @@ pub struct TextureData {
     /// then its distribution's marginal CDF (height + 1) and conditional CDFs (height ×
     /// (width + 1)); 0 for a profile no light shows.
     pub light_profiles: Vec<u32>,
+    /// The noise table's first float, where a texture or a cloud medium needs it.
+    pub noise: Option<u32>,
 }
 
 fn push_image(texels: &mut Vec<f32>, image: &Image) -> u32 {
@@ -578,7 +580,19 @@ pub fn texture_data(scene: &Scene) -> TextureData {
         texels.floats.extend(&d.conditional);
         *slot = Some(first);
     }
+    // (Cloud media read the noise table too.)
+    let noise = scene
+        .media
+        .iter()
+        .any(|m| {
+            matches!(
+                m.grid.as_deref().map(|g| &g.values),
+                Some(GridValues::Cloud { .. })
+            )
+        })
+        .then(|| texels.noise_table());
     TextureData {
+        noise,
         textures,
         texels: texels.floats,
         environment,
@@ -608,12 +622,13 @@ pub fn material_records(scene: &Scene, textures: &TextureData) -> Vec<GpuMateria
 /// without media, so that the buffer is never empty) and the grid media's floats
 /// (BINDING_MEDIUM_GRIDS: each grid's density, Le-scale and majorant grids; the
 /// majorants per unit length, times the largest channel's extinction per unit density).
-pub fn medium_records(scene: &Scene) -> (Vec<GpuMedium>, Vec<f32>) {
-    medium_data(&scene.media)
+pub fn medium_records(scene: &Scene, textures: &TextureData) -> (Vec<GpuMedium>, Vec<f32>) {
+    medium_data(&scene.media, textures.noise.unwrap_or(0))
 }
 
-/// `medium_records` of a list of media (the medium probe's).
-pub fn medium_data(media: &[crate::scene::Medium]) -> (Vec<GpuMedium>, Vec<f32>) {
+/// `medium_records` of a list of media (the medium probe's), the noise table (clouds') at
+/// texel `noise`.
+pub fn medium_data(media: &[crate::scene::Medium], noise: u32) -> (Vec<GpuMedium>, Vec<f32>) {
     let mut floats = Vec::new();
     let mut records: Vec<GpuMedium> = media
         .iter()
@@ -640,6 +655,18 @@ pub fn medium_data(media: &[crate::scene::Medium]) -> (Vec<GpuMedium>, Vec<f32>)
                         r.info = [crate::abi::MEDIUM_UNIFORMGRID, d, le, 0];
                         r.density_res = [density.res[0], density.res[1], density.res[2], 0];
                         r.le_res = [le_scale.res[0], le_scale.res[1], le_scale.res[2], 0];
+                    }
+                    GridValues::Cloud {
+                        density,
+                        wispiness,
+                        frequency,
+                        p0,
+                        extent,
+                    } => {
+                        let b = |v: Vec3, w: f32| [v.x, v.y, v.z, w].map(f32::to_bits);
+                        r.info = [crate::abi::MEDIUM_CLOUD, noise, frequency.to_bits(), 0];
+                        r.density_res = b(*p0, *density);
+                        r.le_res = b(*extent, *wispiness);
                     }
                     GridValues::Rgb {
                         sigma_a,
@@ -891,7 +918,7 @@ impl GpuScene {
             })
             .collect();
         let materials = material_records(scene, &textures);
-        let (media, medium_grids) = medium_records(scene);
+        let (media, medium_grids) = medium_records(scene, &textures);
         let mut table = table;
         for e in &mut table.emitters {
             if matches!(e.info[0], EMITTER_GONIOMETRIC | EMITTER_PROJECTION) {

@@ -135,6 +135,21 @@ pub fn grid_point(m: &Medium, g: &MediumGrid, p: Vec3) -> MediumPoint {
                 le: m.emission * le_scale.lookup(p),
             }
         }
+        GridValues::Cloud {
+            density,
+            wispiness,
+            frequency,
+            p0,
+            extent,
+        } => {
+            let density = cloud_density(*p0 + p * *extent, *density, *wispiness, *frequency);
+            MediumPoint {
+                sigma_t: density * (m.sigma_a + m.sigma_s),
+                sigma_a: density * m.sigma_a,
+                sigma_s: density * m.sigma_s,
+                le: Vec3::ZERO,
+            }
+        }
         GridValues::Rgb {
             sigma_a,
             sigma_s,
@@ -152,6 +167,39 @@ pub fn grid_point(m: &Medium, g: &MediumGrid, p: Vec3) -> MediumPoint {
             }
         }
     }
+}
+
+/// pbrt-v4's procedural cloud's density at `p` in the medium's space (media.glsl's
+/// `cloud_density`, the same noise calls in the same order): the point moved by two
+/// octaves of the noise's gradient (forward differences of 0.01) times the wispiness, five
+/// octaves of noise there, thinning with height, plus density below y = 0.5; in [0, 1].
+pub fn cloud_density(p: Vec3, density: f32, wispiness: f32, frequency: f32) -> f32 {
+    let noise = crate::noise::noise;
+    let mut pp = frequency * p;
+    if wispiness > 0.0 {
+        let (mut vomega, mut vlambda) = (0.05 * wispiness, 10.0f32);
+        for _ in 0..2 {
+            let q = vlambda * pp;
+            let n0 = noise(q);
+            let grad = Vec3::new(
+                (noise(q + 0.01 * Vec3::X) - n0) / 0.01,
+                (noise(q + 0.01 * Vec3::Y) - n0) / 0.01,
+                (noise(q + 0.01 * Vec3::Z) - n0) / 0.01,
+            );
+            pp += vomega * grad;
+            vomega *= 0.5;
+            vlambda *= 1.99;
+        }
+    }
+    let (mut d, mut omega, mut lambda) = (0.0f32, 0.5f32, 1.0f32);
+    for _ in 0..5 {
+        d += omega * noise(lambda * pp);
+        omega *= 0.5;
+        lambda *= 1.99;
+    }
+    d = ((1.0 - p.y) * 4.5 * density * d).clamp(0.0, 1.0);
+    d += 2.0 * (0.5 - p.y).max(0.0);
+    d.clamp(0.0, 1.0)
 }
 
 impl Medium {
@@ -181,7 +229,7 @@ impl Medium {
 
 /// A grid's majorant grid: per cell of `MEDIUM_MAJORANT_RES`³ over the unit cube (x
 /// fastest), the most the extinction reaches in it over `majorant_scale`: uniformgrid's
-/// density; rgbgrid's sigma_a + sigma_s in their largest channels (1 where not given, as
+/// density; a cloud's 1 (its density's most); rgbgrid's sigma_a + sigma_s in their largest channels (1 where not given, as
 /// pbrt-v4's).
 pub fn grid_majorants(values: &GridValues) -> Vec<f32> {
     let r = MEDIUM_MAJORANT_RES as usize;
@@ -193,6 +241,7 @@ pub fn grid_majorants(values: &GridValues) -> Vec<f32> {
                 let hi = Vec3::new(x as f32 + 1.0, y as f32 + 1.0, z as f32 + 1.0) / r as f32;
                 out.push(match values {
                     GridValues::Density { density, .. } => density.max_in(lo, hi),
+                    GridValues::Cloud { .. } => 1.0,
                     GridValues::Rgb {
                         sigma_a, sigma_s, ..
                     } => {
@@ -535,6 +584,31 @@ mod tests {
         }
     }
 
+    /// pbrt-v4's cloud in the same turned box (chromatic, one channel clear; its density
+    /// parameter, wispiness and frequency other than the defaults; the box's corner off
+    /// the origin, so that the density thins with height within it).
+    fn cloud_medium() -> Medium {
+        let world_from_unit = glam::Mat4::from_translation(Vec3::new(-1.0, 0.5, 2.0))
+            * glam::Mat4::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 0.7)
+            * glam::Mat4::from_scale(Vec3::new(2.0, 1.5, 3.0));
+        Medium {
+            sigma_a: Vec3::new(0.3, 1.5, 0.0),
+            sigma_s: Vec3::new(1.9, 0.8, 0.0),
+            g: 0.0,
+            emission: Vec3::ZERO,
+            grid: Some(std::sync::Arc::new(MediumGrid::cloud(
+                world_from_unit.inverse(),
+                GridValues::Cloud {
+                    density: 1.5,
+                    wispiness: 2.0,
+                    frequency: 3.0,
+                    p0: Vec3::new(-0.3, -0.2, 0.1),
+                    extent: Vec3::new(1.5, 1.2, 1.0),
+                },
+            ))),
+        }
+    }
+
     /// An rgbgrid over the same turned box: 4 × 3 × 3 samples of sigma_a (one channel
     /// clear), sigma_s (absent where `uniform_s`: 1) and Le, times scale 0.8 and Lescale 1.5.
     fn rgb_grid_medium(uniform_s: bool) -> Medium {
@@ -602,6 +676,7 @@ mod tests {
             ("uniformgrid", grid_medium()),
             ("rgbgrid", rgb_grid_medium(false)),
             ("rgbgrid, sigma_s 1", rgb_grid_medium(true)),
+            ("cloud", cloud_medium()),
         ] {
             track_against_quadrature(name, &m);
         }

@@ -158,16 +158,24 @@ pub fn medium(
     inputs: &[BsdfProbeInput],
 ) -> Result<Vec<BsdfProbeOutput>> {
     engine.kernels.reset_sets()?;
-    let (records, grids) = crate::gpu_scene::medium_data(media);
+    // (Clouds' noise table at texel 0.)
+    let (records, grids) = crate::gpu_scene::medium_data(media, 0);
     let buffer = engine.buffer_with("probe media", bytemuck::cast_slice(&records))?;
     let grids = engine.buffer_with("probe medium grids", bytemuck::cast_slice(&grids))?;
+    let texels = engine.buffer_with(
+        "probe noise table",
+        bytemuck::cast_slice(&crate::noise::noise_table()),
+    )?;
     run_bsdf_probe(
         engine,
         "medium_probe",
-        crate::abi::FEATURE_MEDIA | crate::abi::FEATURE_GRID_MEDIA,
+        crate::abi::FEATURE_MEDIA
+            | crate::abi::FEATURE_GRID_MEDIA
+            | crate::abi::FEATURE_CLOUD_MEDIA,
         &[
             (crate::abi::BINDING_MEDIA, &buffer),
             (crate::abi::BINDING_MEDIUM_GRIDS, &grids),
+            (crate::abi::BINDING_TEXELS, &texels),
         ],
         inputs,
         "running the medium probe",

@@ -293,8 +293,8 @@ fn the_every_feature_scenes_measured_file_is_the_synthetic_ggx_table() {
 fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
     use lightpath::abi::{
         FEATURE_ALL, FEATURE_ALPHA_PROCEDURAL_TEXTURES, FEATURE_ALPHA_TEXTURE_GRAPHS,
-        FEATURE_ALPHA_TEXTURE_PROJECTIONS, FEATURE_ENVIRONMENT_MAP, FEATURE_GRID_MEDIA,
-        FEATURE_MEDIA, FEATURE_PROFILE_LIGHTS, FEATURE_UNBOUNDED,
+        FEATURE_ALPHA_TEXTURE_PROJECTIONS, FEATURE_CLOUD_MEDIA, FEATURE_ENVIRONMENT_MAP,
+        FEATURE_GRID_MEDIA, FEATURE_MEDIA, FEATURE_PROFILE_LIGHTS, FEATURE_UNBOUNDED,
     };
     let s = scene::load(&repo().join("scenes/pbrt/every-feature.pbrt"))
         .expect("the every-feature scene parses");
@@ -309,7 +309,8 @@ fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
                 | FEATURE_ALPHA_PROCEDURAL_TEXTURES
                 | FEATURE_PROFILE_LIGHTS
                 | FEATURE_MEDIA
-                | FEATURE_GRID_MEDIA),
+                | FEATURE_GRID_MEDIA
+                | FEATURE_CLOUD_MEDIA),
         "{features:b}"
     );
 }

@@ -171,10 +171,13 @@
 // Participating media (lib/media.glsl): paths in media, surfaces that bound them, shadow
 // rays through them, in all three integrators.
 #define FEATURE_MEDIA 4194304
-// Grid media (pbrt-v4's uniformgrid): delta and ratio tracking through majorant grids.
+// Grid media (pbrt-v4's uniformgrid, rgbgrid; its cloud too): delta and ratio tracking
+// through majorant grids.
 #define FEATURE_GRID_MEDIA 8388608
+// pbrt-v4's procedural cloud medium (with FEATURE_GRID_MEDIA): its noise-made density.
+#define FEATURE_CLOUD_MEDIA 16777216
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 16777215
+#define FEATURE_ALL 33554431
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -375,6 +378,7 @@
 #define MEDIUM_HOMOGENEOUS 0
 #define MEDIUM_UNIFORMGRID 1
 #define MEDIUM_RGBGRID 2
+#define MEDIUM_CLOUD 3
 // An rgbgrid's grid that is not given (GpuMedium offsets).
 #define MEDIUM_NO_GRID 4294967295
 // A grid medium's majorant grid: this many cells per axis over its bounds (pbrt-v4's).
@@ -475,7 +479,13 @@ struct GpuMaterial {
 // emission.xyz its `Lescale` (0 without an Le grid); three floats per sample (RGB) in
 // BINDING_MEDIUM_GRIDS; info.y the first of the sigma_a grid, density_res.w that of the
 // sigma_s grid (MEDIUM_NO_GRID where not given: 1), info.z that of the Le grid, info.w the
-// majorants; density_res.xyz and le_res.xyz the grids' sample counts.
+// majorants; density_res.xyz and le_res.xyz the grids' sample counts. Clouds
+// (MEDIUM_CLOUD, FEATURE_CLOUD_MEDIA; pbrt-v4's procedural cloud, sigma_a and sigma_s per
+// unit density as a uniformgrid's): float bits of density_res.xyz the box's corner p0 and
+// le_res.xyz its extent p1 - p0 in the medium's space (the unit cube mapped back), of
+// density_res.w the `density` parameter, le_res.w `wispiness`, info.z `frequency`; info.y
+// the noise table's first float in BINDING_TEXELS, info.w the majorants (each the largest
+// channel's extinction: the density is at most 1).
 struct GpuMedium {
     vec4 sigma_a;
     vec4 sigma_s;

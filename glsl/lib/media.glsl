@@ -17,6 +17,7 @@
 #include "bindings.glsl"
 #include "sampling.glsl"
 #include "features.glsl"
+#include "noise.glsl"
 
 layout(std430, set = 0, binding = BINDING_MEDIA) readonly buffer MediumBuffer { GpuMedium media[]; };
 
@@ -105,10 +106,56 @@ vec3 grid_lookup3(uint first, uvec3 res, vec3 p) {
     return mix(mix(x00, x10, t.y), mix(x01, x11, t.y), t.z);
 }
 
+// pbrt-v4's procedural cloud's density at p in the medium's space (CPU mirror:
+// src/media.rs's cloud_density): the point moved by two octaves of the noise's gradient
+// (forward differences of 0.01, as pbrt-v4's DNoise) scaled by the wispiness, five octaves
+// of noise there, thinning with height, plus a floor of density below y = 0.5; in [0, 1].
+// (One noise call site: lavapipe inlines each.)
+float cloud_density(uint table, vec3 p, float density, float wispiness, float frequency) {
+    vec3 pp = frequency * p;
+    float vomega = 0.05 * wispiness;
+    float vlambda = 10.0;
+    float d = 0.0;
+    float omega = 0.5;
+    float lambda = 1.0;
+    float n0 = 0.0;
+    vec3 grad = vec3(0.0);
+    int first = wispiness > 0.0 ? 0 : 8;
+    // Calls 0-7: the two perturbations (the noise at q, then at q + 0.01 along x, y, z);
+    // 8-12: the octaves.
+    [[dont_unroll]] for (int k = first; k < 13; ++k) {
+        vec3 q;
+        if (k < 8) {
+            int a = k & 3;
+            q = vlambda * pp + (a == 0 ? vec3(0.0) : 0.01 * vec3(a == 1, a == 2, a == 3));
+        } else {
+            q = lambda * pp;
+        }
+        float n = noise3(table, q);
+        if (k < 8) {
+            int a = k & 3;
+            if (a == 0) n0 = n; else grad[a - 1] = (n - n0) / 0.01;
+            if (a == 3) {
+                pp += vomega * grad;
+                vomega *= 0.5;
+                vlambda *= 1.99;
+            }
+        } else {
+            d += omega * n;
+            omega *= 0.5;
+            lambda *= 1.99;
+        }
+    }
+    d = clamp((1.0 - p.y) * 4.5 * density * d, 0.0, 1.0);
+    d += 2.0 * max(0.0, 0.5 - p.y);
+    return clamp(d, 0.0, 1.0);
+}
+
 // A grid medium at p in its unit cube (CPU mirror: src/media.rs's grid_point): its
 // extinction, absorption and scattering, and (where `emits`) its emitted radiance.
 // uniformgrid: the density times the medium's coefficients, Le times the Le scale;
-// rgbgrid: its grids (1 where not given) times the medium's scales.
+// rgbgrid: its grids (1 where not given) times the medium's scales; cloud: its density
+// times the medium's coefficients, no emission.
 void grid_point(GpuMedium m, vec3 p, bool emits, out vec3 sigma_t, out vec3 sigma_a, out vec3 sigma_s, out vec3 le) {
     le = vec3(0.0);
     if (m.info.x == MEDIUM_RGBGRID) {
@@ -119,7 +166,15 @@ void grid_point(GpuMedium m, vec3 p, bool emits, out vec3 sigma_t, out vec3 sigm
         if (emits) le = m.emission.xyz * grid_lookup3(m.info.z, m.le_res.xyz, p);
         return;
     }
-    float density = grid_lookup(m.info.y, m.density_res.xyz, p);
+    float density;
+    if (has_feature(FEATURE_CLOUD_MEDIA) && m.info.x == MEDIUM_CLOUD) {
+        vec3 pm = uintBitsToFloat(m.density_res.xyz) + p * uintBitsToFloat(m.le_res.xyz);
+        density = cloud_density(m.info.y, pm, uintBitsToFloat(m.density_res.w), uintBitsToFloat(m.le_res.w),
+                                uintBitsToFloat(m.info.z));
+        emits = false;
+    } else {
+        density = grid_lookup(m.info.y, m.density_res.xyz, p);
+    }
     sigma_t = density * (m.sigma_a.xyz + m.sigma_s.xyz);
     sigma_a = density * m.sigma_a.xyz;
     sigma_s = density * m.sigma_s.xyz;

@@ -536,6 +536,14 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if scene.media.iter().any(|m| m.grid.is_some()) {
         features |= crate::abi::FEATURE_GRID_MEDIA;
     }
+    if scene.media.iter().any(|m| {
+        matches!(
+            m.grid.as_deref().map(|g| &g.values),
+            Some(crate::scene::GridValues::Cloud { .. })
+        )
+    }) {
+        features |= crate::abi::FEATURE_CLOUD_MEDIA;
+    }
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
     }
@@ -740,7 +748,8 @@ mod tests {
             | FEATURE_ALPHA_BILERP_TEXTURES
             | FEATURE_PROFILE_LIGHTS
             | crate::abi::FEATURE_MEDIA
-            | crate::abi::FEATURE_GRID_MEDIA;
+            | crate::abi::FEATURE_GRID_MEDIA
+            | crate::abi::FEATURE_CLOUD_MEDIA;
         assert_eq!(FEATURE_ALL, every);
     }
 }

@@ -188,12 +188,32 @@ pub enum GridValues {
         sigma_s: Option<SampledGrid<Vec3>>,
         le: Option<SampledGrid<Vec3>>,
     },
+    /// pbrt-v4's procedural `cloud`: a density in [0, 1] made of noise (src/media.rs's
+    /// `cloud_density`) at the point of the medium's space (the box `p0` + the unit cube
+    /// times `extent`); the medium's sigma_a and sigma_s are per unit density; no emission.
+    Cloud {
+        density: f32,
+        wispiness: f32,
+        frequency: f32,
+        p0: Vec3,
+        extent: Vec3,
+    },
 }
 
 impl MediumGrid {
     /// A uniformgrid's: the density's majorants.
     pub fn density(unit_from_world: Mat4, density: SampledGrid, le_scale: SampledGrid) -> Self {
         let values = GridValues::Density { density, le_scale };
+        let majorants = crate::media::grid_majorants(&values);
+        MediumGrid {
+            unit_from_world,
+            values,
+            majorants,
+        }
+    }
+
+    /// A cloud's (its majorants: 1, the most its density reaches).
+    pub fn cloud(unit_from_world: Mat4, values: GridValues) -> Self {
         let majorants = crate::media::grid_majorants(&values);
         MediumGrid {
             unit_from_world,

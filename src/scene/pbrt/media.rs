@@ -1,5 +1,5 @@
-//! pbrt-v4's media: `MakeNamedMedium` (the `homogeneous`, `uniformgrid` and `rgbgrid`
-//! kinds; NanoVDB and the procedural cloud are refused for now) and the names
+//! pbrt-v4's media: `MakeNamedMedium` (the `homogeneous`, `uniformgrid`, `rgbgrid` and
+//! `cloud` kinds; NanoVDB is refused for now) and the names
 //! `MediumInterface` and the camera refer to.
 
 use super::{Params, ParseError, Parser};
@@ -28,7 +28,7 @@ impl Parser {
                 ))
             }
         };
-        if ty != "homogeneous" && ty != "uniformgrid" && ty != "rgbgrid" {
+        if !["homogeneous", "uniformgrid", "rgbgrid", "cloud"].contains(&ty.as_str()) {
             // (Its parameters are not checked: the whole medium is unsupported.)
             for p in &params.0 {
                 p.used.set(true);
@@ -37,7 +37,7 @@ impl Parser {
                 file,
                 line,
                 format!(
-                    "MakeNamedMedium \"{ty}\" (participating media: homogeneous, uniformgrid and rgbgrid only)"
+                    "MakeNamedMedium \"{ty}\" (participating media: homogeneous, uniformgrid, rgbgrid and cloud only)"
                 ),
             );
             self.named_media.insert(name, 0);
@@ -103,8 +103,11 @@ impl Parser {
                 spectrum(self, "sigma_s", false)?.unwrap_or(Vec3::ONE),
             ),
         };
+        // (pbrt-v4's cloud reads neither Le nor scale.)
+        let cloud = ty == "cloud";
         let le = match &rgb_grid {
             Some((_, emits)) => Vec3::splat(if *emits { 1.0 } else { 0.0 }),
+            None if cloud => Vec3::ZERO,
             None => spectrum(self, "Le", true)?.unwrap_or(Vec3::ZERO),
         };
         let num = |what: &str, default: f64| {
@@ -113,14 +116,16 @@ impl Parser {
                 .and_then(|p| p.nums.first().copied())
                 .unwrap_or(default) as f32
         };
-        let scale = num("scale", 1.0);
+        let scale = if cloud { 1.0 } else { num("scale", 1.0) };
         let grid = if ty == "uniformgrid" {
             Some(self.uniform_grid(&name, params, file, line)?)
+        } else if cloud {
+            Some(self.cloud(&name, params, file, line)?)
         } else {
             rgb_grid.map(|(g, _)| g)
         };
         // (A uniformgrid's Lescale is its grid of scales.)
-        let le_scale = if ty == "uniformgrid" {
+        let le_scale = if ty == "uniformgrid" || cloud {
             1.0
         } else {
             num("Lescale", 1.0)
@@ -295,6 +300,23 @@ impl Parser {
             }
         };
         let res = [int(self, "nx")?, int(self, "ny")?, int(self, "nz")?];
+        let (_, _, unit_from_world) = self.grid_box(name, params, file, line)?;
+        Ok((res, unit_from_world))
+    }
+
+    /// A medium's box "p0" to "p1" (defaults: the unit cube) in the medium's space and the
+    /// map from world space to the unit cube it is mapped to (through the CTM).
+    fn grid_box(
+        &self,
+        name: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<(Vec3, Vec3, Mat4), ParseError> {
+        let d = "MakeNamedMedium";
+        let bad = |this: &Self, (f, l): (u32, u32), what: String| {
+            this.err_at(f, l, d, format!("medium \"{name}\": {what}"))
+        };
         let point = |this: &Self, what: &str, default: Vec3| -> Result<Vec3, ParseError> {
             match params.find(what) {
                 None => Ok(default),
@@ -330,7 +352,44 @@ impl Parser {
                 "its transformation is singular".into(),
             ));
         }
-        Ok((res, world_from_unit.inverse()))
+        Ok((p0, p1, world_from_unit.inverse()))
+    }
+
+    /// A `cloud` medium (pbrt-v4's procedural one): "density" (1), "wispiness" (1),
+    /// "frequency" (5), each finite and not negative, over the box "p0" to "p1".
+    fn cloud(
+        &mut self,
+        name: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<Arc<MediumGrid>, ParseError> {
+        let (p0, p1, unit_from_world) = self.grid_box(name, params, file, line)?;
+        let num = |what: &str, default: f64| -> Result<f32, ParseError> {
+            let Some(p) = params.find(what) else {
+                return Ok(default as f32);
+            };
+            match p.nums.first() {
+                Some(&v) if p.nums.len() == 1 && (v as f32).is_finite() && v >= 0.0 => Ok(v as f32),
+                _ => Err(self.err_at(
+                    p.file,
+                    p.line,
+                    "MakeNamedMedium",
+                    format!(
+                        "medium \"{name}\": \"{what}\" must be one finite number, not negative; got {:?}",
+                        p.nums
+                    ),
+                )),
+            }
+        };
+        let values = crate::scene::GridValues::Cloud {
+            density: num("density", 1.0)?,
+            wispiness: num("wispiness", 1.0)?,
+            frequency: num("frequency", 5.0)?,
+            p0,
+            extent: p1 - p0,
+        };
+        Ok(Arc::new(MediumGrid::cloud(unit_from_world, values)))
     }
 
     /// A grid's values `what`: nx × ny × nz samples of `channels` numbers each (an RGB

@@ -1904,6 +1904,75 @@ fn rgb_grid_media() {
     assert!((most - 14.0).abs() < 1e-5, "{most}");
 }
 
+/// pbrt-v4's cloud: its parameters (defaults density 1, wispiness 1, frequency 5, the unit
+/// box), σ per unit density, no scale, no emission; its density in [0, 1], thinning with
+/// height; negative or non-finite parameters are errors at their line.
+#[test]
+fn cloud_media() {
+    let s = parse_pbrt_str(
+        "WorldBegin\nMakeNamedMedium \"c\" \"string type\" \"cloud\" \"rgb sigma_s\" [2 1 0.5] \
+         \"float density\" 2 \"float g\" 0.4\n\
+         MakeNamedMedium \"d\" \"string type\" \"cloud\" \"float wispiness\" 0 \"float frequency\" 3 \
+         \"point3 p0\" [-1 0 0] \"point3 p1\" [1 2 1]\n",
+        "t.pbrt",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let m = &s.media[0];
+    assert_eq!(
+        (m.sigma_a, m.sigma_s, m.emission, m.g),
+        (Vec3::ONE, Vec3::new(2.0, 1.0, 0.5), Vec3::ZERO, 0.4)
+    );
+    let g = m.grid.as_ref().expect("a grid");
+    assert_eq!(
+        g.values,
+        crate::scene::GridValues::Cloud {
+            density: 2.0,
+            wispiness: 1.0,
+            frequency: 5.0,
+            p0: Vec3::ZERO,
+            extent: Vec3::ONE
+        }
+    );
+    let crate::scene::GridValues::Cloud { p0, extent, .. } =
+        s.media[1].grid.as_ref().unwrap().values
+    else {
+        panic!("not a cloud")
+    };
+    assert_eq!(
+        (p0, extent),
+        (Vec3::new(-1.0, 0.0, 0.0), Vec3::new(2.0, 2.0, 1.0))
+    );
+    // Below y = 0 the floor of density fills it (1); at the top it is thin.
+    let low = m.at(Vec3::new(0.5, 0.01, 0.5)).sigma_s.x / 2.0;
+    assert!((low - 1.0).abs() < 1e-6, "{low}");
+    let mut state = 1u32;
+    let mut next = || {
+        state = state.wrapping_mul(747796405).wrapping_add(2891336453);
+        (state >> 8) as f32 / 16777216.0
+    };
+    let (mut sum_low, mut sum_high) = (0.0, 0.0);
+    for _ in 0..2000 {
+        let (x, z) = (next(), next());
+        let lo = crate::media::cloud_density(Vec3::new(x, 0.55, z), 2.0, 1.0, 5.0);
+        let hi = crate::media::cloud_density(Vec3::new(x, 0.95, z), 2.0, 1.0, 5.0);
+        assert!((0.0..=1.0).contains(&lo) && (0.0..=1.0).contains(&hi));
+        sum_low += lo;
+        sum_high += hi;
+    }
+    assert!(sum_high < sum_low && sum_low > 0.0, "{sum_low} {sum_high}");
+    for params in [
+        "\"float density\" -1",
+        "\"float frequency\" [1 2]",
+        "\"float wispiness\" 1e39",
+    ] {
+        let e = parse_err(&format!(
+            "WorldBegin\n\nMakeNamedMedium \"m\" \"string type\" \"cloud\"\n{params}\n"
+        ));
+        assert!(e.line == 4, "{params}: {e}");
+        assert!(e.message.contains("one finite number"), "{params}: {e}");
+    }
+}
+
 /// An rgbgrid's bad input, each an error at its line: neither sigma_a nor sigma_s, Le
 /// without sigma_a (pbrt-v4's rules), a count that is not nx × ny × nz triples, values of
 /// another type than rgb, a negative value.
