@@ -108,6 +108,7 @@ fn kernel_bindings_come_from_the_spirv() {
                 vec![
                     abi::BINDING_BSDF_PROBE_INPUTS,
                     abi::BINDING_BSDF_PROBE_OUTPUTS,
+                    abi::BINDING_TEXELS,
                     abi::BINDING_MEDIA,
                     abi::BINDING_MEDIUM_GRIDS
                 ],

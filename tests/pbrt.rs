@@ -102,7 +102,7 @@ fn the_command_line_reads_pbrt_files() {
     let bad = dir.join("bad.pbrt");
     std::fs::write(
         &bad,
-        "WorldBegin\nShape \"hyperboloid\"\nMakeNamedMedium \"m\" \"string type\" \"cloud\"\n",
+        "WorldBegin\nShape \"hyperboloid\"\nMakeNamedMedium \"m\" \"string type\" \"nanovdb\" \"string filename\" \"m.nvdb\"\n",
     )
     .unwrap();
     let out2 = dir.join("bad.exr");

@@ -5,7 +5,7 @@ use proptest::prelude::*;
 
 /// The files mutated: the Cornell box, the scene of the later features (loopsubdiv,
 /// blackbody, sampled spectra, Attribute) and the smoke grid (media: homogeneous and
-/// uniformgrid, interfaces, the camera's medium).
+/// uniformgrid, interfaces, the camera's medium; the tokens make rgbgrids and clouds).
 const SCENES: [&str; 3] = [
     include_str!("../scenes/pbrt/cornell-box.pbrt"),
     include_str!("../scenes/pbrt/subdivision-blackbody.pbrt"),
@@ -100,6 +100,10 @@ fn token() -> impl Strategy<Value = String> {
             "\"haze\"",
             "\"homogeneous\"",
             "\"uniformgrid\"",
+            "\"rgbgrid\"",
+            "\"cloud\"",
+            "\"rgb sigma_a\"",
+            "\"float wispiness\"",
             "\"interface\"",
             "\"float density\"",
             "\"integer nx\"",

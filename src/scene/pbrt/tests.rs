@@ -1077,7 +1077,7 @@ fn emission_faces_pbrts_side() {
 fn unsupported_features_are_listed_together() {
     let e = parse_err(&format!(
         r#"WorldBegin
-        MakeNamedMedium "fog" "string type" "cloud"
+        MakeNamedMedium "fog" "string type" "nanovdb" "string filename" "fog.nvdb"
         Shape "hyperboloid"
         Material "subsurface"
         Shape "sphere" "float alpha" 0.5
