@@ -171,7 +171,8 @@ pub fn medium(
         "medium_probe",
         crate::abi::FEATURE_MEDIA
             | crate::abi::FEATURE_GRID_MEDIA
-            | crate::abi::FEATURE_CLOUD_MEDIA,
+            | crate::abi::FEATURE_CLOUD_MEDIA
+            | crate::abi::FEATURE_RGB_GRID_MEDIA,
         &[
             (crate::abi::BINDING_MEDIA, &buffer),
             (crate::abi::BINDING_MEDIUM_GRIDS, &grids),

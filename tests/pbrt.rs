@@ -294,7 +294,8 @@ fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
     use lightpath::abi::{
         FEATURE_ALL, FEATURE_ALPHA_PROCEDURAL_TEXTURES, FEATURE_ALPHA_TEXTURE_GRAPHS,
         FEATURE_ALPHA_TEXTURE_PROJECTIONS, FEATURE_CLOUD_MEDIA, FEATURE_ENVIRONMENT_MAP,
-        FEATURE_GRID_MEDIA, FEATURE_MEDIA, FEATURE_PROFILE_LIGHTS, FEATURE_UNBOUNDED,
+        FEATURE_GRID_MEDIA, FEATURE_MEDIA, FEATURE_PROFILE_LIGHTS, FEATURE_RGB_GRID_MEDIA,
+        FEATURE_UNBOUNDED,
     };
     let s = scene::load(&repo().join("scenes/pbrt/every-feature.pbrt"))
         .expect("the every-feature scene parses");
@@ -310,7 +311,8 @@ fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
                 | FEATURE_PROFILE_LIGHTS
                 | FEATURE_MEDIA
                 | FEATURE_GRID_MEDIA
-                | FEATURE_CLOUD_MEDIA),
+                | FEATURE_CLOUD_MEDIA
+                | FEATURE_RGB_GRID_MEDIA),
         "{features:b}"
     );
 }

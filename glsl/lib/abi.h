@@ -176,8 +176,10 @@
 #define FEATURE_GRID_MEDIA 8388608
 // pbrt-v4's procedural cloud medium (with FEATURE_GRID_MEDIA): its noise-made density.
 #define FEATURE_CLOUD_MEDIA 16777216
+// pbrt-v4's rgbgrid medium (with FEATURE_GRID_MEDIA): its per-channel grids.
+#define FEATURE_RGB_GRID_MEDIA 33554432
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 33554431
+#define FEATURE_ALL 67108863
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u

@@ -158,7 +158,7 @@ float cloud_density(uint table, vec3 p, float density, float wispiness, float fr
 // times the medium's coefficients, no emission.
 void grid_point(GpuMedium m, vec3 p, bool emits, out vec3 sigma_t, out vec3 sigma_a, out vec3 sigma_s, out vec3 le) {
     le = vec3(0.0);
-    if (m.info.x == MEDIUM_RGBGRID) {
+    if (has_feature(FEATURE_RGB_GRID_MEDIA) && m.info.x == MEDIUM_RGBGRID) {
         uvec3 res = m.density_res.xyz;
         sigma_a = m.sigma_a.xyz * (m.info.y == MEDIUM_NO_GRID ? vec3(1.0) : grid_lookup3(m.info.y, res, p));
         sigma_s = m.sigma_s.xyz * (m.density_res.w == MEDIUM_NO_GRID ? vec3(1.0) : grid_lookup3(m.density_res.w, res, p));

@@ -536,13 +536,21 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if scene.media.iter().any(|m| m.grid.is_some()) {
         features |= crate::abi::FEATURE_GRID_MEDIA;
     }
-    if scene.media.iter().any(|m| {
-        matches!(
-            m.grid.as_deref().map(|g| &g.values),
-            Some(crate::scene::GridValues::Cloud { .. })
-        )
-    }) {
+    let grid_kind = |rgb: bool| {
+        scene
+            .media
+            .iter()
+            .any(|m| match m.grid.as_deref().map(|g| &g.values) {
+                Some(crate::scene::GridValues::Cloud { .. }) => !rgb,
+                Some(crate::scene::GridValues::Rgb { .. }) => rgb,
+                _ => false,
+            })
+    };
+    if grid_kind(false) {
         features |= crate::abi::FEATURE_CLOUD_MEDIA;
+    }
+    if grid_kind(true) {
+        features |= crate::abi::FEATURE_RGB_GRID_MEDIA;
     }
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
@@ -749,7 +757,8 @@ mod tests {
             | FEATURE_PROFILE_LIGHTS
             | crate::abi::FEATURE_MEDIA
             | crate::abi::FEATURE_GRID_MEDIA
-            | crate::abi::FEATURE_CLOUD_MEDIA;
+            | crate::abi::FEATURE_CLOUD_MEDIA
+            | crate::abi::FEATURE_RGB_GRID_MEDIA;
         assert_eq!(FEATURE_ALL, every);
     }
 }
