@@ -327,6 +327,9 @@ pub struct TextureData {
     pub light_profiles: Vec<u32>,
     /// The noise table's first float, where a texture or a cloud medium needs it.
     pub noise: Option<u32>,
+    /// The blackbody table's first float (src/media.rs's `blackbody_table`), where a
+    /// medium has a temperature.
+    pub blackbody: Option<u32>,
 }
 
 fn push_image(texels: &mut Vec<f32>, image: &Image) -> u32 {
@@ -591,8 +594,28 @@ pub fn texture_data(scene: &Scene) -> TextureData {
             )
         })
         .then(|| texels.noise_table());
+    let blackbody = scene
+        .media
+        .iter()
+        .any(|m| {
+            matches!(
+                m.grid.as_deref().map(|g| &g.values),
+                Some(GridValues::Density {
+                    temperature: Some(_),
+                    ..
+                })
+            )
+        })
+        .then(|| {
+            let first = texels.floats.len() as u32;
+            texels
+                .floats
+                .extend_from_slice(crate::media::blackbody_table());
+            first
+        });
     TextureData {
         noise,
+        blackbody,
         textures,
         texels: texels.floats,
         environment,
@@ -623,12 +646,20 @@ pub fn material_records(scene: &Scene, textures: &TextureData) -> Vec<GpuMateria
 /// (BINDING_MEDIUM_GRIDS: each grid's density, Le-scale and majorant grids; the
 /// majorants per unit length, times the largest channel's extinction per unit density).
 pub fn medium_records(scene: &Scene, textures: &TextureData) -> (Vec<GpuMedium>, Vec<f32>) {
-    medium_data(&scene.media, textures.noise.unwrap_or(0))
+    medium_data(
+        &scene.media,
+        textures.noise.unwrap_or(0),
+        textures.blackbody.unwrap_or(0),
+    )
 }
 
 /// `medium_records` of a list of media (the medium probe's), the noise table (clouds') at
-/// texel `noise`.
-pub fn medium_data(media: &[crate::scene::Medium], noise: u32) -> (Vec<GpuMedium>, Vec<f32>) {
+/// texel `noise`, the blackbody table (temperatures') at texel `blackbody`.
+pub fn medium_data(
+    media: &[crate::scene::Medium],
+    noise: u32,
+    blackbody: u32,
+) -> (Vec<GpuMedium>, Vec<f32>) {
     let mut floats = Vec::new();
     let mut records: Vec<GpuMedium> = media
         .iter()
@@ -647,14 +678,28 @@ pub fn medium_data(media: &[crate::scene::Medium], noise: u32) -> (Vec<GpuMedium
                 r.unit_y = u.y_axis.to_array();
                 r.unit_z = u.z_axis.to_array();
                 match &g.values {
-                    GridValues::Density { density, le_scale } => {
+                    GridValues::Density {
+                        density,
+                        le_scale,
+                        temperature,
+                    } => {
                         let d = first(&floats);
                         floats.extend_from_slice(&density.values);
                         let le = first(&floats);
                         floats.extend_from_slice(&le_scale.values);
+                        let t = match temperature {
+                            None => crate::abi::MEDIUM_NO_GRID,
+                            Some(t) => {
+                                r.sigma_s[3] = t.offset;
+                                r.emission[3] = t.scale;
+                                let at = first(&floats);
+                                floats.extend_from_slice(&t.grid.values);
+                                at
+                            }
+                        };
                         r.info = [crate::abi::MEDIUM_UNIFORMGRID, d, le, 0];
-                        r.density_res = [density.res[0], density.res[1], density.res[2], 0];
-                        r.le_res = [le_scale.res[0], le_scale.res[1], le_scale.res[2], 0];
+                        r.density_res = [density.res[0], density.res[1], density.res[2], t];
+                        r.le_res = [le_scale.res[0], le_scale.res[1], le_scale.res[2], blackbody];
                     }
                     GridValues::Cloud {
                         density,

@@ -126,13 +126,20 @@ pub struct MediumPoint {
 /// times the medium's scales.
 pub fn grid_point(m: &Medium, g: &MediumGrid, p: Vec3) -> MediumPoint {
     match &g.values {
-        GridValues::Density { density, le_scale } => {
+        GridValues::Density {
+            density,
+            le_scale,
+            temperature,
+        } => {
             let density = density.lookup(p);
+            let glow = temperature.as_ref().map_or(Vec3::ONE, |t| {
+                temperature_glow(blackbody_table(), (t.grid.lookup(p) - t.offset) * t.scale)
+            });
             MediumPoint {
                 sigma_t: density * (m.sigma_a + m.sigma_s),
                 sigma_a: density * m.sigma_a,
                 sigma_s: density * m.sigma_s,
-                le: m.emission * le_scale.lookup(p),
+                le: m.emission * le_scale.lookup(p) * glow,
             }
         }
         GridValues::Cloud {
@@ -166,6 +173,62 @@ pub fn grid_point(m: &Medium, g: &MediumGrid, p: Vec3) -> MediumPoint {
                 le: le.as_ref().map_or(Vec3::ZERO, |g| m.emission * g.lookup(p)),
             }
         }
+    }
+}
+
+/// The blackbody table's entries (media.glsl's `blackbody`).
+const BLACKBODY_ENTRIES: usize = 4096;
+/// Its temperatures: log-spaced from 100 K (pbrt-v4's media emit above it) to 10⁷ K.
+const BLACKBODY_MIN_K: f32 = 100.0;
+const BLACKBODY_MAX_K: f32 = 1.0e7;
+
+/// The table of pbrt-v4's normalized blackbody (spectrum::blackbody_peak_rgb, each
+/// channel at least 0: below about 1900 K a blackbody lies outside the sRGB gamut, and
+/// its negative blue is cut) that media.glsl's `blackbody` interpolates, as the GPU reads
+/// it from its texel buffer: log2 of the first temperature, entries per unit of log2 T,
+/// the number of entries, then RGB per entry at temperatures 2^(first + i / that).
+pub fn blackbody_table() -> &'static [f32] {
+    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let (lo, hi) = (BLACKBODY_MIN_K.log2(), BLACKBODY_MAX_K.log2());
+        let per = (BLACKBODY_ENTRIES - 1) as f32 / (hi - lo);
+        let mut t = vec![lo, per, BLACKBODY_ENTRIES as f32];
+        for i in 0..BLACKBODY_ENTRIES {
+            let k = (lo as f64 + i as f64 / per as f64).exp2();
+            let rgb = crate::scene::spectrum::blackbody_peak_rgb(k).max(glam::DVec3::ZERO);
+            t.extend(rgb.as_vec3().to_array());
+        }
+        t
+    })
+}
+
+/// The blackbody's RGB at `kelvin` from `table` (media.glsl's `blackbody`): linear
+/// between entries in log2 T; above the last temperature it falls as T⁻⁴ (the
+/// Rayleigh–Jeans tail over the peak, which grows as T⁵).
+pub fn blackbody(table: &[f32], kelvin: f32) -> Vec3 {
+    let (lo, per, n) = (table[0], table[1], table[2]);
+    let last = n - 1.0;
+    let x = (kelvin.log2() - lo) * per;
+    let tail = if x > last {
+        ((last - x) / per * 4.0).exp2()
+    } else {
+        1.0
+    };
+    let x = x.clamp(0.0, last);
+    let f = x.min(last - 1.0).floor();
+    let i = 3 + 3 * f as usize;
+    let a = Vec3::from_slice(&table[i..i + 3]);
+    let b = Vec3::from_slice(&table[i + 3..i + 6]);
+    tail * a.lerp(b, x - f)
+}
+
+/// What a medium's temperature (kelvin, after its offset and scale) multiplies its Le by:
+/// the blackbody above 100 K, nothing below (pbrt-v4's rule).
+pub fn temperature_glow(table: &[f32], kelvin: f32) -> Vec3 {
+    if kelvin > 100.0 {
+        blackbody(table, kelvin)
+    } else {
+        Vec3::ZERO
     }
 }
 
@@ -580,8 +643,82 @@ mod tests {
                 world_from_unit.inverse(),
                 density,
                 le_scale,
+                None,
             ))),
         }
+    }
+
+    /// The grid medium with a temperature grid of its own size: raw values in [0, 5000],
+    /// offset 200, scale 1.5 (so some samples lie below 100 K and emit nothing), Le 0.01.
+    fn hot_grid_medium() -> Medium {
+        let m = grid_medium();
+        let g = m.grid.as_deref().unwrap();
+        let GridValues::Density {
+            density, le_scale, ..
+        } = &g.values
+        else {
+            unreachable!()
+        };
+        let mut state = 31u64;
+        let temperature = crate::scene::Temperature {
+            grid: SampledGrid {
+                res: [5, 4, 3],
+                values: (0..60).map(|_| 5000.0 * lcg(&mut state)).collect(),
+            },
+            offset: 200.0,
+            scale: 1.5,
+        };
+        Medium {
+            emission: Vec3::splat(0.01),
+            grid: Some(std::sync::Arc::new(MediumGrid::density(
+                g.unit_from_world,
+                density.clone(),
+                le_scale.clone(),
+                Some(temperature),
+            ))),
+            ..m
+        }
+    }
+
+    /// The blackbody table against the spectrum's own integral (spectrum.rs) within 0.2 %
+    /// of the brightest channel from 800 K (where the visible glow starts to matter) to
+    /// 2 × 10⁷ K (past the table, on its T⁻⁴ tail); the chromaticity of pbrt-v4's
+    /// normalized blackbody is the blackbody's; its luminance is the integral of ȳ over
+    /// the range where the whole visible spectrum is near the peak, and tiny when cold.
+    #[test]
+    fn the_blackbody_table_matches_its_spectrum() {
+        let table = blackbody_table();
+        let mut k = 800.0f64;
+        while k < 2.0e7 {
+            let want = crate::scene::spectrum::blackbody_peak_rgb(k).max(glam::DVec3::ZERO);
+            let got = blackbody(table, k as f32).as_dvec3();
+            assert!(
+                (got - want).abs().max_element() <= 2e-3 * want.max_element(),
+                "{k} K: {got} vs {want}"
+            );
+            k *= 1.0137;
+        }
+        let y = |c: glam::DVec3| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+        let lum = |k: f64| y(crate::scene::spectrum::blackbody_peak_rgb(k));
+        let colour = crate::scene::spectrum::blackbody_rgb(5000.0)
+            .unwrap()
+            .as_dvec3();
+        let peak = crate::scene::spectrum::blackbody_peak_rgb(5000.0);
+        assert!(
+            (peak / lum(5000.0) - colour).abs().max_element() < 1e-3,
+            "{peak} vs {colour}"
+        );
+        // ∫ ȳ dλ of the fitted observer: about 106.9 (the tables' 106.857).
+        let ybar: f64 = (360..=830)
+            .map(|l| crate::scene::spectrum::cie_xyz(l as f64).y)
+            .sum();
+        assert!(
+            lum(6000.0) > 0.85 * ybar && lum(6000.0) < ybar,
+            "{} of {ybar}",
+            lum(6000.0)
+        );
+        assert!(lum(1000.0) < 1e-2 && lum(1.0e5) < 0.1 * ybar);
+        assert_eq!(temperature_glow(table, 100.0), Vec3::ZERO);
     }
 
     /// pbrt-v4's cloud in the same turned box (chromatic, one channel clear; its density
@@ -674,6 +811,7 @@ mod tests {
     fn delta_and_ratio_tracking_match_a_grid_by_quadrature() {
         for (name, m) in [
             ("uniformgrid", grid_medium()),
+            ("uniformgrid with a temperature", hot_grid_medium()),
             ("rgbgrid", rgb_grid_medium(false)),
             ("rgbgrid, sigma_s 1", rgb_grid_medium(true)),
             ("cloud", cloud_medium()),
@@ -747,7 +885,7 @@ mod tests {
             let mut state = seed;
             let n = (res[0] * res[1] * res[2]) as usize;
             let density = SampledGrid { res, values: (0..n).map(|_| 5.0 * lcg(&mut state)).collect() };
-            let maj = grid_majorants(&GridValues::Density { density: density.clone(), le_scale: SampledGrid { res: [1, 1, 1], values: vec![1.0] } });
+            let maj = grid_majorants(&GridValues::Density { density: density.clone(), le_scale: SampledGrid { res: [1, 1, 1], values: vec![1.0] }, temperature: None });
             let r = MEDIUM_MAJORANT_RES as usize;
             for _ in 0..400 {
                 let cell = [0, 1, 2].map(|_| ((lcg(&mut state) * r as f32) as usize).min(r - 1));

@@ -158,21 +158,22 @@ pub fn medium(
     inputs: &[BsdfProbeInput],
 ) -> Result<Vec<BsdfProbeOutput>> {
     engine.kernels.reset_sets()?;
-    // (Clouds' noise table at texel 0.)
-    let (records, grids) = crate::gpu_scene::medium_data(media, 0);
+    // (Clouds' noise table at texel 0, the blackbody table after it.)
+    let mut tables = crate::noise::noise_table();
+    let blackbody = tables.len() as u32;
+    tables.extend_from_slice(crate::media::blackbody_table());
+    let (records, grids) = crate::gpu_scene::medium_data(media, 0, blackbody);
     let buffer = engine.buffer_with("probe media", bytemuck::cast_slice(&records))?;
     let grids = engine.buffer_with("probe medium grids", bytemuck::cast_slice(&grids))?;
-    let texels = engine.buffer_with(
-        "probe noise table",
-        bytemuck::cast_slice(&crate::noise::noise_table()),
-    )?;
+    let texels = engine.buffer_with("probe tables", bytemuck::cast_slice(&tables))?;
     run_bsdf_probe(
         engine,
         "medium_probe",
         crate::abi::FEATURE_MEDIA
             | crate::abi::FEATURE_GRID_MEDIA
             | crate::abi::FEATURE_CLOUD_MEDIA
-            | crate::abi::FEATURE_RGB_GRID_MEDIA,
+            | crate::abi::FEATURE_RGB_GRID_MEDIA
+            | crate::abi::FEATURE_TEMPERATURE_MEDIA,
         &[
             (crate::abi::BINDING_MEDIA, &buffer),
             (crate::abi::BINDING_MEDIUM_GRIDS, &grids),

@@ -599,7 +599,8 @@ fn free_flights_and_the_phase_function_on_the_device_match_their_mirror() {
 }
 
 /// media.glsl's delta and ratio tracking through a grid (a turned, chromatic, emitting
-/// uniformgrid, an rgbgrid of as many samples and a cloud), run by medium_probe.comp, against their CPU mirror input by input: the
+/// uniformgrid, an rgbgrid of as many samples, a cloud, and the uniformgrid glowing by its
+/// temperature's blackbody), run by medium_probe.comp, against their CPU mirror input by input: the
 /// same generators and the same steps, so the same events, save the few where the two
 /// sides' rounding lands on the other side of a decision (at most 2 %).
 #[test]
@@ -646,6 +647,7 @@ fn grid_tracking_on_the_device_matches_its_mirror() {
                 world_from_unit.inverse(),
                 density.clone(),
                 le_scale.clone(),
+                None,
             ))),
         },
         Medium {
@@ -676,6 +678,27 @@ fn grid_tracking_on_the_device_matches_its_mirror() {
                 },
             ))),
         },
+        // A uniformgrid with a temperature: (8 + 12 × density) × 100 K, 800 K to 4400 K
+        // (the blackbody table's dim and bright ends), times the Le scale grid.
+        Medium {
+            sigma_a: Vec3::new(0.3, 1.5, 0.0),
+            sigma_s: Vec3::new(0.9, 0.2, 0.0),
+            g: 0.2,
+            emission: Vec3::splat(0.05),
+            grid: Some(std::sync::Arc::new(MediumGrid::density(
+                world_from_unit.inverse(),
+                density.clone(),
+                le_scale.clone(),
+                Some(lightpath::scene::Temperature {
+                    grid: SampledGrid {
+                        res: [4, 3, 2],
+                        values: density.values.iter().map(|d| 10.0 + 12.0 * d).collect(),
+                    },
+                    offset: 2.0,
+                    scale: 100.0,
+                }),
+            ))),
+        },
     ];
     let mut state = 0x2545_f491_4f6c_dd1du64;
     let mut next = || {
@@ -699,8 +722,9 @@ fn grid_tracking_on_the_device_matches_its_mirror() {
         };
         let tmax = if i % 3 == 0 { -1.0 } else { 1.0 + 6.0 * next() };
         inputs.push(BsdfProbeInput {
-            // (Medium code 1, the uniformgrid, 2, the rgbgrid, or 3, the cloud.)
-            info: [1 + (i / 2) % 3, i.wrapping_mul(2654435761), 0, 0],
+            // (Medium code 1, the uniformgrid, 2, the rgbgrid, 3, the cloud, or 4, the
+            // uniformgrid with a temperature.)
+            info: [1 + (i / 2) % 4, i.wrapping_mul(2654435761), 0, 0],
             n: [next(), next(), 0.0, 0.0],
             wo: d.extend(0.0).to_array(),
             wi: d.extend(0.0).to_array(),
@@ -899,7 +923,18 @@ fn an_rgb_grid_medium_transmits_and_emits_as_its_integrated_grids() {
 /// maxdepth 1, 2 and 5.
 #[test]
 fn pt_bdpt_and_mmlt_agree_on_a_glowing_rgb_grid() {
-    let s = pbrt(&format!(
+    agree_with_pt_at_depths_1_2_5("glowing rgb grid", &rgb_grid_under_a_spot(true), 4);
+}
+
+/// The scattering rgbgrid of `pt_bdpt_and_mmlt_agree_on_a_glowing_rgb_grid` under its
+/// spot light, glowing where `glows`.
+fn rgb_grid_under_a_spot(glows: bool) -> Scene {
+    let mut grids: Vec<(&str, fn(f32, f32) -> [f32; 3])> =
+        vec![("sigma_a", |d, l| [0.2 * d, 0.1 + 0.3 * l, 0.4 * d])];
+    if glows {
+        grids.push(("Le", |d, l| [l, 0.5 * d, 0.2 * l]));
+    }
+    pbrt(&format!(
         "LookAt 0 0.5 -6  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
          Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n\
          Sampler \"independent\" \"integer pixelsamples\" 64\n\
@@ -908,16 +943,107 @@ fn pt_bdpt_and_mmlt_agree_on_a_glowing_rgb_grid() {
          \"float conedeltaangle\" 5 \"rgb I\" [20 20 20]\n\
          Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n\
          Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3] \"point3 P\" [-8 -2 -8  -8 -2 8  8 -2 8  8 -2 -8]\n",
-        rgb_grid_medium(
-            &[
-                ("sigma_a", |d, l| [0.2 * d, 0.1 + 0.3 * l, 0.4 * d]),
-                ("Le", |d, l| [l, 0.5 * d, 0.2 * l]),
-            ],
-            "\"float scale\" 0.6 \"float g\" 0.4"
-        ),
+        rgb_grid_medium(&grids, "\"float scale\" 0.6 \"float g\" 0.4"),
+        grid_boundary(),
+    ))
+}
+
+/// The grid's temperature: (12 + 10 × density) × `temperaturescale` 50, 600 K to 2100 K
+/// (red to orange; the glow grows some 10⁴-fold over that range), as pbrt-v4's
+/// "float temperature" values.
+fn grid_temperature() -> String {
+    let t: Vec<String> = GRID_DENSITY
+        .split_whitespace()
+        .map(|v| format!("{}", 12.0 + 10.0 * v.parse::<f32>().unwrap()))
+        .collect();
+    format!(
+        "\"float temperature\" [{}] \"float temperaturescale\" 50",
+        t.join(" ")
+    )
+}
+
+/// A uniformgrid glowing by its temperature (absorbing only, chromatic, one channel
+/// clear; its blackbody times the Le-scale grid) seen against the light: every pixel's
+/// transmittance and emission as the quadrature of its grids (src/media.rs's blackbody
+/// table and lookup, checked against Planck's law in its unit tests), in the path tracer
+/// on both backends, BDPT and MMLT.
+#[test]
+fn a_hot_grid_glows_as_its_integrated_blackbody() {
+    let scene = |temperature: &str| {
+        pbrt(&format!(
+            "LookAt 0 0 -5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+             Film \"rgb\" \"integer xresolution\" 16 \"integer yresolution\" 16\n\
+             Sampler \"independent\" \"integer pixelsamples\" 32\n\
+             WorldBegin\n{}{}\
+             AttributeBegin\nMaterial \"diffuse\" \"rgb reflectance\" [0 0 0]\n\
+             AreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"bool twosided\" true\n{}AttributeEnd\n",
+            grid_medium(&format!(
+                "\"rgb sigma_a\" [0.6 1.2 0] \"rgb sigma_s\" [0 0 0] {temperature} \"float Lescale\" [{GRID_LE_SCALE}]"
+            )),
+            grid_boundary(),
+            square(3.0, true),
+        ))
+    };
+    let s = scene(&grid_temperature());
+    assert_eq!(s.media[0].emission, Vec3::ONE);
+    let expected = expected_image(&s, |o, d| through_grid(&s, o, d));
+    // (The glow: against the same grid without a temperature, which only absorbs.)
+    let cold = scene("");
+    let dark = expected_image(&cold, |o, d| through_grid(&cold, o, d));
+    let glow = expected
+        .pixels
+        .iter()
+        .zip(&dark.pixels)
+        .map(|(a, b)| a[0] - b[0])
+        .fold(0.0f32, f32::max);
+    assert!(glow > 0.1, "the grid's glow reaches {glow}");
+    let reference = exact_like(&estimate_from_runs(&[region_means(&expected, 4)]));
+    for accel in [Bvh, RayQuery] {
+        assert_agree(
+            &format!("hot grid, pt ({accel:?})"),
+            &estimate(&s, 4, 4, accel),
+            &reference,
+            5.0,
+            0.003,
+        );
+    }
+    let b = with_integrator(s.clone(), IntegratorKind::Bdpt, 32);
+    assert_agree(
+        "hot grid, bdpt",
+        &estimate(&b, 4, 4, Bvh),
+        &reference,
+        5.0,
+        0.003,
+    );
+    assert_agree(
+        "hot grid, mmlt",
+        &estimate(&with_mmlt(s, 1024), 8, 4, Bvh),
+        &reference,
+        5.0,
+        0.005,
+    );
+}
+
+/// A scattering uniformgrid glowing by its temperature (chromatic, forward scattering;
+/// its blackbody times the Le-scale grid), the scene's only light, over a floor: PT,
+/// BDPT and MMLT agree at maxdepth 1, 2 and 5.
+#[test]
+fn pt_bdpt_and_mmlt_agree_on_a_hot_grid() {
+    let s = pbrt(&format!(
+        "LookAt 0 0.5 -6  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+         Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n\
+         Sampler \"independent\" \"integer pixelsamples\" 64\n\
+         WorldBegin\n{}{}\
+         Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n\
+         Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3] \"point3 P\" [-8 -2 -8  -8 -2 8  8 -2 8  8 -2 -8]\n",
+        grid_medium(&format!(
+            "\"rgb sigma_a\" [0.3 0.4 0.5] \"rgb sigma_s\" [0.9 0.7 0.4] \"float g\" 0.3 {} \
+             \"float Lescale\" [{GRID_LE_SCALE}]",
+            grid_temperature()
+        )),
         grid_boundary(),
     ));
-    agree_with_pt_at_depths_1_2_5("glowing rgb grid", &s, 4);
+    agree_with_pt_at_depths_1_2_5("hot grid", &s, 4);
 }
 
 /// pbrt-v4's cloud (its parameters other than the defaults; chromatic, absorbing only) in
@@ -969,7 +1095,13 @@ fn cloud_medium(params: &str) -> String {
 /// light: PT, BDPT and MMLT agree at maxdepth 1, 2 and 5.
 #[test]
 fn pt_bdpt_and_mmlt_agree_on_a_cloud() {
-    let s = pbrt(&format!(
+    agree_with_pt_at_depths_1_2_5("cloud", &cloud_under_a_light(), 4);
+}
+
+/// The scattering cloud of `pt_bdpt_and_mmlt_agree_on_a_cloud` over its floor, under its
+/// small sphere light.
+fn cloud_under_a_light() -> Scene {
+    pbrt(&format!(
         "LookAt 0 0.5 -6  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
          Film \"rgb\" \"integer xresolution\" 12 \"integer yresolution\" 12\n\
          Sampler \"independent\" \"integer pixelsamples\" 64\n\
@@ -980,8 +1112,23 @@ fn pt_bdpt_and_mmlt_agree_on_a_cloud() {
          Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3] \"point3 P\" [-8 -2 -8  -8 -2 8  8 -2 8  8 -2 -8]\n",
         cloud_medium("\"rgb sigma_a\" [0.1 0.2 0.3] \"rgb sigma_s\" [1.5 1.2 0.8] \"float g\" 0.5"),
         grid_boundary(),
-    ));
-    agree_with_pt_at_depths_1_2_5("cloud", &s, 4);
+    ))
+}
+
+/// Each BDPT strategy alone samples the paths of its depth through grid media: an
+/// rgbgrid under a spot light (sigma_s 1 where its grid is not given; not emitting: a
+/// medium's emission is found by camera subpaths alone, s = 0, and a delta light leaves
+/// s = 0 nothing else) and the cloud under its sphere light.
+#[test]
+fn every_bdpt_strategy_alone_matches_the_path_tracer_in_grid_media() {
+    assert_each_strategy_alone_matches_pt_at(
+        "rgb grid under a spot",
+        Kind::Delta,
+        &rgb_grid_under_a_spot(false),
+        2,
+        128,
+    );
+    assert_each_strategy_alone_matches_pt_at("cloud", Kind::Area, &cloud_under_a_light(), 2, 128);
 }
 
 /// Along (o, d) to the light at z = 3 (d normalized), by quadrature of the medium's own σa

@@ -295,7 +295,7 @@ fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
         FEATURE_ALL, FEATURE_ALPHA_PROCEDURAL_TEXTURES, FEATURE_ALPHA_TEXTURE_GRAPHS,
         FEATURE_ALPHA_TEXTURE_PROJECTIONS, FEATURE_CLOUD_MEDIA, FEATURE_ENVIRONMENT_MAP,
         FEATURE_GRID_MEDIA, FEATURE_MEDIA, FEATURE_PROFILE_LIGHTS, FEATURE_RGB_GRID_MEDIA,
-        FEATURE_UNBOUNDED,
+        FEATURE_TEMPERATURE_MEDIA, FEATURE_UNBOUNDED,
     };
     let s = scene::load(&repo().join("scenes/pbrt/every-feature.pbrt"))
         .expect("the every-feature scene parses");
@@ -312,7 +312,8 @@ fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
                 | FEATURE_MEDIA
                 | FEATURE_GRID_MEDIA
                 | FEATURE_CLOUD_MEDIA
-                | FEATURE_RGB_GRID_MEDIA),
+                | FEATURE_RGB_GRID_MEDIA
+                | FEATURE_TEMPERATURE_MEDIA),
         "{features:b}"
     );
 }

@@ -178,8 +178,10 @@
 #define FEATURE_CLOUD_MEDIA 16777216
 // pbrt-v4's rgbgrid medium (with FEATURE_GRID_MEDIA): its per-channel grids.
 #define FEATURE_RGB_GRID_MEDIA 33554432
+// A uniformgrid's temperature (with FEATURE_GRID_MEDIA): blackbody emission.
+#define FEATURE_TEMPERATURE_MEDIA 67108864
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 67108863
+#define FEATURE_ALL 134217727
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -477,7 +479,11 @@ struct GpuMaterial {
 // unit_y and unit_z the rows of the affine map from world space to the grid's unit cube
 // (pbrt's bounds p0, p1 in the medium's space); density_res and le_res the two grids'
 // sample counts nx, ny, nz (pbrt's SampledGrid: samples at cell centres, trilinear, zero
-// outside). RGB grids (MEDIUM_RGBGRID): sigma_a.xyz and sigma_s.xyz pbrt's `scale`,
+// outside); density_res.w the first float of the temperature grid (density_res.xyz samples;
+// MEDIUM_NO_GRID where there is none, FEATURE_TEMPERATURE_MEDIA), sigma_s.w and emission.w
+// its offset and scale (pbrt-v4's temperatureoffset, temperaturescale), le_res.w the
+// blackbody table's first float in BINDING_TEXELS (src/media.rs's blackbody_table; the
+// medium's emission.xyz is then 1). RGB grids (MEDIUM_RGBGRID): sigma_a.xyz and sigma_s.xyz pbrt's `scale`,
 // emission.xyz its `Lescale` (0 without an Le grid); three floats per sample (RGB) in
 // BINDING_MEDIUM_GRIDS; info.y the first of the sigma_a grid, density_res.w that of the
 // sigma_s grid (MEDIUM_NO_GRID where not given: 1), info.z that of the Le grid, info.w the

@@ -151,6 +151,22 @@ float cloud_density(uint table, vec3 p, float density, float wispiness, float fr
     return clamp(d, 0.0, 1.0);
 }
 
+// pbrt-v4's BlackbodySpectrum (Planck's law over its peak) at `kelvin` as linear sRGB, from
+// the table at texels[table] (CPU mirror and maker: src/media.rs's blackbody and
+// blackbody_table): log2 of its first temperature, entries per unit of log2 T, their count,
+// then RGB entries; linear between them in log2 T, falling as T^-4 above the last.
+vec3 blackbody(uint table, float kelvin) {
+    float lo = texels[table], per = texels[table + 1u], last = texels[table + 2u] - 1.0;
+    float x = (log2(kelvin) - lo) * per;
+    float tail = x > last ? exp2((last - x) / per * 4.0) : 1.0;
+    x = clamp(x, 0.0, last);
+    float f = floor(min(x, last - 1.0));
+    uint i = table + 3u + 3u * uint(f);
+    vec3 a = vec3(texels[i], texels[i + 1u], texels[i + 2u]);
+    vec3 b = vec3(texels[i + 3u], texels[i + 4u], texels[i + 5u]);
+    return tail * mix(a, b, x - f);
+}
+
 // A grid medium at p in its unit cube (CPU mirror: src/media.rs's grid_point): its
 // extinction, absorption and scattering, and (where `emits`) its emitted radiance.
 // uniformgrid: the density times the medium's coefficients, Le times the Le scale;
@@ -178,7 +194,14 @@ void grid_point(GpuMedium m, vec3 p, bool emits, out vec3 sigma_t, out vec3 sigm
     sigma_t = density * (m.sigma_a.xyz + m.sigma_s.xyz);
     sigma_a = density * m.sigma_a.xyz;
     sigma_s = density * m.sigma_s.xyz;
-    if (emits) le = m.emission.xyz * grid_lookup(m.info.z, m.le_res.xyz, p);
+    if (emits) {
+        le = m.emission.xyz * grid_lookup(m.info.z, m.le_res.xyz, p);
+        // A temperature: its blackbody above 100 K (pbrt-v4's rule), nothing below.
+        if (has_feature(FEATURE_TEMPERATURE_MEDIA) && m.density_res.w != MEDIUM_NO_GRID) {
+            float kelvin = (grid_lookup(m.density_res.w, m.density_res.xyz, p) - m.sigma_s.w) * m.emission.w;
+            le *= kelvin > 100.0 ? blackbody(m.le_res.w, kelvin) : vec3(0.0);
+        }
+    }
 }
 
 // A ray's next event in a medium, drawn once for the whole ray through the media it

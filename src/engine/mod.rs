@@ -552,6 +552,17 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if grid_kind(true) {
         features |= crate::abi::FEATURE_RGB_GRID_MEDIA;
     }
+    if scene.media.iter().any(|m| {
+        matches!(
+            m.grid.as_deref().map(|g| &g.values),
+            Some(crate::scene::GridValues::Density {
+                temperature: Some(_),
+                ..
+            })
+        )
+    }) {
+        features |= crate::abi::FEATURE_TEMPERATURE_MEDIA;
+    }
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
     }
@@ -758,7 +769,8 @@ mod tests {
             | crate::abi::FEATURE_MEDIA
             | crate::abi::FEATURE_GRID_MEDIA
             | crate::abi::FEATURE_CLOUD_MEDIA
-            | crate::abi::FEATURE_RGB_GRID_MEDIA;
+            | crate::abi::FEATURE_RGB_GRID_MEDIA
+            | crate::abi::FEATURE_TEMPERATURE_MEDIA;
         assert_eq!(FEATURE_ALL, every);
     }
 }

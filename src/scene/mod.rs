@@ -174,10 +174,12 @@ pub struct MediumGrid {
 #[derive(Clone, Debug, PartialEq)]
 pub enum GridValues {
     /// pbrt-v4's `uniformgrid`: a density (the medium's sigma_a and sigma_s are per unit
-    /// density) and an Le scale (the emitted radiance is the medium's Le times it).
+    /// density) and an Le scale (the emitted radiance is the medium's Le times it, times
+    /// the blackbody of its temperature where it has one).
     Density {
         density: SampledGrid,
         le_scale: SampledGrid,
+        temperature: Option<Temperature>,
     },
     /// pbrt-v4's `rgbgrid`: sigma_a, sigma_s and Le per channel, each times the medium's
     /// (`scale` for both coefficients, `Lescale` for the emission); sigma_a and sigma_s
@@ -200,10 +202,30 @@ pub enum GridValues {
     },
 }
 
+/// A grid medium's temperature (pbrt-v4's `temperature` grid of a `uniformgrid`): where
+/// (grid - `offset`) × `scale` exceeds 100 K it emits the blackbody of that temperature
+/// (src/media.rs's `blackbody`: the spectrum over its peak value, as pbrt-v4's
+/// `BlackbodySpectrum`), times the medium's Le scale.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Temperature {
+    pub grid: SampledGrid,
+    pub offset: f32,
+    pub scale: f32,
+}
+
 impl MediumGrid {
     /// A uniformgrid's: the density's majorants.
-    pub fn density(unit_from_world: Mat4, density: SampledGrid, le_scale: SampledGrid) -> Self {
-        let values = GridValues::Density { density, le_scale };
+    pub fn density(
+        unit_from_world: Mat4,
+        density: SampledGrid,
+        le_scale: SampledGrid,
+        temperature: Option<Temperature>,
+    ) -> Self {
+        let values = GridValues::Density {
+            density,
+            le_scale,
+            temperature,
+        };
         let majorants = crate::media::grid_majorants(&values);
         MediumGrid {
             unit_from_world,

@@ -87,6 +87,14 @@ pub fn blackbody_rgb(kelvin: f64) -> Result<Vec3, String> {
         .ok_or_else(|| format!("a blackbody at {kelvin} K emits no visible light"))
 }
 
+/// Linear sRGB of pbrt-v4's `BlackbodySpectrum` at `kelvin` (Planck's law over its value
+/// at the peak wavelength, Wien's 2.8977721 mm K / T), as pbrt-v4's default sensor sees it:
+/// ∫ s x̄ȳz̄ dλ (not scaled to luminance 1: a medium's temperature emits it as it is).
+pub fn blackbody_peak_rgb(kelvin: f64) -> DVec3 {
+    let peak = planck(2.897_772_1e6 / kelvin, kelvin);
+    xyz_to_linear_srgb(xyz_of(|l| planck(l, kelvin) / peak))
+}
+
 /// A piecewise-linear spectrum from (λ nm, value) pairs in increasing λ; zero outside
 /// their range, as pbrt-v4's.
 #[derive(Clone, Debug, PartialEq)]

@@ -3,7 +3,9 @@
 //! `MediumInterface` and the camera refer to.
 
 use super::{Params, ParseError, Parser};
-use crate::scene::{Medium, MediumGrid, MediumInterface, SampledGrid, MAX_MEDIA};
+use crate::scene::{
+    GridValues, Medium, MediumGrid, MediumInterface, SampledGrid, Temperature, MAX_MEDIA,
+};
 use glam::{Mat4, Vec3};
 use std::sync::Arc;
 
@@ -124,6 +126,14 @@ impl Parser {
         } else {
             rgb_grid.map(|(g, _)| g)
         };
+        // (A temperature grid emits its blackbody: Le 1 times it, as pbrt-v4's.)
+        let le = match grid.as_deref().map(|g| &g.values) {
+            Some(GridValues::Density {
+                temperature: Some(_),
+                ..
+            }) => Vec3::ONE,
+            _ => le,
+        };
         // (A uniformgrid's Lescale is its grid of scales.)
         let le_scale = if ty == "uniformgrid" || cloud {
             1.0
@@ -184,17 +194,6 @@ impl Parser {
         line: u32,
     ) -> Result<Arc<MediumGrid>, ParseError> {
         let (res, unit_from_world) = self.grid_frame(name, params, file, line)?;
-        if let Some(p) = params.find("temperature") {
-            let (f, l) = (p.file, p.line);
-            self.unsupported(
-                f,
-                l,
-                "MakeNamedMedium \"uniformgrid\": \"temperature\" (blackbody emission)",
-            );
-        }
-        for what in ["temperaturecutoff", "temperatureoffset", "temperaturescale"] {
-            params.find(what);
-        }
         let Some(density) = self.grid_values(name, params, "density", res, 1)? else {
             return Err(self.err_at(
                 file,
@@ -210,6 +209,46 @@ impl Parser {
                 values: vec![1.0],
             },
         };
+        // pbrt-v4's temperature: "temperatureoffset" (or, where it is not given, the older
+        // "temperaturecutoff") and "temperaturescale".
+        let temperature = match self.grid_values(name, params, "temperature", res, 1)? {
+            None => {
+                for what in ["temperaturecutoff", "temperatureoffset", "temperaturescale"] {
+                    params.find(what);
+                }
+                None
+            }
+            Some(values) => {
+                if params.find("Le").is_some() {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        "MakeNamedMedium",
+                        format!(
+                            "medium \"{name}\": both \"Le\" and \"temperature\" given (pbrt-v4 takes one)"
+                        ),
+                    ));
+                }
+                let num = |what: &str| params.find(what).and_then(|p| p.nums.first().copied());
+                let offset = num("temperatureoffset")
+                    .or(num("temperaturecutoff"))
+                    .unwrap_or(0.0) as f32;
+                let scale = num("temperaturescale").unwrap_or(1.0) as f32;
+                if !offset.is_finite() || !scale.is_finite() {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        "MakeNamedMedium",
+                        format!("medium \"{name}\": the temperature's offset and scale must be finite, got {offset} and {scale}"),
+                    ));
+                }
+                Some(Temperature {
+                    grid: SampledGrid { res, values },
+                    offset,
+                    scale,
+                })
+            }
+        };
         Ok(Arc::new(MediumGrid::density(
             unit_from_world,
             SampledGrid {
@@ -217,6 +256,7 @@ impl Parser {
                 values: density,
             },
             le_scale,
+            temperature,
         )))
     }
 

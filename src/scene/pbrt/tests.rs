@@ -1809,7 +1809,10 @@ fn uniform_grid_media() {
     .unwrap_or_else(|e| panic!("{e}"));
     let m = &s.media[0];
     let g = m.grid.as_ref().expect("a grid");
-    let crate::scene::GridValues::Density { density, le_scale } = &g.values else {
+    let crate::scene::GridValues::Density {
+        density, le_scale, ..
+    } = &g.values
+    else {
         panic!("not a density grid: {:?}", g.values)
     };
     assert_eq!(density.res, [2, 1, 3]);
@@ -1841,7 +1844,10 @@ fn uniform_grid_media() {
     assert_eq!(g.majorants.len(), 16 * 16 * 16);
     assert!(g.majorants.iter().all(|&v| v <= 5.0) && g.majorants.contains(&5.0));
     let plain = s.media[1].grid.as_ref().unwrap();
-    let crate::scene::GridValues::Density { density, le_scale } = &plain.values else {
+    let crate::scene::GridValues::Density {
+        density, le_scale, ..
+    } = &plain.values
+    else {
         panic!("not a density grid")
     };
     assert_eq!((density.res, le_scale.res), ([1, 1, 1], [1, 1, 1]));
@@ -2028,10 +2034,72 @@ fn bad_uniform_grids_are_errors_with_their_line() {
         assert!(e.message.contains(what), "{what}: {e}");
         assert!(e.to_string().contains("t.pbrt"), "{e}");
     }
-    let e = parse_err(
-        "WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"uniformgrid\" \"float density\" [1] \"float temperature\" [1]\n",
+    for (params, what) in [
+        (
+            "\"float temperature\" [1 2]",
+            "\"temperature\" has 2 values",
+        ),
+        ("\"float temperature\" [-1]", "not negative"),
+        ("\"float temperature\" [1000] \"rgb Le\" [1 1 1]", "both"),
+    ] {
+        let e = parse_err(&format!(
+            "WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"uniformgrid\" \"float density\" [1]\n  {params}\n"
+        ));
+        assert!(e.line == 2 || e.line == 3, "{what}: {e}");
+        assert!(e.message.contains(what), "{what}: {e}");
+    }
+}
+
+/// A uniformgrid's temperature: its grid as given, "temperatureoffset" (else the older
+/// "temperaturecutoff", else 0) and "temperaturescale" (1); Le 1 (the blackbody is the
+/// emission), times the Lescale grid; at a sample, the emission is the blackbody of
+/// (T - offset) × scale, and nothing at or below 100 K.
+#[test]
+fn temperature_grids() {
+    let s = parse_pbrt_str(
+        "WorldBegin\n\
+         MakeNamedMedium \"fire\" \"string type\" \"uniformgrid\" \"integer nx\" 2 \
+         \"float density\" [1 1] \"float temperature\" [3000 50] \"float Lescale\" [0.5 2] \
+         \"float temperatureoffset\" 1000 \"float temperaturecutoff\" 7 \"float temperaturescale\" 2\n\
+         MakeNamedMedium \"old\" \"string type\" \"uniformgrid\" \"float density\" [1] \
+         \"float temperature\" [900] \"float temperaturecutoff\" 100\n",
+        "t.pbrt",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let temperature = |i: usize| {
+        let g = s.media[i].grid.as_ref().unwrap();
+        let crate::scene::GridValues::Density {
+            temperature: Some(t),
+            ..
+        } = &g.values
+        else {
+            panic!("no temperature: {:?}", g.values)
+        };
+        t.clone()
+    };
+    let t = temperature(0);
+    assert_eq!(
+        (t.grid.res, t.grid.values.clone()),
+        ([2, 1, 1], vec![3000.0, 50.0])
     );
-    assert!(e.to_string().contains("temperature"), "{e}");
+    assert_eq!((t.offset, t.scale), (1000.0, 2.0));
+    assert_eq!(s.media[0].emission, Vec3::ONE);
+    let t = temperature(1);
+    assert_eq!((t.offset, t.scale), (100.0, 1.0));
+    // At the first sample's centre (x = 1/4 of the unit box): Lescale 0.5 times the
+    // blackbody of (3000 - 1000) × 2 = 4000 K; at the second's, (50 - 1000) × 2 < 100 K.
+    let table = crate::media::blackbody_table();
+    let q = s.media[0].at(Vec3::new(0.25, 0.5, 0.5));
+    let want = 0.5 * crate::media::blackbody(table, 4000.0);
+    assert!(
+        (q.le - want).abs().max_element() < 1e-4 * want.max_element(),
+        "{q:?} vs {want}"
+    );
+    assert!(
+        want.x > want.z && want.min_element() > 0.0,
+        "4000 K is warm: {want}"
+    );
+    assert_eq!(s.media[0].at(Vec3::new(0.75, 0.5, 0.5)).le, Vec3::ZERO);
 }
 
 /// A homogeneous medium's `preset`: the measured σa and σs (per mm) in place of the
