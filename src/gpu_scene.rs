@@ -600,10 +600,15 @@ pub fn texture_data(scene: &Scene) -> TextureData {
         .any(|m| {
             matches!(
                 m.grid.as_deref().map(|g| &g.values),
-                Some(GridValues::Density {
-                    temperature: Some(_),
-                    ..
-                })
+                Some(
+                    GridValues::Density {
+                        temperature: Some(_),
+                        ..
+                    } | GridValues::NanoVdb {
+                        temperature: Some(_),
+                        ..
+                    }
+                )
             )
         })
         .then(|| {
@@ -701,6 +706,22 @@ pub fn medium_data(
                         r.density_res = [density.res[0], density.res[1], density.res[2], t];
                         r.le_res = [le_scale.res[0], le_scale.res[1], le_scale.res[2], blackbody];
                     }
+                    GridValues::NanoVdb {
+                        density,
+                        temperature,
+                    } => {
+                        let d = sparse_grid(&mut floats, density);
+                        let t = match temperature {
+                            None => crate::abi::MEDIUM_NO_GRID,
+                            Some((t, offset, scale)) => {
+                                r.sigma_s[3] = *offset;
+                                r.emission[3] = *scale;
+                                sparse_grid(&mut floats, t)
+                            }
+                        };
+                        r.info = [crate::abi::MEDIUM_NANOVDB, d, t, 0];
+                        r.le_res = [0, 0, 0, blackbody];
+                    }
                     GridValues::Cloud {
                         density,
                         wispiness,
@@ -753,6 +774,33 @@ pub fn medium_data(
         floats.push(0.0);
     }
     (records, floats)
+}
+
+/// A NanoVDB grid's header, brick table and values (abi.h) at the end of `floats`: the
+/// header's first float.
+fn sparse_grid(floats: &mut Vec<f32>, g: &crate::scene::SparseGrid) -> u32 {
+    let at = floats.len() as u32;
+    let m = g.index_from_unit.transpose();
+    for row in [m.x_axis, m.y_axis, m.z_axis] {
+        floats.extend(row.to_array());
+    }
+    let b = &g.bricks;
+    let table = at + 20;
+    let values = table + b.table.len() as u32;
+    let words = [
+        b.origin.x as u32,
+        b.origin.y as u32,
+        b.origin.z as u32,
+        b.dims.x,
+        b.dims.y,
+        b.dims.z,
+        table,
+        values,
+    ];
+    floats.extend(words.map(f32::from_bits));
+    floats.extend(b.table.iter().map(|&w| f32::from_bits(w)));
+    floats.extend_from_slice(&b.values);
+    at
 }
 
 /// The per-triangle attribute records and each triangle's index into them

@@ -142,6 +142,23 @@ pub fn grid_point(m: &Medium, g: &MediumGrid, p: Vec3) -> MediumPoint {
                 le: m.emission * le_scale.lookup(p) * glow,
             }
         }
+        GridValues::NanoVdb {
+            density,
+            temperature,
+        } => {
+            let density = density.lookup(p);
+            let glow = temperature
+                .as_ref()
+                .map_or(Vec3::ZERO, |(t, offset, scale)| {
+                    temperature_glow(blackbody_table(), (t.lookup(p) - offset) * scale)
+                });
+            MediumPoint {
+                sigma_t: density * (m.sigma_a + m.sigma_s),
+                sigma_a: density * m.sigma_a,
+                sigma_s: density * m.sigma_s,
+                le: m.emission * glow,
+            }
+        }
         GridValues::Cloud {
             density,
             wispiness,
@@ -292,7 +309,7 @@ impl Medium {
 
 /// A grid's majorant grid: per cell of `MEDIUM_MAJORANT_RES`³ over the unit cube (x
 /// fastest), the most the extinction reaches in it over `majorant_scale`: uniformgrid's
-/// density; a cloud's 1 (its density's most); rgbgrid's sigma_a + sigma_s in their largest channels (1 where not given, as
+/// and nanovdb's density; a cloud's 1 (its density's most); rgbgrid's sigma_a + sigma_s in their largest channels (1 where not given, as
 /// pbrt-v4's).
 pub fn grid_majorants(values: &GridValues) -> Vec<f32> {
     let r = MEDIUM_MAJORANT_RES as usize;
@@ -305,6 +322,26 @@ pub fn grid_majorants(values: &GridValues) -> Vec<f32> {
                 out.push(match values {
                     GridValues::Density { density, .. } => density.max_in(lo, hi),
                     GridValues::Cloud { .. } => 1.0,
+                    GridValues::NanoVdb { density, .. } => {
+                        // (The voxels a trilinear lookup in the cell reads: those around
+                        // the index-space box of its corners.)
+                        let m = density.index_from_unit;
+                        let (mut a, mut b) = (Vec3::MAX, Vec3::MIN);
+                        for c in 0..8 {
+                            let u = Vec3::new(
+                                if c & 1 == 0 { lo.x } else { hi.x },
+                                if c & 2 == 0 { lo.y } else { hi.y },
+                                if c & 4 == 0 { lo.z } else { hi.z },
+                            );
+                            let i = m.transform_point3(u);
+                            (a, b) = (a.min(i), b.max(i));
+                        }
+                        let slack = 1e-3 * (b - a).max_element().max(1.0);
+                        density.bricks.max_in(
+                            (a - slack).floor().as_ivec3(),
+                            (b + slack).floor().as_ivec3() + 1,
+                        )
+                    }
                     GridValues::Rgb {
                         sigma_a, sigma_s, ..
                     } => {

@@ -173,7 +173,8 @@ pub fn medium(
             | crate::abi::FEATURE_GRID_MEDIA
             | crate::abi::FEATURE_CLOUD_MEDIA
             | crate::abi::FEATURE_RGB_GRID_MEDIA
-            | crate::abi::FEATURE_TEMPERATURE_MEDIA,
+            | crate::abi::FEATURE_TEMPERATURE_MEDIA
+            | crate::abi::FEATURE_NANOVDB_MEDIA,
         &[
             (crate::abi::BINDING_MEDIA, &buffer),
             (crate::abi::BINDING_MEDIUM_GRIDS, &grids),

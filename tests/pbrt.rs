@@ -102,7 +102,7 @@ fn the_command_line_reads_pbrt_files() {
     let bad = dir.join("bad.pbrt");
     std::fs::write(
         &bad,
-        "WorldBegin\nShape \"hyperboloid\"\nMakeNamedMedium \"m\" \"string type\" \"nanovdb\" \"string filename\" \"m.nvdb\"\n",
+        "WorldBegin\nShape \"hyperboloid\"\nMakeNamedMedium \"m\" \"string type\" \"openvdb\" \"string filename\" \"m.vdb\"\n",
     )
     .unwrap();
     let out2 = dir.join("bad.exr");
@@ -294,8 +294,8 @@ fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
     use lightpath::abi::{
         FEATURE_ALL, FEATURE_ALPHA_PROCEDURAL_TEXTURES, FEATURE_ALPHA_TEXTURE_GRAPHS,
         FEATURE_ALPHA_TEXTURE_PROJECTIONS, FEATURE_CLOUD_MEDIA, FEATURE_ENVIRONMENT_MAP,
-        FEATURE_GRID_MEDIA, FEATURE_MEDIA, FEATURE_PROFILE_LIGHTS, FEATURE_RGB_GRID_MEDIA,
-        FEATURE_TEMPERATURE_MEDIA, FEATURE_UNBOUNDED,
+        FEATURE_GRID_MEDIA, FEATURE_MEDIA, FEATURE_NANOVDB_MEDIA, FEATURE_PROFILE_LIGHTS,
+        FEATURE_RGB_GRID_MEDIA, FEATURE_TEMPERATURE_MEDIA, FEATURE_UNBOUNDED,
     };
     let s = scene::load(&repo().join("scenes/pbrt/every-feature.pbrt"))
         .expect("the every-feature scene parses");
@@ -313,7 +313,8 @@ fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
                 | FEATURE_GRID_MEDIA
                 | FEATURE_CLOUD_MEDIA
                 | FEATURE_RGB_GRID_MEDIA
-                | FEATURE_TEMPERATURE_MEDIA),
+                | FEATURE_TEMPERATURE_MEDIA
+                | FEATURE_NANOVDB_MEDIA),
         "{features:b}"
     );
 }

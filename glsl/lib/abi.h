@@ -180,8 +180,10 @@
 #define FEATURE_RGB_GRID_MEDIA 33554432
 // A uniformgrid's temperature (with FEATURE_GRID_MEDIA): blackbody emission.
 #define FEATURE_TEMPERATURE_MEDIA 67108864
+// pbrt-v4's nanovdb medium (with FEATURE_GRID_MEDIA): sparse bricks of NanoVDB grids.
+#define FEATURE_NANOVDB_MEDIA 134217728
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 134217727
+#define FEATURE_ALL 268435455
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -383,6 +385,7 @@
 #define MEDIUM_UNIFORMGRID 1
 #define MEDIUM_RGBGRID 2
 #define MEDIUM_CLOUD 3
+#define MEDIUM_NANOVDB 4
 // An rgbgrid's grid that is not given (GpuMedium offsets).
 #define MEDIUM_NO_GRID 4294967295
 // A grid medium's majorant grid: this many cells per axis over its bounds (pbrt-v4's).
@@ -493,7 +496,15 @@ struct GpuMaterial {
 // le_res.xyz its extent p1 - p0 in the medium's space (the unit cube mapped back), of
 // density_res.w the `density` parameter, le_res.w `wispiness`, info.z `frequency`; info.y
 // the noise table's first float in BINDING_TEXELS, info.w the majorants (each the largest
-// channel's extinction: the density is at most 1).
+// channel's extinction: the density is at most 1). NanoVDB grids (MEDIUM_NANOVDB,
+// FEATURE_NANOVDB_MEDIA; sigma_a and sigma_s per unit density): info.y the first float of
+// the density grid's header in BINDING_MEDIUM_GRIDS, info.z that of the temperature grid's
+// (MEDIUM_NO_GRID where there is none; its offset and scale in sigma_s.w and emission.w,
+// the blackbody table at le_res.w as a uniformgrid's), info.w the majorants. A header:
+// 12 floats, the rows of the affine map from the unit cube to the grid's index space; the
+// bricks' origin (3 ints), their counts per axis (3), the first word of their table and
+// the first float of their values (src/nanovdb.rs's Bricks: per brick of 8^3 voxels a
+// table entry, 0 for none, else the brick's number + 1; 512 values per brick, x fastest).
 struct GpuMedium {
     vec4 sigma_a;
     vec4 sigma_s;

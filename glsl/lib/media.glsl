@@ -58,6 +58,10 @@ vec3 medium_transmittance(vec3 sigma_t, float d) {
 // hash (pbrt-v4's volpath seeds its tracking so, from two of the sampler's numbers), so
 // that a flight is a function of its ray and its two numbers in every integrator.
 layout(std430, set = 0, binding = BINDING_MEDIUM_GRIDS) readonly buffer MediumGrids { float medium_grids[]; };
+// (A word of it: the NanoVDB grids' headers and brick tables hold integers.)
+uint medium_grid_word(uint i) {
+    return floatBitsToUint(medium_grids[i]);
+}
 
 bool medium_is_grid(uint code) {
     return has_feature(FEATURE_GRID_MEDIA) && media[code - 1u].info.x != MEDIUM_HOMOGENEOUS;
@@ -104,6 +108,44 @@ vec3 grid_lookup3(uint first, uvec3 res, vec3 p) {
     vec3 x01 = mix(grid_sample3(first, res, i + ivec3(0, 0, 1)), grid_sample3(first, res, i + ivec3(1, 0, 1)), t.x);
     vec3 x11 = mix(grid_sample3(first, res, i + ivec3(0, 1, 1)), grid_sample3(first, res, i + ivec3(1, 1, 1)), t.x);
     return mix(mix(x00, x10, t.y), mix(x01, x11, t.y), t.z);
+}
+
+// A NanoVDB grid's voxel at index ijk from its bricks (CPU mirror: src/nanovdb.rs's
+// Bricks::value; the header at medium_grids[h], abi.h): 0 outside them and where a brick's
+// table entry is 0.
+float bricks_value(uint h, ivec3 ijk) {
+    ivec3 r = ijk - ivec3(medium_grid_word(h + 12u), medium_grid_word(h + 13u), medium_grid_word(h + 14u));
+    uvec3 dims = uvec3(medium_grid_word(h + 15u), medium_grid_word(h + 16u), medium_grid_word(h + 17u));
+    if (any(lessThan(r, ivec3(0))) || any(greaterThanEqual(uvec3(r) >> 3u, dims))) return 0.0;
+    uvec3 b = uvec3(r) >> 3u;
+    uint t = medium_grid_word(medium_grid_word(h + 18u) + (b.z * dims.y + b.y) * dims.x + b.x);
+    if (t == 0u) return 0.0;
+    uvec3 l = uvec3(r) & 7u;
+    return medium_grids[medium_grid_word(h + 19u) + (t - 1u) * 512u + l.x + 8u * l.y + 64u * l.z];
+}
+
+// A NanoVDB grid at p of the unit cube (CPU mirror: src/scene/mod.rs's SparseGrid::lookup):
+// its index-space point, then pbrt-v4's trilinear filter (values at integer points; z
+// first, then y, then x; a + w (b - a)).
+float bricks_lookup(uint h, vec3 p) {
+    vec4 q = vec4(p, 1.0);
+    vec3 x = vec3(dot(vec4(medium_grids[h], medium_grids[h + 1u], medium_grids[h + 2u], medium_grids[h + 3u]), q),
+                  dot(vec4(medium_grids[h + 4u], medium_grids[h + 5u], medium_grids[h + 6u], medium_grids[h + 7u]), q),
+                  dot(vec4(medium_grids[h + 8u], medium_grids[h + 9u], medium_grids[h + 10u], medium_grids[h + 11u]), q));
+    vec3 f = floor(x);
+    ivec3 i = ivec3(f);
+    vec3 w = x - f;
+    float v[2];
+    [[dont_unroll]] for (int a = 0; a < 2; ++a) {
+        float z0 = bricks_value(h, i + ivec3(a, 0, 0));
+        float z1 = bricks_value(h, i + ivec3(a, 0, 1));
+        float z2 = bricks_value(h, i + ivec3(a, 1, 0));
+        float z3 = bricks_value(h, i + ivec3(a, 1, 1));
+        float y0 = z0 + w.z * (z1 - z0);
+        float y1 = z2 + w.z * (z3 - z2);
+        v[a] = y0 + w.y * (y1 - y0);
+    }
+    return v[0] + w.x * (v[1] - v[0]);
 }
 
 // pbrt-v4's procedural cloud's density at p in the medium's space (CPU mirror:
@@ -180,6 +222,17 @@ void grid_point(GpuMedium m, vec3 p, bool emits, out vec3 sigma_t, out vec3 sigm
         sigma_s = m.sigma_s.xyz * (m.density_res.w == MEDIUM_NO_GRID ? vec3(1.0) : grid_lookup3(m.density_res.w, res, p));
         sigma_t = sigma_a + sigma_s;
         if (emits) le = m.emission.xyz * grid_lookup3(m.info.z, m.le_res.xyz, p);
+        return;
+    }
+    if (has_feature(FEATURE_NANOVDB_MEDIA) && m.info.x == MEDIUM_NANOVDB) {
+        float d = bricks_lookup(m.info.y, p);
+        sigma_t = d * (m.sigma_a.xyz + m.sigma_s.xyz);
+        sigma_a = d * m.sigma_a.xyz;
+        sigma_s = d * m.sigma_s.xyz;
+        if (emits && m.info.z != MEDIUM_NO_GRID) {
+            float kelvin = (bricks_lookup(m.info.z, p) - m.sigma_s.w) * m.emission.w;
+            le = kelvin > 100.0 ? m.emission.xyz * blackbody(m.le_res.w, kelvin) : vec3(0.0);
+        }
         return;
     }
     float density;

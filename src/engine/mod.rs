@@ -555,13 +555,26 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if scene.media.iter().any(|m| {
         matches!(
             m.grid.as_deref().map(|g| &g.values),
-            Some(crate::scene::GridValues::Density {
-                temperature: Some(_),
-                ..
-            })
+            Some(
+                crate::scene::GridValues::Density {
+                    temperature: Some(_),
+                    ..
+                } | crate::scene::GridValues::NanoVdb {
+                    temperature: Some(_),
+                    ..
+                }
+            )
         )
     }) {
         features |= crate::abi::FEATURE_TEMPERATURE_MEDIA;
+    }
+    if scene.media.iter().any(|m| {
+        matches!(
+            m.grid.as_deref().map(|g| &g.values),
+            Some(crate::scene::GridValues::NanoVdb { .. })
+        )
+    }) {
+        features |= crate::abi::FEATURE_NANOVDB_MEDIA;
     }
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
@@ -770,7 +783,8 @@ mod tests {
             | crate::abi::FEATURE_GRID_MEDIA
             | crate::abi::FEATURE_CLOUD_MEDIA
             | crate::abi::FEATURE_RGB_GRID_MEDIA
-            | crate::abi::FEATURE_TEMPERATURE_MEDIA;
+            | crate::abi::FEATURE_TEMPERATURE_MEDIA
+            | crate::abi::FEATURE_NANOVDB_MEDIA;
         assert_eq!(FEATURE_ALL, every);
     }
 }

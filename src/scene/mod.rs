@@ -190,6 +190,15 @@ pub enum GridValues {
         sigma_s: Option<SampledGrid<Vec3>>,
         le: Option<SampledGrid<Vec3>>,
     },
+    /// pbrt-v4's `nanovdb`: a density grid read from a NanoVDB file (the medium's sigma_a
+    /// and sigma_s are per unit density) and, where the file has one, a temperature grid
+    /// (emission as a uniformgrid's temperature, times the medium's Le, pbrt-v4's
+    /// `Lescale`), each as sparse bricks (src/nanovdb.rs) with its own map from the unit
+    /// cube (the grids' bounds) to its index space.
+    NanoVdb {
+        density: SparseGrid,
+        temperature: Option<(SparseGrid, f32, f32)>,
+    },
     /// pbrt-v4's procedural `cloud`: a density in [0, 1] made of noise (src/media.rs's
     /// `cloud_density`) at the point of the medium's space (the box `p0` + the unit cube
     /// times `extent`); the medium's sigma_a and sigma_s are per unit density; no emission.
@@ -213,7 +222,41 @@ pub struct Temperature {
     pub scale: f32,
 }
 
+/// A NanoVDB grid as sparse 8³ bricks and the affine map from its medium's unit cube to
+/// the grid's index space (voxel values at integer points, trilinear between them as
+/// pbrt-v4's `SampleFromVoxels`: src/nanovdb.rs's `Bricks::sample`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SparseGrid {
+    pub index_from_unit: Mat4,
+    pub bricks: crate::nanovdb::Bricks,
+}
+
+impl SparseGrid {
+    /// Its value at `p` of the unit cube.
+    pub fn lookup(&self, p: Vec3) -> f32 {
+        self.bricks.sample(self.index_from_unit.transform_point3(p))
+    }
+}
+
 impl MediumGrid {
+    /// A nanovdb medium's: the density's majorants.
+    pub fn nano_vdb(
+        unit_from_world: Mat4,
+        density: SparseGrid,
+        temperature: Option<(SparseGrid, f32, f32)>,
+    ) -> Self {
+        let values = GridValues::NanoVdb {
+            density,
+            temperature,
+        };
+        let majorants = crate::media::grid_majorants(&values);
+        MediumGrid {
+            unit_from_world,
+            values,
+            majorants,
+        }
+    }
+
     /// A uniformgrid's: the density's majorants.
     pub fn density(
         unit_from_world: Mat4,

@@ -1077,7 +1077,7 @@ fn emission_faces_pbrts_side() {
 fn unsupported_features_are_listed_together() {
     let e = parse_err(&format!(
         r#"WorldBegin
-        MakeNamedMedium "fog" "string type" "nanovdb" "string filename" "fog.nvdb"
+        MakeNamedMedium "fog" "string type" "openvdb" "string filename" "fog.vdb"
         Shape "hyperboloid"
         Material "subsurface"
         Shape "sphere" "float alpha" 0.5
@@ -1787,8 +1787,8 @@ fn bad_media_are_errors_with_their_line() {
     }
     let e = parse_err("WorldBegin\nMakeNamedMedium \"m\" \"float g\" 0\n");
     assert!(e.message.contains("type"), "{e}");
-    let e = parse_err("WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"nanovdb\" \"string filename\" \"x.nvdb\"\n");
-    assert!(e.to_string().contains("nanovdb"), "{e}");
+    let e = parse_err("WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"openvdb\" \"string filename\" \"x.vdb\"\n");
+    assert!(e.to_string().contains("openvdb"), "{e}");
 }
 
 /// A uniformgrid: its densities and Le scales as given (x fastest), its bounds and the
@@ -2142,4 +2142,109 @@ fn medium_presets() {
         "WorldBegin\nMakeNamedMedium \"g\" \"string type\" \"uniformgrid\" \"float density\" [1] \"string preset\" \"Apple\"\n",
     );
     assert!(e.to_string().contains("preset"), "{e}");
+}
+
+/// A nanovdb medium: its grids read from the file (relative to the scene file), its
+/// bounds the grids' world boxes under the CTM, the density and temperature as the file's
+/// voxels (trilinear at integer index points), σ × scale per unit density, the temperature's
+/// offset (or cutoff) and scale, "LeScale" read as "Lescale" (the collection's explosion);
+/// a missing file, a missing grid (the file's grids listed) and no filename are errors at
+/// their line.
+#[test]
+fn nanovdb_media() {
+    use crate::nanovdb::write::{file_image, grid_buffer, GridSource};
+    use glam::IVec3;
+    let dir = std::env::temp_dir().join(format!("lightpath-nvdb-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let density = |p: IVec3| 0.1 * (p.x + 2 * p.y + 3 * p.z).rem_euclid(7) as f32 + 0.05;
+    let temperature = |p: IVec3| 10.0 + (p.x - p.z) as f32;
+    // Index → medium: voxel size 0.25, index (-4, 0, 2) at the origin.
+    let (mat, vec) = (
+        [0.25, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.25],
+        [1.0, 0.0, -0.5],
+    );
+    let grid = |name, f: &dyn Fn(IVec3) -> f32, hi: IVec3| {
+        grid_buffer(&GridSource {
+            name,
+            lo: IVec3::new(-4, 0, 2),
+            hi,
+            f,
+            mat,
+            vec,
+        })
+    };
+    let d = grid("density", &density, IVec3::new(3, 5, 9));
+    let t = grid("temperature", &temperature, IVec3::new(5, 5, 9));
+    std::fs::write(dir.join("fire.nvdb"), file_image(&[(1, &[&d, &t])])).unwrap();
+    let scene = |params: &str| {
+        parse_pbrt_str(
+            &format!(
+                "WorldBegin\nTranslate 0 2 0\nMakeNamedMedium \"fire\" \"string type\" \"nanovdb\" \
+                 \"string filename\" \"{}\" \"rgb sigma_a\" [1 2 3] \"float scale\" 2 {params}\n",
+                dir.join("fire.nvdb").display()
+            ),
+            "t.pbrt",
+        )
+    };
+    let s =
+        scene("\"float LeScale\" 3 \"float temperaturecutoff\" 2 \"float temperaturescale\" 400")
+            .unwrap_or_else(|e| panic!("{e}"));
+    let m = &s.media[0];
+    assert_eq!(
+        (m.sigma_a, m.emission),
+        (Vec3::new(2.0, 4.0, 6.0), Vec3::splat(3.0))
+    );
+    let g = m.grid.as_ref().unwrap();
+    // The bounds: index (-4, 0, 2) to (5 + 1, 5 + 1, 9 + 1) (the temperature's reaches
+    // further in x), in the medium's space, moved up by 2.
+    let world = |i: Vec3| Vec3::new(1.0, 2.0, -0.5) + 0.25 * i;
+    for (i, u) in [
+        (Vec3::new(-4.0, 0.0, 2.0), Vec3::ZERO),
+        (Vec3::new(6.0, 6.0, 10.0), Vec3::ONE),
+    ] {
+        let got = g.unit_from_world.transform_point3(world(i));
+        assert!((got - u).length() < 1e-5, "{i}: {got} vs {u}");
+    }
+    // At voxel (1, 3, 4): density and temperature as the file's; between voxels, the
+    // trilinear mean; beyond the density's voxels (x 3..4) it fades to 0.
+    let table = crate::media::blackbody_table();
+    let v = IVec3::new(1, 3, 4);
+    let q = m.at(world(v.as_vec3()));
+    assert!(
+        (q.sigma_a - m.sigma_a * density(v)).abs().max_element() < 1e-5,
+        "{q:?}"
+    );
+    let kelvin = (temperature(v) - 2.0) * 400.0;
+    let want = 3.0 * crate::media::blackbody(table, kelvin);
+    assert!(
+        (q.le - want).abs().max_element() < 1e-4 * want.max_element(),
+        "{q:?} vs {want}"
+    );
+    let q = m.at(world(Vec3::new(1.5, 3.0, 4.0)));
+    let mean = 0.5 * (density(v) + density(IVec3::new(2, 3, 4)));
+    assert!((q.sigma_a.x - 2.0 * mean).abs() < 1e-5, "{q:?}");
+    let q = m.at(world(Vec3::new(3.5, 3.0, 4.0)));
+    assert!(
+        (q.sigma_a.x - 2.0 * 0.5 * density(IVec3::new(3, 3, 4))).abs() < 1e-5,
+        "{q:?}"
+    );
+    assert!(g.majorants.iter().all(|&x| x <= 0.65 + 1e-6) && g.majorants.iter().any(|&x| x > 0.6));
+
+    let e = scene("\"string gridname\" \"smoke\"").unwrap_err();
+    assert_eq!(e.line, 3, "{e}");
+    let what = "no grid named \"smoke\" (the file has: density, temperature)";
+    assert!(e.message.contains(what), "{e}");
+    let e = parse_pbrt_str(
+        "WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"nanovdb\"\n  \"string filename\" \"missing.nvdb\"\n",
+        "t.pbrt",
+    )
+    .unwrap_err();
+    assert!(e.line == 3 && e.to_string().contains("missing.nvdb"), "{e}");
+    let e = parse_pbrt_str(
+        "WorldBegin\nMakeNamedMedium \"m\" \"string type\" \"nanovdb\"\n",
+        "t.pbrt",
+    )
+    .unwrap_err();
+    assert!(e.message.contains("filename"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
 }
