@@ -585,39 +585,15 @@ pub fn texture_data(scene: &Scene) -> TextureData {
     }
     // (Cloud media read the noise table too.)
     let noise = scene
-        .media
-        .iter()
-        .any(|m| {
-            matches!(
-                m.grid.as_deref().map(|g| &g.values),
-                Some(GridValues::Cloud { .. })
-            )
-        })
+        .any_grid(|g| matches!(g, GridValues::Cloud { .. }))
         .then(|| texels.noise_table());
-    let blackbody = scene
-        .media
-        .iter()
-        .any(|m| {
-            matches!(
-                m.grid.as_deref().map(|g| &g.values),
-                Some(
-                    GridValues::Density {
-                        temperature: Some(_),
-                        ..
-                    } | GridValues::NanoVdb {
-                        temperature: Some(_),
-                        ..
-                    }
-                )
-            )
-        })
-        .then(|| {
-            let first = texels.floats.len() as u32;
-            texels
-                .floats
-                .extend_from_slice(crate::media::blackbody_table());
-            first
-        });
+    let blackbody = scene.any_grid(GridValues::has_temperature).then(|| {
+        let first = texels.floats.len() as u32;
+        texels
+            .floats
+            .extend_from_slice(crate::media::blackbody_table());
+        first
+    });
     TextureData {
         noise,
         blackbody,

@@ -840,7 +840,7 @@ mod tests {
             sigma_s: Vec3::new(1.9, 0.8, 0.0),
             g: 0.0,
             emission: Vec3::ZERO,
-            grid: Some(std::sync::Arc::new(MediumGrid::cloud(
+            grid: Some(std::sync::Arc::new(MediumGrid::new(
                 world_from_unit.inverse(),
                 GridValues::Cloud {
                     density: 1.5,

@@ -1031,6 +1031,7 @@ mod tests {
         assert_eq!((srgb[1], srgb[2]), (1.0, 0.0));
         let linear = load_image(&path, Encoding::Linear).unwrap().pixels[0];
         assert!((linear[0] - 128.0 / 255.0).abs() < 1e-6);
+        std::fs::remove_dir_all(&dir).ok();
         // Texture lookup: t = 0 is the bottom row; the image repeats.
         let img = Image {
             width: 2,

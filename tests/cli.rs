@@ -1,5 +1,7 @@
 //! The command line on bad input: a clear message, a non-zero exit and no output file.
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn lightpath(args: &[&str], dir: &Path) -> Output {
@@ -23,11 +25,8 @@ fn fails_with(args: &[&str], dir: &Path, needles: &[&str]) {
     }
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lightpath-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("scratch dir");
-    d
+fn scratch(name: &str) -> common::TempDir {
+    common::temp_dir(&format!("cli-{name}"))
 }
 
 fn files_in(dir: &Path) -> Vec<String> {

@@ -49,12 +49,12 @@ fn room_scaled(light: &str, open: bool, max_depth: i32, k: f32) -> Scene {
     scene::parse_pbrt_str(&text, "exact-lights.pbrt").expect("the test scene parses")
 }
 
-/// The goniometric and projection lights' images (written once per test binary).
+/// The goniometric and projection lights' images (fixtures, written once per test binary).
 fn profile_images() -> (std::path::PathBuf, std::path::PathBuf) {
     static IMAGES: std::sync::OnceLock<(std::path::PathBuf, std::path::PathBuf)> =
         std::sync::OnceLock::new();
     IMAGES
-        .get_or_init(|| light_profile_images(&temp_dir("exact-lights-profiles")))
+        .get_or_init(|| light_profile_images(&fixture_dir()))
         .clone()
 }
 

@@ -1,5 +1,7 @@
 //! The `.test` parser never panics: thousands of random and mutated inputs either parse
 //! or fail with a ParseError that names a line of the input (property tests).
+mod common;
+
 use lightpath::scene::parse_str;
 use proptest::prelude::*;
 
@@ -168,9 +170,8 @@ fn absurd_sizes_and_nesting_get_clear_errors_not_allocations() {
     parse_str(&ok, "deep-ok.test").unwrap();
 }
 
-fn scratch(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("lightpath-obj-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
+fn scratch(name: &str) -> common::TempDir {
+    let d = common::temp_dir(&format!("obj-{name}"));
     std::fs::create_dir_all(d.join("meshes")).unwrap();
     d
 }
@@ -264,8 +265,7 @@ proptest! {
                 _ => { lines[i] = format!("{} {tok}", lines[i]); }
             }
         }
-        let d = std::env::temp_dir().join(format!("lightpath-obj-prop-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
+        let d = common::temp_dir("obj-prop");
         std::fs::write(d.join("m.obj"), lines.join("\n")).unwrap();
         std::fs::write(d.join("s.test"), "obj m.obj\n").unwrap();
         if let Err(e) = lightpath::scene::parse_file(&d.join("s.test")) {

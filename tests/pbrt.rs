@@ -76,8 +76,7 @@ fn pbrts_camera_space_is_left_handed() {
 /// non-zero listing every unsupported use and writes nothing.
 #[test]
 fn the_command_line_reads_pbrt_files() {
-    let dir = std::env::temp_dir().join(format!("lightpath-pbrt-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::temp_dir("pbrt-cli");
     let out = dir.join("box.exr");
     let run = Command::new(env!("CARGO_BIN_EXE_lightpath"))
         .args([

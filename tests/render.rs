@@ -332,8 +332,7 @@ fn every_pixel_gets_exactly_one_sample_per_pass_at_any_size() {
 #[test]
 fn a_large_obj_mesh_renders_on_both_backends() {
     // A 300 x 300 height-field grid: 180 000 triangles from an OBJ file.
-    let d = std::env::temp_dir().join(format!("lightpath-big-obj-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
+    let d = common::temp_dir("big-obj");
     let n = 300;
     let mut obj = String::with_capacity(12_000_000);
     for j in 0..=n {

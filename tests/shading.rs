@@ -65,11 +65,9 @@ fn write_sphere(name: &str) -> (PathBuf, Vec<[Vec3; 3]>) {
 }
 
 fn write_sphere_of(name: &str, lon: u32, lat: u32) -> (PathBuf, Vec<[Vec3; 3]>) {
-    let dir = std::env::temp_dir().join(format!("lightpath-shading-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
+    let path = common::fixture_dir().join(format!("shading-{lon}x{lat}-{name}"));
     let (text, tris) = low_poly_sphere(lon, lat);
-    std::fs::write(&path, text).unwrap();
+    common::write_fixture(&path, text.as_bytes());
     (path, tris)
 }
 

@@ -536,44 +536,17 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if scene.media.iter().any(|m| m.grid.is_some()) {
         features |= crate::abi::FEATURE_GRID_MEDIA;
     }
-    let grid_kind = |rgb: bool| {
-        scene
-            .media
-            .iter()
-            .any(|m| match m.grid.as_deref().map(|g| &g.values) {
-                Some(crate::scene::GridValues::Cloud { .. }) => !rgb,
-                Some(crate::scene::GridValues::Rgb { .. }) => rgb,
-                _ => false,
-            })
-    };
-    if grid_kind(false) {
+    use crate::scene::GridValues;
+    if scene.any_grid(|g| matches!(g, GridValues::Cloud { .. })) {
         features |= crate::abi::FEATURE_CLOUD_MEDIA;
     }
-    if grid_kind(true) {
+    if scene.any_grid(|g| matches!(g, GridValues::Rgb { .. })) {
         features |= crate::abi::FEATURE_RGB_GRID_MEDIA;
     }
-    if scene.media.iter().any(|m| {
-        matches!(
-            m.grid.as_deref().map(|g| &g.values),
-            Some(
-                crate::scene::GridValues::Density {
-                    temperature: Some(_),
-                    ..
-                } | crate::scene::GridValues::NanoVdb {
-                    temperature: Some(_),
-                    ..
-                }
-            )
-        )
-    }) {
+    if scene.any_grid(GridValues::has_temperature) {
         features |= crate::abi::FEATURE_TEMPERATURE_MEDIA;
     }
-    if scene.media.iter().any(|m| {
-        matches!(
-            m.grid.as_deref().map(|g| &g.values),
-            Some(crate::scene::GridValues::NanoVdb { .. })
-        )
-    }) {
+    if scene.any_grid(|g| matches!(g, GridValues::NanoVdb { .. })) {
         features |= crate::abi::FEATURE_NANOVDB_MEDIA;
     }
     if scene.settings.max_depth < 0 {

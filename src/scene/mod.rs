@@ -239,16 +239,9 @@ impl SparseGrid {
 }
 
 impl MediumGrid {
-    /// A nanovdb medium's: the density's majorants.
-    pub fn nano_vdb(
-        unit_from_world: Mat4,
-        density: SparseGrid,
-        temperature: Option<(SparseGrid, f32, f32)>,
-    ) -> Self {
-        let values = GridValues::NanoVdb {
-            density,
-            temperature,
-        };
+    /// A grid medium of `values` over the unit cube of `unit_from_world`, with the
+    /// majorants of its extinction (src/media.rs's `grid_majorants`).
+    pub fn new(unit_from_world: Mat4, values: GridValues) -> Self {
         let majorants = crate::media::grid_majorants(&values);
         MediumGrid {
             unit_from_world,
@@ -257,54 +250,69 @@ impl MediumGrid {
         }
     }
 
-    /// A uniformgrid's: the density's majorants.
+    /// A nanovdb medium's.
+    pub fn nano_vdb(
+        unit_from_world: Mat4,
+        density: SparseGrid,
+        temperature: Option<(SparseGrid, f32, f32)>,
+    ) -> Self {
+        Self::new(
+            unit_from_world,
+            GridValues::NanoVdb {
+                density,
+                temperature,
+            },
+        )
+    }
+
+    /// A uniformgrid's.
     pub fn density(
         unit_from_world: Mat4,
         density: SampledGrid,
         le_scale: SampledGrid,
         temperature: Option<Temperature>,
     ) -> Self {
-        let values = GridValues::Density {
-            density,
-            le_scale,
-            temperature,
-        };
-        let majorants = crate::media::grid_majorants(&values);
-        MediumGrid {
+        Self::new(
             unit_from_world,
-            values,
-            majorants,
-        }
+            GridValues::Density {
+                density,
+                le_scale,
+                temperature,
+            },
+        )
     }
 
-    /// A cloud's (its majorants: 1, the most its density reaches).
-    pub fn cloud(unit_from_world: Mat4, values: GridValues) -> Self {
-        let majorants = crate::media::grid_majorants(&values);
-        MediumGrid {
-            unit_from_world,
-            values,
-            majorants,
-        }
-    }
-
-    /// An rgbgrid's: the majorants of its sigma_a + sigma_s.
+    /// An rgbgrid's.
     pub fn rgb(
         unit_from_world: Mat4,
         sigma_a: Option<SampledGrid<Vec3>>,
         sigma_s: Option<SampledGrid<Vec3>>,
         le: Option<SampledGrid<Vec3>>,
     ) -> Self {
-        let values = GridValues::Rgb {
-            sigma_a,
-            sigma_s,
-            le,
-        };
-        let majorants = crate::media::grid_majorants(&values);
-        MediumGrid {
+        Self::new(
             unit_from_world,
-            values,
-            majorants,
-        }
+            GridValues::Rgb {
+                sigma_a,
+                sigma_s,
+                le,
+            },
+        )
+    }
+}
+
+impl GridValues {
+    /// Whether it emits a blackbody (a uniformgrid's or nanovdb's temperature grid).
+    pub fn has_temperature(&self) -> bool {
+        matches!(
+            self,
+            GridValues::Density {
+                temperature: Some(_),
+                ..
+            } | GridValues::NanoVdb {
+                temperature: Some(_),
+                ..
+            }
+        )
     }
 }
 
@@ -1021,6 +1029,13 @@ impl Default for Scene {
 }
 
 impl Scene {
+    /// Whether a medium of the scene has a grid whose values satisfy `f`.
+    pub fn any_grid(&self, f: impl Fn(&GridValues) -> bool) -> bool {
+        self.media
+            .iter()
+            .any(|m| m.grid.as_deref().is_some_and(|g| f(&g.values)))
+    }
+
     /// Say that the delta lights added since the last call are in `medium`.
     pub fn place_new_delta_lights(&mut self, medium: Option<u32>) {
         self.delta_light_media

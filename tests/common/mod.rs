@@ -215,11 +215,59 @@ pub fn light_tracing_image(scene: &Scene, seed: u32) -> (Image, Image) {
     (t1, out.image)
 }
 
-/// A fresh directory for a test's files (per process).
-pub fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lightpath-{name}-{}", std::process::id()));
+/// A fresh directory for a test's files, removed with everything in it when the guard
+/// is dropped (it derefs to its path).
+pub fn temp_dir(name: &str) -> TempDir {
+    static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("lightpath-{name}-{}-{n}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    TempDir(dir)
+}
+
+/// A test's directory (`temp_dir`), removed on drop.
+pub struct TempDir(PathBuf);
+
+impl std::ops::Deref for TempDir {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for TempDir {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// The directory of files that tests make the same every time (fixtures read by the
+/// scenes they parse), shared by every test process and run: each file is written whole
+/// under another name and renamed (`write_fixture`), so it is never seen half-written.
+pub fn fixture_dir() -> PathBuf {
+    let dir = std::env::temp_dir().join("lightpath-test-fixtures");
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+/// Writes `bytes` to `path` whole: under a name of this process and thread, then renamed.
+pub fn write_fixture(path: &std::path::Path, bytes: &[u8]) {
+    let part = path.with_extension(
+        format!(
+            "part{}{:?}",
+            std::process::id(),
+            std::thread::current().id()
+        )
+        .replace(['(', ')'], ""),
+    );
+    std::fs::write(&part, bytes).unwrap();
+    std::fs::rename(&part, path).unwrap();
 }
 
 /// Writes a PFM image of `w` × `h` texels, `f(x, y)` with y = 0 the top row.
@@ -232,7 +280,7 @@ pub fn write_pfm(path: &std::path::Path, w: u32, h: u32, f: impl Fn(u32, u32) ->
             }
         }
     }
-    std::fs::write(path, bytes).unwrap();
+    write_fixture(path, &bytes);
 }
 
 /// The camera ray direction through film point (fx, fy) ∈ [0,1)² (camera.glsl's).

@@ -222,13 +222,9 @@ impl Parser {
                 values: vec![1.0],
             },
         };
-        // pbrt-v4's temperature: "temperatureoffset" (or, where it is not given, the older
-        // "temperaturecutoff") and "temperaturescale".
         let temperature = match self.grid_values(name, params, "temperature", res, 1)? {
             None => {
-                for what in ["temperaturecutoff", "temperatureoffset", "temperaturescale"] {
-                    params.find(what);
-                }
+                self.temperature_map(name, params, file, line)?;
                 None
             }
             Some(values) => {
@@ -242,19 +238,7 @@ impl Parser {
                         ),
                     ));
                 }
-                let num = |what: &str| params.find(what).and_then(|p| p.nums.first().copied());
-                let offset = num("temperatureoffset")
-                    .or(num("temperaturecutoff"))
-                    .unwrap_or(0.0) as f32;
-                let scale = num("temperaturescale").unwrap_or(1.0) as f32;
-                if !offset.is_finite() || !scale.is_finite() {
-                    return Err(self.err_at(
-                        file,
-                        line,
-                        "MakeNamedMedium",
-                        format!("medium \"{name}\": the temperature's offset and scale must be finite, got {offset} and {scale}"),
-                    ));
-                }
+                let (offset, scale) = self.temperature_map(name, params, file, line)?;
                 Some(Temperature {
                     grid: SampledGrid { res, values },
                     offset,
@@ -408,6 +392,35 @@ impl Parser {
         Ok((p0, p1, world_from_unit.inverse()))
     }
 
+    /// pbrt-v4's temperature map, T = (grid − offset) × scale: "temperatureoffset" (where
+    /// it is not given, the older "temperaturecutoff"; else 0) and "temperaturescale" (1),
+    /// each finite. Reading them marks all three used.
+    fn temperature_map(
+        &self,
+        name: &str,
+        params: &Params,
+        file: u32,
+        line: u32,
+    ) -> Result<(f32, f32), ParseError> {
+        let num = |what: &str| params.find(what).and_then(|p| p.nums.first().copied());
+        let (offset, cutoff, scale) = (
+            num("temperatureoffset"),
+            num("temperaturecutoff"),
+            num("temperaturescale"),
+        );
+        let offset = offset.or(cutoff).unwrap_or(0.0) as f32;
+        let scale = scale.unwrap_or(1.0) as f32;
+        if !offset.is_finite() || !scale.is_finite() {
+            return Err(self.err_at(
+                file,
+                line,
+                "MakeNamedMedium",
+                format!("medium \"{name}\": the temperature's offset and scale must be finite, got {offset} and {scale}"),
+            ));
+        }
+        Ok((offset, scale))
+    }
+
     /// A `nanovdb` medium's grids (pbrt-v4's): "filename" (a NanoVDB file, relative to
     /// the scene file), its Float grid "gridname" ("density") and, where the file has it,
     /// "temperaturename" ("temperature") with "temperatureoffset" (else "temperaturecutoff",
@@ -463,19 +476,7 @@ impl Parser {
             ));
         };
         let temperature = read(self, &temperature_name)?;
-        let num = |what: &str| params.find(what).and_then(|p| p.nums.first().copied());
-        let offset = num("temperatureoffset")
-            .or(num("temperaturecutoff"))
-            .unwrap_or(0.0) as f32;
-        let scale = num("temperaturescale").unwrap_or(1.0) as f32;
-        if !offset.is_finite() || !scale.is_finite() {
-            return Err(self.err_at(
-                file,
-                line,
-                d,
-                format!("medium \"{name}\": the temperature's offset and scale must be finite, got {offset} and {scale}"),
-            ));
-        }
+        let (offset, scale) = self.temperature_map(name, params, file, line)?;
         // The bounds: the grids' world boxes (index min to max + 1 through their maps).
         let (mut lo, mut hi) = density.world_bbox();
         if let Some(t) = &temperature {
@@ -522,14 +523,7 @@ impl Parser {
                 format!("medium \"{name}\": its transformation is singular"),
             ));
         }
-        for what in [
-            "temperatureoffset",
-            "temperaturecutoff",
-            "temperaturescale",
-            "LeScale",
-        ] {
-            params.find(what);
-        }
+        params.find("LeScale");
         Ok(Arc::new(MediumGrid::nano_vdb(
             world_from_unit.inverse(),
             density,
@@ -571,7 +565,7 @@ impl Parser {
             p0,
             extent: p1 - p0,
         };
-        Ok(Arc::new(MediumGrid::cloud(unit_from_world, values)))
+        Ok(Arc::new(MediumGrid::new(unit_from_world, values)))
     }
 
     /// A grid's values `what`: nx × ny × nz samples of `channels` numbers each (an RGB

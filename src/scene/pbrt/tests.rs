@@ -1669,6 +1669,7 @@ fn goniometric_and_projection_lights() {
         wide.display()
     ));
     assert!(e.to_string().contains("equal-area square"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
 }
 
 /// pbrt-v4's homogeneous medium: sigma_a and sigma_s times `scale` (1 by default each),
