@@ -308,6 +308,7 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
     renderer.engine.control.interrupt = Some(interrupt);
     if let Some(every) = args.write_partial_images {
         let (path, gamma, base) = (output.clone(), scene.settings.gamma, info.clone());
+        let film = scene.settings.output_from_render;
         renderer.engine.control.snapshots = Some(crate::render::Snapshots {
             every,
             last: None,
@@ -317,7 +318,9 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
                     render_seconds: started.elapsed().as_secs_f64(),
                     ..base.clone()
                 };
-                io::write_image_with_info(&path, image, gamma, Some(&info))
+                let mut image = image.clone();
+                crate::render::apply_film_matrix(&mut image, film);
+                io::write_image_with_info(&path, &image, gamma, Some(&info))
             }),
         });
     }

@@ -140,7 +140,9 @@ impl Renderer {
     /// by the integrator its settings name.
     pub fn render(&mut self, scene: &Scene, seed: u32, trace: &mut Trace) -> Result<RenderOutput> {
         let mut integrator = crate::integrators::create(scene.settings.integrator, &self.options)?;
-        integrator.render(&mut self.engine, scene, seed, trace)
+        let mut out = integrator.render(&mut self.engine, scene, seed, trace)?;
+        apply_film_matrix(&mut out.image, scene.settings.output_from_render);
+        Ok(out)
     }
 
     /// Render `request`: its recordings and run control become this renderer's options
@@ -156,5 +158,16 @@ impl Renderer {
         self.engine.control.show_progress = request.show_progress;
         self.engine.control.time_limit = request.time_limit;
         self.render(&request.scene, request.seed, trace)
+    }
+}
+
+/// The film's colour matrix (`Settings::output_from_render`: pbrt-v4's sensor and white
+/// balance) on every pixel of `image`; nothing for the identity.
+pub fn apply_film_matrix(image: &mut crate::io::Image, m: glam::Mat3) {
+    if m == glam::Mat3::IDENTITY {
+        return;
+    }
+    for p in &mut image.pixels {
+        *p = (m * glam::Vec3::from_array(*p)).to_array();
     }
 }

@@ -317,3 +317,40 @@ fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
         "{features:b}"
     );
 }
+
+/// A film with a named camera sensor and a white balance is the image of the default
+/// film under its colour matrix (src/scene/sensor.rs), pixel for pixel, in PT, BDPT and
+/// MMLT alike (the same seed: the matrix is applied to the finished image); and the
+/// matrix is not the identity, so the test sees it.
+#[test]
+fn a_sensor_film_is_the_default_film_under_its_colour_matrix() {
+    let base = small(pbrt_box());
+    let m = lightpath::scene::sensor::output_from_render("nikon_d850", 5000.0)
+        .unwrap()
+        .as_mat3();
+    assert!(!m.abs_diff_eq(glam::Mat3::IDENTITY, 0.05), "{m}");
+    let mut sensor = base.clone();
+    sensor.settings.output_from_render = m;
+    for kind in [
+        IntegratorKind::PathTracer,
+        IntegratorKind::Bdpt,
+        IntegratorKind::Mmlt,
+    ] {
+        let (a, b) = (
+            with_integrator(base.clone(), kind, 4),
+            with_integrator(sensor.clone(), kind, 4),
+        );
+        let (plain, seen) = (render(&a, 7, Bvh), render(&b, 7, Bvh));
+        let mut lit = 0;
+        for (p, q) in plain.pixels.iter().zip(&seen.pixels) {
+            let want = m * glam::Vec3::from_array(*p);
+            let got = glam::Vec3::from_array(*q);
+            assert!(
+                got.abs_diff_eq(want, 1e-5 * (1.0 + want.abs().max_element())),
+                "{kind:?}: {got} != {want}"
+            );
+            lit += (want.max_element() > 0.0) as u32;
+        }
+        assert!(lit > 100, "{kind:?}: only {lit} pixels lit");
+    }
+}

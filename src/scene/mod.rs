@@ -6,6 +6,7 @@
 mod parse;
 mod pbrt;
 pub mod ply;
+pub mod sensor;
 pub mod spectrum;
 mod subdiv;
 
@@ -926,6 +927,10 @@ pub struct Settings {
     pub light_stratify: bool,
     pub gamma: f32,
     pub mmlt: MmltSettings,
+    /// The film's map from the transported linear sRGB to the image's, applied to the
+    /// finished image: pbrt-v4's sensor and white balance (src/scene/sensor.rs); the
+    /// identity but for a pbrt-v4 film that names them.
+    pub output_from_render: glam::Mat3,
 }
 
 /// MMLT's settings (scene commands `mmltbootstrap`, `mmltchains`, `mmltsigma`,
@@ -966,6 +971,7 @@ impl Default for Settings {
             light_stratify: false,
             gamma: 1.0,
             mmlt: MmltSettings::default(),
+            output_from_render: glam::Mat3::IDENTITY,
         }
     }
 }

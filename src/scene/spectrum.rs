@@ -60,7 +60,7 @@ fn xyz_of(s: impl Fn(f64) -> f64) -> DVec3 {
 
 /// Planck's law: spectral radiance of a black body at `kelvin`, λ in nm (arbitrary
 /// overall scale).
-fn planck(lambda_nm: f64, kelvin: f64) -> f64 {
+pub(crate) fn planck(lambda_nm: f64, kelvin: f64) -> f64 {
     const C: f64 = 299_792_458.0;
     const H: f64 = 6.626_070_15e-34;
     const KB: f64 = 1.380_649e-23;

@@ -191,9 +191,21 @@ impl Parser {
             }
         };
         self.film_ratio = (iso / 100.0 * scale) as f32;
-        if let Some(p) = params.find("sensor") {
-            if p.strs.first().map(String::as_str) != Some("cie1931") {
-                self.unsupported(p.file, p.line, "Film: a sensor other than cie1931");
+        // pbrt-v4's sensor and white balance: a colour matrix on the finished image.
+        let sensor = params.find("sensor");
+        let balance = params.find("whitebalance");
+        let name = sensor
+            .and_then(|p| p.strs.first().cloned())
+            .unwrap_or_else(|| "cie1931".into());
+        let kelvin = balance.and_then(|p| p.nums.first().copied()).unwrap_or(0.0);
+        match crate::scene::sensor::output_from_render(&name, kelvin) {
+            Ok(m) => self.scene.settings.output_from_render = m.as_mat3(),
+            Err(e) => {
+                let (file, line) = match (e.starts_with("whitebalance"), sensor, balance) {
+                    (true, _, Some(p)) | (false, Some(p), _) => (p.file, p.line),
+                    _ => (file, line),
+                };
+                return Err(self.err_at(file, line, "Film", e));
             }
         }
         // pixelbounds wins over cropwindow, as in pbrt-v4.
@@ -236,7 +248,7 @@ impl Parser {
             }
             (None, None) => None,
         };
-        for name in ["diagonal", "savefp16", "maxcomponentvalue", "whitebalance"] {
+        for name in ["diagonal", "savefp16", "maxcomponentvalue"] {
             params.find(name);
         }
         self.check_used("Film", &format!("\"{ty}\""), params);

@@ -2249,3 +2249,54 @@ fn nanovdb_media() {
     assert!(e.message.contains("filename"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// pbrt-v4's film sensor and white balance become the film's colour matrix
+/// (src/scene/sensor.rs): none by default; a named camera (balanced for 6500 K unless
+/// told); the default sensor with a white balance; bad names and temperatures are errors
+/// at their line.
+#[test]
+fn film_sensors_and_white_balance() {
+    use crate::scene::sensor::output_from_render;
+    let film = |params: &str| {
+        parse(&format!(
+            "Film \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 4 {params}\nWorldBegin\n"
+        ))
+        .settings
+        .output_from_render
+    };
+    assert_eq!(film(""), glam::Mat3::IDENTITY);
+    assert_eq!(film("\"string sensor\" \"cie1931\""), glam::Mat3::IDENTITY);
+    for (params, sensor, kelvin) in [
+        (
+            "\"string sensor\" \"nikon_d850\" \"float whitebalance\" 5000",
+            "nikon_d850",
+            5000.0,
+        ),
+        (
+            "\"string sensor\" \"canon_eos_100d\"",
+            "canon_eos_100d",
+            6500.0,
+        ),
+        ("\"float whitebalance\" 9000", "cie1931", 9000.0),
+    ] {
+        let m = film(params);
+        assert_eq!(
+            m,
+            output_from_render(sensor, kelvin).unwrap().as_mat3(),
+            "{params}"
+        );
+        // (A camera balanced for 6500 K sees nearly as the CIE observer does.)
+        assert_ne!(m, glam::Mat3::IDENTITY, "{params}");
+    }
+    let e = parse_err("Film \"rgb\"\n\"string sensor\" \"kodak_brownie\"\nWorldBegin\n");
+    assert_eq!(e.line, 2, "{e}");
+    assert!(
+        e.to_string().contains("unknown sensor \"kodak_brownie\""),
+        "{e}"
+    );
+    let e = parse_err(
+        "Film \"rgb\" \"string sensor\" \"nikon_d850\"\n\"float whitebalance\" 100\nWorldBegin\n",
+    );
+    assert_eq!(e.line, 2, "{e}");
+    assert!(e.to_string().contains("whitebalance must be"), "{e}");
+}
