@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The showcase: the Phong Cornell box (the course's hw4/cornellBRDF.test, the original
 # project's showcase), cornell-occlusion, cornell-slab, caustic (light focused through a
-# glass sphere) and glass-window (a room lit only through a pane of thin glass), each
+# glass sphere), glass-window (a room lit only through a pane of thin glass) and two
+# scenes in media (pbrt/volumetric-caustic.pbrt: a glass ball in fog focusing a small
+# light; pbrt/hazy-door.pbrt: light through a door ajar into a hazy room), each
 # rendered by the path tracer, BDPT and MMLT for the same TIME seconds, composed into one
 # labelled PNG grid (rows: scenes; columns: integrators) so that one sees at a glance
 # that the three converge to one image and which is least noisy.
@@ -22,11 +24,12 @@ lp() { if [ -n "${LIGHTPATH_BIN:-}" ]; then "$LIGHTPATH_BIN" "$@"; else "$root/l
 python3 -c "import PIL" 2>/dev/null || pip install --user --quiet pillow
 
 scenes=("$root/scenes/course/hw4/cornellBRDF.test" "$root/scenes/cornell-occlusion.test" "$root/scenes/cornell-slab.test"
-        "$root/scenes/caustic.test" "$root/scenes/glass-window.test")
+        "$root/scenes/caustic.test" "$root/scenes/glass-window.test"
+        "$root/scenes/pbrt/volumetric-caustic.pbrt" "$root/scenes/pbrt/hazy-door.pbrt")
 integrators=(pathtracer bdpt mmlt)
 args=()
 for scene in "${scenes[@]}"; do
-  name="$(basename "$scene" .test)"
+  name="$(basename "$scene")"; name="${name%.*}"
   for integrator in "${integrators[@]}"; do
     png="$WORK/$name-$integrator.png"
     log="$WORK/$name-$integrator.log"

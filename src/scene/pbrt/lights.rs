@@ -235,7 +235,7 @@ impl Parser {
                 let map = match file_param {
                     None => None,
                     Some(p) => {
-                        let path = self.dirs[p.file as usize].join(&p.strs[0]);
+                        let path = self.resolve(p.file, &p.strs[0]);
                         let image = load_image(&path, Encoding::Linear)
                             .map_err(|e| self.err_at(p.file, p.line, d, e))?;
                         if image.width != image.height {
@@ -352,7 +352,7 @@ impl Parser {
         };
         let image = match params.find("filename").cloned() {
             Some(p) => {
-                let path = self.dirs[p.file as usize].join(&p.strs[0]);
+                let path = self.resolve(p.file, &p.strs[0]);
                 // (8-bit images decoded from sRGB, as pbrt-v4's Image::Read tags them.)
                 let image = load_image(&path, Encoding::Srgb)
                     .map_err(|e| self.err_at(p.file, p.line, d, e))?;

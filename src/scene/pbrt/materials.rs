@@ -337,7 +337,7 @@ impl Parser {
                 let Some(p) = params.find("filename").cloned() else {
                     return Err(self.err_at(file, line, d, "measured: no \"string filename\""));
                 };
-                let path = self.dirs[p.file as usize].join(&p.strs[0]);
+                let path = self.resolve(p.file, &p.strs[0]);
                 let index = match self.measured_files.get(&path) {
                     Some(&i) => i,
                     None => {
@@ -446,7 +446,7 @@ impl Parser {
             let Some(name) = p.strs.first().filter(|s| !s.is_empty()) else {
                 return Ok(None);
             };
-            let path = self.dirs[p.file as usize].join(name);
+            let path = self.resolve(p.file, name);
             let key = (path.clone(), Encoding::Linear);
             let image = match self.image_textures.get(&key) {
                 Some(i) => i.clone(),

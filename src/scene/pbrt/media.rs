@@ -442,7 +442,7 @@ impl Parser {
                 format!("medium \"{name}\": a nanovdb medium needs a \"string filename\""),
             ));
         };
-        let path = self.dirs[p.file as usize].join(p.strs.first().map_or("", |s| s.as_str()));
+        let path = self.resolve(p.file, p.strs.first().map_or("", |s| s.as_str()));
         let string = |what: &str, default: &str| {
             params
                 .find(what)

@@ -74,8 +74,7 @@ struct Parser {
     files: Vec<String>,
     tokens: Vec<Token>,
     pos: usize,
-    /// The directory of the top file (Include/Import paths are relative to the
-    /// including file's directory, as pbrt's).
+    /// The directory of each file read, the top file's first (`resolve`).
     dirs: Vec<PathBuf>,
     gs: GraphicsState,
     stack: Vec<(GraphicsState, bool)>,
@@ -179,6 +178,8 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
     s.nee = NextEventEstimation::Mis;
     s.russian_roulette = true;
     s.importance_sampling = SampleMode::Brdf;
+    // (pbrt-v4 writes 8-bit images sRGB-encoded: a PNG output gets gamma 2.2.)
+    s.gamma = 2.2;
     p.run()?;
     p.finish()
 }
@@ -666,6 +667,23 @@ impl Parser {
         Ok(())
     }
 
+    /// A file named in file `file`: as pbrt-v4 resolves it, a relative path is relative
+    /// to the top file's directory (its search directory), whichever file names it;
+    /// where nothing is there but something is beside the naming file, that (what
+    /// lightpath read before it followed pbrt-v4 here, 2026-12-06).
+    fn resolve(&self, file: u32, name: &str) -> PathBuf {
+        let pbrt = self.dirs[0].join(name);
+        if file == 0 || pbrt.exists() {
+            return pbrt;
+        }
+        let beside = self.dirs[file as usize].join(name);
+        if beside.exists() {
+            beside
+        } else {
+            pbrt
+        }
+    }
+
     /// `Include` and `Import` (which lightpath reads alike): the file's tokens in place of
     /// the directive. A name ending in `.gz` is a gzip-compressed file, as pbrt-v4 reads it.
     fn include(&mut self, name: &str, file: u32, line: u32, d: &str) -> Result<(), ParseError> {
@@ -677,8 +695,7 @@ impl Parser {
                 format!("more than {MAX_FILES} files included (does a file include itself?)"),
             ));
         }
-        let base = self.dirs[file as usize].clone();
-        let path = base.join(name);
+        let path = self.resolve(file, name);
         let text = read_scene_text(&path).map_err(|e| {
             self.err_at(
                 file,

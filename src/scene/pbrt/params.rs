@@ -575,7 +575,7 @@ impl Parser {
                     );
                     return Ok(None);
                 }
-                let path = self.dirs[p.file as usize].join(&p.strs[0]);
+                let path = self.resolve(p.file, &p.strs[0]);
                 let text = std::fs::read_to_string(&path)
                     .map_err(|e| bad(self, format!("cannot read {}: {e}", path.display())))?;
                 let s = spectrum::Sampled::from_spd(&text)

@@ -196,7 +196,7 @@ impl Parser {
                 let Some(fp) = params.find("filename").cloned() else {
                     return Err(self.err_at(file, line, d, "plymesh: no \"string filename\""));
                 };
-                let path = self.dirs[fp.file as usize].join(&fp.strs[0]);
+                let path = self.resolve(fp.file, &fp.strs[0]);
                 let mesh = crate::scene::ply::read_ply(&path)
                     .map_err(|e| self.err_at(fp.file, fp.line, d, e))?;
                 // (displacement is refused below, with every shape's; its edge length

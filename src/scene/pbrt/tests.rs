@@ -1127,7 +1127,7 @@ fn syntax_errors_name_the_line() {
 }
 
 #[test]
-fn includes_are_relative_to_the_including_file() {
+fn file_names_are_relative_to_the_scene_file() {
     let d = std::env::temp_dir().join(format!("lightpath-pbrt-{}", std::process::id()));
     std::fs::create_dir_all(d.join("sub/deeper")).unwrap();
     std::fs::write(d.join("main.pbrt"), "WorldBegin\nInclude \"sub/a.pbrt\"\n").unwrap();
@@ -1151,6 +1151,29 @@ fn includes_are_relative_to_the_including_file() {
     let s = parse_pbrt_file(&d.join("main.pbrt")).unwrap();
     assert_eq!(s.triangles.len(), 2);
     assert_eq!(s.materials[0].diffuse, Vec3::new(0.1, 0.2, 0.3));
+    // pbrt-v4's rule: relative to the top file's directory, whichever file names it (a
+    // file in sub/ naming "sub/deeper/b.pbrt"); and where both exist, the top file's.
+    std::fs::write(
+        d.join("sub/two.pbrt"),
+        format!("Include \"sub/deeper/b.pbrt\"\n{QUAD}\n"),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("main2.pbrt"),
+        "WorldBegin\nInclude \"sub/two.pbrt\"\n",
+    )
+    .unwrap();
+    let s = parse_pbrt_file(&d.join("main2.pbrt")).unwrap();
+    assert_eq!(s.materials[0].diffuse, Vec3::new(0.1, 0.2, 0.3));
+    std::fs::create_dir_all(d.join("deeper")).unwrap();
+    std::fs::write(
+        d.join("deeper/b.pbrt"),
+        "Material \"diffuse\" \"rgb reflectance\" [0.7 0.7 0.7]\n",
+    )
+    .unwrap();
+    let s = parse_pbrt_file(&d.join("main.pbrt")).unwrap();
+    assert_eq!(s.materials[0].diffuse, Vec3::splat(0.7));
+    std::fs::remove_dir_all(d.join("deeper")).unwrap();
     // A gzip-compressed include (pbrt-v4's `.pbrt.gz`); a corrupt one is an error
     // naming the file.
     let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());

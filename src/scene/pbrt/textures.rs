@@ -336,7 +336,7 @@ impl Parser {
                 let Some(p) = params.find("filename").cloned() else {
                     return Err(self.err_at(file, line, d, "imagemap: no \"string filename\""));
                 };
-                let path = self.dirs[file as usize].join(&p.strs[0]);
+                let path = self.resolve(file, &p.strs[0]);
                 let encoding = match params
                     .find("encoding")
                     .and_then(|p| p.strs.first().cloned())
