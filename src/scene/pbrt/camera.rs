@@ -248,8 +248,16 @@ impl Parser {
             }
             (None, None) => None,
         };
-        for name in ["diagonal", "savefp16", "maxcomponentvalue"] {
+        for name in ["diagonal", "savefp16"] {
             params.find(name);
+        }
+        if let Some(p) = params.find("maxcomponentvalue") {
+            if p.nums.first().is_some_and(|x| x.is_finite()) {
+                self.warn(
+                    "maxcomponentvalue",
+                    "Film: maxcomponentvalue (pbrt-v4's clamp of each sample's brightest channel) is not applied: lightpath's estimates stay unbiased".into(),
+                );
+            }
         }
         self.check_used("Film", &format!("\"{ty}\""), params);
         Ok(())
