@@ -81,10 +81,17 @@ def stand_in(path):
     if name.endswith(".pbrt"):
         data = b"# stand-in (collection-audit.py): the original file is not here\n"
     elif name.endswith(".ply"):
+        # (Each mesh's quad a little apart from the others, by a hash of its name: a
+        # scene of hundreds of meshes would otherwise be hundreds of coincident quads.)
+        h = zlib.crc32(path.encode())
+        dx, dy, dz = ((h >> s) % 1000 / 1000.0 - 0.5 for s in (0, 10, 20))
+        verts = "".join(f"{x + dx:g} {y + dy:g} {dz:g} {u} {v}\n"
+                        for x, y, u, v in ((-0.5, -0.5, 0, 0), (0.5, -0.5, 1, 0),
+                                           (0.5, 0.5, 1, 1), (-0.5, 0.5, 0, 1)))
         data = (b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
                 b"property float z\nproperty float u\nproperty float v\nelement face 2\n"
                 b"property list uchar int vertex_indices\nend_header\n"
-                b"-0.5 -0.5 0 0 0\n0.5 -0.5 0 1 0\n0.5 0.5 0 1 1\n-0.5 0.5 0 0 1\n3 0 1 2\n3 0 2 3\n")
+                + verts.encode() + b"3 0 1 2\n3 0 2 3\n")
     elif name.endswith(".png"):
         data = png(2, 2, [128, 128, 128])
     elif name.endswith(".exr"):
@@ -187,8 +194,10 @@ def main():
             if ok:
                 cells.append(f"ok ({dt:.0f} s)")
             else:
-                first = next((l for l in err.splitlines() if l.strip()), "failed")
-                cells.append("**" + first.replace("|", "/")[:160] + "**")
+                lines = err.splitlines()
+                i = next((k for k, l in enumerate(lines) if l.startswith("error")), 0)
+                first = " ".join(l.strip() for l in lines[i:i + 2]) if lines else "failed"
+                cells.append("**" + first.replace("|", "/")[:240] + "**")
             print(f"{rel} {integrator}: {cells[-1]}", file=sys.stderr, flush=True)
         print(f"| {rel} | " + " | ".join(cells) + " |", flush=True)
 

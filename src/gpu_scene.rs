@@ -156,7 +156,13 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
             p1: [det, 0.0, 0.0, 0.0],
             p2: [0.0; 4],
             radiance: m.emission.extend(0.0).to_array(),
-            info: [EMITTER_SPHERE, i as u32, m.two_sided_emission as u32, 0],
+            info: [
+                EMITTER_SPHERE,
+                i as u32,
+                m.two_sided_emission as u32,
+                // (pbrt-v4's invisible area light: in no acceleration structure.)
+                if s.hidden { EMITTER_HIDDEN } else { 0 },
+            ],
         });
     }
     let (_, radius) = scene_bounds(scene);

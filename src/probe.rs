@@ -352,6 +352,7 @@ mod tests {
                         object_to_world: s.object_to_world,
                         material: 0,
                         inward: false,
+                        hidden: false,
                     });
                 }
             }

@@ -135,6 +135,15 @@ fn lights() -> Vec<(&'static str, Kind, String)> {
             ),
         ),
         (
+            // pbrt-v4's invisible area light on a sphere (alpha 0): in no acceleration
+            // structure, so only light sampling finds it (the collection's kroken).
+            "invisible sphere",
+            Kind::Delta,
+            format!(
+                "Translate 0.7 2 0.3\n{area}\nShape \"sphere\" \"float radius\" [ 0.4 ] \"float alpha\" [ 0 ]"
+            ),
+        ),
+        (
             "disk",
             Kind::Area,
             format!("Translate 0 2.4 0\nRotate 90 1 0 0\n{area}\nShape \"disk\" \"float radius\" [ 0.6 ]"),

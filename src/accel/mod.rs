@@ -40,12 +40,15 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
         .iter()
         .map(|t| geometry::triangle_bounds(t.v))
         .collect();
-    bounds.extend(
-        scene
-            .spheres
-            .iter()
-            .map(|s| geometry::sphere_world_bounds(&s.object_to_world)),
-    );
+    // (Hidden spheres — invisible lights — are left out: no ray meets them. `ids` maps
+    // the builders' primitive indices back to primitive ids.)
+    let mut ids: Vec<u32> = (0..ntri as u32).collect();
+    for (i, s) in scene.spheres.iter().enumerate() {
+        if !s.hidden {
+            bounds.push(geometry::sphere_world_bounds(&s.object_to_world));
+            ids.push((ntri + i) as u32);
+        }
+    }
     let (nodes, prim_refs) = match kind {
         BvhKind::Binary => {
             let bvh = Bvh::build(&bounds);
@@ -69,6 +72,7 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
             (bytemuck::cast_slice(&bvh.nodes).to_vec(), bvh.prim_refs)
         }
     };
+    let prim_refs = prim_refs.into_iter().map(|p| ids[p as usize]).collect();
     let mut data = BvhData {
         nodes,
         prim_refs,

@@ -191,7 +191,11 @@ impl Engine {
             GpuScene::new(&self.device, &scene, &bvh, backend, p)
         })?;
         let rq = if backend == Backend::RayQuery {
-            let spheres: Vec<_> = scene.spheres.iter().map(|s| s.object_to_world).collect();
+            let spheres: Vec<_> = scene
+                .spheres
+                .iter()
+                .map(|s| (!s.hidden).then_some(s.object_to_world))
+                .collect();
             Some(trace.cpu("acceleration structure build", || {
                 rayquery::build_scene(
                     &self.device,

@@ -124,14 +124,15 @@ fn address_of(device: &Device, a: &AccelStructure) -> u64 {
 }
 
 /// `triangles` is the GPU triangle buffer (three vec4 vertices per triangle, used as a
-/// vertex buffer of stride 16), `sphere_transforms` the spheres' object-to-world maps.
+/// vertex buffer of stride 16), `sphere_transforms` the spheres' object-to-world maps
+/// (`None`: a hidden sphere, an invisible light, which gets no instance).
 /// `alpha`: some triangles have alpha cut-outs, so the triangles are not opaque (the
 /// shaders test each candidate, trace_rayquery.glsl); otherwise everything is opaque.
 pub fn build_scene(
     device: &Arc<Device>,
     triangles: &Buffer,
     triangle_count: u32,
-    sphere_transforms: &[Mat4],
+    sphere_transforms: &[Option<Mat4>],
     alpha: bool,
 ) -> GpuResult<RayQueryScene> {
     let mut blas = Vec::new();
@@ -196,7 +197,7 @@ pub fn build_scene(
         ));
         blas.push(b);
     }
-    if !sphere_transforms.is_empty() {
+    if sphere_transforms.iter().any(Option::is_some) {
         let aabb: [f32; 6] = [-1.0, -1.0, -1.0, 1.0, 1.0, 1.0];
         let aabb_buffer = Buffer::with_data(
             device,
@@ -222,6 +223,7 @@ pub fn build_scene(
         )?;
         let reference = address_of(device, &b);
         for (i, m) in sphere_transforms.iter().enumerate() {
+            let Some(m) = m else { continue };
             let r = m.transpose().to_cols_array(); // rows of m
             instances.push(instance(
                 [

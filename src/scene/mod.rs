@@ -626,6 +626,10 @@ pub struct Sphere {
     pub object_to_world: Mat4,
     pub material: u32,
     pub inward: bool,
+    /// pbrt-v4's invisible area light (alpha 0 on an emitting sphere): it emits, but no
+    /// ray meets it (it is left out of every acceleration structure), so only light
+    /// sampling finds it.
+    pub hidden: bool,
 }
 
 /// A parallelogram light as written in the file (world space): corner `a`, edges

@@ -1196,6 +1196,7 @@ impl Parser {
             object_to_world,
             material,
             inward: false,
+            hidden: false,
         });
         Ok(())
     }

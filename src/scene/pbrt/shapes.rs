@@ -440,17 +440,19 @@ impl Parser {
             Some(Value::Const(c)) => Some(crate::scene::Alpha::Constant(c.x)),
             Some(Value::Texture(t)) => Some(crate::scene::Alpha::Texture(t)),
         };
+        let invisible = alpha.is_some_and(crate::scene::Alpha::is_zero);
         if alpha.is_some() {
-            if matches!(kind, ShapeKind::Sphere { .. }) {
+            // (An emitting sphere of alpha 0 is an invisible light: left out of the
+            // acceleration structures, `emit`. Other alpha on a sphere is refused.)
+            if matches!(kind, ShapeKind::Sphere { .. }) && !(invisible && self.gs.area.is_some()) {
                 self.unsupported(
                     file,
                     line,
-                    "Shape \"sphere\": alpha (lightpath cuts out triangles only)",
+                    "Shape \"sphere\": alpha (lightpath cuts out triangles only; a sphere light's alpha may be 0, an invisible light)",
                 );
             }
             // pbrt-v4's invisible area light: alpha 0 on an emitter (its triangles cut out
             // of every ray; the emitter table marks it EMITTER_HIDDEN).
-            let invisible = alpha.is_some_and(crate::scene::Alpha::is_zero);
             if self.gs.area.is_some() && !invisible {
                 self.unsupported(
                     file,
@@ -604,6 +606,7 @@ impl Parser {
                     object_to_world: ctm * Mat4::from_scale(Vec3::splat(radius)),
                     material,
                     inward: s.reverse ^ swaps,
+                    hidden: emission.is_some() && s.alpha.is_some_and(crate::scene::Alpha::is_zero),
                 });
             }
         }

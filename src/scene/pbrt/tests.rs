@@ -2323,3 +2323,53 @@ fn film_sensors_and_white_balance() {
     assert_eq!(e.line, 2, "{e}");
     assert!(e.to_string().contains("whitebalance must be"), "{e}");
 }
+
+/// An include's tokens stand where the directive stood, so a directive begun in an
+/// included file takes the parameters that follow the `Include` (the collection's
+/// smoke-plume.pbrt continues its medium's parameter list after including the grid).
+#[test]
+fn a_directive_continues_after_an_include() {
+    let d = std::env::temp_dir().join(format!("lightpath-splice-{}", std::process::id()));
+    std::fs::create_dir_all(d.join("geometry")).unwrap();
+    std::fs::write(
+        d.join("geometry/medium.pbrt"),
+        "MakeNamedMedium \"m\" \"string type\" \"homogeneous\"\n\"float scale\" 2\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("main.pbrt"),
+        "WorldBegin\nInclude \"geometry/medium.pbrt\"\n  \"rgb sigma_a\" [0.1 0.2 0.3]\n\
+         \"rgb sigma_s\" [0 0 0]\nMediumInterface \"m\" \"\"\nMaterial \"interface\"\n\
+         Shape \"sphere\"\n",
+    )
+    .unwrap();
+    let s = parse_pbrt_file(&d.join("main.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.media.len(), 1);
+    assert!(
+        (s.media[0].sigma_a - Vec3::new(0.2, 0.4, 0.6))
+            .abs()
+            .max_element()
+            < 1e-6,
+        "{:?}",
+        s.media[0].sigma_a
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+/// pbrt-v4's alpha on spheres: 0 on a sphere light is an invisible light (kept, hidden);
+/// 0 on a sphere that does not emit leaves it out; any other alpha on a sphere is refused.
+#[test]
+fn sphere_alpha_is_an_invisible_light_or_refused() {
+    let light = "AreaLightSource \"diffuse\" \"rgb L\" [1 1 1]\n";
+    let s = parse(&format!(
+        "WorldBegin\n{light}Shape \"sphere\" \"float alpha\" 0\nShape \"sphere\"\n"
+    ));
+    assert_eq!(s.spheres.len(), 2);
+    assert!(s.spheres[0].hidden && !s.spheres[1].hidden);
+    let s = parse("WorldBegin\nShape \"sphere\" \"float alpha\" 0\n");
+    assert!(s.spheres.is_empty());
+    let e = parse_err(&format!(
+        "WorldBegin\n{light}Shape \"sphere\" \"float alpha\" 0.5\n"
+    ));
+    assert!(e.to_string().contains("Shape \"sphere\": alpha"), "{e}");
+}
