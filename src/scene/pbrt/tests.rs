@@ -1498,7 +1498,8 @@ fn measured_materials_read_their_file_once_relative_to_the_scene() {
 /// A shape whose alpha is 0 is nothing in pbrt-v4 (never intersected): a sphere's is left
 /// out, triangles keep their alpha (the alpha test cuts them out of every ray). On an area
 /// light it is pbrt-v4's invisible light, whose triangles stay (cut out of every ray) and
-/// emit. Other alphas on area lights, and alpha on a sphere light, are unsupported.
+/// emit; so does a sphere light's, hidden (`sphere_alpha_is_an_invisible_light_or_refused`).
+/// Other alphas on area lights are unsupported.
 #[test]
 fn shapes_whose_alpha_is_zero_are_left_out_unless_they_emit() {
     let s = parse(&format!(
@@ -1521,7 +1522,6 @@ fn shapes_whose_alpha_is_zero_are_left_out_unless_they_emit() {
         assert_eq!(t.alpha, Some(crate::scene::Alpha::Constant(0.0)));
     }
     for (shape, alpha, what) in [
-        ("sphere", "0", "Shape \"sphere\": alpha"),
         ("sphere", "0.5", "alpha"),
         ("disk", "0.5", "alpha on an area light"),
     ] {
