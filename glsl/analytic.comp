@@ -26,11 +26,12 @@ void main() {
         vec2 u_lens = vec2(0.0);
         if (camera_has_lens()) u_lens = rng_next2(rng);
         vec3 o, d;
-        camera_ray(camera_pixel_film(pixel, u_pixel), u_lens, o, d);
+        float weight = camera_ray(camera_pixel_film(pixel, u_pixel), u_lens, o, d);
         Hit hit;
         rays++;
+        if (weight == 0.0) continue;
         if (!trace_closest(o, d, INF, hit)) {
-            if (scene.environment != NO_EMITTER) sum += environment_radiance(o, d);
+            if (scene.environment != NO_EMITTER) sum += weight * environment_radiance(o, d);
             continue;
         }
         Surface s = surface_at(hit, o, d);
@@ -39,7 +40,7 @@ void main() {
         vec3 L = s.emitter != NO_EMITTER ? emitted_radiance(s.material, s.ng, wo) : vec3(0.0);
         vec3 E = vec3(0.0);
         for (uint e = 0u; e < scene.emitter_count; ++e) E += emitter_unoccluded_irradiance(e, s.p, n, s.prim);
-        sum += L + material_bsdf(materials[s.material], true, s.tex0, s.tex1).kd * INV_PI * E;
+        sum += weight * (L + material_bsdf(materials[s.material], true, s.tex0, s.tex1).kd * INV_PI * E);
     }
     film[index] += vec4(sum, float(rays));
 }

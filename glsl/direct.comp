@@ -36,9 +36,16 @@ vec3 estimate_direct(BsdfParams b, vec3 p, vec3 n, vec3 ns, vec3 wo, uint e, vec
 
 // The `direct` integrator: emission seen by the camera plus lightsamples light samples
 // at the first hit, stratified on a sqrt(N) x sqrt(N) grid when asked.
+vec3 direct_radiance(vec3 o, vec3 d, inout Rng rng);
+
 vec3 direct_sample(uvec2 pixel, inout Rng rng) {
     vec3 o, d;
-    camera_sample(pixel, rng, o, d);
+    float weight = camera_sample(pixel, rng, o, d);
+    return weight == 0.0 ? vec3(0.0) : weight * direct_radiance(o, d, rng);
+}
+
+// The radiance along the camera ray (o, d).
+vec3 direct_radiance(vec3 o, vec3 d, inout Rng rng) {
     Hit hit;
     if (!closest(o, d, hit)) return scene.environment != NO_EMITTER ? environment_radiance(o, d) : vec3(0.0);
     Surface s = surface_at(hit, o, d);

@@ -117,22 +117,16 @@ pub struct SceneParams {
     pub strategy_first: u32,
     pub strategy_count: u32,
     pub environment: u32,
-    pub env_texture: u32,
-    pub env_mapping: u32,
-    pub env_marginal: u32,
-    pub env_conditional: u32,
+    pub environment_count: u32,
+    pub lens: u32,
+    pub reserved5: u32,
+    pub reserved6: u32,
     pub camera_medium: u32,
-    pub env_x: [f32; 4],
-    pub env_y: [f32; 4],
-    pub env_z: [f32; 4],
     pub cam_window: [f32; 4],
     pub lens_radius: f32,
     pub focal_distance: f32,
     pub reserved2: u32,
     pub reserved3: u32,
-    pub portal_p0: [f32; 4],
-    pub portal_e1: [f32; 4],
-    pub portal_e3: [f32; 4],
 }
 
 #[repr(C)]
@@ -448,22 +442,16 @@ pub fn layouts() -> Vec<StructLayout> {
             strategy_first,
             strategy_count,
             environment,
-            env_texture,
-            env_mapping,
-            env_marginal,
-            env_conditional,
+            environment_count,
+            lens,
+            reserved5,
+            reserved6,
             camera_medium,
-            env_x,
-            env_y,
-            env_z,
             cam_window,
             lens_radius,
             focal_distance,
             reserved2,
-            reserved3,
-            portal_p0,
-            portal_e1,
-            portal_e3
+            reserved3
         ),
         layout!(GpuPathVertex, p, n, wi, beta, ns),
         layout!(
@@ -566,7 +554,7 @@ const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 128);
 const _: () = assert!(std::mem::size_of::<GpuEmitter>() == 80);
-const _: () = assert!(std::mem::size_of::<SceneParams>() == 304);
+const _: () = assert!(std::mem::size_of::<SceneParams>() == 208);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuPtPath>() == 240);

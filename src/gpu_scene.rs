@@ -46,8 +46,12 @@ pub struct EmitterTable {
     /// Per triangle and per sphere: index of its emitter, or NO_EMITTER.
     pub triangle_emitter: Vec<u32>,
     pub sphere_emitter: Vec<u32>,
-    /// The environment light's emitter, or NO_EMITTER.
+    /// The first infinite light's emitter, or NO_EMITTER; the infinite lights are the
+    /// last emitters, in a row.
     pub environment: u32,
+    /// The scene's index (`Scene::environments`) of each infinite light's emitter (a
+    /// light that emits nothing has none).
+    pub environment_sources: Vec<usize>,
 }
 
 fn avg(v: Vec3) -> f32 {
@@ -262,21 +266,37 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
             }
         }
     }
-    // The environment (pbrt-v4's infinite lights' Phi: 4π · πR² · the mean radiance over
-    // the sphere) comes last.
+    // The infinite lights (pbrt-v4's Phi: 4π · πR² · the mean radiance over the sphere)
+    // come last, in a row. Their map, its distribution and their portal are filled in by
+    // `GpuScene::new` (`TextureData::environments`).
     let mut environment = NO_EMITTER;
-    if let Some(env) = &scene.environment {
+    let mut environment_sources = Vec::new();
+    for (i, env) in scene.environments.iter().enumerate() {
         let mean = match &env.map {
             None => env.radiance,
             Some(map) => env.radiance * environment_mean(&map.image, map.mapping),
         };
         if avg(mean) > 0.0 {
-            environment = emitters.len() as u32;
+            if environment == NO_EMITTER {
+                environment = emitters.len() as u32;
+            }
+            environment_sources.push(i);
             power.push(4.0 * pi * pi * radius * radius * avg(mean));
+            let (to_world, mapping) = env
+                .map
+                .as_ref()
+                .map_or((Mat3::IDENTITY, ENV_MAPPING_LATLONG), |m| {
+                    (m.to_world, m.mapping.code())
+                });
             emitters.push(GpuEmitter {
+                p0: to_world.col(0).extend(0.0).to_array(),
+                p1: to_world.col(1).extend(0.0).to_array(),
+                p2: to_world
+                    .col(2)
+                    .extend(f32::from_bits(NO_TEXTURE))
+                    .to_array(),
                 radiance: env.radiance.extend(0.0).to_array(),
-                info: [EMITTER_INFINITE, 0, 0, 0],
-                ..Default::default()
+                info: [EMITTER_INFINITE, NO_TEXTURE, mapping, 0],
             });
         }
     }
@@ -313,6 +333,7 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
         triangle_emitter,
         sphere_emitter,
         environment,
+        environment_sources,
     }
 }
 
@@ -321,9 +342,11 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
 pub struct TextureData {
     pub textures: Vec<GpuTexture>,
     pub texels: Vec<f32>,
-    /// The environment map's texture and the first floats of its marginal and
-    /// conditional CDFs in `texels`, if the scene has a map.
-    pub environment: Option<(u32, u32, u32)>,
+    /// Per infinite light (`Scene::environments`' order): its map's texture and the
+    /// first floats of the map's marginal and conditional CDFs in `texels` (NO_TEXTURE,
+    /// 0, 0 for a constant light), and the first of its portal's nine floats (corner p0,
+    /// edges p1 − p0 and p3 − p0; NO_TEXTURE: none).
+    pub environments: Vec<[u32; 4]>,
     /// The texel index of each measured material's tables (`Scene::measured`'s order,
     /// `MeasuredBsdf::pack`'s layout).
     pub measured: Vec<u32>,
@@ -331,6 +354,8 @@ pub struct TextureData {
     /// then its distribution's marginal CDF (height + 1) and conditional CDFs (height ×
     /// (width + 1)); 0 for a profile no light shows.
     pub light_profiles: Vec<u32>,
+    /// A realistic camera's lens system's first float (`LensSystem::pack`).
+    pub lens: Option<u32>,
     /// The noise table's first float, where a texture or a cloud medium needs it.
     pub noise: Option<u32>,
     /// The blackbody table's first float (src/media.rs's `blackbody_table`), where a
@@ -524,8 +549,22 @@ pub fn texture_data(scene: &Scene) -> TextureData {
         };
         textures.extend(program);
     }
-    let mut environment = None;
-    if let Some(map) = scene.environment.as_ref().and_then(|e| e.map.as_ref()) {
+    let mut environments = Vec::new();
+    for env in &scene.environments {
+        let portal = match env.portal {
+            None => NO_TEXTURE,
+            Some(q) => {
+                let first = texels.floats.len() as u32;
+                for v in [q[0], q[1] - q[0], q[3] - q[0]] {
+                    texels.floats.extend(v.to_array());
+                }
+                first
+            }
+        };
+        let Some(map) = &env.map else {
+            environments.push([NO_TEXTURE, 0, 0, portal]);
+            continue;
+        };
         let image = &map.image;
         let index = textures.len() as u32;
         textures.push(GpuTexture {
@@ -555,7 +594,7 @@ pub fn texture_data(scene: &Scene) -> TextureData {
         texels.floats.extend(&d.marginal);
         let conditional = texels.floats.len() as u32;
         texels.floats.extend(&d.conditional);
-        environment = Some((index, marginal, conditional));
+        environments.push([index, marginal, conditional, portal]);
     }
     let measured = scene
         .measured
@@ -600,12 +639,18 @@ pub fn texture_data(scene: &Scene) -> TextureData {
             .extend_from_slice(crate::media::blackbody_table());
         first
     });
+    let lens = scene.lens.as_ref().map(|l| {
+        let first = texels.floats.len() as u32;
+        texels.floats.extend(l.pack());
+        first
+    });
     TextureData {
+        lens,
         noise,
         blackbody,
         textures,
         texels: texels.floats,
-        environment,
+        environments,
         measured,
         light_profiles: light_profiles.into_iter().map(|x| x.unwrap_or(0)).collect(),
     }
@@ -901,9 +946,6 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
     };
     let s = &scene.settings;
     let (center, radius) = scene_bounds(scene);
-    let env_map = scene.environment.as_ref().and_then(|e| e.map.as_ref());
-    let portal = scene.environment.as_ref().and_then(|e| e.portal);
-    let env_to_world = env_map.map_or(Mat3::IDENTITY, |m| m.to_world);
     SceneParams {
         cam_eye: c.eye.extend(0.0).to_array(),
         cam_right: right.extend(0.0).to_array(),
@@ -933,22 +975,16 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
         strategy_first: 0,
         strategy_count: 0,
         environment: NO_EMITTER,
-        env_texture: NO_TEXTURE,
-        env_mapping: env_map.map_or(ENV_MAPPING_LATLONG, |m| m.mapping.code()),
-        env_marginal: 0,
-        env_conditional: 0,
+        environment_count: 0,
+        lens: NO_TEXTURE,
+        reserved5: 0,
+        reserved6: 0,
         camera_medium: crate::scene::MediumInterface::code(scene.camera_medium),
         cam_window: c.film_window(scene.width, scene.height),
         lens_radius: c.lens_radius,
         focal_distance: c.focal_distance,
         reserved2: 0,
         reserved3: 0,
-        env_x: env_to_world.col(0).extend(0.0).to_array(),
-        env_y: env_to_world.col(1).extend(0.0).to_array(),
-        env_z: env_to_world.col(2).extend(0.0).to_array(),
-        portal_p0: portal.map_or([0.0; 4], |q| q[0].extend(1.0).to_array()),
-        portal_e1: portal.map_or([0.0; 4], |q| (q[1] - q[0]).extend(0.0).to_array()),
-        portal_e3: portal.map_or([0.0; 4], |q| (q[3] - q[0]).extend(0.0).to_array()),
     }
 }
 
@@ -1003,10 +1039,15 @@ impl GpuScene {
         let mut params = params;
         params.emitter_count = table.emitters.len() as u32;
         params.environment = table.environment;
-        if let Some((texture, marginal, conditional)) = textures.environment {
-            params.env_texture = texture;
-            params.env_marginal = marginal;
-            params.env_conditional = conditional;
+        params.environment_count = table.environment_sources.len() as u32;
+        params.lens = textures.lens.unwrap_or(NO_TEXTURE);
+        for (k, &i) in table.environment_sources.iter().enumerate() {
+            let e = &mut table.emitters[table.environment as usize + k];
+            let [texture, marginal, conditional, portal] = textures.environments[i];
+            e.info[1] = texture;
+            e.p0[3] = bits(marginal);
+            e.p1[3] = bits(conditional);
+            e.p2[3] = bits(portal);
         }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let triangle_usage = if backend == Backend::RayQuery {
@@ -1168,6 +1209,42 @@ mod tests {
             (t.emitters[1].p1[3] - 0.5).abs() < 1e-6,
             "cos of the cone angle"
         );
+    }
+
+    /// Several infinite lights: one emitter each, the last ones in a row (one that emits
+    /// nothing left out), each with its map's frame and mapping, its portal's corner and
+    /// edges in the texels.
+    #[test]
+    fn infinite_lights_are_the_last_emitters_in_a_row() {
+        let s = crate::scene::parse_pbrt_str(
+            "WorldBegin\nLightSource \"point\" \"rgb I\" [ 1 1 1 ]\n\
+             LightSource \"infinite\" \"rgb L\" [ 1 1 1 ] \"point3 portal\" [ 0 1 0  1 1 0  1 1 1  0 1 1 ]\n\
+             LightSource \"infinite\" \"rgb L\" [ 0 0 0 ] \"point3 portal\" [ 0 2 0  1 2 0  1 2 1  0 2 1 ]\n\
+             Rotate 90 0 0 1\nLightSource \"infinite\" \"rgb L\" [ 2 2 2 ]\n",
+            "envs.pbrt",
+        )
+        .unwrap();
+        assert_eq!(s.environments.len(), 3);
+        let t = emitter_table(&s);
+        assert_eq!(t.environment, 1);
+        assert_eq!(t.environment_sources, vec![0, 2]);
+        assert_eq!(t.emitters.len(), 3);
+        for e in &t.emitters[1..] {
+            assert_eq!(e.info[0], EMITTER_INFINITE);
+            assert_eq!(e.info[1], NO_TEXTURE);
+        }
+        // (A constant light's frame is the identity: it has no map to turn.)
+        assert_eq!(t.emitters[2].p0, [1.0, 0.0, 0.0, 0.0]);
+        let d = texture_data(&s);
+        assert_eq!(d.environments.len(), 3);
+        assert_eq!(d.environments[2][3], NO_TEXTURE);
+        let first = d.environments[0][3] as usize;
+        assert_eq!(
+            d.texels[first..first + 9],
+            [0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+        );
+        let p0 = d.environments[1][3] as usize;
+        assert_eq!(d.texels[p0 + 1], 2.0);
     }
 
     #[test]

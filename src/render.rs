@@ -139,6 +139,18 @@ impl Renderer {
     /// Render `scene` (its settings already overridden by the command line) with `seed`,
     /// by the integrator its settings name.
     pub fn render(&mut self, scene: &Scene, seed: u32, trace: &mut Trace) -> Result<RenderOutput> {
+        if scene.lens.is_some()
+            && matches!(
+                scene.settings.integrator,
+                crate::scene::IntegratorKind::Bdpt | crate::scene::IntegratorKind::Mmlt
+            )
+        {
+            anyhow::bail!(
+                "a realistic camera (a lens system) has no importance for light subpaths to \
+                 connect to (pbrt-v4's has none either: its bdpt and mlt refuse it): render \
+                 it with the path tracer (pathtracer, direct)"
+            );
+        }
         let mut integrator = crate::integrators::create(scene.settings.integrator, &self.options)?;
         let mut out = integrator.render(&mut self.engine, scene, seed, trace)?;
         apply_film_matrix(&mut out.image, scene.settings.output_from_render);

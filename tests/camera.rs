@@ -234,3 +234,168 @@ fn a_screen_window_and_a_crop_window_render_the_part_they_name() {
         0.01,
     );
 }
+
+/// A biconvex singlet (n 1.5, radii ±50 mm, 6 mm thick; focal length 51 mm) behind an
+/// aperture stop, as a lens file (pbrt-v4's format: radius, thickness, index, diameter).
+const SINGLET: &str = "# a test lens\n0 4 0 10\n50 6 1.5 20\n-50 0 1 20\n";
+
+/// A scene seen through a realistic camera with the singlet (a lens file beside it).
+fn realistic_scene(dir: &std::path::Path, camera: &str, world: &str) -> Result<Scene, String> {
+    realistic_scene_film(dir, camera, "", world)
+}
+
+fn realistic_scene_film(
+    dir: &std::path::Path,
+    camera: &str,
+    film: &str,
+    world: &str,
+) -> Result<Scene, String> {
+    std::fs::write(dir.join("singlet.dat"), SINGLET).unwrap();
+    let text = format!(
+        "LookAt 0 0 0  0 0 1  0 1 0\n{camera}\n\
+         Film \"rgb\" \"integer xresolution\" 24 \"integer yresolution\" 16 {film}\n\
+         Integrator \"path\" \"integer maxdepth\" 1\nWorldBegin\n{world}\n"
+    );
+    std::fs::write(dir.join("s.pbrt"), text).unwrap();
+    scene::parse_pbrt_file(&dir.join("s.pbrt")).map_err(|e| e.to_string())
+}
+
+const REALISTIC: &str = "Camera \"realistic\" \"string lensfile\" \"singlet.dat\" \
+                         \"float aperturediameter\" 8 \"float focusdistance\" 3";
+
+/// pbrt-v4's realistic camera on the device is its CPU mirror (src/scene/lens.rs): under
+/// a white environment of radiance 1 every pixel is the mean weight cos⁴θ / (p d²) of
+/// the rays its film area sends through the lens, which the CPU estimates from the same
+/// lens system (its exit pupil table included) region by region.
+#[test]
+fn a_realistic_camera_on_the_device_is_its_cpu_mirror() {
+    let dir = temp_dir("realistic");
+    let s = realistic_scene(
+        &dir,
+        REALISTIC,
+        "LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]",
+    )
+    .unwrap();
+    let lens = s.lens.clone().expect("a lens system");
+    let (w, h, grid) = (s.width, s.height, 4u32);
+    // The CPU's estimate: eight independent runs of 64 samples per pixel (eight, for
+    // standard errors of the 0-or-not weights that can be trusted).
+    let runs: Vec<Vec<[f64; 3]>> = (0..8u32)
+        .map(|run| {
+            let mut img = Image {
+                width: w,
+                height: h,
+                pixels: vec![[0.0; 3]; (w * h) as usize],
+            };
+            let mut rng = 0x9e37_79b9u32.wrapping_mul(run + 1);
+            let mut next = || {
+                rng ^= rng << 13;
+                rng ^= rng >> 17;
+                rng ^= rng << 5;
+                (rng >> 8) as f32 / (1u32 << 24) as f32
+            };
+            for y in 0..h {
+                for x in 0..w {
+                    let mut sum = 0.0f32;
+                    for _ in 0..64 {
+                        let film = glam::Vec2::new(
+                            (x as f32 + next()) / w as f32,
+                            (y as f32 + next()) / h as f32,
+                        );
+                        let u = glam::Vec2::new(next(), next());
+                        sum += lens.camera_ray(film, u).map_or(0.0, |r| r.2);
+                    }
+                    img.pixels[(y * w + x) as usize] = [sum / 64.0; 3];
+                }
+            }
+            region_means(&img, grid)
+        })
+        .collect();
+    let cpu = estimate_from_runs(&runs);
+    assert!(cpu.mean.iter().all(|m| m[0] > 0.0), "{:?}", cpu.mean);
+    let device = estimate(&with(&s, IntegratorKind::PathTracer, 64, 1), 8, grid, Bvh);
+    assert_agree(
+        "the realistic camera: device vs CPU",
+        &device,
+        &cpu,
+        5.0,
+        0.002,
+    );
+    // (The direct integrator weighs its camera rays alike.)
+    let direct = estimate(&with(&s, IntegratorKind::Direct, 64, 1), 8, grid, Bvh);
+    assert_agree(
+        "the realistic camera: direct vs CPU",
+        &direct,
+        &cpu,
+        5.0,
+        0.002,
+    );
+}
+
+/// The lens turns the image over and the film turns it back: a light up and to the
+/// right of the view (+x: pbrt's LookAt camera, with no mirroring Scale, has +x on the
+/// image's right) is in the upper right of the realistic camera's image, as of the
+/// perspective camera's.
+#[test]
+fn a_realistic_camera_sees_the_image_the_right_way_round() {
+    let dir = temp_dir("realistic-orientation");
+    let world = "AreaLightSource \"diffuse\" \"rgb L\" [ 10 10 10 ] \"bool twosided\" true\n\
+                 Shape \"trianglemesh\" \"point3 P\" [ 0.2 0.1 3  0.6 0.1 3  0.6 0.4 3  0.2 0.4 3 ] \
+                 \"integer indices\" [ 0 1 2  0 2 3 ]";
+    let quadrant = |s: &Scene| {
+        let img = render(&with(s, IntegratorKind::PathTracer, 64, 1), 1, Bvh);
+        let m = region_means(&img, 2);
+        (0..4).max_by(|&a, &b| m[a][0].total_cmp(&m[b][0])).unwrap()
+    };
+    let realistic = realistic_scene(&dir, REALISTIC, world).unwrap();
+    let pinhole = realistic_scene(&dir, "Camera \"perspective\" \"float fov\" 30", world).unwrap();
+    assert_eq!(
+        quadrant(&realistic),
+        1,
+        "the realistic camera's brightest quadrant"
+    );
+    assert_eq!(
+        quadrant(&pinhole),
+        1,
+        "the perspective camera's brightest quadrant"
+    );
+}
+
+/// BDPT and MMLT refuse a realistic camera (it has no importance to connect to, as in
+/// pbrt-v4); a missing or malformed lens file and a crop window are errors that name
+/// their file and line.
+#[test]
+fn a_realistic_camera_refuses_what_it_cannot_do() {
+    let dir = temp_dir("realistic-errors");
+    let s = realistic_scene(
+        &dir,
+        REALISTIC,
+        "LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]",
+    )
+    .unwrap();
+    for integrator in [IntegratorKind::Bdpt, IntegratorKind::Mmlt] {
+        let mut r = renderer(Bvh);
+        let e = r
+            .render(
+                &with(&s, integrator, 4, 1),
+                1,
+                &mut lightpath::trace::Trace::new(),
+            )
+            .err()
+            .expect("refused");
+        assert!(e.to_string().contains("realistic camera"), "{e}");
+    }
+    let e = realistic_scene(&dir, "Camera \"realistic\"", "").unwrap_err();
+    assert!(e.contains("s.pbrt:2") && e.contains("lensfile"), "{e}");
+    std::fs::write(dir.join("bad.dat"), "0 4 0 10\n50 6 1.5\n").unwrap();
+    let e = realistic_scene(
+        &dir,
+        "Camera \"realistic\" \"string lensfile\" \"bad.dat\"",
+        "",
+    )
+    .unwrap_err();
+    assert!(e.contains("bad.dat") && e.contains("7 numbers"), "{e}");
+    let e = realistic_scene_film(&dir, REALISTIC, "\"float cropwindow\" [ 0 0.5 0 0.5 ]", "")
+        .unwrap_err();
+    assert!(e.contains("cropwindow"), "{e}");
+}

@@ -508,7 +508,7 @@ fn environment_maps_seen_directly_are_their_lookup() {
              {rotate}\n{command} {} 1.5\n",
             file.display()
         ));
-        let env = s.environment.clone().unwrap();
+        let env = s.environments[0].clone();
         let expected = expected_image(&s, |_, d| environment_radiance(&env, d));
         let img = render(&with_integrator(s, IntegratorKind::PathTracer, 64), 3, Bvh);
         let (mean, max) = differences(&img, &expected);

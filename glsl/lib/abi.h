@@ -215,7 +215,7 @@
 // The deepest nesting of mixes.
 #define MAX_MATERIAL_MIX_DEPTH 8
 
-// No texture (GpuMaterial.info.zw, SceneParams.env_texture).
+// No texture (GpuMaterial.info.zw; an infinite light's GpuEmitter.info.y).
 #define NO_TEXTURE 4294967295
 
 // Texture kinds (GpuTexture.info.x).
@@ -267,10 +267,14 @@
 // pbrt-v4's TextureMapping3D (the 3D checkerboard): the texture-space point itself (proj0..2).
 #define TEXTURE_MAP_SOLID 4
 
-// How an environment map covers the sphere (SceneParams.env_mapping); src/texture.rs
+// How an environment map covers the sphere (an infinite light's GpuEmitter.info.z); src/texture.rs
 // (EnvMapping) says which pixel is which direction.
 #define ENV_MAPPING_LATLONG 0
 #define ENV_MAPPING_EQUAL_AREA 1
+
+// A realistic camera's exit pupil bounds: per this many intervals of the film point's
+// distance from the axis (src/scene/lens.rs).
+#define LENS_PUPIL_INTERVALS 64
 
 // A triangle without texture coordinates or shading normals (GpuTriangle.v2.w).
 #define NO_ATTRIBUTES 4294967295
@@ -469,7 +473,13 @@ struct GpuMaterial {
 // Goniometric and projection: p0.xyz the position; the 3x3 map from world directions to
 // the light's image space, its rows p1.xyz, p2.xyz and (p0.w, p1.w, p2.w); info.y the
 // first texel of the image (then its sampling distribution), info.z its width | height << 16.
-// Infinite (the environment): radiance the constant radiance arriving from every direction.
+// Infinite (an environment light; lights.glsl): radiance.xyz the radiance (times the map's
+// value); p0.xyz, p1.xyz, p2.xyz the world directions of the map frame's axes; info.y the
+// map (a GpuTexture; NO_TEXTURE: constant), info.z its ENV_MAPPING_*; as uint bits, p0.w
+// and p1.w the first floats of the map's marginal CDF (height + 1) and of its rows' CDFs
+// (height rows of width + 1) in BINDING_TEXELS, p2.w the first of its portal's nine floats
+// there (pbrt-v4's portal: corner p0, edges p1 - p0 and p3 - p0, the light coming through
+// along (p3 - p0) x (p1 - p0); NO_TEXTURE: no portal).
 // radiance.w: the probability of picking this emitter. info: x kind, y primitive,
 // z 1 when two-sided, w EMITTER_HIDDEN for an invisible light (else 0). p0.w: area (triangles, spheres).
 // A participating medium: sigma_a and sigma_s per channel (pbrt's `scale` applied; a
@@ -551,23 +561,17 @@ struct SceneParams {
     uint min_depth;      // bdpt: add only paths of at least this many scattering vertices (MMLT's tail)
     uint strategy_first; // bdpt: record the images of strategies first ..
     uint strategy_count; //       .. first + count (0: none)
-    uint environment;    // the emitter of the environment light, or NO_EMITTER
-    uint env_texture;    // its image (a GpuTexture), or NO_TEXTURE: constant
-    uint env_mapping;    // ENV_MAPPING_*
-    uint env_marginal;   // first float of the map's marginal CDF (height + 1) ..
-    uint env_conditional;// .. and of its rows' CDFs (height rows of width + 1), in the texel buffer
+    uint environment;    // the emitter of the first infinite light, or NO_EMITTER ..
+    uint environment_count; // .. and how many there are (the last emitters, in a row)
+    uint lens;           // a realistic camera's lens system: its first float in the texel buffer (src/scene/lens.rs pack), or NO_TEXTURE
+    uint reserved5;
+    uint reserved6;
     uint camera_medium; // the medium code (MEDIUM_VACUUM, index + 1) the camera is in
-    vec4 env_x;          // the world directions of the map frame's axes
-    vec4 env_y;
-    vec4 env_z;
     vec4 cam_window;     // the film on the plane at distance 1 ahead: x0, x1 along cam_right, y0, y1 along cam_up
     float lens_radius;   // a thin lens's radius (0: a pinhole) ..
     float focal_distance;// .. and the distance of its plane of focus
     uint reserved2;
     uint reserved3;
-    vec4 portal_p0;      // the environment's portal (pbrt-v4's): corner p0, w 1 when there is one ..
-    vec4 portal_e1;      // .. its edges p1 - p0 ..
-    vec4 portal_e3;      // .. and p3 - p0 (the light comes through along (p3 - p0) x (p1 - p0))
 };
 
 // A vertex of a BDPT light subpath (stored per pixel, read back by the camera subpath).

@@ -206,7 +206,9 @@ struct Walk {
     bool infinite;     // light walks from a directional light
     float prev_pdf_w;  // camera walks beyond max_scatter(): the last bounce's BSDF pdf,
     bool prev_delta;   // ... whether it was a delta lobe,
-    vec3 prev_p;       // ... and the vertex it left from
+    vec3 prev_p;       // ... and the vertex it left from; light walks from a light at
+                       // infinity, before their first vertex: where the light enters
+                       // (LightEmission.enter: a portal's crossing)
     bool escaped;      // the last ray left the scene (toward the environment)
     uint medium;       // the medium code of the next ray (FEATURE_MEDIA)
 };
@@ -287,6 +289,7 @@ bool light_walk_start(out Walk w, out LightEmission le, out uint e) {
     // (No camera subpath can hit a delta or hidden light: no such strategy to weigh.)
     w.dvc = delta || le.hidden ? 0.0 : mis(le.cos_l / le.pdf_emit);
     w.infinite = emitter_kind_is_at_infinity(le.kind);
+    if (w.infinite) w.prev_p = le.enter;
     w.o = delta ? le.p : offset_ray_origin(le.p, dot(le.n, le.dir) > 0.0 ? le.n : -le.n);
     w.d = le.dir;
     w.medium = light_medium(e, le.n, le.dir);
@@ -300,6 +303,8 @@ bool light_walk_vertex(inout Walk w, float t, Surface s, out PathVertex v) {
     vec3 wi = -w.d;
     float cos_in = abs(dot(s.ng, wi));
     if (!(cos_in > 1e-6)) return false;
+    // (Light from infinity reaches no point before it enters: its portal.)
+    if (w.vertices == 0u && w.infinite && dot(s.p - w.prev_p, w.d) < 0.0) return false;
     if (!(w.vertices == 0u && w.infinite)) w.dvcm *= mis(t * t);
     w.dvcm /= mis(cos_in);
     w.dvc /= mis(cos_in);
@@ -310,9 +315,12 @@ bool light_walk_vertex(inout Walk w, float t, Surface s, out PathVertex v) {
 
 // The next vertex of a light subpath in its medium, at distance t along its ray.
 void light_walk_medium_vertex(inout Walk w, float t, out PathVertex v) {
+    vec3 p = w.o + t * w.d;
+    // (Light from infinity reaches no point before it enters: its portal.)
+    if (w.vertices == 0u && w.infinite && dot(p - w.prev_p, w.d) < 0.0) w.beta = vec3(0.0);
     if (!(w.vertices == 0u && w.infinite)) w.dvcm *= mis(t * t);
     w.vertices++;
-    v = medium_vertex_at(w, w.o + t * w.d, -w.d);
+    v = medium_vertex_at(w, p, -w.d);
 }
 
 // Continue a subpath from its vertex v after its BSDF sample bs (and the density back,

@@ -46,17 +46,24 @@ bool emitter_kind_has_surface(uint kind) { return kind == EMITTER_TRIANGLE || ki
 // Directional lights and the environment: light from infinitely far away.
 bool emitter_kind_is_at_infinity(uint kind) { return kind == EMITTER_DIRECTIONAL || kind == EMITTER_INFINITE; }
 
-// ---- the environment light ------------------------------------------------------
-// Constant (pbrt-v4's uniform infinite light: uniform sampling over the sphere) or an
+// ---- the environment lights -----------------------------------------------------
+// pbrt-v4's infinite lights, each an emitter (the last of the table, in a row: from
+// scene.environment, scene.environment_count of them; GpuEmitter in abi.h). Each is
+// constant (pbrt-v4's uniform infinite light: uniform sampling over the sphere) or an
 // image over the sphere (its image infinite light: a piecewise-constant distribution over
 // the map, built by the host from the map's dilated values times the mapping's solid
-// angle per pixel). CPU mirror of the mappings and the distribution: src/texture.rs.
+// angle per pixel), and may be seen only through its portal. Their radiance adds. Light
+// sampling picks one of them by power and draws a direction as that one does, but the
+// estimate and every MIS weight treat them as one light: the radiance of all of them, and
+// the density of all of them, sum_e pick_e pdf_e(dir) (environment_pdf; pbrt's
+// InfiniteLightDensity does the same for its BDPT). CPU mirror of the mappings and the
+// distribution: src/texture.rs.
 
-vec3 env_to_local(vec3 d) {
-    return vec3(dot(d, scene.env_x.xyz), dot(d, scene.env_y.xyz), dot(d, scene.env_z.xyz));
+vec3 env_to_local(GpuEmitter em, vec3 d) {
+    return vec3(dot(d, em.p0.xyz), dot(d, em.p1.xyz), dot(d, em.p2.xyz));
 }
-vec3 env_to_world(vec3 l) {
-    return l.x * scene.env_x.xyz + l.y * scene.env_y.xyz + l.z * scene.env_z.xyz;
+vec3 env_to_world(GpuEmitter em, vec3 l) {
+    return l.x * em.p0.xyz + l.y * em.p1.xyz + l.z * em.p2.xyz;
 }
 
 // The equal-area square (Clarberg; pbrt-v4's): the point of [0,1]^2 of the unit direction
@@ -95,15 +102,15 @@ vec3 equal_area_square_to_sphere(vec2 uv) {
 
 // The map point (u right, v down from the top row) of the unit direction l in the map's
 // frame, and back (src/texture.rs EnvMapping).
-vec2 env_uv(vec3 l) {
-    if (scene.env_mapping == ENV_MAPPING_LATLONG) {
+vec2 env_uv(uint mapping, vec3 l) {
+    if (mapping == ENV_MAPPING_LATLONG) {
         return vec2(atan(l.x, -l.z) * (0.5 * INV_PI) + 0.5, acos(clamp(l.y, -1.0, 1.0)) * INV_PI);
     }
     return equal_area_sphere_to_square(l);
 }
 
-vec3 env_direction(vec2 uv) {
-    if (scene.env_mapping == ENV_MAPPING_LATLONG) {
+vec3 env_direction(uint mapping, vec2 uv) {
+    if (mapping == ENV_MAPPING_LATLONG) {
         float theta = PI * uv.y;
         float phi = TWO_PI * (uv.x - 0.5);
         float s = sin(theta);
@@ -116,8 +123,8 @@ vec3 env_direction(vec2 uv) {
 // poles it is taken as 0 (those directions, 3e-8 sr, are left to BSDF sampling): there
 // the density 1/sin(theta) of a sampled direction grows without bound, and its square in
 // the MIS sums overflows.
-float env_jacobian(vec2 uv) {
-    if (scene.env_mapping != ENV_MAPPING_LATLONG) return 4.0 * PI;
+float env_jacobian(uint mapping, vec2 uv) {
+    if (mapping != ENV_MAPPING_LATLONG) return 4.0 * PI;
     float s = sin(PI * uv.y);
     return s > 1e-4 ? 2.0 * PI * PI * s : 0.0;
 }
@@ -163,88 +170,150 @@ vec2 sample_distribution(uint marginal, uint conditional, uint w, uint h, vec2 u
     return min(vec2((float(x) + fx) / float(w), (float(y) + fy) / float(h)), vec2(0.99999994));
 }
 
-// The environment map distribution's density at uv (with respect to map area).
-float env_map_pdf(vec2 uv) {
-    GpuTexture t = textures[scene.env_texture];
-    return distribution_pdf(scene.env_marginal, scene.env_conditional, t.info.z, t.info.w, uv);
+// Environment emitter em's map distribution's density at uv (with respect to map area).
+float env_map_pdf(GpuEmitter em, vec2 uv) {
+    GpuTexture t = textures[em.info.y];
+    return distribution_pdf(floatBitsToUint(em.p0.w), floatBitsToUint(em.p1.w), t.info.z, t.info.w, uv);
+}
+
+bool env_has_map(GpuEmitter em) {
+    return has_feature(FEATURE_ENVIRONMENT_MAP) && em.info.y != NO_TEXTURE;
+}
+
+// Environment emitter em's portal: its corner p0 and edges e1 = p1 - p0, e3 = p3 - p0.
+// Returns false when it has none.
+bool env_portal(GpuEmitter em, out vec3 p0, out vec3 e1, out vec3 e3) {
+    uint i = floatBitsToUint(em.p2.w);
+    if (i == NO_TEXTURE) return false;
+    p0 = vec3(texels[i], texels[i + 1u], texels[i + 2u]);
+    e1 = vec3(texels[i + 3u], texels[i + 4u], texels[i + 5u]);
+    e3 = vec3(texels[i + 6u], texels[i + 7u], texels[i + 8u]);
+    return true;
 }
 
 // Whether the point q of the portal's plane lies in the portal.
-bool portal_contains(vec3 q) {
-    vec3 e1 = scene.portal_e1.xyz;
-    vec3 e3 = scene.portal_e3.xyz;
-    q -= scene.portal_p0.xyz;
+bool portal_contains(vec3 p0, vec3 e1, vec3 e3, vec3 q) {
+    q -= p0;
     float a = dot(q, e1) / dot(e1, e1);
     float b = dot(q, e3) / dot(e3, e3);
     return a >= 0.0 && a <= 1.0 && b >= 0.0 && b <= 1.0;
 }
 
-// pbrt-v4's portal: whether the ray from p along dir crosses the portal rectangle, going
+// pbrt-v4's portal: whether the ray from p along dir crosses em's portal rectangle, going
 // out through it (always true without a portal).
-bool portal_passes(vec3 p, vec3 dir) {
-    if (scene.portal_p0.w == 0.0) return true;
-    vec3 n = cross(scene.portal_e3.xyz, scene.portal_e1.xyz);
+bool portal_passes(GpuEmitter em, vec3 p, vec3 dir) {
+    vec3 p0;
+    vec3 e1;
+    vec3 e3;
+    if (!env_portal(em, p0, e1, e3)) return true;
+    vec3 n = cross(e3, e1);
     float dn = dot(dir, n);
     if (!(dn > 0.0)) return false;
-    float t = dot(scene.portal_p0.xyz - p, n) / dn;
-    return t > 0.0 && portal_contains(p + t * dir);
+    float t = dot(p0 - p, n) / dn;
+    return t > 0.0 && portal_contains(p0, e1, e3, p + t * dir);
 }
 
-// The environment's radiance arriving along -dir (dir the unit direction of an escaping
-// ray), portal aside.
-vec3 environment_value(vec3 dir) {
-    vec3 L = emitters[scene.environment].radiance.xyz;
-    if (!has_feature(FEATURE_ENVIRONMENT_MAP) || scene.env_texture == NO_TEXTURE) return L;
-    return L * texture_leaf(textures[scene.env_texture], env_uv(env_to_local(dir)), vec3(0.0), vec3(0.0),
+// Environment emitter em's radiance arriving along -dir (dir the unit direction of an
+// escaping ray), portal aside.
+vec3 environment_value(GpuEmitter em, vec3 dir) {
+    vec3 L = em.radiance.xyz;
+    if (!env_has_map(em)) return L;
+    return L * texture_leaf(textures[em.info.y], env_uv(em.info.z, env_to_local(em, dir)), vec3(0.0), vec3(0.0),
                             vec3(0.0), spec_features & FEATURE_TEXTURE_PROJECTIONS);
 }
 
-// The environment's radiance arriving at p from the direction dir (zero where a portal
-// hides it).
-vec3 environment_radiance(vec3 p, vec3 dir) {
-    return portal_passes(p, dir) ? environment_value(dir) : vec3(0.0);
+// Environment emitter em's radiance arriving at p from the direction dir (zero where its
+// portal hides it).
+vec3 environment_radiance_of(GpuEmitter em, vec3 p, vec3 dir) {
+    return portal_passes(em, p, dir) ? environment_value(em, dir) : vec3(0.0);
 }
 
-// A light subpath's emission ray from the disk point o along -dir: with a portal it
-// lights only what lies behind the portal, so it starts on the portal (the same line:
-// its density is the disk's) or, missing the portal, carries nothing.
-vec3 environment_emission(inout vec3 o, vec3 dir) {
-    if (scene.portal_p0.w != 0.0) {
-        vec3 n = cross(scene.portal_e3.xyz, scene.portal_e1.xyz);
+// The radiance of every infinite light arriving at p from the direction dir (the scene
+// has one: scene.environment != NO_EMITTER).
+vec3 environment_radiance(vec3 p, vec3 dir) {
+    vec3 L = environment_radiance_of(emitters[scene.environment], p, dir);
+    for (uint k = 1u; k < scene.environment_count; ++k) {
+        L += environment_radiance_of(emitters[scene.environment + k], p, dir);
+    }
+    return L;
+}
+
+// A light subpath's emission ray from the disk point o along -dir, of environment emitter
+// em. With a portal it carries light only along lines through the portal, and only to
+// the points past it (those whose rays toward the environment cross it: what the camera
+// side sees), so enter is where the line crosses the portal: a first vertex before it
+// carries nothing (light_walk_vertex), as what blocks the line outside the portal blocks
+// the light. Without a portal, enter is o.
+vec3 environment_emission(GpuEmitter em, vec3 o, vec3 dir, out vec3 enter) {
+    enter = o;
+    vec3 p0;
+    vec3 e1;
+    vec3 e3;
+    if (env_portal(em, p0, e1, e3)) {
+        vec3 n = cross(e3, e1);
         float dn = dot(dir, n);
         if (!(dn > 0.0)) return vec3(0.0);
-        vec3 q = o + (dot(scene.portal_p0.xyz - o, n) / dn) * dir;
-        if (!portal_contains(q)) return vec3(0.0);
-        o = q;
+        enter = o + (dot(p0 - o, n) / dn) * dir;
+        if (!portal_contains(p0, e1, e3, enter)) return vec3(0.0);
     }
-    return environment_value(dir);
+    return environment_value(em, dir);
 }
 
-// The solid-angle density with which light sampling draws the direction dir (no pick).
-float environment_direction_pdf(vec3 dir) {
-    if (!has_feature(FEATURE_ENVIRONMENT_MAP) || scene.env_texture == NO_TEXTURE) return 0.25 * INV_PI;
-    vec2 uv = env_uv(env_to_local(dir));
-    float jac = env_jacobian(uv);
-    return jac > 0.0 ? env_map_pdf(uv) / jac : 0.0;
+// The solid-angle density with which sampling environment emitter em draws the direction
+// dir (no pick).
+float environment_direction_pdf(GpuEmitter em, vec3 dir) {
+    if (!env_has_map(em)) return 0.25 * INV_PI;
+    vec2 uv = env_uv(em.info.z, env_to_local(em, dir));
+    float jac = env_jacobian(em.info.z, uv);
+    return jac > 0.0 ? env_map_pdf(em, uv) / jac : 0.0;
 }
 
-// A direction toward the environment for uniforms u, with its solid-angle density.
-vec3 sample_environment_direction(vec2 u, out float pdf) {
-    if (!has_feature(FEATURE_ENVIRONMENT_MAP) || scene.env_texture == NO_TEXTURE) {
+// A direction toward environment emitter em for uniforms u, with its solid-angle density.
+vec3 sample_environment_direction(GpuEmitter em, vec2 u, out float pdf) {
+    if (!env_has_map(em)) {
         pdf = 0.25 * INV_PI;
         return sample_uniform_sphere(u);
     }
-    GpuTexture t = textures[scene.env_texture];
+    GpuTexture t = textures[em.info.y];
     float pdf_uv;
-    vec2 uv = sample_distribution(scene.env_marginal, scene.env_conditional, t.info.z, t.info.w, u, pdf_uv);
-    float jac = env_jacobian(uv);
+    vec2 uv = sample_distribution(floatBitsToUint(em.p0.w), floatBitsToUint(em.p1.w), t.info.z, t.info.w, u, pdf_uv);
+    float jac = env_jacobian(em.info.z, uv);
     pdf = jac > 0.0 ? pdf_uv / jac : 0.0;
-    return env_to_world(env_direction(uv));
+    return env_to_world(em, env_direction(em.info.z, uv));
 }
 
-// The solid-angle pdf, pick included, with which light sampling draws dir.
+// The solid-angle pdf, picks included, with which light sampling draws dir from the
+// infinite lights together (the scene has one).
 float environment_pdf(vec3 dir) {
-    return emitter_pick_pdf(scene.environment) * environment_direction_pdf(dir);
+    GpuEmitter em = emitters[scene.environment];
+    float pdf = em.radiance.w * environment_direction_pdf(em, dir);
+    for (uint k = 1u; k < scene.environment_count; ++k) {
+        em = emitters[scene.environment + k];
+        pdf += em.radiance.w * environment_direction_pdf(em, dir);
+    }
+    return pdf;
+}
+
+// What the infinite lights other than emitter e add to e's own light-sampling density
+// of dir (picks included) and to its radiance at p from dir, so that a sample drawn from
+// e counts for all of them together (none with a single infinite light).
+float other_environments_pdf(uint e, vec3 dir) {
+    float pdf = 0.0;
+    for (uint k = 0u; k < scene.environment_count; ++k) {
+        uint o = scene.environment + k;
+        if (o == e) continue;
+        GpuEmitter em = emitters[o];
+        pdf += em.radiance.w * environment_direction_pdf(em, dir);
+    }
+    return pdf;
+}
+vec3 other_environments_radiance(uint e, vec3 p, vec3 dir) {
+    vec3 L = vec3(0.0);
+    for (uint k = 0u; k < scene.environment_count; ++k) {
+        uint o = scene.environment + k;
+        if (o != e) L += environment_radiance_of(emitters[o], p, dir);
+    }
+    return L;
 }
 
 // A spot light's falloff toward the unit direction w from it: pbrt-v4's smoothstep
@@ -479,11 +548,12 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
         return ls.L != vec3(0.0);
     }
     if (em.info.x == EMITTER_INFINITE) {
+        // (With the other infinite lights as one light: see "the environment lights".)
         float pdf_dir;
-        ls.wi = sample_environment_direction(u, pdf_dir);
+        ls.wi = sample_environment_direction(em, u, pdf_dir);
         ls.dist = INF;
-        ls.L = environment_radiance(ref, ls.wi);
-        ls.pdf = pick * pdf_dir;
+        ls.L = environment_radiance_of(em, ref, ls.wi) + other_environments_radiance(e, ref, ls.wi);
+        ls.pdf = pick * pdf_dir + other_environments_pdf(e, ls.wi);
         return ls.pdf > 0.0 && ls.L != vec3(0.0);
     }
     if (em.info.x == EMITTER_DIRECTIONAL) {
@@ -648,6 +718,7 @@ struct LightEmission {
     vec3 n;       // unit normal (area lights; zero for delta lights)
     vec3 dir;     // unit direction of the ray
     vec3 Le;      // area: radiance along dir; point: intensity; directional: radiance
+    vec3 enter;   // lights at infinity: where the light enters (environment_emission)
     float pdf_pos;
     float pdf_emit;
     float cos_l;
@@ -670,6 +741,7 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
     le.cos_l = 1.0;
     le.Le = em.radiance.xyz;
     le.pdf_pos = pick;
+    le.enter = vec3(0.0);
     if (em.info.x == EMITTER_POINT) {
         le.p = em.p0.xyz;
         le.dir = sample_uniform_sphere(u_dir.yz);
@@ -696,7 +768,7 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
         // rays from a disk of the scene's bounding radius facing it (pbrt-v4's SampleLe).
         float r = scene.bounds.w;
         float pdf_dir;
-        vec3 toward = sample_environment_direction(u_dir.yz, pdf_dir);
+        vec3 toward = sample_environment_direction(em, u_dir.yz, pdf_dir);
         vec3 t;
         vec3 b;
         build_onb(toward, t, b);
@@ -704,10 +776,18 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
         float phi = TWO_PI * u_pos.y;
         le.dir = -toward;
         le.p = scene.bounds.xyz + r * toward + rad * (cos(phi) * t + sin(phi) * b);
-        le.Le = environment_emission(le.p, toward);
-        le.pdf_pos = pick * pdf_dir;
+        le.Le = environment_emission(em, le.p, toward, le.enter);
+        // With other infinite lights, the vertex's densities are theirs together (as every
+        // strategy's MIS weights take them: emitter_emission_pdfs), and the ray carries
+        // this light's emission divided by its share of that density (the ray's own
+        // density: an unbiased estimate of this light's part; the others' parts come from
+        // their own rays).
+        float own = pick * pdf_dir;
+        if (!(own > 0.0)) return false;
+        le.pdf_pos = own + other_environments_pdf(e, toward);
+        le.Le *= le.pdf_pos / own;
         le.pdf_emit = le.pdf_pos / (PI * r * r);
-        return le.pdf_pos > 0.0 && le.Le != vec3(0.0);
+        return le.Le != vec3(0.0);
     }
     if (em.info.x == EMITTER_DIRECTIONAL) {
         float r = scene.bounds.w;
@@ -718,6 +798,7 @@ bool sample_light_emission(uint e, vec2 u_pos, vec3 u_dir, out LightEmission le)
         float phi = TWO_PI * u_pos.y;
         le.dir = -em.p0.xyz;
         le.p = scene.bounds.xyz + r * em.p0.xyz + rad * (cos(phi) * t + sin(phi) * b);
+        le.enter = le.p;
         le.pdf_emit = pick / (PI * r * r);
         return pick > 0.0;
     }
@@ -743,7 +824,8 @@ void emitter_emission_pdfs(uint e, vec3 p, vec3 ng, vec3 w, out float pdf_pos, o
     if (em.info.x == EMITTER_POINT) {
         pdf_emit = pick * (0.25 * INV_PI);
     } else if (em.info.x == EMITTER_INFINITE) {
-        pdf_pos = pick * environment_direction_pdf(-w);
+        // (All infinite lights together: see "the environment lights".)
+        pdf_pos = environment_pdf(-w);
         pdf_emit = pdf_pos / (PI * scene.bounds.w * scene.bounds.w);
     } else if (em.info.x == EMITTER_SPOT) {
         pdf_emit = pick * spot_cone_pdf(em, w);
@@ -800,10 +882,10 @@ vec3 emitter_unoccluded_irradiance(uint e, vec3 p, vec3 n, uint prim) {
     } else if (em.info.x == EMITTER_INFINITE) {
         // The whole hemisphere, unoccluded: E = pi L; through a portal, the portal's
         // polygon (lighting only the points behind it).
-        if (scene.portal_p0.w != 0.0) {
-            vec3 p0 = scene.portal_p0.xyz;
-            vec3 e1 = scene.portal_e1.xyz;
-            vec3 e3 = scene.portal_e3.xyz;
+        vec3 p0;
+        vec3 e1;
+        vec3 e3;
+        if (env_portal(em, p0, e1, e3)) {
             if (!(dot(p0 - p, cross(e3, e1)) > 0.0)) return vec3(0.0);
             return em.radiance.xyz * (polygon_irradiance_factor(p, n, p0, p0 + e1, p0 + e1 + e3)
                                       + polygon_irradiance_factor(p, n, p0, p0 + e1 + e3, p0 + e3));
@@ -832,7 +914,8 @@ vec3 emitter_unoccluded_irradiance(uint e, vec3 p, vec3 n, uint prim) {
         if (em.info.z == 0u && inside != (sp.info.z != 0u)) return vec3(0.0);   // its back faces p
         // (It hides the constant environment behind it: that part of the
         // hemisphere's E = pi L_env is replaced.)
-        vec3 behind = scene.environment != NO_EMITTER ? emitters[scene.environment].radiance.xyz : vec3(0.0);
+        vec3 behind = vec3(0.0);
+        for (uint k = 0u; k < scene.environment_count; ++k) behind += emitters[scene.environment + k].radiance.xyz;
         if (inside) return PI * (em.radiance.xyz - behind);
         return (em.radiance.xyz - behind) * (PI * r2 / d2) * max(0.0, dot(n, to) / sqrt(d2));
     }

@@ -521,7 +521,7 @@ pub fn scene_features(scene: &Scene) -> u32 {
             features |= FEATURE_SHADING_MAPS;
         }
     }
-    if scene.environment.as_ref().is_some_and(|e| e.map.is_some()) {
+    if scene.environments.iter().any(|e| e.map.is_some()) {
         features |= FEATURE_ENVIRONMENT_MAP;
     }
     if scene.delta_lights.iter().any(|l| {
@@ -674,7 +674,7 @@ mod tests {
             pixels: vec![[1.0; 3]; 2],
         });
         s.materials[0].mix = None;
-        s.environment = Some(crate::scene::Environment {
+        s.environments = vec![crate::scene::Environment {
             radiance: glam::Vec3::ONE,
             map: Some(crate::scene::EnvironmentMap {
                 image,
@@ -682,9 +682,9 @@ mod tests {
                 to_world: glam::Mat3::IDENTITY,
             }),
             portal: None,
-        });
+        }];
         assert_eq!(scene_features(&s), FEATURE_ENVIRONMENT_MAP);
-        s.environment = None;
+        s.environments.clear();
         // A texture mapped from the world point (spherical, cylindrical, planar).
         let checks = |projection| crate::texture::Texture::Checkerboard {
             even: glam::Vec3::ONE,

@@ -101,9 +101,7 @@ impl Integrator for FilmIntegrator {
         trace: &mut Trace,
     ) -> Result<RenderOutput> {
         let (width, height) = (scene.width, scene.height);
-        if self.code == INTEGRATOR_ANALYTIC
-            && scene.environment.as_ref().is_some_and(|e| e.map.is_some())
-        {
+        if self.code == INTEGRATOR_ANALYTIC && scene.environments.iter().any(|e| e.map.is_some()) {
             anyhow::bail!(
                 "analyticdirect has a closed form for a constant environment (envlight) only, \
                  not for an environment map: use pathtracer, bdpt or mmlt"

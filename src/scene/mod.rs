@@ -3,6 +3,7 @@
 //! The parser (`parse.rs`) fills a [`Scene`]; everything downstream (acceleration
 //! structures, GPU buffers, integrators) reads only this model.
 
+pub mod lens;
 mod parse;
 mod pbrt;
 pub mod ply;
@@ -996,8 +997,12 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     pub quad_lights: Vec<QuadLight>,
     pub delta_lights: Vec<DeltaLight>,
-    /// The environment light (`envlight`, `envmap`). None: black.
-    pub environment: Option<Environment>,
+    /// The infinite lights (`envlight`, `envmap`; pbrt-v4's `infinite` lights), each
+    /// sampled as its own emitter; their radiance adds. Empty: black.
+    pub environments: Vec<Environment>,
+    /// pbrt-v4's realistic camera: the lens system the camera's rays go through (the
+    /// camera's eye is the film's centre); None: a pinhole or a thin lens.
+    pub lens: Option<std::sync::Arc<lens::LensSystem>>,
     /// The textures materials refer to.
     pub textures: Vec<Texture>,
     /// The measured materials' tables (`Material::measured` indexes them).
@@ -1027,7 +1032,8 @@ impl Default for Scene {
             spheres: Vec::new(),
             quad_lights: Vec::new(),
             delta_lights: Vec::new(),
-            environment: None,
+            environments: Vec::new(),
+            lens: None,
             textures: Vec::new(),
             measured: Vec::new(),
             light_profiles: Vec::new(),

@@ -837,11 +837,11 @@ impl Parser {
             }
             "envlight" => {
                 let radiance = cmd.color(0, "the environment radiance")?;
-                self.scene.environment = Some(Environment {
+                self.scene.environments = vec![Environment {
                     radiance,
                     map: None,
                     portal: None,
-                });
+                }];
             }
             "envmap" => self.envmap(cmd, EnvMapping::LatLong)?,
             "envmapsquare" => self.envmap(cmd, EnvMapping::EqualArea)?,
@@ -1165,7 +1165,7 @@ impl Parser {
                  and a mirror (a shear or a non-uniform scale)",
             ));
         }
-        self.scene.environment = Some(Environment {
+        self.scene.environments = vec![Environment {
             radiance: Vec3::splat(scale),
             map: Some(EnvironmentMap {
                 image: Arc::new(image),
@@ -1173,7 +1173,7 @@ impl Parser {
                 to_world: rotation,
             }),
             portal: None,
-        });
+        }];
         Ok(())
     }
 
@@ -2393,12 +2393,12 @@ mediuminterface vacuum vacuum
         );
         let s = parse("envlight 0.5 0.6 0.7\n");
         assert_eq!(
-            s.environment,
-            Some(Environment {
+            s.environments,
+            vec![Environment {
                 radiance: Vec3::new(0.5, 0.6, 0.7),
                 map: None,
                 portal: None,
-            })
+            }]
         );
         check_err("envlight 1 -1 1", 1, "envlight", "must not be negative");
     }

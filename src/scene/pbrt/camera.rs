@@ -14,6 +14,7 @@ pub(super) enum Crop {
 impl Parser {
     pub(super) fn camera(
         &mut self,
+        ty: &str,
         camera_from_world: Mat4,
         params: &Params,
         file: u32,
@@ -85,6 +86,33 @@ impl Parser {
             }
             Ok(x as f32)
         };
+        // pbrt-v4's realistic camera: a lens file's system (src/scene/lens.rs), built in
+        // `lens_system` once the film is known. (The last Camera directive is the camera.)
+        let mut realistic = None;
+        if ty == "realistic" {
+            let Some(p) = params
+                .find("lensfile")
+                .cloned()
+                .filter(|p| !p.strs.is_empty())
+            else {
+                return Err(self.err_at(
+                    file,
+                    line,
+                    "Camera",
+                    "a realistic camera needs \"string lensfile\"",
+                ));
+            };
+            let path = self.resolve(p.file, &p.strs[0]);
+            let rows = std::fs::read_to_string(&path)
+                .map_err(|e| e.to_string())
+                .and_then(|text| crate::scene::lens::parse_lens_file(&text))
+                .map_err(|e| {
+                    self.err_at(p.file, p.line, "Camera", format!("{}: {e}", path.display()))
+                })?;
+            let aperture = positive("aperturediameter", 1.0, false)?;
+            let focus = positive("focusdistance", 10.0, false)?;
+            realistic = Some((rows, aperture, focus, file, line));
+        }
         let lens_radius = positive("lensradius", 0.0, true)?;
         let focal_distance = positive("focaldistance", 1e6, false)?;
         self.frame_aspect = params
@@ -107,7 +135,17 @@ impl Parser {
             }
             None => None,
         };
-        self.check_used("Camera", "\"perspective\"", params);
+        self.realistic = realistic;
+        if ty == "realistic" {
+            if let Some(p) = params.find("aperture") {
+                let msg =
+                    "Camera \"realistic\": a shaped \"aperture\" (the stop is a disk)".to_string();
+                self.unsupported(p.file, p.line, msg);
+            }
+            self.check_used("Camera", "\"realistic\"", params);
+        } else {
+            self.check_used("Camera", "\"perspective\"", params);
+        }
         let world_from_camera = camera_from_world.inverse();
         let eye = world_from_camera.transform_point3(Vec3::ZERO);
         let forward = world_from_camera.transform_vector3(Vec3::Z);
@@ -248,8 +286,18 @@ impl Parser {
             }
             (None, None) => None,
         };
-        for name in ["diagonal", "savefp16"] {
-            params.find(name);
+        params.find("savefp16");
+        if let Some(p) = params.find("diagonal") {
+            let x = p.nums.first().copied().unwrap_or(f64::NAN);
+            if !(x.is_finite() && x > 0.0) {
+                return Err(self.err_at(
+                    p.file,
+                    p.line,
+                    "Film",
+                    format!("diagonal must be positive, got {x}"),
+                ));
+            }
+            self.film_diagonal = x as f32;
         }
         if let Some(p) = params.find("maxcomponentvalue") {
             if p.nums.first().is_some_and(|x| x.is_finite()) {
@@ -270,6 +318,26 @@ impl Parser {
     /// pbrt-v4 would (ceil(resolution × crop), or pixelbounds) as an image of their size
     /// whose film is that part of the whole. Without a screen window, frame or crop the
     /// film is left to the image's aspect, so that `--size` keeps pbrt's rule.
+    /// A realistic camera's lens system, for the film's size and diagonal; its
+    /// equivalent pinhole's field of view stands in for texture footprints.
+    pub(super) fn lens_system(&mut self) -> Result<(), ParseError> {
+        let Some((rows, aperture, focus, file, line)) = self.realistic.take() else {
+            return Ok(());
+        };
+        if self.crop.is_some() || self.screen_window.is_some() {
+            return Err(self.err_at(file, line, "Camera", "a realistic camera renders the whole film: no cropwindow, pixelbounds or screenwindow"));
+        }
+        let (w, h) = self.film_size;
+        let lens =
+            crate::scene::lens::LensSystem::new(&rows, aperture, focus, self.film_diagonal, w, h)
+                .map_err(|e| self.err_at(file, line, "Camera", e))?;
+        self.scene.camera.fovy_degrees = lens.equivalent_fovy_degrees();
+        self.scene.camera.window = None;
+        self.scene.camera.lens_radius = 0.0;
+        self.scene.lens = Some(std::sync::Arc::new(lens));
+        Ok(())
+    }
+
     pub(super) fn film_window(&mut self) -> Result<(), ParseError> {
         let (w, h) = self.film_size;
         let camera = &mut self.scene.camera;

@@ -35,9 +35,10 @@ pub(super) fn upper_hemisphere_illuminance(image: &crate::io::Image) -> f32 {
     (sum * 4.0 * std::f64::consts::PI / (w * h) as f64) as f32
 }
 
-/// Two infinite lights as one: constants add; a constant adds to each texel of a map
-/// (scaled by the map's radiance), which is exact for the bilinear lookup and leaves the
-/// map's sampling proportional to what it emits. Two maps cannot be one (Err: the first).
+/// Two infinite lights without portals as one: constants add; a constant adds to each
+/// texel of a map (scaled by the map's radiance), which is exact for the bilinear lookup
+/// and leaves the map's sampling proportional to what it emits. Two maps cannot be one
+/// (Err: the first).
 pub(super) fn add_environments(a: Environment, b: Environment) -> Result<Environment, Environment> {
     match (&a.map, &b.map) {
         (None, None) => Ok(Environment {
@@ -279,28 +280,21 @@ impl Parser {
                     map,
                     portal,
                 };
-                self.scene.environment = Some(match self.scene.environment.take() {
-                    None => light,
-                    Some(before) if before.portal.is_some() || light.portal.is_some() => {
-                        self.unsupported(
-                            file,
-                            line,
-                            "a portal light and another infinite light (a portal light is read alone)",
-                        );
-                        before
-                    }
-                    Some(before) => match add_environments(before, light) {
-                        Ok(sum) => sum,
-                        Err(before) => {
-                            self.unsupported(
-                                file,
-                                line,
-                                "a second infinite light with an image map (one map and any number of constant ones are read)",
-                            );
-                            before
-                        }
-                    },
+                // A constant light without a portal adds into another such light (one
+                // emitter the fewer to sample); any other is an emitter of its own.
+                let envs = &mut self.scene.environments;
+                let merge = light.portal.is_none().then(|| {
+                    envs.iter().position(|e| {
+                        e.portal.is_none() && (e.map.is_none() || light.map.is_none())
+                    })
                 });
+                match merge.flatten() {
+                    Some(i) => {
+                        envs[i] = add_environments(envs[i].clone(), light)
+                            .expect("one of the two is constant");
+                    }
+                    None => envs.push(light),
+                }
             }
             "goniometric" | "projection" => self.profiled_light(ty, params, power, file, line)?,
             other => {

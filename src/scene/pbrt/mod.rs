@@ -102,6 +102,11 @@ struct Parser {
     /// The camera's `screenwindow` and `frameaspectratio`, applied with the film's size.
     screen_window: Option<[f32; 4]>,
     frame_aspect: Option<f32>,
+    /// A realistic camera's lens file rows, stop diameter (mm) and focus distance, and
+    /// where it was declared: the lens system is built once the film is known.
+    realistic: Option<(Vec<[f32; 4]>, f32, f32, u32, u32)>,
+    /// The film's diagonal (mm; pbrt-v4's `diagonal`, for a realistic camera).
+    film_diagonal: f32,
     /// The film's `cropwindow` or `pixelbounds`, with the file and line that gave it.
     crop: Option<(Crop, u32, u32)>,
     /// The film's share of the imaging ratio: ISO / 100 times the film's `scale`.
@@ -165,6 +170,8 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
         film_size: (1280, 720),
         screen_window: None,
         frame_aspect: None,
+        realistic: None,
+        film_diagonal: 35.0,
         crop: None,
         film_ratio: 1.0,
         exposure: 1.0,
@@ -450,14 +457,14 @@ impl Parser {
             "Camera" => {
                 let ty = self.expect_string(d, "a camera type")?;
                 let params = self.params(d)?;
-                if ty != "perspective" {
+                if ty != "perspective" && ty != "realistic" {
                     self.unsupported(file, line, format!("Camera \"{ty}\""));
                 }
                 self.named_coords.insert("camera".into(), ctm.inverse());
                 self.camera_seen = true;
                 // pbrt-v4's camera is in the current outside medium.
                 self.scene.camera_medium = self.gs.media.1;
-                self.camera(ctm, &params, file, line)?;
+                self.camera(&ty, ctm, &params, file, line)?;
             }
             "Film" => {
                 let ty = self.expect_string(d, "a film type")?;
@@ -756,6 +763,7 @@ impl Parser {
             };
         }
         self.film_window()?;
+        self.lens_system()?;
         let ratio = self.imaging_ratio();
         for l in &mut self.scene.delta_lights {
             match l {
@@ -768,7 +776,7 @@ impl Parser {
                 DeltaLight::Directional { radiance, .. } => *radiance *= ratio,
             }
         }
-        if let Some(e) = &mut self.scene.environment {
+        for e in &mut self.scene.environments {
             e.radiance *= ratio;
         }
         for m in &mut self.scene.media {
