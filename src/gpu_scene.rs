@@ -641,7 +641,9 @@ pub fn texture_data(scene: &Scene) -> TextureData {
     });
     let lens = scene.lens.as_ref().map(|l| {
         let first = texels.floats.len() as u32;
-        texels.floats.extend(l.pack());
+        texels
+            .floats
+            .extend(l.for_image(scene.width, scene.height).pack());
         first
     });
     TextureData {

@@ -80,6 +80,14 @@ pub fn parse_lens_file(text: &str) -> Result<Vec<[f32; 4]>, String> {
         .collect())
 }
 
+/// Half the width and height of a film of diagonal `d` for an image of `width` ×
+/// `height` pixels.
+fn film_half(d: f32, width: u32, height: u32) -> Vec2 {
+    let aspect = height as f32 / width as f32;
+    let x = (d * d / (1.0 + aspect * aspect)).sqrt();
+    Vec2::new(0.5 * x, 0.5 * aspect * x)
+}
+
 /// Where the ray o + t d meets the sphere of signed radius `radius` centred on the axis
 /// at z = `center`, on the cap that holds the interface's vertex: t and the unit normal
 /// facing back along the ray.
@@ -165,12 +173,9 @@ impl LensSystem {
                     .into(),
             );
         }
-        let d = diagonal_mm * 0.001;
-        let aspect = height as f32 / width as f32;
-        let x = (d * d / (1.0 + aspect * aspect)).sqrt();
         let mut lens = LensSystem {
             elements,
-            film_half: Vec2::new(0.5 * x, 0.5 * aspect * x),
+            film_half: film_half(diagonal_mm * 0.001, width, height),
             pupils: Vec::new(),
         };
         lens.focus(focus_distance)?;
@@ -183,6 +188,15 @@ impl LensSystem {
             })
             .collect();
         Ok(lens)
+    }
+
+    /// The system with its film (of the same diagonal) cut to the aspect of an image of
+    /// `width` × `height` pixels (a render at another size than the scene's).
+    pub fn for_image(&self, width: u32, height: u32) -> LensSystem {
+        LensSystem {
+            film_half: film_half(2.0 * self.film_half.length(), width, height),
+            ..self.clone()
+        }
     }
 
     /// The film's distance from the rear element.

@@ -291,13 +291,20 @@ impl Parser {
                     let c = match self.value(params, name, false, d)? {
                         Some(Value::Const(c)) => c,
                         Some(Value::Texture(t)) => {
-                            if scale != 1.0 {
-                                self.unsupported(
+                            // (A textured value times the scale: a scaled texture, as
+                            // the `scale` texture makes it.)
+                            let t = match scale {
+                                1.0 => t,
+                                _ => match self.scale_value(
+                                    Value::Texture(t),
+                                    Value::Const(Vec3::splat(scale)),
                                     file,
                                     line,
-                                    format!("diffusetransmission: scale with a textured {name}"),
-                                );
-                            }
+                                )? {
+                                    Value::Texture(t) => t,
+                                    Value::Const(_) => unreachable!("a texture times a constant"),
+                                },
+                            };
                             if name == "reflectance" {
                                 m.diffuse_texture = Some(t);
                             } else {
@@ -509,13 +516,13 @@ impl Parser {
         };
         let mut refs = Vec::with_capacity(2);
         for name in &names {
-            match self.named_materials.get(name) {
+            match self.named_material(name)? {
                 Some(MaterialRef::Interface) => {
                     self.unsupported(file, line, "mix: an interface material");
                     refs.push(MaterialRef::Material(diffuse(Vec3::splat(0.5))));
                 }
                 Some(m) => {
-                    if mix_depth(m) >= MAX_MIX_DEPTH {
+                    if mix_depth(&m) >= MAX_MIX_DEPTH {
                         return Err(self.err_at(
                             file,
                             line,
@@ -523,7 +530,7 @@ impl Parser {
                             format!("mixes nest more than {MAX_MIX_DEPTH} deep"),
                         ));
                     }
-                    refs.push(m.clone())
+                    refs.push(m)
                 }
                 None => {
                     return Err(self.err_at(file, line, d, format!("no material named \"{name}\"")))

@@ -61,12 +61,25 @@ struct GraphicsState {
     start_active: bool,
     reverse: bool,
     material: MaterialRef,
+    /// A `NamedMaterial` of a name no `MakeNamedMaterial` has given (and where): an
+    /// error for the shapes that follow, as in pbrt-v4, which looks the name up only for
+    /// a shape (the collection's watercolor names a material it has commented out).
+    undefined_material: Option<(String, u32, u32)>,
     area: Option<AreaLight>,
     /// `Attribute` defaults: (target, parameter), the latest of a name first.
     attributes: Vec<(String, Param)>,
     /// `MediumInterface`: the media (indices into `Scene::media`, `None` vacuum) inside
     /// and outside the shapes that follow; the outside one is the camera's.
     media: (Option<u32>, Option<u32>),
+}
+
+/// A `MakeNamedMaterial`: pbrt-v4 makes its materials once the whole scene is read, so a
+/// named material may name a texture defined after it (the collection's watercolor
+/// does); lightpath makes it where it is first used, or at the end.
+enum NamedMaterial {
+    Made(MaterialRef),
+    /// Its type and parameters, and where it was declared.
+    Pending(String, Params, u32, u32),
 }
 
 struct Parser {
@@ -79,7 +92,7 @@ struct Parser {
     gs: GraphicsState,
     stack: Vec<(GraphicsState, bool)>,
     named_coords: HashMap<String, Mat4>,
-    named_materials: HashMap<String, MaterialRef>,
+    named_materials: HashMap<String, NamedMaterial>,
     /// `MakeNamedMedium`'s names: index into `Scene::media` + 1 (0: a refused medium).
     named_media: HashMap<String, u32>,
     textures: HashMap<String, Value>,
@@ -147,6 +160,7 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
             start_active: true,
             reverse: false,
             material: MaterialRef::Material(diffuse(Vec3::splat(0.5))),
+            undefined_material: None,
             area: None,
             attributes: Vec::new(),
             media: (None, None),
@@ -538,6 +552,7 @@ impl Parser {
                 let params = self.params(d)?;
                 let params = self.with_attributes("material", params);
                 self.gs.material = self.material(&ty, &params, file, line)?;
+                self.gs.undefined_material = None;
             }
             "MakeNamedMaterial" => {
                 let name = self.expect_string(d, "a name")?;
@@ -554,21 +569,17 @@ impl Parser {
                         ))
                     }
                 };
-                let m = self.material(&ty, &params, file, line)?;
-                self.named_materials.insert(name, m);
+                self.named_materials
+                    .insert(name, NamedMaterial::Pending(ty, params, file, line));
             }
             "NamedMaterial" => {
                 let name = self.expect_string(d, "a name")?;
-                match self.named_materials.get(&name) {
-                    Some(m) => self.gs.material = m.clone(),
-                    None => {
-                        return Err(self.err_at(
-                            file,
-                            line,
-                            d,
-                            format!("no material named \"{name}\""),
-                        ))
+                match self.named_material(&name)? {
+                    Some(m) => {
+                        self.gs.material = m;
+                        self.gs.undefined_material = None;
                     }
+                    None => self.gs.undefined_material = Some((name, file, line)),
                 }
             }
             "Texture" => {
@@ -597,6 +608,15 @@ impl Parser {
                 let ty = self.expect_string(d, "a shape type")?;
                 let params = self.params(d)?;
                 let params = self.with_attributes("shape", params);
+                if let Some((name, f, l)) = self.gs.undefined_material.clone() {
+                    let at = format!("{}:{line}", self.files[file as usize]);
+                    return Err(self.err_at(
+                        f,
+                        l,
+                        "NamedMaterial",
+                        format!("no material named \"{name}\" (the shape at {at} uses it)"),
+                    ));
+                }
                 self.shape(&ty, &params, file, line)?;
             }
             "ObjectBegin" => {
@@ -724,7 +744,42 @@ impl Parser {
         Ok(())
     }
 
+    /// The material named `name`, made now if it is not yet (its errors at its
+    /// MakeNamedMaterial); None if there is none (or it is being made: a mix of itself).
+    fn named_material(&mut self, name: &str) -> Result<Option<MaterialRef>, ParseError> {
+        let m = match self.named_materials.remove(name) {
+            None => return Ok(None),
+            Some(NamedMaterial::Made(m)) => m,
+            Some(NamedMaterial::Pending(ty, params, file, line)) => {
+                // (Tests: the names the directive being read asked for so far are its
+                // own, not this material's.)
+                #[cfg(test)]
+                let asked = ASKED.with(|a| std::mem::take(&mut *a.borrow_mut()));
+                let m = self.material(&ty, &params, file, line);
+                #[cfg(test)]
+                ASKED.with(|a| *a.borrow_mut() = asked);
+                m?
+            }
+        };
+        self.named_materials
+            .insert(name.to_owned(), NamedMaterial::Made(m.clone()));
+        Ok(Some(m))
+    }
+
     fn finish(mut self) -> Result<Scene, ParseError> {
+        // (Named materials no shape used are made too, for their errors.)
+        let mut pending: Vec<(u32, u32, String)> = self
+            .named_materials
+            .iter()
+            .filter_map(|(n, m)| match m {
+                NamedMaterial::Pending(_, _, file, line) => Some((*file, *line, n.clone())),
+                NamedMaterial::Made(_) => None,
+            })
+            .collect();
+        pending.sort();
+        for (_, _, name) in pending {
+            self.named_material(&name)?;
+        }
         if !self.unsupported.is_empty() {
             let first = &self.unsupported[0];
             let (file, line) = first

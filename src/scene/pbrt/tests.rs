@@ -1152,8 +1152,14 @@ fn syntax_errors_name_the_line() {
     assert!(e.message.contains("out of range"), "{e}");
     let e = parse_err("Shape \"sphere\" \"string radius\" \"unterminated");
     assert!(e.message.contains("unterminated"), "{e}");
-    let e = parse_err("WorldBegin NamedMaterial \"nothing\"");
-    assert!(e.message.contains("no material named"), "{e}");
+    // (An undefined named material is an error for a shape that would use it, as in
+    // pbrt-v4, at the NamedMaterial's line; with no shape after it, none.)
+    let e = parse_err("WorldBegin\nNamedMaterial \"nothing\"\nShape \"sphere\"");
+    assert!(
+        e.message.contains("no material named") && e.line == 2,
+        "{e}"
+    );
+    parse("WorldBegin\nAttributeBegin\nNamedMaterial \"nothing\"\nAttributeEnd\nShape \"sphere\"");
 }
 
 #[test]
@@ -2402,4 +2408,43 @@ fn sphere_alpha_is_an_invisible_light_or_refused() {
         "WorldBegin\n{light}Shape \"sphere\" \"float alpha\" 0.5\n"
     ));
     assert!(e.to_string().contains("Shape \"sphere\": alpha"), "{e}");
+}
+
+/// pbrt-v4 makes its named materials once the scene is read: a named material may name a
+/// texture (or, in a mix, a material) defined after it (the collection's watercolor); an
+/// error in one no shape uses is still reported, at its line.
+#[test]
+fn a_named_material_may_name_what_is_defined_after_it() {
+    let s = parse(&format!(
+        "WorldBegin\n\
+         MakeNamedMaterial \"late\" \"string type\" \"diffuse\" \"texture reflectance\" \"grey\"\n\
+         MakeNamedMaterial \"both\" \"string type\" \"mix\" \"string materials\" [ \"late\" \"later\" ]\n\
+         MakeNamedMaterial \"later\" \"string type\" \"conductor\"\n\
+         Texture \"grey\" \"spectrum\" \"constant\" \"rgb value\" [ 0.25 0.25 0.25 ]\n\
+         NamedMaterial \"both\"\n{QUAD}"
+    ));
+    assert!(s.materials.len() >= 2, "{:?}", s.materials.len());
+    let e = parse_err(&format!(
+        "WorldBegin\n{QUAD}\nMakeNamedMaterial \"unused\" \"string type\" \"diffuse\" \"texture reflectance\" \"nowhere\"\n"
+    ));
+    assert!(e.message.contains("nowhere") && e.line == 4, "{e}");
+}
+
+/// `diffusetransmission`'s `scale` multiplies a textured reflectance or transmittance as
+/// a constant one (a scaled copy of the texture).
+#[test]
+fn diffuse_transmission_scales_its_textures() {
+    let s = parse(&format!(
+        "WorldBegin\nTexture \"c\" \"spectrum\" \"checkerboard\" \"rgb tex1\" [ 0.1 0.2 0.3 ] \"rgb tex2\" [ 0.4 0.4 0.4 ]\n\
+         Material \"diffusetransmission\" \"texture reflectance\" \"c\" \"texture transmittance\" \"c\" \"float scale\" 2\n{QUAD}"
+    ));
+    let m = s.materials.last().unwrap();
+    for t in [m.diffuse_texture.unwrap(), m.transmittance_texture.unwrap()] {
+        match &s.textures[t as usize] {
+            Texture::Checkerboard { even, odd, .. } => {
+                assert_eq!((*even, *odd), (Vec3::new(0.2, 0.4, 0.6), Vec3::splat(0.8)));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
 }

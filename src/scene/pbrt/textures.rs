@@ -3,6 +3,64 @@
 use super::*;
 
 impl Parser {
+    /// pbrt-v4's `scale` texture: `t` times `s` (either a constant or a texture).
+    pub(super) fn scale_value(
+        &mut self,
+        t: Value,
+        s: Value,
+        file: u32,
+        line: u32,
+    ) -> Result<Value, ParseError> {
+        // A leaf texture times a constant (or a grey constant times a float leaf)
+        // is a scaled copy of the leaf; anything else is made of textures.
+        let copy = match (t, s) {
+            (Value::Const(a), Value::Const(b)) => Some(Err(Value::Const(a * b.x))),
+            (Value::Texture(i), Value::Const(b)) => Some(Ok((i, b.x))),
+            (Value::Const(c), Value::Texture(i)) if c.x == c.y && c.y == c.z => Some(Ok((i, c.x))),
+            _ => None,
+        };
+        Ok(match copy {
+            Some(Err(v)) => v,
+            Some(Ok((i, k)))
+                if !self.scene.textures[i as usize].is_graph()
+                    && !matches!(self.scene.textures[i as usize], Texture::Noise { .. }) =>
+            {
+                let mut tex = self.scene.textures[i as usize].clone();
+                match &mut tex {
+                    Texture::Image { scale, .. } => *scale *= k,
+                    Texture::Checkerboard { even, odd, .. }
+                    | Texture::Dots {
+                        inside: even,
+                        outside: odd,
+                        ..
+                    } => {
+                        *even *= k;
+                        *odd *= k;
+                    }
+                    Texture::Bilerp { v, .. } => {
+                        for c in v {
+                            *c *= k;
+                        }
+                    }
+                    // (Noise is not linear in a scale: a tree.)
+                    Texture::Noise { .. } => unreachable!("not copied"),
+                    Texture::Scale { .. } | Texture::Mix { .. } | Texture::DirectionMix { .. } => {
+                        unreachable!()
+                    }
+                }
+                self.scene.textures.push(tex);
+                Value::Texture(self.scene.textures.len() as u32 - 1)
+            }
+            _ => {
+                let tex = Texture::Scale {
+                    tex: self.operand(t),
+                    scale: self.operand(s),
+                };
+                self.graph_texture(tex, file, line)?
+            }
+        })
+    }
+
     pub(super) fn texture(
         &mut self,
         name: &str,
@@ -99,59 +157,7 @@ impl Parser {
                 let s = self
                     .value(params, "scale", true, d)?
                     .unwrap_or(Value::Const(Vec3::ONE));
-                // A leaf texture times a constant (or a grey constant times a float leaf)
-                // is a scaled copy of the leaf; anything else is made of textures.
-                let copy = match (t, s) {
-                    (Value::Const(a), Value::Const(b)) => Some(Err(Value::Const(a * b.x))),
-                    (Value::Texture(i), Value::Const(b)) => Some(Ok((i, b.x))),
-                    (Value::Const(c), Value::Texture(i)) if c.x == c.y && c.y == c.z => {
-                        Some(Ok((i, c.x)))
-                    }
-                    _ => None,
-                };
-                match copy {
-                    Some(Err(v)) => v,
-                    Some(Ok((i, k)))
-                        if !self.scene.textures[i as usize].is_graph()
-                            && !matches!(
-                                self.scene.textures[i as usize],
-                                Texture::Noise { .. }
-                            ) =>
-                    {
-                        let mut tex = self.scene.textures[i as usize].clone();
-                        match &mut tex {
-                            Texture::Image { scale, .. } => *scale *= k,
-                            Texture::Checkerboard { even, odd, .. }
-                            | Texture::Dots {
-                                inside: even,
-                                outside: odd,
-                                ..
-                            } => {
-                                *even *= k;
-                                *odd *= k;
-                            }
-                            Texture::Bilerp { v, .. } => {
-                                for c in v {
-                                    *c *= k;
-                                }
-                            }
-                            // (Noise is not linear in a scale: a tree.)
-                            Texture::Noise { .. } => unreachable!("not copied"),
-                            Texture::Scale { .. }
-                            | Texture::Mix { .. }
-                            | Texture::DirectionMix { .. } => unreachable!(),
-                        }
-                        self.scene.textures.push(tex);
-                        Value::Texture(self.scene.textures.len() as u32 - 1)
-                    }
-                    _ => {
-                        let tex = Texture::Scale {
-                            tex: self.operand(t),
-                            scale: self.operand(s),
-                        };
-                        self.graph_texture(tex, file, line)?
-                    }
-                }
+                self.scale_value(t, s, file, line)?
             }
             "mix" => {
                 let t1 = self
