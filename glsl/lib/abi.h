@@ -182,8 +182,13 @@
 #define FEATURE_TEMPERATURE_MEDIA 67108864
 // pbrt-v4's nanovdb medium (with FEATURE_GRID_MEDIA): sparse bricks of NanoVDB grids.
 #define FEATURE_NANOVDB_MEDIA 134217728
+// Several infinite lights (lights.glsl's loops over them; without it there is at most one,
+// and they are no loops: lavapipe compiles a kernel with them 40 % longer).
+#define FEATURE_ENVIRONMENTS 268435456
+// pbrt-v4's realistic camera (camera.glsl's lens system).
+#define FEATURE_REALISTIC_CAMERA 536870912
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 268435455
+#define FEATURE_ALL 1073741823
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u

@@ -9,10 +9,11 @@
 #include "bindings.glsl"
 #include "sampling.glsl"
 #include "rng.glsl"
+#include "features.glsl"
 
 // pbrt-v4's realistic camera: a lens system (src/scene/lens.rs, whose LensSystem is the
 // CPU mirror; the path tracers only, the host refuses it to BDPT and MMLT).
-bool camera_is_realistic() { return scene.lens != NO_TEXTURE; }
+bool camera_is_realistic() { return has_feature(FEATURE_REALISTIC_CAMERA) && scene.lens != NO_TEXTURE; }
 
 // A thin lens and a lens system draw two numbers per camera ray (and a thin lens per
 // t = 1 connection); a pinhole none (so that pinhole renders keep the numbers they had).

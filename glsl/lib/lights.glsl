@@ -230,9 +230,12 @@ vec3 environment_radiance_of(GpuEmitter em, vec3 p, vec3 dir) {
 
 // The radiance of every infinite light arriving at p from the direction dir (the scene
 // has one: scene.environment != NO_EMITTER).
+// (Each of these loops is the one call site of what it calls: lavapipe's compile time
+// grows with every inlined copy.)
 vec3 environment_radiance(vec3 p, vec3 dir) {
-    vec3 L = environment_radiance_of(emitters[scene.environment], p, dir);
-    for (uint k = 1u; k < scene.environment_count; ++k) {
+    if (!has_feature(FEATURE_ENVIRONMENTS)) return environment_radiance_of(emitters[scene.environment], p, dir);
+    vec3 L = vec3(0.0);
+    for (uint k = 0u; k < scene.environment_count; ++k) {
         L += environment_radiance_of(emitters[scene.environment + k], p, dir);
     }
     return L;
@@ -285,20 +288,24 @@ vec3 sample_environment_direction(GpuEmitter em, vec2 u, out float pdf) {
 // The solid-angle pdf, picks included, with which light sampling draws dir from the
 // infinite lights together (the scene has one).
 float environment_pdf(vec3 dir) {
-    GpuEmitter em = emitters[scene.environment];
-    float pdf = em.radiance.w * environment_direction_pdf(em, dir);
-    for (uint k = 1u; k < scene.environment_count; ++k) {
-        em = emitters[scene.environment + k];
+    if (!has_feature(FEATURE_ENVIRONMENTS)) {
+        GpuEmitter em = emitters[scene.environment];
+        return em.radiance.w * environment_direction_pdf(em, dir);
+    }
+    float pdf = 0.0;
+    for (uint k = 0u; k < scene.environment_count; ++k) {
+        GpuEmitter em = emitters[scene.environment + k];
         pdf += em.radiance.w * environment_direction_pdf(em, dir);
     }
     return pdf;
 }
 
 // What the infinite lights other than emitter e add to e's own light-sampling density
-// of dir (picks included) and to its radiance at p from dir, so that a sample drawn from
-// e counts for all of them together (none with a single infinite light).
+// of dir (picks included), so that a sample drawn from e counts for all of them together
+// (nothing with a single infinite light).
 float other_environments_pdf(uint e, vec3 dir) {
     float pdf = 0.0;
+    if (!has_feature(FEATURE_ENVIRONMENTS)) return pdf;
     for (uint k = 0u; k < scene.environment_count; ++k) {
         uint o = scene.environment + k;
         if (o == e) continue;
@@ -306,14 +313,6 @@ float other_environments_pdf(uint e, vec3 dir) {
         pdf += em.radiance.w * environment_direction_pdf(em, dir);
     }
     return pdf;
-}
-vec3 other_environments_radiance(uint e, vec3 p, vec3 dir) {
-    vec3 L = vec3(0.0);
-    for (uint k = 0u; k < scene.environment_count; ++k) {
-        uint o = scene.environment + k;
-        if (o != e) L += environment_radiance_of(emitters[o], p, dir);
-    }
-    return L;
 }
 
 // A spot light's falloff toward the unit direction w from it: pbrt-v4's smoothstep
@@ -548,12 +547,22 @@ bool sample_emitter(uint e, vec3 ref, vec2 u, out LightSample ls) {
         return ls.L != vec3(0.0);
     }
     if (em.info.x == EMITTER_INFINITE) {
-        // (With the other infinite lights as one light: see "the environment lights".)
+        // (With the other infinite lights as one light: see "the environment lights". One
+        // loop, so that each function it calls is inlined once.)
         float pdf_dir;
         ls.wi = sample_environment_direction(em, u, pdf_dir);
         ls.dist = INF;
-        ls.L = environment_radiance_of(em, ref, ls.wi) + other_environments_radiance(e, ref, ls.wi);
-        ls.pdf = pick * pdf_dir + other_environments_pdf(e, ls.wi);
+        ls.pdf = pick * pdf_dir;
+        if (!has_feature(FEATURE_ENVIRONMENTS)) {
+            ls.L = environment_radiance_of(em, ref, ls.wi);
+        } else {
+            for (uint k = 0u; k < scene.environment_count; ++k) {
+                uint o = scene.environment + k;
+                GpuEmitter eo = emitters[o];
+                ls.L += environment_radiance_of(eo, ref, ls.wi);
+                if (o != e) ls.pdf += eo.radiance.w * environment_direction_pdf(eo, ls.wi);
+            }
+        }
         return ls.pdf > 0.0 && ls.L != vec3(0.0);
     }
     if (em.info.x == EMITTER_DIRECTIONAL) {

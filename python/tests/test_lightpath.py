@@ -135,6 +135,10 @@ def test_a_render_stops_when_interrupted_from_another_thread():
 
 CTRL_C = """
 import faulthandler, os, signal, sys, threading
+# Python turns SIGINT into KeyboardInterrupt only if its parent did not ignore SIGINT, and
+# a shell ignores it for the commands it starts in the background (as CI may run the
+# tests): install the handler an interactive Python has, which a terminal's Ctrl-C meets.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import lightpath as lp
 # (Should anything hang, every thread's stack is printed and the script ends: the test
 # then fails with that on stderr, not by its own timeout with nothing to show.)

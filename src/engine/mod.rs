@@ -524,6 +524,12 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if scene.environments.iter().any(|e| e.map.is_some()) {
         features |= FEATURE_ENVIRONMENT_MAP;
     }
+    if scene.environments.len() > 1 {
+        features |= crate::abi::FEATURE_ENVIRONMENTS;
+    }
+    if scene.lens.is_some() {
+        features |= crate::abi::FEATURE_REALISTIC_CAMERA;
+    }
     if scene.delta_lights.iter().any(|l| {
         matches!(
             l,
@@ -761,7 +767,9 @@ mod tests {
             | crate::abi::FEATURE_CLOUD_MEDIA
             | crate::abi::FEATURE_RGB_GRID_MEDIA
             | crate::abi::FEATURE_TEMPERATURE_MEDIA
-            | crate::abi::FEATURE_NANOVDB_MEDIA;
+            | crate::abi::FEATURE_NANOVDB_MEDIA
+            | crate::abi::FEATURE_ENVIRONMENTS
+            | crate::abi::FEATURE_REALISTIC_CAMERA;
         assert_eq!(FEATURE_ALL, every);
     }
 }
