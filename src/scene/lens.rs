@@ -214,6 +214,46 @@ impl LensSystem {
         self.elements.last().map_or(0.0, |e| e.aperture)
     }
 
+    /// The index of refraction behind interface i (toward the film); air behind the stop
+    /// (its 0) and in front of the front element (None).
+    fn eta_behind(&self, i: Option<usize>) -> f32 {
+        match i.map(|j| self.elements[j].eta) {
+            Some(x) if x != 0.0 => x,
+            _ => 1.0,
+        }
+    }
+
+    /// The lens-space ray (o, d) across interface i, whose vertex is at z, going toward
+    /// the film or toward the scene: where it meets the interface and its direction
+    /// after it; None where the aperture or a total internal reflection stops it.
+    fn cross(&self, i: usize, z: f32, o: Vec3, d: Vec3, toward_film: bool) -> Option<(Vec3, Vec3)> {
+        let e = self.elements[i];
+        let (t, n) = if e.radius == 0.0 {
+            let away = if toward_film { d.z >= 0.0 } else { d.z <= 0.0 };
+            if away {
+                return None;
+            }
+            ((z - o.z) / d.z, None)
+        } else {
+            let (t, n) = intersect_interface(o, d, e.radius, z + e.radius)?;
+            (t, Some(n))
+        };
+        let p = o + t * d;
+        if p.x * p.x + p.y * p.y > e.aperture * e.aperture {
+            return None;
+        }
+        let Some(n) = n else {
+            return Some((p, d));
+        };
+        let (before, behind) = (self.eta_behind(i.checked_sub(1)), self.eta_behind(Some(i)));
+        let (eta_i, eta_t) = if toward_film {
+            (behind, before)
+        } else {
+            (before, behind)
+        };
+        Some((p, refract(-d.normalize(), n, eta_t / eta_i)?))
+    }
+
     /// The ray (camera space) from the film side through every interface, rear to front:
     /// the ray leaving the front element, or None where an aperture or a total internal
     /// reflection stops it.
@@ -223,30 +263,8 @@ impl LensSystem {
         let (mut o, mut d) = (o * flip, d * flip);
         let mut z = 0.0;
         for i in (0..self.elements.len()).rev() {
-            let e = self.elements[i];
-            z -= e.thickness;
-            let (t, n) = if e.radius == 0.0 {
-                if d.z >= 0.0 {
-                    return None;
-                }
-                ((z - o.z) / d.z, None)
-            } else {
-                let (t, n) = intersect_interface(o, d, e.radius, z + e.radius)?;
-                (t, Some(n))
-            };
-            let p = o + t * d;
-            if p.x * p.x + p.y * p.y > e.aperture * e.aperture {
-                return None;
-            }
-            o = p;
-            if let Some(n) = n {
-                let eta_i = if e.eta != 0.0 { e.eta } else { 1.0 };
-                let eta_t = match i.checked_sub(1).map(|j| self.elements[j].eta) {
-                    Some(x) if x != 0.0 => x,
-                    _ => 1.0,
-                };
-                d = refract(-d.normalize(), n, eta_t / eta_i)?;
-            }
+            z -= self.elements[i].thickness;
+            (o, d) = self.cross(i, z, o, d, true)?;
         }
         Some((o * flip, d * flip))
     }
@@ -257,28 +275,7 @@ impl LensSystem {
         let (mut o, mut d) = (o * flip, d * flip);
         let mut z = -self.front_z();
         for (i, e) in self.elements.iter().enumerate() {
-            let (t, n) = if e.radius == 0.0 {
-                if d.z <= 0.0 {
-                    return None;
-                }
-                ((z - o.z) / d.z, None)
-            } else {
-                let (t, n) = intersect_interface(o, d, e.radius, z + e.radius)?;
-                (t, Some(n))
-            };
-            let p = o + t * d;
-            if p.x * p.x + p.y * p.y > e.aperture * e.aperture {
-                return None;
-            }
-            o = p;
-            if let Some(n) = n {
-                let eta_i = match i.checked_sub(1).map(|j| self.elements[j].eta) {
-                    Some(x) if x != 0.0 => x,
-                    _ => 1.0,
-                };
-                let eta_t = if e.eta != 0.0 { e.eta } else { 1.0 };
-                d = refract(-d.normalize(), n, eta_t / eta_i)?;
-            }
+            (o, d) = self.cross(i, z, o, d, false)?;
             z += e.thickness;
         }
         Some((o * flip, d * flip))

@@ -297,24 +297,17 @@ fn several_infinite_lights_add() {
     .unwrap();
     let s = parse_pbrt_file(&d.join("s.pbrt")).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.environments.len(), 2);
-    let first: Vec<f32> = s.environments[0]
-        .map
-        .as_ref()
-        .unwrap()
-        .image
-        .pixels
-        .iter()
-        .map(|p| p[0])
-        .collect();
-    let second: Vec<f32> = s.environments[1]
-        .map
-        .as_ref()
-        .unwrap()
-        .image
-        .pixels
-        .iter()
-        .map(|p| p[0])
-        .collect();
+    let reds = |e: &crate::scene::Environment| -> Vec<f32> {
+        e.map
+            .as_ref()
+            .unwrap()
+            .image
+            .pixels
+            .iter()
+            .map(|p| p[0])
+            .collect()
+    };
+    let (first, second) = (reds(&s.environments[0]), reds(&s.environments[1]));
     assert!(
         first.iter().all(|&v| v > 2.0) && second.iter().all(|&v| v <= 4.0),
         "{first:?} {second:?}"
