@@ -3,7 +3,8 @@
 //! (src/shading_map.rs) on triangles with and without normals, spheres and ellipsoids;
 //! and the closed form of a diffuse floor whose map tilts every shading normal by the same
 //! angle, lit from straight above by a distant light: it reflects cos(tilt) of the
-//! untilted floor's radiance, in the path tracer, BDPT and MMLT. (Every BDPT strategy
+//! untilted floor's radiance, in the path tracer, BDPT and MMLT — as does the floor
+//! itself tilted by a displaced `plymesh` (the same map as geometry). (Every BDPT strategy
 //! alone on a bumped and normal-mapped room: tests/exact_lights.rs.)
 mod common;
 
@@ -150,15 +151,24 @@ fn bump_and_normal_maps_on_the_device_match_their_mirror() {
 /// A diffuse floor (ρ 0.5) seen from straight above, lit from straight above by a
 /// distant light (L 3): without a map it reflects ρ L / π everywhere.
 fn floor_from_above(material: &str, uv: &str) -> Scene {
+    lit_from_above(
+        material,
+        &format!(
+            "Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \
+             \"point3 P\" [ -4 0 -4  4 0 -4  4 0 4  -4 0 4 ] \"point2 uv\" [ {uv} ]"
+        ),
+    )
+}
+
+/// `shape` seen and lit from straight above, as [`floor_from_above`].
+fn lit_from_above(material: &str, shape: &str) -> Scene {
     let text = format!(
         "LookAt 0 5 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" [ 30 ]\n\
          Film \"rgb\" \"integer xresolution\" [ 16 ] \"integer yresolution\" [ 16 ]\n\
          Integrator \"bdpt\" \"integer maxdepth\" [ 1 ]\n\
          WorldBegin\n\
          LightSource \"distant\" \"point3 from\" [ 0 1 0 ] \"point3 to\" [ 0 0 0 ] \"rgb L\" [ 3 3 3 ]\n\
-         {material}\n\
-         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \
-         \"point3 P\" [ -4 0 -4  4 0 -4  4 0 4  -4 0 4 ] \"point2 uv\" [ {uv} ]\n"
+         {material}\n{shape}\n"
     );
     scene::parse_pbrt_str(&text, "floor.pbrt").expect("the floor parses")
 }
@@ -177,8 +187,9 @@ fn rendered(s: &Scene, integrator: IntegratorKind, seeds: u32) -> Estimate {
 /// A normal map of one colour tilts every normal by the angle a with cos a = 0.8; a
 /// displacement that rises linearly in u (an image ramp, clamped, over the texels'
 /// interior) by slope 7.5 per unit u on a floor with |dp/du| = 10 tilts it by the same
-/// angle (cos a = 10 / √(10² + 7.5²)). Under light from the normal's direction, both
-/// reflect 0.8 ρ L / π.
+/// angle (cos a = 10 / √(10² + 7.5²)), and the same ramp as a displaced `plymesh` tilts
+/// the floor itself. Under light from the normal's direction, each reflects 0.8 ρ L / π
+/// (the displaced floor: its triangles, each at the tilt, refined to edges under 2).
 #[test]
 fn a_uniformly_tilted_floor_reflects_the_cosine_of_its_tilt_in_every_integrator() {
     let dir = temp_dir("tilted-floor");
@@ -195,6 +206,20 @@ fn a_uniformly_tilted_floor_reflects_the_cosine_of_its_tilt_in_every_integrator(
     });
     let k = 7.5 * (w - 1) as f32 / w as f32;
     let plain_uv = "0 0  1 0  1 1  0 1";
+    let ply = dir.join("floor.ply");
+    std::fs::write(
+        &ply,
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nproperty float u\nproperty float v\nelement face 1\n\
+         property list uchar int vertex_indices\nend_header\n\
+         -4 0 -4 0.1 0\n4 0 -4 0.9 0\n4 0 4 0.9 1\n-4 0 4 0.1 1\n4 0 1 2 3\n",
+    )
+    .unwrap();
+    let ramp_texture = format!(
+        "Texture \"ramp\" \"float\" \"imagemap\" \"string filename\" \"{}\" \
+         \"string wrap\" \"clamp\" \"float scale\" [ {k} ]",
+        ramp.display()
+    );
     let cases = [
         (
             "normal map",
@@ -210,17 +235,32 @@ fn a_uniformly_tilted_floor_reflects_the_cosine_of_its_tilt_in_every_integrator(
             "bump map",
             floor_from_above(
                 &format!(
-                    "Texture \"ramp\" \"float\" \"imagemap\" \"string filename\" \"{}\" \
-                     \"string wrap\" \"clamp\" \"float scale\" [ {k} ]\n\
-                     Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.5 0.5 ] \"texture displacement\" \"ramp\"",
-                    ramp.display()
+                    "{ramp_texture}\n\
+                     Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.5 0.5 ] \"texture displacement\" \"ramp\""
                 ),
                 // u from 0.1 to 0.9 across the 8 units: |dp/du| = 10, inside the ramp's
                 // texel centres (1/32 .. 31/32).
                 "0.1 0  0.9 0  0.9 1  0.1 1",
             ),
         ),
+        (
+            "displaced mesh",
+            lit_from_above(
+                &format!("{ramp_texture}\nMaterial \"diffuse\" \"rgb reflectance\" [ 0.5 0.5 0.5 ]"),
+                &format!(
+                    "Shape \"plymesh\" \"string filename\" \"{}\" \"texture displacement\" \"ramp\" \
+                     \"float edgelength\" 2",
+                    ply.display()
+                ),
+            ),
+        ),
     ];
+    let displaced = &cases[2].1;
+    assert!(
+        displaced.triangles.len() >= 32,
+        "{} triangles",
+        displaced.triangles.len()
+    );
     let want = 0.5 * 3.0 / std::f64::consts::PI * cos_a as f64;
     for (name, s) in &cases {
         for (integrator, seeds) in [

@@ -3,6 +3,7 @@
 //! The parser (`parse.rs`) fills a [`Scene`]; everything downstream (acceleration
 //! structures, GPU buffers, integrators) reads only this model.
 
+mod displace;
 pub mod lens;
 mod parse;
 mod pbrt;

@@ -52,6 +52,58 @@ pub(super) fn flip(mut t: Triangle) -> Triangle {
 }
 
 impl Parser {
+    /// pbrt-v4's displaced `plymesh`: refined to edges shorter than `edge_length` in
+    /// rendering space, each vertex moved along its normal by the float texture `value`
+    /// at its (u, v) and its object-space point (pbrt-v4 evaluates the texture there, not
+    /// in rendering space), the normals made again (src/scene/displace.rs).
+    fn displaced(
+        &self,
+        mesh: crate::scene::ply::PlyMesh,
+        value: Value,
+        edge_length: f32,
+        path: &std::path::Path,
+    ) -> Result<ShapeKind, String> {
+        let Some(uv) = mesh.uv else {
+            return Err(format!(
+                "a displaced mesh needs (u, v) at its vertices, and {} has none \
+                 (pbrt-v4 requires them too)",
+                path.display()
+            ));
+        };
+        let n = match mesh.n {
+            Some(n) => n,
+            None => crate::scene::displace::vertex_normals(&mesh.p, &mesh.indices),
+        };
+        let source = crate::scene::displace::DisplacedMesh {
+            p: mesh.p,
+            n,
+            uv,
+            indices: mesh.indices,
+        };
+        let ctm = self.gs.ctm;
+        let texture = match value {
+            Value::Texture(t) => Some(&self.scene.textures[t as usize]),
+            Value::Const(_) => None,
+        };
+        let out = crate::scene::displace::displace(
+            &source,
+            edge_length,
+            crate::scene::displace::MAX_DISPLACED_TRIANGLES,
+            |a, b| ctm.transform_point3(a).distance(ctm.transform_point3(b)),
+            |p, n, uv| match (texture, value) {
+                (Some(t), _) => crate::texture::texture_value(t, uv, p, n).x,
+                (None, Value::Const(c)) => c.x,
+                (None, Value::Texture(_)) => unreachable!(),
+            },
+        )?;
+        Ok(ShapeKind::Mesh {
+            p: out.p,
+            indices: out.indices,
+            n: Some(out.n),
+            uv: Some(out.uv),
+        })
+    }
+
     pub(super) fn shape(
         &mut self,
         ty: &str,
@@ -199,14 +251,21 @@ impl Parser {
                 let path = self.resolve(fp.file, &fp.strs[0]);
                 let mesh = crate::scene::ply::read_ply(&path)
                     .map_err(|e| self.err_at(fp.file, fp.line, d, e))?;
-                // (displacement is refused below, with every shape's; its edge length
-                // then does not matter.)
-                params.find("edgelength");
-                ShapeKind::Mesh {
-                    p: mesh.p,
-                    indices: mesh.indices,
-                    n: mesh.n,
-                    uv: mesh.uv,
+                let displacement = self.value(params, "displacement", true, d)?;
+                let edge_length = float_or("edgelength", 1.0);
+                match displacement {
+                    None => ShapeKind::Mesh {
+                        p: mesh.p,
+                        indices: mesh.indices,
+                        n: mesh.n,
+                        uv: mesh.uv,
+                    },
+                    Some(value) => {
+                        let dp = params.find("displacement").expect("just read");
+                        let (dfile, dline) = (dp.file, dp.line);
+                        self.displaced(mesh, value, edge_length, &path)
+                            .map_err(|e| self.err_at(dfile, dline, d, format!("plymesh: {e}")))?
+                    }
                 }
             }
             "curve" => {
@@ -462,7 +521,6 @@ impl Parser {
             }
         }
         let refused: &[&str] = match ty {
-            "plymesh" => &["displacement"],
             "bilinearmesh" => &["emissionfilename"],
             _ => &[],
         };

@@ -1380,6 +1380,103 @@ fn plymesh_reads_like_a_trianglemesh() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+/// A displaced `plymesh` (pbrt-v4's): refined until every edge is shorter than
+/// `edgelength` in rendering space, each vertex moved along its normal (made from the
+/// faces where the file has none) by the float texture at its (u, v); without (u, v), or
+/// naming no texture, an error at the parameter's line.
+#[test]
+fn a_displaced_plymesh_is_refined_and_moved_along_its_normals() {
+    let d = std::env::temp_dir().join(format!("lightpath-pbrt-displace-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let header = |uv: bool| {
+        format!(
+            "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+             property float z\n{}element face 1\nproperty list uchar int vertex_indices\n\
+             end_header\n",
+            if uv {
+                "property float u\nproperty float v\n"
+            } else {
+                ""
+            }
+        )
+    };
+    std::fs::write(
+        d.join("uv.ply"),
+        header(true) + "-1 -1 0 0 0\n1 -1 0 1 0\n1 1 0 1 1\n-1 1 0 0 1\n4 0 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("plain.ply"),
+        header(false) + "-1 -1 0\n1 -1 0\n1 1 0\n-1 1 0\n4 0 1 2 3\n",
+    )
+    .unwrap();
+    let scene = |texture: &str, file: &str| {
+        std::fs::write(
+            d.join("s.pbrt"),
+            format!(
+                "WorldBegin\n{texture}\nScale 2 2 2\nShape \"plymesh\" \"string filename\" \"{file}\"\n\
+                 \"texture displacement\" \"lift\" \"float edgelength\" 1\n"
+            ),
+        )
+        .unwrap();
+        parse_pbrt_file(&d.join("s.pbrt"))
+    };
+    // A constant lift of 0.25 (0.5 in rendering space) and a bilinear ramp in u of 0.5
+    // (z = 0.5 u in the object's space: the plane z = (x + 2) / 4 in rendering space).
+    let cases: [(&str, fn(Vec3) -> f32); 2] = [
+        ("Texture \"lift\" \"float\" \"constant\" \"float value\" 0.25", |_| 0.5),
+        (
+            "Texture \"lift\" \"float\" \"bilerp\" \"float v00\" 0 \"float v01\" 0 \"float v10\" 0.5 \"float v11\" 0.5",
+            |p| 0.5 * (p.x + 2.0) / 2.0,
+        ),
+    ];
+    for (texture, height) in cases {
+        let s = scene(texture, "uv.ply").unwrap();
+        assert!(
+            s.triangles.len() >= 2 * 16,
+            "{} triangles",
+            s.triangles.len()
+        );
+        for t in &s.triangles {
+            for k in 0..3 {
+                let (a, b) = (t.v[k], t.v[(k + 1) % 3]);
+                assert!(
+                    (a.truncate() - b.truncate()).length() < 1.0,
+                    "{texture}: an edge from {a} to {b} (before displacement, shorter than 1)"
+                );
+                assert!((a.z - height(a)).abs() < 1e-5, "{texture}: a vertex at {a}");
+            }
+            let n = t.normals.expect("normals made again");
+            let face = (t.v[1] - t.v[0]).cross(t.v[2] - t.v[1]).normalize();
+            for nk in n {
+                assert!(
+                    (nk.normalize() - face).length() < 1e-4,
+                    "{texture}: normal {nk} on a face {face}"
+                );
+            }
+        }
+        let projected: f32 = s
+            .triangles
+            .iter()
+            .map(|t| 0.5 * (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).z.abs())
+            .sum();
+        assert!(
+            (projected - 16.0).abs() < 1e-3,
+            "{texture}: projected area {projected}"
+        );
+    }
+    let e = scene(cases[0].0, "plain.ply").unwrap_err();
+    assert_eq!(e.line, 5, "{e}");
+    assert!(
+        e.message.contains("(u, v)") && e.message.contains("plain.ply"),
+        "{e}"
+    );
+    let e = scene("", "uv.ply").unwrap_err();
+    assert_eq!(e.line, 5, "{e}");
+    assert!(e.message.contains("no float texture named \"lift\""), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
 #[test]
 fn spheres_disks_and_bilinear_patches() {
     let s = parse(
