@@ -266,6 +266,13 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
     }
     let output = output_path(&scene, args);
     io::check_writable(&output)?;
+    if scene.settings.gbuffer.is_some() && !matches!(io::format_of(&output)?, io::Format::Exr) {
+        bail!(
+            "{}: a gbuffer film writes its channels beside the image in an EXR file only (as \
+             pbrt-v4's): name the output .exr",
+            output.display()
+        );
+    }
     if let Some(t) = &args.trace {
         io::check_writable_file(t)?;
     }
@@ -359,7 +366,13 @@ fn render_command(args: &RenderArgs) -> Result<i32> {
         eprintln!("Vulkan validation: no errors, {} warnings", v.warnings);
     }
     trace.cpu("write image", || {
-        io::write_image_with_info(&output, &out.image, scene.settings.gamma, Some(&info))
+        io::write_image_with_aux(
+            &output,
+            &out.image,
+            scene.settings.gamma,
+            Some(&info),
+            &out.aux,
+        )
     })?;
     if let Some(dir) = &args.bdpt_strategies {
         trace.cpu("write strategy images", || -> Result<()> {

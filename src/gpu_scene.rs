@@ -979,7 +979,7 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
         environment: NO_EMITTER,
         environment_count: 0,
         lens: NO_TEXTURE,
-        reserved5: 0,
+        gbuffer_world: matches!(s.gbuffer, Some(crate::scene::GBufferSpace::World)) as u32,
         reserved6: 0,
         camera_medium: crate::scene::MediumInterface::code(scene.camera_medium),
         cam_window: c.film_window(scene.width, scene.height),

@@ -262,7 +262,27 @@ pub fn write_image_with_info(
     gamma: f32,
     info: Option<&RenderInfo>,
 ) -> Result<()> {
+    write_image_with_aux(path, image, gamma, info, &[])
+}
+
+/// [`write_image_with_info`] with channels beside the image (a gbuffer film's: an EXR
+/// holds them after R, G and B; a PNG cannot, and is an error when there are any).
+pub fn write_image_with_aux(
+    path: &Path,
+    image: &Image,
+    gamma: f32,
+    info: Option<&RenderInfo>,
+    aux: &[crate::integrators::gbuffer::AuxChannel],
+) -> Result<()> {
     let format = format_of(path)?;
+    if !aux.is_empty() && !matches!(format, Format::Exr) {
+        anyhow::bail!(
+            "{}: a gbuffer film's channels ({} and more) need an EXR file (name it .exr, or \
+             use an rgb film)",
+            path.display(),
+            aux[0].name
+        );
+    }
     write_via_temp(path, |tmp| match format {
         Format::Exr => {
             use exr::prelude::*;
@@ -276,6 +296,29 @@ pub fn write_image_with_info(
                 for (name, value) in info.to_attributes() {
                     attributes.other.insert(Text::new_or_panic(name), value);
                 }
+            }
+            if !aux.is_empty() {
+                let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+                for (c, name) in ["R", "G", "B"].iter().enumerate() {
+                    let values = image.pixels.iter().map(|p| p[c]).collect();
+                    channels.push(AnyChannel::new(*name, FlatSamples::F32(values)));
+                }
+                for a in aux {
+                    channels.push(AnyChannel::new(
+                        a.name.as_str(),
+                        FlatSamples::F32(a.values.clone()),
+                    ));
+                }
+                let layer = Layer::new(
+                    (w, h),
+                    attributes,
+                    Encoding::FAST_LOSSLESS,
+                    AnyChannels::sort(channels),
+                );
+                return exr::prelude::Image::from_layer(layer)
+                    .write()
+                    .to_file(tmp)
+                    .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()));
             }
             let layer = Layer::new(
                 (w, h),

@@ -154,6 +154,10 @@ impl Renderer {
         let mut integrator = crate::integrators::create(scene.settings.integrator, &self.options)?;
         let mut out = integrator.render(&mut self.engine, scene, seed, trace)?;
         apply_film_matrix(&mut out.image, scene.settings.output_from_render);
+        // A gbuffer film's channels, but not after an interruption (the user asked to stop).
+        if scene.settings.gbuffer.is_some() && out.interrupted.is_none() {
+            out.aux = crate::integrators::gbuffer::render(&mut self.engine, scene, seed, trace)?;
+        }
         Ok(out)
     }
 

@@ -420,3 +420,155 @@ fn the_wavefront_size_does_not_change_the_path_tracers_image() {
         }
     }
 }
+
+/// pbrt-v4's `gbuffer` film: a diffuse wall (ρ = (0.5, 0.25, 0.125)) at z = 3 ahead of a
+/// camera at z = −1 covers the image's left half (x < 1, the camera at x = 1). The left
+/// half's channels are the closed form — the albedo ρ (a diffuse BSDF's samples weigh
+/// exactly ρ), camera-space depth P.Z = 4 (the world's z = 3 with `coordinatesystem`
+/// "world"), normals ±z, (u, v) inside the wall's — and the right half, where no sample
+/// sees a surface, is zeros, as pbrt-v4's film averages them. The EXR holds them as
+/// pbrt-v4 names them; a PNG for a gbuffer film is an error before anything is written.
+#[test]
+fn a_gbuffer_film_writes_what_the_camera_sees_first() {
+    let scene = |space: &str| {
+        lightpath::scene::parse_pbrt_str(
+            &format!(
+                "LookAt 1 2 -1  1 2 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+                 Film \"gbuffer\" \"integer xresolution\" 16 \"integer yresolution\" 8 {space}\n\
+                 Sampler \"independent\" \"integer pixelsamples\" 4\n\
+                 WorldBegin\n\
+                 Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.25 0.125 ]\n\
+                 Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \
+                 \"point3 P\" [ -9 -8 3  1 -8 3  1 12 3  -9 12 3 ] \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]\n"
+            ),
+            "gbuffer.pbrt",
+        )
+        .expect("the scene parses")
+    };
+    // The image's left half at depth 4: x from −2 · 4 tan 20° (a 2:1 image, the field
+    // of view vertical) to 0, from the camera; the world's x is 1 more.
+    let half_mean = -4.0 * 20f32.to_radians().tan();
+    for (space, depth, x_mean) in [
+        ("", 4.0f32, half_mean),
+        (
+            "\"string coordinatesystem\" \"world\"",
+            3.0,
+            1.0 + half_mean,
+        ),
+    ] {
+        let s = scene(space);
+        let out = renderer(Bvh)
+            .render(&s, 1, &mut lightpath::trace::Trace::new())
+            .expect("render");
+        let channel = |name: &str| {
+            &out.aux
+                .iter()
+                .find(|c| c.name == name)
+                .unwrap_or_else(|| panic!("no {name}"))
+                .values
+        };
+        let names: Vec<&str> = out.aux.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "Albedo.R", "Albedo.G", "Albedo.B", "P.X", "P.Y", "P.Z", "N.X", "N.Y", "N.Z",
+                "Ns.X", "Ns.Y", "Ns.Z", "u", "v"
+            ]
+        );
+        let mut sum_x = 0.0;
+        for y in 0..8 {
+            for x in 0..16 {
+                let i = y * 16 + x;
+                let at = |name: &str| channel(name)[i];
+                let what = format!("{space:?} pixel ({x}, {y})");
+                if x >= 8 {
+                    for c in &out.aux {
+                        assert_eq!(c.values[i], 0.0, "{what}: {} where nothing is seen", c.name);
+                    }
+                    continue;
+                }
+                for (name, want) in [
+                    ("Albedo.R", 0.5),
+                    ("Albedo.G", 0.25),
+                    ("Albedo.B", 0.125),
+                    ("P.Z", depth),
+                ] {
+                    assert!(
+                        (at(name) - want).abs() < 1e-4 * want.max(1.0),
+                        "{what}: {name} {} for {want}",
+                        at(name)
+                    );
+                }
+                for n in ["N", "Ns"] {
+                    let v = glam::Vec3::new(
+                        at(&format!("{n}.X")),
+                        at(&format!("{n}.Y")),
+                        at(&format!("{n}.Z")),
+                    );
+                    assert!(
+                        (v.z.abs() - 1.0).abs() < 1e-5 && v.truncate().length() < 1e-5,
+                        "{what}: {n} {v}"
+                    );
+                }
+                assert!(
+                    (0.0..=1.0).contains(&at("u")) && (0.0..=1.0).contains(&at("v")),
+                    "{what}: uv"
+                );
+                sum_x += at("P.X");
+            }
+        }
+        let mean_x = sum_x / 64.0;
+        assert!(
+            (mean_x - x_mean).abs() < 0.02,
+            "{space:?}: mean P.X {mean_x} for {x_mean}"
+        );
+    }
+    // Through the command line: the EXR's channels, and a PNG refused.
+    let dir = temp_dir("gbuffer");
+    let file = dir.join("g.pbrt");
+    std::fs::write(
+        &file,
+        "LookAt 1 2 -1  1 2 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+         Film \"gbuffer\" \"integer xresolution\" 16 \"integer yresolution\" 8\n\
+         WorldBegin\nMaterial \"diffuse\" \"rgb reflectance\" [ 0.5 0.25 0.125 ]\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \
+         \"point3 P\" [ -9 -8 3  1 -8 3  1 12 3  -9 12 3 ] \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]\n",
+    )
+    .unwrap();
+    let exr_path = dir.join("g.exr");
+    let run = |out: &std::path::Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_lightpath"))
+            .args([
+                "render",
+                file.to_str().unwrap(),
+                "--spp",
+                "1",
+                "-o",
+                out.to_str().unwrap(),
+            ])
+            .output()
+            .expect("lightpath runs")
+    };
+    let ok = run(&exr_path);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let image = exr::prelude::read_all_flat_layers_from_file(&exr_path).expect("the EXR reads");
+    let names: Vec<String> = image.layer_data[0]
+        .channel_data
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    for want in ["R", "G", "B", "Albedo.R", "P.Z", "N.Z", "Ns.Z", "u", "v"] {
+        assert!(names.iter().any(|n| n == want), "no {want} in {names:?}");
+    }
+    let png_path = dir.join("g.png");
+    let refused = run(&png_path);
+    assert!(!refused.status.success());
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(err.contains("gbuffer") && err.contains("EXR"), "{err}");
+    assert!(!png_path.exists(), "nothing written");
+}

@@ -569,7 +569,7 @@ struct SceneParams {
     uint environment;    // the emitter of the first infinite light, or NO_EMITTER ..
     uint environment_count; // .. and how many there are (the last emitters, in a row)
     uint lens;           // a realistic camera's lens system: its first float in the texel buffer (src/scene/lens.rs pack), or NO_TEXTURE
-    uint reserved5;
+    uint gbuffer_world;  // the gbuffer film's P, N, Ns in the world (1) or in camera space (0)
     uint reserved6;
     uint camera_medium; // the medium code (MEDIUM_VACUUM, index + 1) the camera is in
     vec4 cam_window;     // the film on the plane at distance 1 ahead: x0, x1 along cam_right, y0, y1 along cam_up

@@ -233,10 +233,29 @@ struct RenderResult {
     strategies: Option<Vec<lightpath::render::StrategyImages>>,
     mmlt: Option<MmltReport>,
     spans: Vec<Span>,
+    /// A gbuffer film's channels (lightpath::integrators::gbuffer).
+    aux: Vec<lightpath::integrators::gbuffer::AuxChannel>,
 }
 
 #[pymethods]
 impl RenderResult {
+    /// A `gbuffer` film's channels beside the image (pbrt-v4's names: `Albedo.R`, `P.X`,
+    /// `N.X`, `Ns.X`, `u`, `v`, …), each a float32 array of shape (height, width); None
+    /// for other films.
+    #[getter]
+    fn gbuffer<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        if self.aux.is_empty() {
+            return Ok(None);
+        }
+        let d = PyDict::new(py);
+        for c in &self.aux {
+            let array = PyArray1::from_vec(py, c.values.clone())
+                .reshape([self.image.height as usize, self.image.width as usize])?;
+            d.set_item(&c.name, array)?;
+        }
+        Ok(Some(d))
+    }
+
     /// The image: a float32 array of shape (height, width, 3), linear RGB.
     #[getter]
     fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
@@ -356,11 +375,12 @@ impl RenderResult {
         Ok(list)
     }
 
-    /// Writes the image: EXR (linear float, with the metadata) or PNG (8-bit, with the
-    /// scene's gamma), by the extension; through a temporary file and a rename.
+    /// Writes the image: EXR (linear float, with the metadata and a gbuffer film's
+    /// channels) or PNG (8-bit, with the scene's gamma; an error for a gbuffer render), by
+    /// the extension; through a temporary file and a rename.
     fn save(&self, path: PathBuf) -> PyResult<()> {
         io::check_writable(&path).map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
-        io::write_image_with_info(&path, &self.image, self.gamma, Some(&self.info))
+        io::write_image_with_aux(&path, &self.image, self.gamma, Some(&self.info), &self.aux)
             .map_err(|e| PyRuntimeError::new_err(format!("{e:#}")))
     }
 
@@ -542,6 +562,7 @@ fn run(py: Python<'_>, job: Job, mut info: RenderInfo, gamma: f32) -> PyResult<R
         strategies: strategies.filter(|s| !s.is_empty()),
         mmlt,
         spans: trace.spans,
+        aux: out.aux,
     })
 }
 
@@ -666,6 +687,7 @@ fn merge(renders: &Bound<'_, PyList>) -> PyResult<RenderResult> {
         strategies: None,
         mmlt: None,
         spans: Vec::new(),
+        aux: Vec::new(),
     })
 }
 
@@ -682,6 +704,7 @@ fn read(path: PathBuf) -> PyResult<RenderResult> {
         strategies: None,
         mmlt: None,
         spans: Vec::new(),
+        aux: Vec::new(),
     })
 }
 

@@ -108,6 +108,29 @@ def test_metadata_round_trips_and_pngs_are_written(tmp_path):
         r.save(tmp_path / "a.bmp")
 
 
+def test_a_gbuffer_film_gives_its_channels(tmp_path):
+    scene = tmp_path / "g.pbrt"
+    scene.write_text(
+        'LookAt 1 2 -1  1 2 0  0 1 0\nCamera "perspective" "float fov" 40\n'
+        'Film "gbuffer" "integer xresolution" 16 "integer yresolution" 8\nWorldBegin\n'
+        'Material "diffuse" "rgb reflectance" [ 0.5 0.25 0.125 ]\n'
+        'Shape "trianglemesh" "integer indices" [ 0 1 2 0 2 3 ] '
+        '"point3 P" [ -9 -8 3  1 -8 3  1 12 3  -9 12 3 ] "point2 uv" [ 0 0  1 0  1 1  0 1 ]\n')
+    r = lp.render(lp.load(scene), spp=2)
+    g = r.gbuffer
+    assert {"Albedo.R", "P.Z", "N.Z", "Ns.Z", "u", "v"} <= set(g)
+    assert g["P.Z"].shape == (8, 16)
+    # The wall fills the left half at camera-space depth 4; nothing is on the right.
+    assert np.allclose(g["Albedo.R"][:, :8], 0.5, atol=1e-4)
+    assert np.allclose(g["P.Z"][:, :8], 4.0, atol=1e-4)
+    assert np.all(g["P.Z"][:, 8:] == 0.0)
+    r.save(tmp_path / "g.exr")
+    assert (tmp_path / "g.exr").stat().st_size > 0
+    with pytest.raises(RuntimeError, match="EXR"):
+        r.save(tmp_path / "g.png")
+    assert lp.render(small(), spp=1).gbuffer is None
+
+
 def test_strategy_and_depth_images_sum_to_the_image():
     scene = small()
     r = lp.render(scene, integrator="bdpt", spp=2, max_depth=3, strategies=True)

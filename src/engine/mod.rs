@@ -373,6 +373,20 @@ impl Engine {
         Ok(bytes)
     }
 
+    /// Bytes of a `width` × `height` g-buffer (four vec4 per pixel,
+    /// src/integrators/gbuffer.rs), checked against the device's storage-buffer range.
+    pub fn gbuffer_bytes(&self, width: u32, height: u32) -> Result<u64> {
+        let bytes = width as u64 * height as u64 * 64;
+        if bytes > self.device.info.max_storage_buffer_range {
+            bail!(
+                "a {width}x{height} g-buffer needs {bytes} bytes, more than {}'s storage-buffer range ({} bytes); render a smaller --size or an rgb film",
+                self.device.info.name,
+                self.device.info.max_storage_buffer_range
+            );
+        }
+        Ok(bytes)
+    }
+
     pub fn require_float_atomics(&self, what: &str) -> Result<()> {
         if !self.device.info.atomic_float {
             bail!(

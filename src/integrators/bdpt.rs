@@ -687,6 +687,7 @@ impl Integrator for Bdpt {
             backend: engine.backend(),
             interrupted: engine.interrupt_signal(),
             details: Some(Box::new(BdptDetails { strategies })),
+            aux: Vec::new(),
         })
     }
 }

@@ -958,6 +958,7 @@ impl Integrator for Mmlt {
             backend: engine.backend(),
             interrupted: engine.interrupt_signal(),
             details: Some(Box::new(report)),
+            aux: Vec::new(),
         })
     }
 }

@@ -7,6 +7,7 @@
 //! (`bdpt_mis`, `mmlt_sampler`).
 pub mod bdpt;
 pub mod bdpt_mis;
+pub mod gbuffer;
 pub mod mmlt;
 pub mod mmlt_sampler;
 pub mod pt;
@@ -35,6 +36,8 @@ pub struct RenderOutput {
     pub interrupted: Option<usize>,
     /// The integrator's own results (`bdpt::BdptDetails`, `mmlt::MmltReport`), if any.
     pub details: Option<Box<dyn Any + Send>>,
+    /// Channels written beside the image: a `gbuffer` film's (`gbuffer::render`).
+    pub aux: Vec<gbuffer::AuxChannel>,
 }
 
 impl RenderOutput {

@@ -89,6 +89,7 @@ fn film_output(
         backend: engine.backend(),
         interrupted: engine.interrupt_signal(),
         details: None,
+        aux: Vec::new(),
     })
 }
 

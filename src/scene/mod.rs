@@ -937,6 +937,20 @@ pub struct Settings {
     /// finished image: pbrt-v4's sensor and white balance (src/scene/sensor.rs); the
     /// identity but for a pbrt-v4 film that names them.
     pub output_from_render: glam::Mat3,
+    /// pbrt-v4's `gbuffer` film: the first surface's albedo, position, normals and (u, v)
+    /// written beside the image (src/integrators/gbuffer.rs), in this space; `None`: the
+    /// image alone.
+    pub gbuffer: Option<GBufferSpace>,
+}
+
+/// Where a g-buffer's positions and normals are (pbrt-v4's gbuffer film
+/// `coordinatesystem`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GBufferSpace {
+    /// The camera's: x right, y up, z ahead, the eye at the origin (pbrt-v4's default).
+    Camera,
+    /// The scene's world space.
+    World,
 }
 
 /// MMLT's settings (scene commands `mmltbootstrap`, `mmltchains`, `mmltsigma`,
@@ -978,6 +992,7 @@ impl Default for Settings {
             gamma: 1.0,
             mmlt: MmltSettings::default(),
             output_from_render: glam::Mat3::IDENTITY,
+            gbuffer: None,
         }
     }
 }

@@ -43,6 +43,12 @@ class RenderResult:
         backend, device, render_seconds, version, scene_file, scene_sha256; and
         interrupted."""
     @property
+    def gbuffer(self) -> Optional[Dict[str, npt.NDArray[np.float32]]]:
+        """A pbrt `Film "gbuffer"` scene: {channel: array of shape (height, width)} for
+        Albedo.R/G/B, P.X/Y/Z, N.X/Y/Z, Ns.X/Y/Z, u and v (pbrt-v4's names; camera space
+        unless the film's coordinatesystem is "world"); None for other films. save()
+        writes them into the EXR beside R, G, B."""
+    @property
     def interrupted(self) -> bool:
         """Stopped early (Ctrl-C or interrupt()): the image is the mean of the samples done."""
     @property

@@ -178,7 +178,29 @@ impl Parser {
         file: u32,
         line: u32,
     ) -> Result<(), ParseError> {
-        if ty != "rgb" {
+        if ty == "gbuffer" {
+            // pbrt-v4's gbuffer film: the image, and beside it what the camera sees first
+            // (src/integrators/gbuffer.rs), in camera space unless asked otherwise.
+            let space = match params.find("coordinatesystem") {
+                None => crate::scene::GBufferSpace::Camera,
+                Some(p) => match p.strs.first().map(String::as_str) {
+                    Some("camera") => crate::scene::GBufferSpace::Camera,
+                    Some("world") => crate::scene::GBufferSpace::World,
+                    other => {
+                        return Err(self.err_at(
+                            p.file,
+                            p.line,
+                            "Film",
+                            format!(
+                                "coordinatesystem {:?} (expected \"camera\" or \"world\")",
+                                other.unwrap_or("")
+                            ),
+                        ))
+                    }
+                },
+            };
+            self.scene.settings.gbuffer = Some(space);
+        } else if ty != "rgb" {
             self.warn("film", format!("Film \"{ty}\" rendered as \"rgb\""));
         }
         let int = |name: &str, default: u32| -> Result<u32, ParseError> {

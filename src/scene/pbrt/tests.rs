@@ -2538,3 +2538,28 @@ fn diffuse_transmission_scales_its_textures() {
         }
     }
 }
+
+/// `Film "gbuffer"` asks for the g-buffer channels beside the image, in camera space
+/// unless `coordinatesystem` says "world"; another system is an error at its line.
+#[test]
+fn a_gbuffer_film_asks_for_its_channels() {
+    let settings = |film: &str| parse(&format!("{film}\nWorldBegin\n")).settings.gbuffer;
+    use crate::scene::GBufferSpace;
+    assert_eq!(settings("Film \"rgb\""), None);
+    assert_eq!(settings("Film \"gbuffer\""), Some(GBufferSpace::Camera));
+    assert_eq!(
+        settings("Film \"gbuffer\" \"string coordinatesystem\" \"camera\""),
+        Some(GBufferSpace::Camera)
+    );
+    assert_eq!(
+        settings("Film \"gbuffer\" \"string coordinatesystem\" \"world\""),
+        Some(GBufferSpace::World)
+    );
+    let e = parse_pbrt_str(
+        "Film \"gbuffer\"\n  \"string coordinatesystem\" \"screen\"\nWorldBegin\n",
+        "g.pbrt",
+    )
+    .unwrap_err();
+    assert_eq!(e.line, 2, "{e}");
+    assert!(e.message.contains("\"screen\""), "{e}");
+}
