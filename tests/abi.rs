@@ -131,11 +131,12 @@ fn kernel_bindings_come_from_the_spirv() {
         }
         // Every other kernel reads the scene; the visibility backend is only in those
         // that trace rays (of the wavefront path tracer's stages, pt_trace and pt_shadow;
-        // of BDPT's wavefront, bdpt_trace; of MMLT's, mmlt_trace).
+        // of BDPT's wavefront, bdpt_trace; of MMLT's, mmlt_trace; the gbuffer film's pass).
         let base = kernel.split('+').next().unwrap_or(kernel);
         let traces = matches!(
             base,
             "direct"
+                | "gbuffer"
                 | "analytic"
                 | "bdpt_trace"
                 | "mmlt_trace"
@@ -184,7 +185,9 @@ fn kernel_bindings_come_from_the_spirv() {
             continue;
         }
         match base {
-            "direct" | "analytic" => assert!(has(abi::BINDING_FILM) && !has(abi::BINDING_SPLAT)),
+            "direct" | "analytic" | "gbuffer" => {
+                assert!(has(abi::BINDING_FILM) && !has(abi::BINDING_SPLAT))
+            }
             // BDPT's wavefront: every stage keeps its walk in the walk buffer; the trace
             // stage adds what its shadow rays decide to the splat film (t = 1) or to the
             // walk's sums (with the connections, from the shade stages' BSDF answers), which
