@@ -1,7 +1,6 @@
 // BDPT's wavefront shade stage for the measured material class (lib/bdpt_shade.glsl).
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_shader_atomic_float : require
 
 #include "abi.h"
 #define SHADE_CLASS MATERIAL_CLASS_MEASURED

@@ -4,7 +4,6 @@
 // shoots the camera ray.
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_shader_atomic_float : require
 
 #include "abi.h"
 layout(local_size_x = WORKGROUP_SIZE_X, local_size_y = WORKGROUP_SIZE_Y) in;

@@ -5,7 +5,6 @@
 // and accepted or rejected).
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_shader_atomic_float : require
 
 #include "abi.h"
 layout(local_size_x = MMLT_WORKGROUP_SIZE) in;

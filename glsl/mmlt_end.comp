@@ -4,7 +4,6 @@
 // camera, the s = 1 light sample, or the s, t >= 2 connection.
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_shader_atomic_float : require
 
 #include "abi.h"
 layout(local_size_x = MMLT_WORKGROUP_SIZE) in;

@@ -2,7 +2,6 @@
 // the phase function's questions and draws (scenes with media only).
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_shader_atomic_float : require
 
 #include "abi.h"
 #define SHADE_CLASS SHADE_CLASS_MEDIUM

@@ -5,7 +5,6 @@
 // here: the light's point seen by the camera, its shadow ray queued.
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_shader_atomic_float : require
 
 #include "abi.h"
 layout(local_size_x = MMLT_WORKGROUP_SIZE) in;

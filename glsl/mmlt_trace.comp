@@ -7,7 +7,6 @@
 // gathers the media's emission on its way (s = 0's, on the camera subpath's last ray).
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_shader_atomic_float : require
 
 #include "abi.h"
 layout(local_size_x = MMLT_WORKGROUP_SIZE) in;

@@ -243,15 +243,33 @@ fn bdpt_is_deterministic_per_seed_and_tiling_does_not_change_the_image() {
         4,
     );
     // Bit for bit on both backends: light tracing's splats are fixed-point sums whose
-    // bits do not depend on the order of the additions (glsl/lib/splat.glsl).
+    // bits do not depend on the order of the additions (glsl/lib/splat.glsl); so are
+    // the strategy images (--bdpt-strategies), t = 1 splats included.
     for accel in [Bvh, RayQuery] {
-        let a = render_full(&scene, 3, accel, false).image;
-        let b = render_full(&scene, 3, accel, false).image;
+        let a = render_full(&scene, 3, accel, true);
+        let b = render_full(&scene, 3, accel, true);
         assert!(
-            a.pixels == b.pixels,
+            a.image.pixels == b.image.pixels,
             "{accel:?}: same seed, different images (max relative difference {})",
-            max_relative_difference(&a, &b)
+            max_relative_difference(&a.image, &b.image)
         );
+        let (sa, sb) = (strategies(&a), strategies(&b));
+        assert_eq!(sa.len(), sb.len());
+        assert!(sa.iter().any(|st| st.t == 1 && st.weighted.mean()[0] > 0.0));
+        for (x, y) in sa.iter().zip(sb) {
+            for (what, p, q) in [
+                ("weighted", &x.weighted, &y.weighted),
+                ("unweighted", &x.unweighted, &y.unweighted),
+            ] {
+                assert!(
+                    p.pixels == q.pixels,
+                    "{accel:?}: same seed, different s{}_t{} {what} images (max relative difference {})",
+                    x.s,
+                    x.t,
+                    max_relative_difference(p, q)
+                );
+            }
+        }
     }
     let a = render_full(&scene, 3, Bvh, false).image;
     let c = render_full(&scene, 4, Bvh, false).image;

@@ -334,6 +334,9 @@
 // 64-bit sum, and 32-bit words per pixel (low and high word of r, g, b; two unused).
 #define SPLAT_FRACTION_BITS 32
 #define SPLAT_WORDS_PER_PIXEL 8
+// The diagnostic films (BDPT's strategy images, MMLT's per-depth images) in the same
+// fixed point, unpadded: low and high word of r, g, b.
+#define FIXED_FILM_WORDS_PER_PIXEL 6
 
 // The wavefront path tracer (pt_*.comp, lib/wavefront.glsl). Threads per workgroup of
 // its stages (one path, or one pixel, each).

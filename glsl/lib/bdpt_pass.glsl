@@ -29,9 +29,11 @@ layout(push_constant) uniform BdptBlock { BdptParams pass_params; };
 
 // A pixel's slice: `stride` light vertices y_1.., then `stride` camera vertices z_1...
 layout(std430, set = 0, binding = BINDING_PATH_VERTICES) buffer PathVertexBuffer { GpuPathVertex path_vertices[]; };
-// Debug output (--bdpt-strategies): per (s,t), a weighted and an unweighted film of
-// vec4s, laid out [strategy][weighted 0 / unweighted 1][pixel].
-layout(std430, set = 0, binding = BINDING_STRATEGIES) buffer StrategyBuffer { float strategy_film[]; };
+// Debug output (--bdpt-strategies): per (s,t), a weighted and an unweighted film, each
+// pixel FIXED_FILM_WORDS_PER_PIXEL words of the splat film's fixed point (splat.glsl: the
+// sums do not depend on the order of the additions), laid out [strategy][weighted 0 /
+// unweighted 1][pixel].
+layout(std430, set = 0, binding = BINDING_STRATEGIES) buffer StrategyBuffer { uint strategy_film[]; };
 
 uint nonfinite = 0u;
 // Paths with fewer scattering vertices are not added (MMLT's tail: its chains have them).
@@ -49,11 +51,15 @@ void record_strategy(uint s, uint t, uint pixel, vec3 weighted, vec3 unweighted)
     uint strategy = n * (n + 3u) / 2u + s - scene.strategy_first;
     if (strategy >= count) return;   // (strategies before the group wrap around to large values)
     uint npix = scene.width * scene.height;
-    uint i = ((strategy * 2u) * npix + pixel) * 4u;
-    uint j = ((strategy * 2u + 1u) * npix + pixel) * 4u;
-    for (uint c = 0u; c < 3u; ++c) {
-        atomicAdd(strategy_film[i + c], weighted[c]);
-        atomicAdd(strategy_film[j + c], unweighted[c]);
+    // (Values the fixed point cannot hold, beyond 2^32, are left out of these images.)
+    if (!splat_in_range(weighted) || !splat_in_range(unweighted)) return;
+    for (uint k = 0u; k < 2u; ++k) {
+        vec3 v = k == 0u ? weighted : unweighted;
+        uint base = ((strategy * 2u + k) * npix + pixel) * FIXED_FILM_WORDS_PER_PIXEL;
+        for (uint c = 0u; c < 3u; ++c) {
+            bool wrapped;
+            if (v[c] > 0.0) FIXED_POINT_ADD(strategy_film, base + 2u * c, v[c], wrapped);
+        }
     }
 }
 

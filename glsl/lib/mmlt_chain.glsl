@@ -20,8 +20,9 @@
 #ifndef MMLT_CHAIN_GLSL
 #define MMLT_CHAIN_GLSL
 
-// --mmlt-depths: one vec4 film per depth, [depth][pixel].
-layout(std430, set = 0, binding = BINDING_DEPTH_FILMS) buffer DepthFilmBuffer { float depth_film[]; };
+// --mmlt-depths: one film per depth, [depth][pixel], each pixel FIXED_FILM_WORDS_PER_PIXEL
+// words of the splat film's fixed point (the sums do not depend on the order).
+layout(std430, set = 0, binding = BINDING_DEPTH_FILMS) buffer DepthFilmBuffer { uint depth_film[]; };
 layout(std430, set = 0, binding = BINDING_CHAINS) buffer ChainBuffer { GpuChain chains[]; };
 layout(std430, set = 0, binding = BINDING_BOOTSTRAP) buffer BootstrapBuffer { float bootstrap_f[]; };
 
@@ -99,10 +100,11 @@ void splat_add(uint pixel, uint depth, vec3 v) {
     if (v == vec3(0.0)) return;
     if (!splat_add_fixed(pixel, v)) { nonfinite++; return; }
     if (params.record_depths != 0u) {
-        uint i = (depth * scene.width * scene.height + pixel) * 4u;
-        atomicAdd(depth_film[i + 0u], v.x);
-        atomicAdd(depth_film[i + 1u], v.y);
-        atomicAdd(depth_film[i + 2u], v.z);
+        uint base = (depth * scene.width * scene.height + pixel) * FIXED_FILM_WORDS_PER_PIXEL;
+        for (uint c = 0u; c < 3u; ++c) {
+            bool wrapped;
+            if (v[c] > 0.0) FIXED_POINT_ADD(depth_film, base + 2u * c, v[c], wrapped);
+        }
     }
 }
 

@@ -28,18 +28,30 @@ bool splat_in_range(vec3 v) {
     return all(greaterThanEqual(v, vec3(0.0))) && all(lessThan(v, vec3(4294967296.0)));
 }
 
+// Add v (in [0, 2^32)) exactly to the fixed-point number in words WORD (low) and
+// WORD + 1 (high) of the uint array BUF; WRAPPED: whether the high word wrapped. (A macro:
+// the splat film and the diagnostic films, BDPT's strategy images and MMLT's per-depth
+// images, are buffers of their own, and GLSL passes no buffer to a function.)
+#define FIXED_POINT_ADD(BUF, WORD, V, WRAPPED)                                  \
+    {                                                                          \
+        float whole_ = floor(V);                                               \
+        uint hi_ = uint(whole_);                                               \
+        uint lo_ = uint(roundEven(((V) - whole_) * 4294967296.0));             \
+        WRAPPED = false;                                                       \
+        if (lo_ != 0u) {                                                       \
+            uint old_ = atomicAdd(BUF[WORD], lo_);                             \
+            if (old_ + lo_ < old_) hi_ += 1u; /* the carry out of the low word */ \
+        }                                                                      \
+        if (hi_ != 0u) {                                                       \
+            uint old_ = atomicAdd(BUF[(WORD) + 1u], hi_);                      \
+            WRAPPED = old_ + hi_ < old_;                                       \
+        }                                                                      \
+    }
+
 void splat_channel(uint word, float v) {
-    float whole = floor(v);
-    uint hi = uint(whole);
-    uint lo = uint(roundEven((v - whole) * 4294967296.0));
-    if (lo != 0u) {
-        uint old = atomicAdd(splat[word], lo);
-        if (old + lo < old) hi += 1u;   // the carry out of the low word
-    }
-    if (hi != 0u) {
-        uint old = atomicAdd(splat[word + 1u], hi);
-        if (old + hi < old) atomicAdd(stats[STAT_SPLAT_OVERFLOW], 1u);
-    }
+    bool wrapped;
+    FIXED_POINT_ADD(splat, word, v, wrapped);
+    if (wrapped) atomicAdd(stats[STAT_SPLAT_OVERFLOW], 1u);
 }
 
 // Add v (each channel in [0, 2^32)) to the pixel's splat. False, adding nothing, when v

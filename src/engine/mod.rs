@@ -387,16 +387,6 @@ impl Engine {
         Ok(bytes)
     }
 
-    pub fn require_float_atomics(&self, what: &str) -> Result<()> {
-        if !self.device.info.atomic_float {
-            bail!(
-                "{what} with float atomics, and {} has no VK_EXT_shader_atomic_float (shaderBufferFloat32AtomicAdd)",
-                self.device.info.name
-            );
-        }
-        Ok(())
-    }
-
     /// Replace the scene parameters on the device (between dispatches) and zero the
     /// `clear` buffers, ordered after every earlier dispatch and before every later one.
     pub fn update_params(

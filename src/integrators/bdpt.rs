@@ -3,7 +3,9 @@
 //! bands, resolve), and the extra passes that record strategy images in groups. (The
 //! kernels are a wavefront, glsl/bdpt_*.comp, described in glsl/lib/bdpt_wave.glsl; the
 //! CPU mirror of its MIS weights is `bdpt_mis`.)
-use super::{add_splat_film, film_image, Integrator, IntegratorOptions, RenderOutput};
+use super::{
+    add_splat_film, film_image, fixed_film_image, Integrator, IntegratorOptions, RenderOutput,
+};
 use crate::abi::*;
 use crate::engine::{band_rows, Dispatch, Engine, PassStage, PreparedScene, RunOptions, Work};
 use crate::gpu::buffer::Buffer;
@@ -51,10 +53,14 @@ pub fn bdpt_strategies(max_scatter: u32) -> Vec<(u32, u32)> {
         .collect()
 }
 
+/// Bytes per pixel of one strategy film on the device (fixed point).
+const STRATEGY_FILM_BYTES_PER_PIXEL: u64 = FIXED_FILM_WORDS_PER_PIXEL as u64 * 4;
+
 /// Host memory lightpath allows for BDPT strategy images (RGB f32, two per strategy).
 const STRATEGY_HOST_BUDGET: u64 = 8 << 30;
 
-/// How many strategies' images (weighted and unweighted, vec4 per pixel) one storage
+/// How many strategies' images (weighted and unweighted, fixed point as the splat film:
+/// FIXED_FILM_WORDS_PER_PIXEL words per pixel) one storage
 /// buffer of `range` bytes holds for a `width` × `height` image: all `count` of them
 /// when they fit, else a group of them (the render then repeats its passes once per
 /// group). 0 when `count` is 0. Errors when one strategy does not fit, or when all of
@@ -78,7 +84,7 @@ pub fn strategy_group_size(
             STRATEGY_HOST_BUDGET >> 30
         );
     }
-    let per_strategy = 2 * pixels * 16;
+    let per_strategy = 2 * pixels * STRATEGY_FILM_BYTES_PER_PIXEL;
     let group = (range / per_strategy).min(count).min(0xffff);
     if group == 0 {
         bail!(
@@ -515,8 +521,6 @@ impl Integrator for Bdpt {
         let (width, height) = (scene.width, scene.height);
         let film_bytes = engine.film_bytes(width, height)?;
         let splat_bytes = engine.splat_bytes(width, height)?;
-        // (The image's splats are fixed point; the strategy images' are float atomics.)
-        engine.require_float_atomics("bdpt records strategy images")?;
         let limit = engine.device.info.max_storage_buffer_range;
         let max_scatter = bdpt_max_scatter(scene);
         let vertex_bytes = bdpt_vertex_bytes_per_pixel(max_scatter);
@@ -548,7 +552,11 @@ impl Integrator for Bdpt {
             limit.min(self.options.strategy_buffer_limit.unwrap_or(u64::MAX)),
             &engine.device.info.name,
         )?;
-        let strategy_bytes = strategy_group as u64 * 2 * film_bytes;
+        let strategy_bytes = strategy_group as u64
+            * 2
+            * width as u64
+            * height as u64
+            * STRATEGY_FILM_BYTES_PER_PIXEL;
         let prepared = engine.prepare(
             scene,
             seed,
@@ -663,18 +671,19 @@ impl Integrator for Bdpt {
         let mut image = to_image(film);
         add_splat_film(&mut image, bytemuck::cast_slice(&splat_data), inv);
         let npix = (width * height) as usize;
+        let words = npix * FIXED_FILM_WORDS_PER_PIXEL as usize;
         let strategies = strategy_data
             .iter()
             .flat_map(|data| {
-                let all: &[[f32; 4]] = bytemuck::cast_slice(data);
-                all.chunks_exact(2 * npix)
+                let all: &[u32] = bytemuck::cast_slice(data);
+                all.chunks_exact(2 * words)
             })
             .zip(&strategies)
             .map(|(both, &(s, t))| StrategyImages {
                 s,
                 t,
-                weighted: to_image(&both[..npix]),
-                unweighted: to_image(&both[npix..]),
+                weighted: fixed_film_image(&both[..words], width, height, inv),
+                unweighted: fixed_film_image(&both[words..], width, height, inv),
             })
             .collect();
         let rays = film.iter().map(|p| p[3] as f64).sum();
@@ -716,7 +725,7 @@ fn record_other_strategy_groups(
     total: u32,
     trace: &mut Trace,
 ) -> Result<(Vec<Vec<u8>>, f64)> {
-    let film_bytes = p.width as u64 * p.height as u64 * 16;
+    let film_bytes = p.width as u64 * p.height as u64 * STRATEGY_FILM_BYTES_PER_PIXEL;
     let mut out = Vec::new();
     let mut first = first;
     let mut seconds = 0.0;
@@ -796,10 +805,11 @@ mod tests {
     #[test]
     fn strategy_images_are_grouped_to_fit_the_storage_buffer_range() {
         let lavapipe = 128 << 20;
-        // 480x480 at maxdepth 5: 27 strategies of 2 × 3.7 MB; 18 fit in 128 MiB.
+        // 480x480 at maxdepth 5: 27 strategies of 2 × 5.5 MB (fixed point, 24 bytes a
+        // pixel); 12 fit in 128 MiB.
         assert_eq!(
             strategy_group_size(27, 480, 480, lavapipe, "d").unwrap(),
-            18
+            12
         );
         // All of them when they fit, none when none are asked for.
         assert_eq!(strategy_group_size(27, 64, 64, lavapipe, "d").unwrap(), 27);
@@ -807,10 +817,10 @@ mod tests {
             strategy_group_size(0, 4096, 4096, lavapipe, "d").unwrap(),
             0
         );
-        // 1080p at maxdepth 10: 77 strategies, 2 per buffer.
+        // 1080p at maxdepth 10: 77 strategies, 1 per buffer.
         let g = strategy_group_size(77, 1920, 1080, lavapipe, "d").unwrap();
-        assert_eq!(g, 2);
-        assert!(g as u64 * 2 * 1920 * 1080 * 16 <= lavapipe);
+        assert_eq!(g, 1);
+        assert!(g as u64 * 2 * 1920 * 1080 * STRATEGY_FILM_BYTES_PER_PIXEL <= lavapipe);
         // One strategy larger than the range, or too many images for the host: errors.
         let e = strategy_group_size(3, 4096, 4096, lavapipe, "d").unwrap_err();
         assert!(e.to_string().contains("storage-buffer range"), "{e}");

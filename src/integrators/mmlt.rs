@@ -16,7 +16,7 @@ use super::bdpt::{
     bdpt_max_scatter, bdpt_wave, BdptWork, BDPT_SPANS, BDPT_WALK_BYTES, WALK_TEXTURE_BYTES,
 };
 use super::mmlt_sampler::{pcg4d, stream_sizes};
-use super::{add_film, film_image, splat_image, Integrator, IntegratorOptions, RenderOutput};
+use super::{add_film, fixed_film_image, splat_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
 use crate::engine::{band_rows, Dispatch, Engine, PassStage, PreparedScene, RunOptions, Work};
 use crate::gpu::buffer::Buffer;
@@ -26,6 +26,10 @@ use crate::trace::Trace;
 use anyhow::{bail, Result};
 use ash::vk;
 use std::time::Instant;
+
+/// Bytes per pixel of one per-depth film on the device (--mmlt-depths: fixed point,
+/// FIXED_FILM_WORDS_PER_PIXEL words).
+const DEPTH_FILM_BYTES_PER_PIXEL: u64 = FIXED_FILM_WORDS_PER_PIXEL as u64 * 4;
 
 /// MMLT's options beyond the scene's settings (which hold chains, bootstrap, sigma and
 /// the large-step probability).
@@ -149,7 +153,7 @@ pub fn plan(
     if per_depth == 0 {
         bail!("mmlt: the bootstrap needs at least one sample per depth");
     }
-    let film = scene.width as u64 * scene.height as u64 * 16;
+    let film = scene.width as u64 * scene.height as u64 * DEPTH_FILM_BYTES_PER_PIXEL;
     if record_depths && depths as u64 * film > range {
         bail!(
             "--mmlt-depths: {depths} depth images at {}x{} need {} bytes, more than this device's storage-buffer range ({range} bytes); use a smaller --size or --max-depth",
@@ -629,7 +633,6 @@ impl Integrator for Mmlt {
         seed: u32,
         trace: &mut Trace,
     ) -> Result<RenderOutput> {
-        engine.require_float_atomics("mmlt records depth images")?;
         let record_depths = self.options.record_depths;
         let (width, height) = (scene.width, scene.height);
         let film_bytes = engine.film_bytes(width, height)?;
@@ -673,7 +676,7 @@ impl Integrator for Mmlt {
                     engine.storage_buffer(
                         "MMLT depth films",
                         if record_depths {
-                            depths as u64 * film_bytes
+                            depths as u64 * npix * DEPTH_FILM_BYTES_PER_PIXEL
                         } else {
                             16
                         },
@@ -908,7 +911,10 @@ impl Integrator for Mmlt {
                     chain_buffer
                         .download(plan.chains as u64 * std::mem::size_of::<GpuChain>() as u64)?,
                     if record_depths {
-                        Some(depth_film.download(depths as u64 * film_bytes)?)
+                        Some(
+                            depth_film
+                                .download(depths as u64 * npix * DEPTH_FILM_BYTES_PER_PIXEL)?,
+                        )
                     } else {
                         None
                     },
@@ -934,13 +940,13 @@ impl Integrator for Mmlt {
             }
         }
         if let Some(data) = depth_data {
-            let all: &[[f32; 4]] = bytemuck::cast_slice(&data);
+            let all: &[u32] = bytemuck::cast_slice(&data);
             let scale = mutation_scale(mutations_done);
             report.depth_images = all
-                .chunks_exact(npix as usize)
+                .chunks_exact(npix as usize * FIXED_FILM_WORDS_PER_PIXEL as usize)
                 .enumerate()
                 .map(|(depth, d)| {
-                    let mut image = film_image(d, width, height, scale);
+                    let mut image = fixed_film_image(d, width, height, scale);
                     if mutations_done > 0 {
                         add_owed(&mut image, chain_state, scale, Some(depth as u32));
                     }

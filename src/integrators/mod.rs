@@ -12,7 +12,7 @@ pub mod mmlt;
 pub mod mmlt_sampler;
 pub mod pt;
 
-use crate::abi::{SPLAT_FRACTION_BITS, SPLAT_WORDS_PER_PIXEL};
+use crate::abi::{FIXED_FILM_WORDS_PER_PIXEL, SPLAT_FRACTION_BITS, SPLAT_WORDS_PER_PIXEL};
 use crate::engine::Engine;
 use crate::gpu::kernels::Backend;
 use crate::io::Image;
@@ -123,17 +123,31 @@ pub fn film_image(data: &[[f32; 4]], width: u32, height: u32, scale: f32) -> Ima
 /// fixed-point sum with SPLAT_FRACTION_BITS fractional bits, as low and high 32-bit
 /// words), each channel times `scale`, to `image`.
 pub fn add_splat_film(image: &mut Image, data: &[u32], scale: f32) {
+    add_fixed_point_film(image, data, SPLAT_WORDS_PER_PIXEL as usize, scale);
+}
+
+/// Add a fixed-point film of `words` words per pixel (the splat film's 8, the diagnostic
+/// films' FIXED_FILM_WORDS_PER_PIXEL) to `image`, each channel times `scale`.
+fn add_fixed_point_film(image: &mut Image, data: &[u32], words: usize, scale: f32) {
     let unit = (-(SPLAT_FRACTION_BITS as f64)).exp2();
-    for (p, q) in image
-        .pixels
-        .iter_mut()
-        .zip(data.chunks_exact(SPLAT_WORDS_PER_PIXEL as usize))
-    {
+    for (p, q) in image.pixels.iter_mut().zip(data.chunks_exact(words)) {
         for c in 0..3 {
             let fixed = (q[2 * c + 1] as u64) << 32 | q[2 * c] as u64;
             p[c] += (fixed as f64 * unit) as f32 * scale;
         }
     }
+}
+
+/// A diagnostic film (BDPT's strategy images, MMLT's per-depth images: fixed point,
+/// FIXED_FILM_WORDS_PER_PIXEL words per pixel) as an image, each channel times `scale`.
+pub fn fixed_film_image(data: &[u32], width: u32, height: u32, scale: f32) -> Image {
+    let mut image = Image {
+        width,
+        height,
+        pixels: vec![[0.0; 3]; width as usize * height as usize],
+    };
+    add_fixed_point_film(&mut image, data, FIXED_FILM_WORDS_PER_PIXEL as usize, scale);
+    image
 }
 
 /// A splat film alone as an image, each channel times `scale`.
