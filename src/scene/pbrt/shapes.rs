@@ -81,19 +81,19 @@ impl Parser {
             indices: mesh.indices,
         };
         let ctm = self.gs.ctm;
+        // The texture, or a constant (a "float displacement" rather than a texture).
         let texture = match value {
-            Value::Texture(t) => Some(&self.scene.textures[t as usize]),
-            Value::Const(_) => None,
+            Value::Texture(t) => Ok(&self.scene.textures[t as usize]),
+            Value::Const(c) => Err(c.x),
         };
         let out = crate::scene::displace::displace(
             &source,
             edge_length,
             crate::scene::displace::MAX_DISPLACED_TRIANGLES,
             |a, b| ctm.transform_point3(a).distance(ctm.transform_point3(b)),
-            |p, n, uv| match (texture, value) {
-                (Some(t), _) => crate::texture::texture_value(t, uv, p, n).x,
-                (None, Value::Const(c)) => c.x,
-                (None, Value::Texture(_)) => unreachable!(),
+            |p, n, uv| match texture {
+                Ok(t) => crate::texture::texture_value(t, uv, p, n).x,
+                Err(c) => c,
             },
         )?;
         Ok(ShapeKind::Mesh {
