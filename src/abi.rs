@@ -139,6 +139,18 @@ pub struct GpuPathVertex {
     pub ns: [f32; 4],
 }
 
+/// What the gbuffer film's hit stage keeps of a pixel's surface for its albedo stage
+/// (abi.h).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuGbufferSurface {
+    pub wo: [f32; 4],
+    pub ns: [f32; 4],
+    pub tex0: [f32; 4],
+    pub tex1: [f32; 4],
+    pub rng: [u32; 4],
+}
+
 /// One path of the wavefront path tracer (abi.h).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -458,6 +470,7 @@ pub fn layouts() -> Vec<StructLayout> {
             GpuPtPath, o, d, beta, radiance, prev_p, hit, p, n, ns, ls_wi, ls_le, ls_p, ls_n, tex0,
             tex1
         ),
+        layout!(GpuGbufferSurface, wo, ns, tex0, tex1, rng),
         layout!(GpuTriangleAttributes, uv01, uv2, n0, n1, n2),
         layout!(GpuTexture, info, flags, scale, other, mapping, proj0, proj1, proj2),
         layout!(PassParams, first_sample, samples, row_begin, row_end),
@@ -558,6 +571,7 @@ const _: () = assert!(std::mem::size_of::<SceneParams>() == 208);
 const _: () = assert!(std::mem::size_of::<MmltParams>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuPathVertex>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuPtPath>() == 240);
+const _: () = assert!(std::mem::size_of::<GpuGbufferSurface>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuBdptWalk>() == 288);
 const _: () = assert!(std::mem::size_of::<BdptParams>() == 32);
 const _: () = assert!(std::mem::size_of::<WavefrontParams>() == 32);

@@ -152,11 +152,18 @@ impl Renderer {
             );
         }
         let mut integrator = crate::integrators::create(scene.settings.integrator, &self.options)?;
-        let mut out = integrator.render(&mut self.engine, scene, seed, trace)?;
+        // A gbuffer film's passes run on the scene the integrator prepared.
+        let gbuffer = scene.settings.gbuffer.is_some();
+        self.engine.keep_next_scene(gbuffer);
+        let result = integrator.render(&mut self.engine, scene, seed, trace);
+        // Taken in any case: nothing of the scene stays on the device after the render.
+        let prepared = self.engine.take_kept_scene();
+        let mut out = result?;
         apply_film_matrix(&mut out.image, scene.settings.output_from_render);
         // A gbuffer film's channels, but not after an interruption (the user asked to stop).
-        if scene.settings.gbuffer.is_some() && out.interrupted.is_none() {
-            out.aux = crate::integrators::gbuffer::render(&mut self.engine, scene, seed, trace)?;
+        if gbuffer && out.interrupted.is_none() {
+            out.aux =
+                crate::integrators::gbuffer::render(&mut self.engine, scene, prepared, seed, trace)?;
         }
         Ok(out)
     }

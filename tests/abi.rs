@@ -131,12 +131,13 @@ fn kernel_bindings_come_from_the_spirv() {
         }
         // Every other kernel reads the scene; the visibility backend is only in those
         // that trace rays (of the wavefront path tracer's stages, pt_trace and pt_shadow;
-        // of BDPT's wavefront, bdpt_trace; of MMLT's, mmlt_trace; the gbuffer film's pass).
+        // of BDPT's wavefront, bdpt_trace; of MMLT's, mmlt_trace; of the gbuffer film's
+        // stages, gbuffer_hit).
         let base = kernel.split('+').next().unwrap_or(kernel);
         let traces = matches!(
             base,
             "direct"
-                | "gbuffer"
+                | "gbuffer_hit"
                 | "analytic"
                 | "bdpt_trace"
                 | "mmlt_trace"
@@ -185,9 +186,27 @@ fn kernel_bindings_come_from_the_spirv() {
             continue;
         }
         match base {
-            "direct" | "analytic" | "gbuffer" => {
+            "direct" | "analytic" => {
                 assert!(has(abi::BINDING_FILM) && !has(abi::BINDING_SPLAT))
             }
+            // The gbuffer film's stages: the hit stage keeps each pixel's surface for the
+            // albedo stages, which hold their class's BSDFs and no traversal (above) and
+            // no texture: the surface's texture values come with it.
+            "gbuffer_hit" => assert!(
+                has(abi::BINDING_FILM)
+                    && has(abi::BINDING_GBUFFER_SURFACES)
+                    && !has(abi::BINDING_SPLAT),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
+            k if k.starts_with("gbuffer_albedo_") => assert!(
+                has(abi::BINDING_FILM)
+                    && has(abi::BINDING_GBUFFER_SURFACES)
+                    && has(abi::BINDING_MATERIALS)
+                    && !has(abi::BINDING_TEXTURES)
+                    && !has(abi::BINDING_TRIANGLES)
+                    && !has(abi::BINDING_SPLAT),
+                "{kernel} ({backend}): {numbers:?}"
+            ),
             // BDPT's wavefront: every stage keeps its walk in the walk buffer; the trace
             // stage adds what its shadow rays decide to the splat film (t = 1) or to the
             // walk's sums (with the connections, from the shade stages' BSDF answers), which

@@ -572,3 +572,65 @@ fn a_gbuffer_film_writes_what_the_camera_sees_first() {
     assert!(err.contains("gbuffer") && err.contains("EXR"), "{err}");
     assert!(!png_path.exists(), "nothing written");
 }
+
+/// The gbuffer film's stages: an albedo stage per material class, over bands. A wall at
+/// z = 3 is diffuse (ρ = 0.5, the basic class) left of the camera and a diffuse
+/// transmitter (R = 0.3, T = 0.4, the interface class; its albedo over the sphere is
+/// R + T = 0.7, each sample weighing exactly that) right of it; the image (1024 × 300)
+/// is taller than one band, so the second band's pixels find their surfaces in their own
+/// band's slots. Every pixel's albedo is its class's closed form and its depth 4, in both
+/// bands (on the scene the render prepared, which the gbuffer's stages reuse).
+#[test]
+fn a_gbuffer_film_shades_each_material_class_in_every_band() {
+    let (width, height) = (1024u32, 300u32);
+    let rows = lightpath::engine::band_rows(
+        width,
+        height,
+        std::mem::size_of::<lightpath::abi::GpuGbufferSurface>() as u64,
+        u64::MAX,
+    )
+    .unwrap();
+    assert!(rows < height, "one band of {rows} rows: the test needs two");
+    let scene = lightpath::scene::parse_pbrt_str(
+        &format!(
+            "LookAt 0 0 -1  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+             Film \"gbuffer\" \"integer xresolution\" {width} \"integer yresolution\" {height}\n\
+             Sampler \"independent\" \"integer pixelsamples\" 1\n\
+             WorldBegin\n\
+             LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n\
+             Material \"diffuse\" \"rgb reflectance\" [ 0.5 0.5 0.5 ]\n\
+             Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \
+             \"point3 P\" [ -9 -9 3  0 -9 3  0 9 3  -9 9 3 ]\n\
+             Material \"diffusetransmission\" \"rgb reflectance\" [ 0.3 0.3 0.3 ] \
+             \"rgb transmittance\" [ 0.4 0.4 0.4 ]\n\
+             Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ] \
+             \"point3 P\" [ 0 -9 3  9 -9 3  9 9 3  0 9 3 ]\n"
+        ),
+        "gbuffer-classes.pbrt",
+    )
+    .expect("the scene parses");
+    let mut trace = lightpath::trace::Trace::new();
+    let out = renderer(Bvh).render(&scene, 1, &mut trace).expect("render");
+    let builds = trace.to_json().matches("BVH build").count();
+    assert_eq!(builds, 1, "the gbuffer's stages build the scene again");
+    let channel = |name: &str| {
+        &out.aux
+            .iter()
+            .find(|c| c.name == name)
+            .unwrap_or_else(|| panic!("no {name}"))
+            .values
+    };
+    let (albedo, depth) = (channel("Albedo.G"), channel("P.Z"));
+    for y in 0..height as usize {
+        for x in (0..width as usize).filter(|x| !(508..516).contains(x)) {
+            let i = y * width as usize + x;
+            let want = if x < 512 { 0.5 } else { 0.7 };
+            assert!(
+                (albedo[i] - want).abs() < 1e-4 && (depth[i] - 4.0).abs() < 1e-3,
+                "pixel ({x}, {y}): albedo {} for {want}, depth {}",
+                albedo[i],
+                depth[i]
+            );
+        }
+    }
+}

@@ -69,6 +69,9 @@
 #define BINDING_MEDIA 34
 // Grid media's floats (density, Le-scale and majorant grids; FEATURE_GRID_MEDIA).
 #define BINDING_MEDIUM_GRIDS 35
+// The gbuffer film's stages (lib/gbuffer.glsl): per pixel of a band, the surface its
+// camera sample found (GpuGbufferSurface), for the albedo stage of its material class.
+#define BINDING_GBUFFER_SURFACES 36
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -676,6 +679,18 @@ struct GpuBdptWalk {
 // Floats per connection in the answers buffer: z's BSDF toward y (rgb, pdf there, pdf
 // back), then y's toward z (the same).
 #define BDPT_ANSWER_FLOATS 10
+
+// What the gbuffer film's hit stage found for a pixel's camera sample, for the albedo
+// stage of the surface's material class (lib/gbuffer.glsl).
+struct GpuGbufferSurface {
+    vec4 wo;    // xyz the direction back along the camera ray, w the material (uint bits;
+                // GBUFFER_NO_SURFACE: the sample found none)
+    vec4 ns;    // xyz the shading normal on wo's side, w 1 when wo is on the material's front
+    vec4 tex0;  // the material's texture values there (Surface.tex0, tex1)
+    vec4 tex1;
+    uvec4 rng;  // the sample's random numbers after the camera ray (Rng key, counter)
+};
+#define GBUFFER_NO_SURFACE 4294967295
 
 // One path of the wavefront path tracer (lib/pt_path.glsl packs and unpacks it).
 struct GpuPtPath {

@@ -94,6 +94,10 @@ pub struct Engine {
     pub device: Arc<Device>,
     pub kernels: Kernels,
     pub control: RunControl,
+    /// Whether `prepare` keeps what it made for [`Engine::take_kept_scene`] (a render that
+    /// has a pass after its integrator's, on the same scene: the gbuffer film's).
+    keep_scene: bool,
+    kept_scene: Option<Arc<PreparedScene>>,
 }
 
 /// A scene made ready for the device: its buffers, parameters and visibility structure.
@@ -155,6 +159,8 @@ impl Engine {
             device,
             kernels,
             control: RunControl::default(),
+            keep_scene: false,
+            kept_scene: None,
         })
     }
 
@@ -168,6 +174,20 @@ impl Engine {
         self.device.instance.validation()
     }
 
+    /// Keep (or not) the next prepared scene for [`Engine::take_kept_scene`]; either way
+    /// the one kept before is let go.
+    pub fn keep_next_scene(&mut self, keep: bool) {
+        self.keep_scene = keep;
+        self.kept_scene = None;
+    }
+
+    /// The scene `prepare` made last since `keep_next_scene(true)`, if any; nothing is kept
+    /// after this (the device memory is freed with the last holder).
+    pub fn take_kept_scene(&mut self) -> Option<Arc<PreparedScene>> {
+        self.keep_scene = false;
+        self.kept_scene.take()
+    }
+
     /// What every render does before its dispatches: the visibility structure (BVH, or
     /// BLAS/TLAS for ray query) and the scene's device buffers, with the parameters of
     /// `seed` as `params` leaves them (an integrator sets its own fields there).
@@ -177,7 +197,9 @@ impl Engine {
         seed: u32,
         params: impl FnOnce(&mut SceneParams),
         trace: &mut Trace,
-    ) -> Result<PreparedScene> {
+    ) -> Result<Arc<PreparedScene>> {
+        // A scene kept before is let go before the next is made (its memory with it).
+        self.kept_scene = None;
         // The previous render's descriptor sets are no longer in use.
         self.kernels.reset_sets()?;
         let mut scene = scene.clone();
@@ -211,12 +233,16 @@ impl Engine {
         let specialization = Specialization {
             features: scene_features(&scene),
         };
-        Ok(PreparedScene {
+        let prepared = Arc::new(PreparedScene {
             gpu_scene,
             rq,
             triangle_order: bvh.triangle_order,
             specialization,
-        })
+        });
+        if self.keep_scene {
+            self.kept_scene = Some(prepared.clone());
+        }
+        Ok(prepared)
     }
 
     /// The kernel `name`, or with `variant` its profiling variant (`name+variant`),
@@ -241,9 +267,6 @@ impl Engine {
         Ok(self.kernels.get(name, spec)?)
     }
 
-    /// A descriptor set for `kernel`: the scene's resources and `buffers` (binding number,
-    /// buffer), each at the binding the kernel declares. A binding the kernel uses that
-    /// neither provides is an error naming it.
     /// Kernel `name` (in profile `variant` where it has one) specialized for `scene`,
     /// bound to the scene and `buffers`, timed as `span`: one stage of a wavefront.
     pub fn stage(
@@ -264,6 +287,9 @@ impl Engine {
         })
     }
 
+    /// A descriptor set for `kernel`: the scene's resources and `buffers` (binding number,
+    /// buffer), each at the binding the kernel declares. A binding the kernel uses that
+    /// neither provides is an error naming it.
     pub fn bind(
         &self,
         kernel: &Kernel,

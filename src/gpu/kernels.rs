@@ -82,7 +82,7 @@ pub struct Kernels {
 }
 
 /// Descriptor sets one render may hold at once (reset by `Kernels::reset_sets`).
-const MAX_SETS: u32 = 16;
+const MAX_SETS: u32 = 32;
 
 impl Kernels {
     pub fn new(device: &Arc<Device>, backend: Backend) -> GpuResult<Kernels> {

@@ -1,18 +1,23 @@
 //! pbrt-v4's `gbuffer` film: beside the image, what the camera sees first in each pixel —
 //! the surface's albedo, position, geometric and shading normals and (u, v) — as the EXR
 //! channels pbrt-v4 names them (`Albedo.R`…, `P.X`…, `N.X`…, `Ns.X`…, `u`, `v`), for
-//! denoisers and compositing. A pass of its own after the render (glsl/gbuffer.comp):
-//! [`GBUFFER_SAMPLES`] camera samples per pixel at most (the render's spp where fewer),
-//! averaged, a sample that sees nothing counting as zeros (as pbrt-v4's film averages
-//! them). The albedo is the directional albedo ρ(wo) of the BSDF, estimated from 16 of its
-//! samples as pbrt-v4's VisibleSurface does; positions and normals are in camera space (x
-//! right, y up, z ahead, the eye at the origin) unless the film asks for the world.
+//! denoisers and compositing. Passes of their own after the render, on the scene the
+//! render prepared (glsl/lib/gbuffer.glsl): a hit stage (the camera ray, the surface, its
+//! P, N, Ns and (u, v)), then an albedo stage per material class of the scene (as the
+//! wavefront path tracer shades: no kernel holds every BSDF). [`GBUFFER_SAMPLES`] camera
+//! samples per pixel at most (the render's spp where fewer), averaged, a sample that sees
+//! nothing counting as zeros (as pbrt-v4's film averages them). The albedo is the
+//! directional albedo ρ(wo) of the BSDF, estimated from 16 of its samples as pbrt-v4's
+//! VisibleSurface does; positions and normals are in camera space (x right, y up, z ahead,
+//! the eye at the origin) unless the film asks for the world.
+use super::pt::{film_passes, material_classes, FilmPasses};
 use crate::abi::*;
 use crate::engine::passes::PassWork;
-use crate::engine::{band_rows, Engine, PassStage, Passes, RunOptions};
+use crate::engine::{band_rows, Engine, PreparedScene, RunOptions};
 use crate::scene::Scene;
 use crate::trace::Trace;
 use anyhow::Result;
+use std::sync::Arc;
 
 /// Camera samples per pixel of the g-buffer, at most.
 pub const GBUFFER_SAMPLES: u32 = 64;
@@ -24,7 +29,7 @@ pub struct AuxChannel {
     pub values: Vec<f32>,
 }
 
-/// The channels, in the order they are written: the four vec4 per pixel the kernel sums
+/// The channels, in the order they are written: the four vec4 per pixel the kernels sum
 /// (albedo, 0), (P, u), (N, v), (Ns, 0), by (vec4, component).
 const CHANNELS: [(&str, usize, usize); 14] = [
     ("Albedo.R", 0, 0),
@@ -43,43 +48,57 @@ const CHANNELS: [(&str, usize, usize); 14] = [
     ("v", 2, 3),
 ];
 
-/// Render the g-buffer of `scene` (whose settings ask for one) with `seed`.
+/// The albedo stage of a material class: (kernel, span).
+fn albedo_stage(class: u32) -> (&'static str, &'static str) {
+    match class {
+        MATERIAL_CLASS_BASIC => ("gbuffer_albedo_basic", "gbuffer albedo basic"),
+        MATERIAL_CLASS_INTERFACE => ("gbuffer_albedo_interface", "gbuffer albedo interface"),
+        MATERIAL_CLASS_COATED => ("gbuffer_albedo_coated", "gbuffer albedo coated"),
+        MATERIAL_CLASS_MEASURED => ("gbuffer_albedo_measured", "gbuffer albedo measured"),
+        _ => ("gbuffer_albedo_hair", "gbuffer albedo hair"),
+    }
+}
+
+/// Render the g-buffer of `scene` (whose settings ask for one) with `seed`, on `prepared`
+/// (the render's scene, made with the same seed) or, without one, on the scene made anew.
+/// The kernels read none of the parameters an integrator sets for itself.
 pub fn render(
     engine: &mut Engine,
     scene: &Scene,
+    prepared: Option<Arc<PreparedScene>>,
     seed: u32,
     trace: &mut Trace,
 ) -> Result<Vec<AuxChannel>> {
     let (width, height) = (scene.width, scene.height);
     let pixels = width as u64 * height as u64;
     let bytes = engine.gbuffer_bytes(width, height)?;
-    let rows = band_rows(width, height, 0, u64::MAX)?;
-    let prepared = engine.prepare(scene, seed, |_| {}, trace)?;
-    let kernel = trace.cpu("pipeline creation", || {
-        engine.kernel("gbuffer", None, prepared.specialization())
-    })?;
-    let (film, stats) = trace.cpu("film allocation", || -> Result<_> {
-        Ok((
-            engine.storage_buffer("gbuffer", bytes)?,
-            engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
-        ))
-    })?;
-    let set = engine.bind(
-        &kernel,
-        Some(&prepared),
-        &[(BINDING_FILM, &film), (BINDING_STATS, &stats)],
-    )?;
-    let passes = Passes {
-        stages: vec![PassStage {
-            kernel,
-            set,
-            span: "gbuffer pass".into(),
-        }],
-        width,
-        height,
-        band_rows: rows,
+    let surface_bytes = std::mem::size_of::<GpuGbufferSurface>() as u64;
+    let range = engine.device.info.max_storage_buffer_range;
+    let rows = band_rows(width, height, surface_bytes, range)?;
+    let prepared = match prepared {
+        Some(p) => p,
+        None => engine.prepare(scene, seed, |_| {}, trace)?,
     };
-    engine.warm_up_passes(&passes, trace)?;
+    let surfaces = trace.cpu("film allocation", || {
+        engine.storage_buffer(
+            "gbuffer surfaces",
+            surface_bytes * width as u64 * rows as u64,
+        )
+    })?;
+    let mut stages = vec![("gbuffer_hit", None, "gbuffer hit".to_string())];
+    stages.extend(material_classes(scene).into_iter().map(|class| {
+        let (kernel, span) = albedo_stage(class);
+        (kernel, None, span.to_string())
+    }));
+    let FilmPasses { passes, film, .. } = film_passes(
+        engine,
+        &prepared,
+        ("gbuffer", bytes),
+        &stages,
+        &[(BINDING_GBUFFER_SURFACES, &surfaces)],
+        rows,
+        trace,
+    )?;
     let samples = scene.settings.spp.clamp(1, GBUFFER_SAMPLES);
     let mut work = PassWork {
         passes: &passes,

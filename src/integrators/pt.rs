@@ -5,7 +5,9 @@
 use super::{film_image, Integrator, IntegratorOptions, RenderOutput};
 use crate::abi::*;
 use crate::engine::passes::PassWork;
-use crate::engine::{band_rows, Dispatch, Engine, PassStage, Passes, RunOptions, RunResult, Work};
+use crate::engine::{
+    band_rows, Dispatch, Engine, PassStage, Passes, PreparedScene, RunOptions, RunResult, Work,
+};
 use crate::gpu::buffer::Buffer;
 use crate::gpu::kernels::Kernel;
 use crate::io::Image;
@@ -93,6 +95,53 @@ fn film_output(
     })
 }
 
+/// A render by passes over a film (engine::passes): its film, its stats and its passes.
+pub(crate) struct FilmPasses {
+    pub passes: Passes,
+    pub film: Buffer,
+    pub stats: Buffer,
+}
+
+/// The passes of a film render: a film of `film` (name, bytes) and the stats allocated,
+/// `stages` (kernel, profile variant, span) bound to `prepared`, the film, the stats and
+/// `buffers`, dispatched in bands of `rows` and warmed up.
+pub(crate) fn film_passes(
+    engine: &mut Engine,
+    prepared: &PreparedScene,
+    film: (&str, u64),
+    stages: &[(&'static str, Option<&'static str>, String)],
+    buffers: &[(u32, &Buffer)],
+    rows: u32,
+    trace: &mut Trace,
+) -> Result<FilmPasses> {
+    let (film, stats) = trace.cpu("film allocation", || -> Result<_> {
+        Ok((
+            engine.storage_buffer(film.0, film.1)?,
+            engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
+        ))
+    })?;
+    let mut all = vec![(BINDING_FILM, &film), (BINDING_STATS, &stats)];
+    all.extend_from_slice(buffers);
+    let stages = trace.cpu("pipeline creation", || {
+        stages
+            .iter()
+            .map(|(kernel, variant, span)| engine.stage(kernel, *variant, prepared, &all, span))
+            .collect::<Result<Vec<_>>>()
+    })?;
+    let passes = Passes {
+        stages,
+        width: prepared.params().width,
+        height: prepared.params().height,
+        band_rows: rows,
+    };
+    engine.warm_up_passes(&passes, trace)?;
+    Ok(FilmPasses {
+        passes,
+        film,
+        stats,
+    })
+}
+
 impl Integrator for FilmIntegrator {
     fn render(
         &mut self,
@@ -112,31 +161,23 @@ impl Integrator for FilmIntegrator {
         let rows = band_rows(width, height, 0, u64::MAX)?;
         let code = self.code;
         let prepared = engine.prepare(scene, seed, |p| p.integrator = code, trace)?;
-        let kernel = trace.cpu("pipeline creation", || {
-            engine.kernel(self.kernel, self.profile_variant, prepared.specialization())
-        })?;
-        let (film, stats) = trace.cpu("film allocation", || -> Result<_> {
-            Ok((
-                engine.storage_buffer("film", film_bytes)?,
-                engine.storage_buffer("stats", 4 * STAT_COUNT as u64)?,
-            ))
-        })?;
-        let set = engine.bind(
-            &kernel,
-            Some(&prepared),
-            &[(BINDING_FILM, &film), (BINDING_STATS, &stats)],
+        let FilmPasses {
+            passes,
+            film,
+            stats,
+        } = film_passes(
+            engine,
+            &prepared,
+            ("film", film_bytes),
+            &[(
+                self.kernel,
+                self.profile_variant,
+                format!("{} pass", self.kernel),
+            )],
+            &[],
+            rows,
+            trace,
         )?;
-        let passes = Passes {
-            stages: vec![PassStage {
-                kernel,
-                set,
-                span: format!("{} pass", self.kernel),
-            }],
-            width,
-            height,
-            band_rows: rows,
-        };
-        engine.warm_up_passes(&passes, trace)?;
         let resolve = |done: u32| resolve_film(&film, film_bytes, width, height, done);
         let mut work = PassWork {
             passes: &passes,

@@ -1,0 +1,6 @@
+// The gbuffer film's albedo stage for the coated material class (lib/gbuffer_albedo.glsl).
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "abi.h"
+#define SHADE_CLASS MATERIAL_CLASS_COATED
+#include "gbuffer_albedo.glsl"
