@@ -162,8 +162,13 @@ impl Renderer {
         apply_film_matrix(&mut out.image, scene.settings.output_from_render);
         // A gbuffer film's channels, but not after an interruption (the user asked to stop).
         if gbuffer && out.interrupted.is_none() {
-            out.aux =
-                crate::integrators::gbuffer::render(&mut self.engine, scene, prepared, seed, trace)?;
+            out.aux = crate::integrators::gbuffer::render(
+                &mut self.engine,
+                scene,
+                prepared,
+                seed,
+                trace,
+            )?;
         }
         Ok(out)
     }

@@ -101,9 +101,11 @@ struct Parser {
     image_textures: HashMap<(PathBuf, Encoding), Arc<crate::io::Image>>,
     /// Measured materials' files read so far: their index in `Scene::measured`.
     measured_files: HashMap<PathBuf, u32>,
-    objects: HashMap<String, Vec<ShapeDecl>>,
+    /// The objects defined (ObjectBegin .. ObjectEnd): their shapes and where each was
+    /// defined ("file:line").
+    objects: HashMap<String, (Vec<ShapeDecl>, String)>,
     /// The object being defined (ObjectBegin .. ObjectEnd).
-    defining: Option<(String, Vec<ShapeDecl>)>,
+    defining: Option<(String, Vec<ShapeDecl>, String)>,
     /// Everything unsupported, as "file:line: what", reported together at the end.
     unsupported: Vec<String>,
     warned: std::collections::HashSet<String>,
@@ -629,14 +631,24 @@ impl Parser {
                         "ObjectBegin inside another object's definition",
                     ));
                 }
+                // As pbrt-v4: an object's name is defined once.
+                if let Some((_, at)) = self.objects.get(&name) {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!("object \"{name}\" is already defined (at {at})"),
+                    ));
+                }
+                let at = format!("{}:{line}", self.files[file as usize]);
                 self.stack.push((self.gs.clone(), false));
-                self.defining = Some((name, Vec::new()));
+                self.defining = Some((name, Vec::new(), at));
             }
             "ObjectEnd" => {
-                let Some((name, shapes)) = self.defining.take() else {
+                let Some((name, shapes, at)) = self.defining.take() else {
                     return Err(self.err_at(file, line, d, "ObjectEnd without ObjectBegin"));
                 };
-                self.objects.insert(name, shapes);
+                self.objects.insert(name, (shapes, at));
                 match self.stack.pop() {
                     Some((gs, _)) => self.gs = gs,
                     None => {
@@ -646,8 +658,27 @@ impl Parser {
             }
             "ObjectInstance" => {
                 let name = self.expect_string(d, "a name")?;
-                let Some(shapes) = self.objects.get(&name).cloned() else {
-                    return Err(self.err_at(file, line, d, format!("no object named \"{name}\"")));
+                // No instance inside an object's definition (as pbrt-v4: no nested
+                // instances), least of all of itself.
+                if let Some((defining, _, at)) = &self.defining {
+                    let message = if *defining == name {
+                        format!(
+                            "object \"{name}\" instances itself (its definition begins at {at})"
+                        )
+                    } else {
+                        format!(
+                            "an instance inside the definition of object \"{defining}\" (begun at {at}): objects do not nest, as in pbrt-v4"
+                        )
+                    };
+                    return Err(self.err_at(file, line, d, message));
+                }
+                let Some((shapes, _)) = self.objects.get(&name).cloned() else {
+                    return Err(self.err_at(
+                        file,
+                        line,
+                        d,
+                        format!("no object named \"{name}\" is defined before this"),
+                    ));
                 };
                 for mut s in shapes {
                     s.ctm = ctm * s.ctm;

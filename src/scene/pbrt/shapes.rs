@@ -562,7 +562,7 @@ impl Parser {
             if decl.area.is_some() {
                 self.unsupported(file, line, "an area light inside an object instance");
             }
-            if let Some((_, shapes)) = &mut self.defining {
+            if let Some((_, shapes, _)) = &mut self.defining {
                 shapes.push(decl);
             }
             return Ok(());

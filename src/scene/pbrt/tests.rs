@@ -1005,6 +1005,41 @@ fn transforms_attributes_and_instances() {
     assert!((s.triangles[0].v[0] - Vec3::new(4.0, 5.0, 7.0)).length() < 1e-5);
 }
 
+/// Object instancing's bad input, each an error at its file and line: an instance of an
+/// object not defined (before it), an object defined twice (the first definition named),
+/// an object that instances itself, and an instance inside another object's definition
+/// (pbrt-v4 does not nest instances either).
+#[test]
+fn instancing_errors_name_the_object_and_the_line() {
+    let e = parse_err(&format!("WorldBegin\n{QUAD}\nObjectInstance \"nothing\"\n"));
+    assert_eq!((e.line, e.command.as_str()), (4, "ObjectInstance"), "{e}");
+    assert!(e.message.contains("no object named \"nothing\""), "{e}");
+    // Defined after the instance: not yet defined.
+    let e = parse_err(&format!(
+        "WorldBegin\nObjectInstance \"q\"\nObjectBegin \"q\"\n{QUAD}\nObjectEnd\n"
+    ));
+    assert_eq!(e.line, 2, "{e}");
+    let e = parse_err(&format!(
+        "WorldBegin\nObjectBegin \"q\"\n{QUAD}\nObjectEnd\nObjectBegin \"q\"\n{QUAD}\nObjectEnd\n"
+    ));
+    assert_eq!((e.line, e.command.as_str()), (6, "ObjectBegin"), "{e}");
+    assert!(
+        e.message.contains("\"q\" is already defined (at t.pbrt:2)"),
+        "{e}"
+    );
+    let e = parse_err(&format!(
+        "WorldBegin\nObjectBegin \"q\"\n{QUAD}\nObjectInstance \"q\"\nObjectEnd\n"
+    ));
+    assert_eq!((e.line, e.command.as_str()), (5, "ObjectInstance"), "{e}");
+    assert!(e.message.contains("\"q\" instances itself"), "{e}");
+    let e = parse_err(&format!(
+        "WorldBegin\nObjectBegin \"a\"\n{QUAD}\nObjectEnd\n\
+         ObjectBegin \"b\"\nObjectInstance \"a\"\nObjectEnd\n"
+    ));
+    assert_eq!((e.line, e.command.as_str()), (7, "ObjectInstance"), "{e}");
+    assert!(e.message.contains("do not nest"), "{e}");
+}
+
 #[test]
 fn materials_textures_and_lights() {
     let s = parse(&format!(
