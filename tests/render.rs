@@ -634,3 +634,59 @@ fn a_gbuffer_film_shades_each_material_class_in_every_band() {
         }
     }
 }
+
+/// A scene whose triangles, or their attribute records, need more than one storage buffer
+/// of the device holds is an error before the BVH is built, naming what did not fit and
+/// the device's range (lavapipe: 128 MiB, so 2.8 million triangles or 1.7 million with
+/// texture coordinates). The scenes are made in memory, one triangle past each limit.
+/// (Mutation: without the check, the BVH is built, and the upload's own check fails
+/// with another message.)
+#[test]
+fn a_scene_beyond_the_devices_buffers_is_an_error_that_names_them() {
+    let mut r = renderer(Bvh);
+    let range = r.engine.device.info.max_storage_buffer_range;
+    assert!(
+        range <= 1 << 30,
+        "a device with {range} bytes per storage buffer: this test makes scenes past it in memory, sized for lavapipe's 128 MiB"
+    );
+    let base = parse(
+        "size 8 8\ncamera 0 0 4 0 0 0 0 1 0 45\npoint 0 0 4 1 1 1\nmaxverts 3\n\
+         vertex -1 -1 0\nvertex 1 -1 0\nvertex 0 1 0\ntri 0 1 2\n",
+    );
+    let tri = base.triangles[0].clone();
+    for (what, bytes, uv) in [
+        ("triangles on the device", 48u64, false),
+        ("triangle attributes", 80, true),
+    ] {
+        let mut scene = base.clone();
+        let mut t = tri.clone();
+        if uv {
+            t.uv = Some([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE]);
+        }
+        // Distinct triangles (a grid of them), as a real scene's.
+        scene.triangles = (0..range / bytes + 1)
+            .map(|i| {
+                let mut t = t.clone();
+                let d = glam::Vec3::new((i % 2048) as f32, (i / 2048) as f32, 0.0) * 0.01;
+                t.v = t.v.map(|v| v + d);
+                t
+            })
+            .collect();
+        let mut trace = lightpath::trace::Trace::new();
+        let err = match r.render(&scene, 1, &mut trace) {
+            Ok(_) => panic!(
+                "{} triangles rendered past the device's range",
+                scene.triangles.len()
+            ),
+            Err(e) => format!("{e:#}"),
+        };
+        assert!(
+            err.contains(what) && err.contains(&range.to_string()) && err.contains("does not fit"),
+            "{err}"
+        );
+        assert!(
+            !trace.to_json().contains("BVH build"),
+            "the BVH was built first: {err}"
+        );
+    }
+}

@@ -202,6 +202,7 @@ impl Engine {
         self.kept_scene = None;
         // The previous render's descriptor sets are no longer in use.
         self.kernels.reset_sets()?;
+        self.check_triangle_buffers(scene)?;
         let mut scene = scene.clone();
         let backend = self.backend();
         let bvh = trace.cpu("BVH build", || {
@@ -243,6 +244,38 @@ impl Engine {
             self.kept_scene = Some(prepared.clone());
         }
         Ok(prepared)
+    }
+
+    /// An error, before the BVH is built, where the scene's triangles or their attribute
+    /// records (texture coordinates, shading normals, alpha) would need more than one
+    /// storage buffer of the device can hold (GpuScene::new checks every buffer again).
+    fn check_triangle_buffers(&self, scene: &Scene) -> Result<()> {
+        let range = self.device.info.max_storage_buffer_range;
+        let count = scene.triangles.len() as u64;
+        let attributed = scene
+            .triangles
+            .iter()
+            .filter(|t| t.uv.is_some() || t.normals.is_some() || t.alpha.is_some())
+            .count() as u64;
+        for (what, bytes) in [
+            (
+                "triangles",
+                count * std::mem::size_of::<crate::abi::GpuTriangle>() as u64,
+            ),
+            (
+                "triangle attributes (texture coordinates, normals, alpha)",
+                attributed * std::mem::size_of::<crate::abi::GpuTriangleAttributes>() as u64,
+            ),
+        ] {
+            if bytes > range {
+                bail!(
+                    "the scene's {count} triangles need {bytes} bytes of {what} on the device, more than one storage buffer of {} holds ({range} bytes, at most {} triangles): the scene does not fit this device",
+                    self.device.info.name,
+                    range * count / bytes
+                );
+            }
+        }
+        Ok(())
     }
 
     /// The kernel `name`, or with `variant` its profiling variant (`name+variant`),

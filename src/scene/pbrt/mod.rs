@@ -49,6 +49,11 @@ use std::sync::Arc;
 
 /// The most files `Include` and `Import` may read (a file including itself stops here).
 const MAX_FILES: usize = 4096;
+
+/// Triangles a scene may hold: as many 48-byte device triangles (abi.h GpuTriangle) as the
+/// largest storage-buffer range a Vulkan device can state (a 32-bit byte count). The
+/// device's own range, often smaller (lavapipe: 128 MiB), is checked before the BVH build.
+pub const MAX_SCENE_TRIANGLES: usize = (u32::MAX / 48) as usize;
 /// The deepest `AttributeBegin` nesting.
 const MAX_ATTRIBUTE_NESTING: usize = 1 << 16;
 
@@ -208,6 +213,32 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
 }
 
 impl Parser {
+    /// An error before `adding` more triangles would take the scene past
+    /// [`MAX_SCENE_TRIANGLES`] (each instance of an object copies its triangles).
+    fn check_triangles(
+        &self,
+        adding: usize,
+        file: u32,
+        line: u32,
+        command: &str,
+    ) -> Result<(), ParseError> {
+        let total = self.scene.triangles.len() + adding;
+        if total <= MAX_SCENE_TRIANGLES {
+            return Ok(());
+        }
+        Err(self.err_at(
+            file,
+            line,
+            command,
+            format!(
+                "this makes the scene {total} triangles, more than the {MAX_SCENE_TRIANGLES} \
+                 that one device buffer of 48-byte triangles can hold on any Vulkan device \
+                 (4 GiB); lightpath copies each object instance's triangles (it has no \
+                 two-level acceleration structure yet)"
+            ),
+        ))
+    }
+
     fn err_at(
         &self,
         file: u32,
@@ -680,6 +711,8 @@ impl Parser {
                         format!("no object named \"{name}\" is defined before this"),
                     ));
                 };
+                let adding = shapes.iter().map(|s| s.triangles()).sum();
+                self.check_triangles(adding, file, line, d)?;
                 for mut s in shapes {
                     s.ctm = ctm * s.ctm;
                     self.emit(s)?;

@@ -26,6 +26,17 @@ pub(super) struct ShapeDecl {
     pub(super) media: Option<crate::scene::MediumInterface>,
 }
 
+impl ShapeDecl {
+    /// The triangles it adds to the scene: a mesh's (before degenerate ones are dropped);
+    /// the other kinds are analytic or a few triangles.
+    pub(super) fn triangles(&self) -> usize {
+        match &self.kind {
+            ShapeKind::Mesh { indices, .. } => indices.len() / 3,
+            _ => 0,
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub(super) enum ShapeKind {
     Mesh {
@@ -567,6 +578,7 @@ impl Parser {
             }
             return Ok(());
         }
+        self.check_triangles(decl.triangles(), file, line, d)?;
         self.emit(decl)
     }
 
