@@ -257,21 +257,24 @@ impl Engine {
             .iter()
             .filter(|t| t.uv.is_some() || t.normals.is_some() || t.alpha.is_some())
             .count() as u64;
-        for (what, bytes) in [
+        for (what, records, size) in [
             (
                 "triangles",
-                count * std::mem::size_of::<crate::abi::GpuTriangle>() as u64,
+                count,
+                std::mem::size_of::<crate::abi::GpuTriangle>() as u64,
             ),
             (
-                "triangle attributes (texture coordinates, normals, alpha)",
-                attributed * std::mem::size_of::<crate::abi::GpuTriangleAttributes>() as u64,
+                "triangle attributes (for those with texture coordinates, normals or alpha)",
+                attributed,
+                std::mem::size_of::<crate::abi::GpuTriangleAttributes>() as u64,
             ),
         ] {
+            let bytes = records * size;
             if bytes > range {
                 bail!(
-                    "the scene's {count} triangles need {bytes} bytes of {what} on the device, more than one storage buffer of {} holds ({range} bytes, at most {} triangles): the scene does not fit this device",
+                    "the scene's {count} triangles need {bytes} bytes of {what} on the device, more than one storage buffer of {} holds ({range} bytes: {} records of {size} bytes): the scene does not fit this device",
                     self.device.info.name,
-                    range * count / bytes
+                    range / size
                 );
             }
         }

@@ -66,9 +66,11 @@ struct GraphicsState {
     start_active: bool,
     reverse: bool,
     material: MaterialRef,
-    /// A `NamedMaterial` of a name no `MakeNamedMaterial` has given (and where): an
-    /// error for the shapes that follow, as in pbrt-v4, which looks the name up only for
-    /// a shape (the collection's watercolor names a material it has commented out).
+    /// A `NamedMaterial` of a name no `MakeNamedMaterial` has given yet (and where): the
+    /// shapes that follow wait for the end of the file, where pbrt-v4 looks the names up
+    /// (the collection's contemporary bathroom names its materials before it includes
+    /// them); still undefined there, an error (the watercolor names a material it has
+    /// commented out, for no shape: no error).
     undefined_material: Option<(String, u32, u32)>,
     area: Option<AreaLight>,
     /// `Attribute` defaults: (target, parameter), the latest of a name first.
@@ -111,6 +113,12 @@ struct Parser {
     objects: HashMap<String, (Vec<ShapeDecl>, String)>,
     /// The object being defined (ObjectBegin .. ObjectEnd).
     defining: Option<(String, Vec<ShapeDecl>, String)>,
+    /// Shapes whose named material was not defined when they were read, with the name,
+    /// the `NamedMaterial`'s file and line and the shape's: made at the end of the file.
+    deferred: Vec<(ShapeDecl, String, (u32, u32), (u32, u32))>,
+    /// While a shape of an undefined named material is read: its `deferred` entry's name
+    /// and places.
+    deferring: Option<(String, (u32, u32), (u32, u32))>,
     /// Everything unsupported, as "file:line: what", reported together at the end.
     unsupported: Vec<String>,
     warned: std::collections::HashSet<String>,
@@ -183,6 +191,8 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
         measured_files: HashMap::new(),
         objects: HashMap::new(),
         defining: None,
+        deferred: Vec::new(),
+        deferring: None,
         unsupported: Vec::new(),
         warned: Default::default(),
         warnings: Vec::new(),
@@ -642,15 +652,15 @@ impl Parser {
                 let params = self.params(d)?;
                 let params = self.with_attributes("shape", params);
                 if let Some((name, f, l)) = self.gs.undefined_material.clone() {
-                    let at = format!("{}:{line}", self.files[file as usize]);
-                    return Err(self.err_at(
-                        f,
-                        l,
-                        "NamedMaterial",
-                        format!("no material named \"{name}\" (the shape at {at} uses it)"),
-                    ));
+                    // Inside an object's definition the shape is kept now: no waiting.
+                    if self.defining.is_some() {
+                        return Err(self.undefined_material_error(&name, (f, l), (file, line)));
+                    }
+                    self.deferring = Some((name, (f, l), (file, line)));
                 }
-                self.shape(&ty, &params, file, line)?;
+                let read = self.shape(&ty, &params, file, line);
+                self.deferring = None;
+                read?;
             }
             "ObjectBegin" => {
                 let name = self.expect_string(d, "a name")?;
@@ -830,7 +840,32 @@ impl Parser {
         Ok(Some(m))
     }
 
+    /// No material of `name`, named at `named` (file, line) for the shape at `shape`.
+    fn undefined_material_error(
+        &self,
+        name: &str,
+        named: (u32, u32),
+        shape: (u32, u32),
+    ) -> ParseError {
+        let at = format!("{}:{}", self.files[shape.0 as usize], shape.1);
+        self.err_at(
+            named.0,
+            named.1,
+            "NamedMaterial",
+            format!("no material named \"{name}\" (the shape at {at} uses it)"),
+        )
+    }
+
     fn finish(mut self) -> Result<Scene, ParseError> {
+        // The shapes that waited for their named material, in the order they were read.
+        for (mut decl, name, named, shape) in std::mem::take(&mut self.deferred) {
+            let Some(material) = self.named_material(&name)? else {
+                return Err(self.undefined_material_error(&name, named, shape));
+            };
+            decl.material = material;
+            self.check_triangles(decl.triangles(), shape.0, shape.1, "Shape")?;
+            self.emit(decl)?;
+        }
         // (Named materials no shape used are made too, for their errors.)
         let mut pending: Vec<(u32, u32, String)> = self
             .named_materials

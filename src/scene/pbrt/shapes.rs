@@ -578,6 +578,10 @@ impl Parser {
             }
             return Ok(());
         }
+        if let Some((name, named, shape)) = self.deferring.take() {
+            self.deferred.push((decl, name, named, shape));
+            return Ok(());
+        }
         self.check_triangles(decl.triangles(), file, line, d)?;
         self.emit(decl)
     }
@@ -624,9 +628,16 @@ impl Parser {
                     if (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length_squared() == 0.0 {
                         continue;
                     }
-                    t = match &wn {
-                        Some(wn) => {
-                            t.normals = Some([wn[a], wn[b], wn[cc]]);
+                    // A normal a singular transform squashed to nothing (its inverse
+                    // transpose does not exist): the triangle shades by its geometric
+                    // normal instead.
+                    let normals = wn
+                        .as_ref()
+                        .map(|wn| [wn[a], wn[b], wn[cc]])
+                        .filter(|n| n.iter().all(|v| *v != Vec3::ZERO));
+                    t = match normals {
+                        Some(n) => {
+                            t.normals = Some(n);
                             t.facing_its_normals()
                         }
                         // pbrt flips the geometric normal for reverse orientation or a

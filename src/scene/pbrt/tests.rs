@@ -1040,6 +1040,37 @@ fn instancing_errors_name_the_object_and_the_line() {
     assert!(e.message.contains("do not nest"), "{e}");
 }
 
+/// Singular transforms, as exported scenes hold them (transparent-machines' Cinema 4D
+/// export has `ConcatTransform`s with zero rows): a quad squashed to a line is dropped (no
+/// area), a tetrahedron squashed to a plane keeps its triangles with area, shading by
+/// their geometric normals (the normals' inverse transpose does not exist), and nothing
+/// read is NaN or a zero normal.
+#[test]
+fn a_singular_transform_squashes_shapes_without_nans() {
+    let s = parse(&format!(
+        r#"WorldBegin
+        AttributeBegin
+          ConcatTransform [ -0 -0 0 0  0 1 0 0  0 0 1 0  0 0 0 1 ]
+          Shape "trianglemesh" "point3 P" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]
+            "normal N" [ 0 0 -1  0 0 -1  0 0 -1  0 0 -1 ] "integer indices" [ 0 1 2  0 2 3 ]
+        AttributeEnd
+        AttributeBegin
+          ConcatTransform [ 1 0 0 0  0 0 0 0  0 0 1 0  0 0 0 1 ]
+          Shape "trianglemesh" "point3 P" [ 0 0 0  1 0 0  0 1 0  0 0 1 ]
+            "normal N" [ -1 -1 -1  1 0 0  0 1 0  0 0 1 ] "integer indices" [ 0 1 2  0 1 3  0 2 3  1 2 3 ]
+        AttributeEnd
+        {QUAD}
+        "#
+    ));
+    // The squashed quad: gone; the tetrahedron's two faces that keep area in y = 0; the
+    // plain quad.
+    assert_eq!(s.triangles.len(), 2 + 2, "{:?}", s.triangles);
+    for t in &s.triangles {
+        assert!(t.v.iter().all(|v| v.is_finite()), "{t:?}");
+        assert!(t.normals.is_none(), "{t:?}");
+    }
+}
+
 #[test]
 fn materials_textures_and_lights() {
     let s = parse(&format!(
@@ -1188,6 +1219,36 @@ fn syntax_errors_name_the_line() {
         "{e}"
     );
     parse("WorldBegin\nAttributeBegin\nNamedMaterial \"nothing\"\nAttributeEnd\nShape \"sphere\"");
+}
+
+/// A named material may be defined after the shapes that name it (pbrt-v4 looks the names
+/// up once the whole file is read; the collection's contemporary bathroom names its
+/// lights' material before it includes its materials file): the shapes take the
+/// definition, emitting area lights included, and a name never defined is still an error
+/// at its `NamedMaterial`'s line, naming the shape.
+#[test]
+fn a_named_material_may_be_defined_after_its_shapes() {
+    let s = parse(&format!(
+        "WorldBegin\nAttributeBegin\nNamedMaterial \"later\"\n\
+         AreaLightSource \"diffuse\" \"rgb L\" [ 2 2 2 ]\n{QUAD}\nAttributeEnd\n\
+         MakeNamedMaterial \"later\" \"string type\" \"diffuse\" \"rgb reflectance\" [ 0.1 0.2 0.3 ]\n"
+    ));
+    assert_eq!(s.triangles.len(), 2);
+    let m = &s.materials[s.triangles[0].material as usize];
+    assert!(
+        (m.diffuse - Vec3::new(0.1, 0.2, 0.3)).length() < 1e-6,
+        "{m:?}"
+    );
+    assert!(m.emission.max_element() > 0.0, "the area light: {m:?}");
+    let e = parse_err(&format!(
+        "WorldBegin\nNamedMaterial \"never\"\n{QUAD}\nMakeNamedMaterial \"other\" \"string type\" \"diffuse\"\n"
+    ));
+    assert_eq!((e.line, e.command.as_str()), (2, "NamedMaterial"), "{e}");
+    assert!(
+        e.message
+            .contains("no material named \"never\" (the shape at t.pbrt:3"),
+        "{e}"
+    );
 }
 
 #[test]
