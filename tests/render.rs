@@ -421,6 +421,15 @@ fn the_wavefront_size_does_not_change_the_path_tracers_image() {
     }
 }
 
+/// The values of the channel `name` a render wrote beside its image (a gbuffer film's).
+fn aux_channel<'a>(out: &'a lightpath::integrators::RenderOutput, name: &str) -> &'a [f32] {
+    &out.aux
+        .iter()
+        .find(|c| c.name == name)
+        .unwrap_or_else(|| panic!("no {name}"))
+        .values
+}
+
 /// pbrt-v4's `gbuffer` film: a diffuse wall (ρ = (0.5, 0.25, 0.125)) at z = 3 ahead of a
 /// camera at z = −1 covers the image's left half (x < 1, the camera at x = 1). The left
 /// half's channels are the closed form — the albedo ρ (a diffuse BSDF's samples weigh
@@ -460,13 +469,7 @@ fn a_gbuffer_film_writes_what_the_camera_sees_first() {
         let out = renderer(Bvh)
             .render(&s, 1, &mut lightpath::trace::Trace::new())
             .expect("render");
-        let channel = |name: &str| {
-            &out.aux
-                .iter()
-                .find(|c| c.name == name)
-                .unwrap_or_else(|| panic!("no {name}"))
-                .values
-        };
+        let channel = |name: &str| aux_channel(&out, name);
         let names: Vec<&str> = out.aux.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(
             names,
@@ -613,13 +616,7 @@ fn a_gbuffer_film_shades_each_material_class_in_every_band() {
     let out = renderer(Bvh).render(&scene, 1, &mut trace).expect("render");
     let builds = trace.to_json().matches("BVH build").count();
     assert_eq!(builds, 1, "the gbuffer's stages build the scene again");
-    let channel = |name: &str| {
-        &out.aux
-            .iter()
-            .find(|c| c.name == name)
-            .unwrap_or_else(|| panic!("no {name}"))
-            .values
-    };
+    let channel = |name: &str| aux_channel(&out, name);
     let (albedo, depth) = (channel("Albedo.G"), channel("P.Z"));
     for y in 0..height as usize {
         for x in (0..width as usize).filter(|x| !(508..516).contains(x)) {
