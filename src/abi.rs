@@ -51,6 +51,18 @@ pub struct GpuSphere {
     pub info: [u32; 4],
 }
 
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuInstance {
+    pub w2o0: [f32; 4],
+    pub w2o1: [f32; 4],
+    pub w2o2: [f32; 4],
+    pub o2w0: [f32; 4],
+    pub o2w1: [f32; 4],
+    pub o2w2: [f32; 4],
+    pub info: [u32; 4],
+}
+
 /// A material record (abi.h explains each field); fields a kind does not use are zero.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -125,8 +137,8 @@ pub struct SceneParams {
     pub cam_window: [f32; 4],
     pub lens_radius: f32,
     pub focal_distance: f32,
-    pub reserved2: u32,
-    pub reserved3: u32,
+    pub flat_triangle_count: u32,
+    pub instance_count: u32,
 }
 
 #[repr(C)]
@@ -462,9 +474,10 @@ pub fn layouts() -> Vec<StructLayout> {
             cam_window,
             lens_radius,
             focal_distance,
-            reserved2,
-            reserved3
+            flat_triangle_count,
+            instance_count
         ),
+        layout!(GpuInstance, w2o0, w2o1, w2o2, o2w0, o2w1, o2w2, info),
         layout!(GpuPathVertex, p, n, wi, beta, ns),
         layout!(
             GpuPtPath, o, d, beta, radiance, prev_p, hit, p, n, ns, ls_wi, ls_le, ls_p, ls_n, tex0,

@@ -33,6 +33,7 @@ pub struct GpuScene {
     pub triangle_attributes: Buffer,
     pub media: Buffer,
     pub medium_grids: Buffer,
+    pub instances: Buffer,
     pub bvh_nodes: Option<Buffer>,
     pub bvh_prims: Option<Buffer>,
 }
@@ -89,6 +90,28 @@ pub fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
         let b = crate::accel::geometry::sphere_world_bounds(&s.object_to_world);
         lo = lo.min(b.min);
         hi = hi.max(b.max);
+    }
+    // Instances: their objects' boxes carried to the world.
+    let boxes: Vec<crate::accel::geometry::Aabb> = scene
+        .objects
+        .iter()
+        .map(|o| {
+            let mut b = crate::accel::geometry::Aabb::empty();
+            for t in &o.triangles {
+                for v in t.v {
+                    b.grow(v);
+                }
+            }
+            b
+        })
+        .collect();
+    for i in &scene.instances {
+        let b = &boxes[i.object as usize];
+        if !b.is_empty() {
+            let w = crate::accel::geometry::transformed_bounds(b, &i.object_to_world);
+            lo = lo.min(w.min);
+            hi = hi.max(w.max);
+        }
     }
     if lo.x > hi.x {
         return (Vec3::ZERO, 1.0);
@@ -834,10 +857,12 @@ fn sparse_grid(floats: &mut Vec<f32>, g: &crate::scene::SparseGrid) -> u32 {
 
 /// The per-triangle attribute records and each triangle's index into them
 /// (NO_ATTRIBUTES for a triangle with neither texture coordinates nor shading normals).
+/// Triangles: the world's, then each object's (the triangle records' order).
 pub fn triangle_attributes(scene: &Scene) -> (Vec<GpuTriangleAttributes>, Vec<u32>) {
     let mut records = Vec::new();
     let mut index = Vec::with_capacity(scene.triangles.len());
-    for t in &scene.triangles {
+    let objects = scene.objects.iter().flat_map(|o| o.triangles.iter());
+    for t in scene.triangles.iter().chain(objects) {
         if t.uv.is_none() && t.normals.is_none() && t.alpha.is_none() {
             index.push(NO_ATTRIBUTES);
             continue;
@@ -956,7 +981,8 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
         bounds: center.extend(radius).to_array(),
         width: scene.width,
         height: scene.height,
-        triangle_count: scene.triangles.len() as u32,
+        triangle_count: (scene.triangles.len() as u64 + scene.instanced_triangle_count())
+            .min(u32::MAX as u64) as u32,
         sphere_count: scene.spheres.len() as u32,
         emitter_count: 0,
         max_depth: s.max_depth.max(0) as u32,
@@ -985,10 +1011,21 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
         cam_window: c.film_window(scene.width, scene.height),
         lens_radius: c.lens_radius,
         focal_distance: c.focal_distance,
-        reserved2: 0,
-        reserved3: 0,
+        flat_triangle_count: scene.triangles.len() as u32,
+        instance_count: scene.instances.len() as u32,
     }
 }
+
+/// The instance buffer of a scene without instances (a binding is never empty).
+const NO_INSTANCES: [GpuInstance; 1] = [GpuInstance {
+    w2o0: [0.0; 4],
+    w2o1: [0.0; 4],
+    w2o2: [0.0; 4],
+    o2w0: [0.0; 4],
+    o2w1: [0.0; 4],
+    o2w2: [0.0; 4],
+    info: [0; 4],
+}];
 
 impl GpuScene {
     pub fn new(
@@ -1002,13 +1039,20 @@ impl GpuScene {
         let textures = texture_data(scene);
         let (attributes, attribute_index) = triangle_attributes(scene);
         let bits = f32::from_bits;
+        // The world's triangles, then each object's (in object space; none emits).
+        let objects = scene.objects.iter().flat_map(|o| o.triangles.iter());
         let triangles: Vec<GpuTriangle> = scene
             .triangles
             .iter()
+            .chain(objects)
             .enumerate()
             .map(|(i, t)| GpuTriangle {
                 v0: t.v[0].extend(bits(t.material)).to_array(),
-                v1: t.v[1].extend(bits(table.triangle_emitter[i])).to_array(),
+                v1: t.v[1]
+                    .extend(bits(
+                        table.triangle_emitter.get(i).copied().unwrap_or(NO_EMITTER),
+                    ))
+                    .to_array(),
                 v2: t.v[2].extend(bits(attribute_index[i])).to_array(),
             })
             .collect();
@@ -1068,6 +1112,8 @@ impl GpuScene {
                 materials.len() * std::mem::size_of::<GpuMaterial>(),
             ),
             ("BVH nodes", bvh.nodes.len()),
+            ("BVH primitive references", bvh.prim_refs.len() * 4),
+            ("instances", bvh.instances.len() * 112),
             ("emitters", table.emitters.len() * 80),
             ("texels", textures.texels.len() * 4),
             ("textures", textures.textures.len() * 80),
@@ -1153,6 +1199,16 @@ impl GpuScene {
                 bytemuck::cast_slice(&medium_grids),
                 storage,
             )?,
+            instances: Buffer::with_data(
+                device,
+                "instances",
+                bytemuck::cast_slice(if bvh.instances.is_empty() {
+                    &NO_INSTANCES[..]
+                } else {
+                    &bvh.instances[..]
+                }),
+                storage,
+            )?,
             bvh_nodes,
             bvh_prims,
         })
@@ -1164,6 +1220,7 @@ impl GpuScene {
         let mut list = vec![
             (BINDING_SCENE, Resource::Buffer(self.scene_params.raw)),
             (BINDING_TRIANGLES, Resource::Buffer(self.triangles.raw)),
+            (BINDING_INSTANCES, Resource::Buffer(self.instances.raw)),
             (BINDING_SPHERES, Resource::Buffer(self.spheres.raw)),
             (BINDING_MATERIALS, Resource::Buffer(self.materials.raw)),
             (BINDING_EMITTERS, Resource::Buffer(self.emitters.raw)),

@@ -687,3 +687,155 @@ fn a_scene_beyond_the_devices_buffers_is_an_error_that_names_them() {
         );
     }
 }
+
+/// A triangle light (one emitter: the emitter table's order, which follows each BVH's
+/// leaf order, cannot differ between twins) over a floor and a wall, with instanced
+/// objects: a cube with smooth shading normals
+/// (rotated and non-uniformly scaled; mirrored), a glass wedge seen through a mirroring
+/// transform (its inside must stay inside) and a textured-uv panel, beside the world's
+/// own floor and light.
+fn instanced_scene() -> Scene {
+    let mut cube_p = Vec::new();
+    let mut cube_n = Vec::new();
+    for i in 0..8 {
+        let v = [
+            if i & 1 == 0 { -1.0 } else { 1.0 },
+            if i & 2 == 0 { -1.0 } else { 1.0 },
+            if i & 4 == 0 { -1.0 } else { 1.0 },
+        ];
+        let l = 3f32.sqrt();
+        cube_p.extend(v.map(|x: f32| x.to_string()));
+        cube_n.extend(v.map(|x| (x / l).to_string()));
+    }
+    let cube_i = "0 2 1 1 2 3 4 5 6 5 7 6 0 1 4 1 5 4 2 6 3 3 6 7 0 4 2 2 4 6 1 3 5 3 7 5";
+    let text = format!(
+        r#"LookAt 0 1.2 -5  0 0.8 0  0 1 0
+Camera "perspective" "float fov" 45
+Film "rgb" "integer xresolution" 40 "integer yresolution" 30 "string filename" "instanced.exr"
+Sampler "independent" "integer pixelsamples" 16
+Integrator "volpath" "integer maxdepth" 5
+WorldBegin
+AttributeBegin
+  AreaLightSource "diffuse" "rgb L" [6 6 6] "bool twosided" true
+  Material "diffuse" "rgb reflectance" [0 0 0]
+  Shape "trianglemesh" "point3 P" [-1.5 3 -1.5  1.5 3 -1.5  0 3 1.5] "integer indices" [0 1 2]
+AttributeEnd
+Material "diffuse" "rgb reflectance" [0.5 0.5 0.5]
+Shape "trianglemesh" "point3 P" [-4 0 -4  4 0 -4  4 0 4  -4 0 4  -4 4 4  4 4 4] "integer indices" [0 2 1 0 3 2 3 4 5 3 5 2]
+ObjectBegin "cube"
+  Material "diffuse" "rgb reflectance" [0.7 0.35 0.2]
+  Shape "trianglemesh" "point3 P" [{}] "normal N" [{}] "integer indices" [{cube_i}]
+ObjectEnd
+ObjectBegin "wedge"
+  Material "dielectric" "float eta" 1.5
+  Shape "trianglemesh" "point3 P" [0 0 0  1 0 0  0 1 0  0 0 1] "integer indices" [0 2 1  0 1 3  0 3 2  1 2 3]
+ObjectEnd
+ObjectBegin "panel"
+  Material "coateddiffuse" "rgb reflectance" [0.2 0.5 0.7] "float roughness" 0.1
+  Shape "trianglemesh" "point3 P" [0 0 0  1 0 0  1 1 0  0 1 0] "point2 uv" [0 0 1 0 1 1 0 1] "integer indices" [0 1 2 0 2 3]
+ObjectEnd
+AttributeBegin
+  Translate -1.3 0.5 0.5
+  Rotate 30 0 1 0
+  Scale 0.4 0.5 0.3
+  ObjectInstance "cube"
+AttributeEnd
+AttributeBegin
+  Translate 1.2 0.45 0.2
+  Rotate -20 0 1 0
+  Scale -0.45 0.45 0.6
+  ObjectInstance "cube"
+AttributeEnd
+AttributeBegin
+  Translate 0.2 0.01 -1
+  Scale -1.2 1.1 0.9
+  ObjectInstance "wedge"
+AttributeEnd
+AttributeBegin
+  Translate -0.5 0.2 1.5
+  Rotate 15 0 0 1
+  Scale 1.5 1.2 1
+  ObjectInstance "panel"
+AttributeEnd
+"#,
+        cube_p.join(" "),
+        cube_n.join(" ")
+    );
+    lightpath::scene::parse_pbrt_str(&text, "instanced.pbrt").expect("the instanced scene parses")
+}
+
+/// How close two renders of one seed are: the fraction of pixels within 1e-3 (relative)
+/// and the images' means.
+fn twin_agreement(a: &lightpath::io::Image, b: &lightpath::io::Image) -> (f64, [f64; 3], [f64; 3]) {
+    let close = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(p, q)| (0..3).all(|c| (p[c] - q[c]).abs() <= 1e-3 * (1.0 + p[c].abs())))
+        .count();
+    (close as f64 / a.pixels.len() as f64, a.mean(), b.mean())
+}
+
+/// Instances stay instances (issue 30): an instanced scene renders the image of its
+/// flattened twin (`Scene::flattened`, each instance's triangles copied into the world)
+/// with every backend's PT, with BDPT (and each of its strategies alone) and with MMLT:
+/// for the same seed the paths are the same but for hit-point rounding (object space
+/// against the copies' world space), so almost every pixel is the same.
+#[test]
+fn an_instanced_scene_renders_as_its_flattened_twin() {
+    let scene = instanced_scene();
+    assert_eq!((scene.objects.len(), scene.instances.len()), (3, 4));
+    let flat = scene.flattened();
+    let check = |what: &str, a: &lightpath::io::Image, b: &lightpath::io::Image, min_same: f64| {
+        let (same, ma, mb) = twin_agreement(a, b);
+        eprintln!(
+            "{what}: {:.1}% of pixels the same, means {ma:?} vs {mb:?}",
+            same * 100.0
+        );
+        assert!(
+            same >= min_same,
+            "{what}: only {:.1}% of pixels as the flattened twin's",
+            same * 100.0
+        );
+        for c in 0..3 {
+            assert!(
+                (ma[c] - mb[c]).abs() <= 0.005 * mb[c].abs() + 1e-6,
+                "{what}: means {ma:?} (instanced) vs {mb:?} (flattened)"
+            );
+        }
+        assert!(ma[0] > 0.01, "{what}: the image is black");
+    };
+    for accel in [Bvh, Bvh2, RayQuery] {
+        let s = with_integrator(scene.clone(), IntegratorKind::PathTracer, 16);
+        let f = with_integrator(flat.clone(), IntegratorKind::PathTracer, 16);
+        check(
+            &format!("PT {accel:?}"),
+            &render(&s, 3, accel),
+            &render(&f, 3, accel),
+            0.97,
+        );
+    }
+    let s = with_integrator(scene.clone(), IntegratorKind::Bdpt, 16);
+    let f = with_integrator(flat.clone(), IntegratorKind::Bdpt, 16);
+    check("BDPT", &render(&s, 5, Bvh), &render(&f, 5, Bvh), 0.95);
+    let a = strategy_images(&scene, 8, 3, 9);
+    let b = strategy_images(&flat, 8, 3, 9);
+    for ((sa, ta, ia), (sb, tb, ib)) in a.iter().zip(&b) {
+        assert_eq!((sa, ta), (sb, tb));
+        let (same, ma, mb) = twin_agreement(ia, ib);
+        assert!(
+            same >= 0.95,
+            "strategy s={sa} t={ta}: only {:.1}% of pixels the same",
+            same * 100.0
+        );
+        for c in 0..3 {
+            assert!(
+                (ma[c] - mb[c]).abs() <= 0.01 * mb[c].abs() + 1e-6,
+                "strategy s={sa} t={ta}: means {ma:?} vs {mb:?}"
+            );
+        }
+    }
+    let s = with_mmlt(scene, 16);
+    let f = with_mmlt(flat, 16);
+    check("MMLT", &render(&s, 5, Bvh), &render(&f, 5, Bvh), 0.6);
+}

@@ -72,6 +72,8 @@
 // The gbuffer film's stages (lib/gbuffer.glsl): per pixel of a band, the surface its
 // camera sample found (GpuGbufferSurface), for the albedo stage of its material class.
 #define BINDING_GBUFFER_SURFACES 36
+// The instances of objects (GpuInstance), with FEATURE_INSTANCES.
+#define BINDING_INSTANCES 37
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -190,8 +192,11 @@
 #define FEATURE_ENVIRONMENTS 268435456
 // pbrt-v4's realistic camera (camera.glsl's lens system).
 #define FEATURE_REALISTIC_CAMERA 536870912
+// Instanced objects (BINDING_INSTANCES): the BVH walks enter an object's own tree under
+// its instance's transform, and triangle ids past the world's are instances' triangles.
+#define FEATURE_INSTANCES 1073741824
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 1073741823
+#define FEATURE_ALL 2147483647
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -410,7 +415,23 @@
 #define MAX_PASS_THROUGH 64
 
 #ifdef GL_core_profile
-// A world-space triangle. v0.w: material index, v1.w: emitter index (NO_EMITTER if
+// An instance of an object (FEATURE_INSTANCES): its transform both ways (rows) and
+// info: x the id of its first triangle (triangle ids of the instances follow the world's,
+// instance after instance, each in its object's order), y that id less the object's first
+// triangle record (a triangle id of the instance less y is the record; the object tree's
+// leaves hold records), z the root node of the object's tree (storage-buffer BVHs), w 1
+// where the transform swaps handedness (the geometric normal is flipped back).
+struct GpuInstance {
+    vec4 w2o0;
+    vec4 w2o1;
+    vec4 w2o2;
+    vec4 o2w0;
+    vec4 o2w1;
+    vec4 o2w2;
+    uvec4 info;
+};
+
+// A world-space triangle (an object's: in object space). v0.w: material index, v1.w: emitter index (NO_EMITTER if
 // none), v2.w: its attributes (NO_ATTRIBUTES if none), all as uint bits.
 struct GpuTriangle {
     vec4 v0;
@@ -581,8 +602,8 @@ struct SceneParams {
     vec4 cam_window;     // the film on the plane at distance 1 ahead: x0, x1 along cam_right, y0, y1 along cam_up
     float lens_radius;   // a thin lens's radius (0: a pinhole) ..
     float focal_distance;// .. and the distance of its plane of focus
-    uint reserved2;
-    uint reserved3;
+    uint flat_triangle_count; // triangles of the world itself: ids below it; instances' follow
+    uint instance_count;      // GpuInstance records (FEATURE_INSTANCES)
 };
 
 // A vertex of a BDPT light subpath (stored per pixel, read back by the camera subpath).

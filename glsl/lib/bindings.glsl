@@ -6,6 +6,7 @@
 layout(std140, set = 0, binding = BINDING_SCENE) uniform SceneBlock { SceneParams scene; };
 layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer TriangleBuffer { GpuTriangle triangles[]; };
 layout(std430, set = 0, binding = BINDING_SPHERES) readonly buffer SphereBuffer { GpuSphere spheres[]; };
+layout(std430, set = 0, binding = BINDING_INSTANCES) readonly buffer InstanceBuffer { GpuInstance instances[]; };
 layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer MaterialBuffer { GpuMaterial materials[]; };
 layout(std430, set = 0, binding = BINDING_EMITTERS) readonly buffer EmitterBuffer { GpuEmitter emitters[]; };
 layout(std430, set = 0, binding = BINDING_EMITTER_CDF) readonly buffer EmitterCdfBuffer { uint emitter_cdf[]; };

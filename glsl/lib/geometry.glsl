@@ -149,12 +149,76 @@ vec2 sphere_uv(vec3 q) {
     return vec2(phi * (0.5 / 3.14159265358979), 1.0 - acos(clamp(q.z, -1.0, 1.0)) * (1.0 / 3.14159265358979));
 }
 
+// Instanced objects (FEATURE_INSTANCES). Triangle ids below scene.flat_triangle_count are
+// the world's triangles (their records); the ids up to scene.triangle_count are the
+// instances' triangles, instance after instance (GpuInstance.info.x its first). A
+// surface of an instance is made of its triangle carried to the world: corners by the
+// instance's transform, shading normals by its inverse transpose (each normalized, as the
+// flattened twin's), the geometric normal flipped back under a mirroring transform.
+#define NO_INSTANCE 0xffffffffu
+
+// The instance whose triangle ids hold id: the last whose first id is at most id.
+uint instance_of(uint id) {
+    uint lo = 0u;
+    uint hi = scene.instance_count;
+    while (hi - lo > 1u) {
+        uint mid = (lo + hi) >> 1;
+        if (instances[mid].info.x <= id) lo = mid;
+        else hi = mid;
+    }
+    return lo;
+}
+
+vec3 instance_point(uint inst, vec3 p) {
+    vec4 q = vec4(p, 1.0);
+    return vec3(dot(instances[inst].o2w0, q), dot(instances[inst].o2w1, q), dot(instances[inst].o2w2, q));
+}
+
+// A normal to the world: the transpose of world-to-object's upper 3x3 times n, normalized.
+vec3 instance_normal(uint inst, vec3 n) {
+    vec3 m = n.x * instances[inst].w2o0.xyz + n.y * instances[inst].w2o1.xyz + n.z * instances[inst].w2o2.xyz;
+    float l = length(m);
+    return l > 0.0 ? m / l : vec3(0.0);
+}
+
+// The triangle of id `id` in the world (corners; the w fields as its record holds them)
+// and the instance it is seen through (NO_INSTANCE: a world triangle).
+GpuTriangle world_triangle(uint id, out uint inst) {
+    inst = NO_INSTANCE;
+    if (!has_feature(FEATURE_INSTANCES) || id < scene.flat_triangle_count) return triangles[id];
+    inst = instance_of(id);
+    GpuTriangle tri = triangles[id - instances[inst].info.y];
+    tri.v0.xyz = instance_point(inst, tri.v0.xyz);
+    tri.v1.xyz = instance_point(inst, tri.v1.xyz);
+    tri.v2.xyz = instance_point(inst, tri.v2.xyz);
+    return tri;
+}
+
+// The attribute record a, its shading normals carried to the world through inst.
+GpuTriangleAttributes world_attributes(uint a, uint inst) {
+    GpuTriangleAttributes at = triangle_attributes[a];
+    if (has_feature(FEATURE_INSTANCES) && inst != NO_INSTANCE && at.uv2.z != 0.0) {
+        at.n0.xyz = instance_normal(inst, at.n0.xyz);
+        at.n1.xyz = instance_normal(inst, at.n1.xyz);
+        at.n2.xyz = instance_normal(inst, at.n2.xyz);
+    }
+    return at;
+}
+
+// The unit geometric normal of a world triangle seen through inst.
+vec3 world_triangle_normal(GpuTriangle tri, uint inst) {
+    vec3 ng = normalize(cross(tri.v1.xyz - tri.v0.xyz, tri.v2.xyz - tri.v0.xyz));
+    if (has_feature(FEATURE_INSTANCES) && inst != NO_INSTANCE && instances[inst].info.w != 0u) ng = -ng;
+    return ng;
+}
+
 // The shading geometry of the primitive at s for its material's bump or normal map (s.ns
 // as the primitive gives it).
 ShadingGeometry map_geometry(Hit hit, Surface s) {
     uint ntri = scene.triangle_count;
     if (hit.prim < ntri) {
-        GpuTriangle tri = triangles[hit.prim];
+        uint inst;
+        GpuTriangle tri = world_triangle(hit.prim, inst);
         uint a = floatBitsToUint(tri.v2.w);
         vec2 uv0 = vec2(0.0);
         vec2 uv1 = vec2(1.0, 0.0);
@@ -164,7 +228,7 @@ ShadingGeometry map_geometry(Hit hit, Surface s) {
         vec3 n1 = vec3(0.0);
         vec3 n2 = vec3(0.0);
         if (a != NO_ATTRIBUTES) {
-            GpuTriangleAttributes at = triangle_attributes[a];
+            GpuTriangleAttributes at = world_attributes(a, inst);
             uv0 = at.uv01.xy;
             uv1 = at.uv01.zw;
             uv2 = at.uv2.xy;
@@ -327,7 +391,9 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
 // stage that keeps the surface in memory rather than finding it again.
 uint primitive_emitter(uint prim) {
     uint ntri = scene.triangle_count;
-    return prim < ntri ? floatBitsToUint(triangles[prim].v1.w) : spheres[prim - ntri].info.y;
+    if (prim >= ntri) return spheres[prim - ntri].info.y;
+    // (An instance's triangles emit nothing: emitting shapes are flattened.)
+    return has_feature(FEATURE_INSTANCES) && prim >= scene.flat_triangle_count ? NO_EMITTER : floatBitsToUint(triangles[prim].v1.w);
 }
 
 Surface surface_at(Hit hit, vec3 o, vec3 d) {
@@ -335,11 +401,13 @@ Surface surface_at(Hit hit, vec3 o, vec3 d) {
     s.prim = hit.prim;
     uint ntri = scene.triangle_count;
     if (hit.prim < ntri) {
-        GpuTriangle tri = triangles[hit.prim];
+        uint inst;
+        GpuTriangle tri = world_triangle(hit.prim, inst);
         vec3 e1 = tri.v1.xyz - tri.v0.xyz;
         vec3 e2 = tri.v2.xyz - tri.v0.xyz;
         s.p = tri.v0.xyz + hit.bary.x * e1 + hit.bary.y * e2;
         s.ng = normalize(cross(e1, e2));
+        if (has_feature(FEATURE_INSTANCES) && inst != NO_INSTANCE && instances[inst].info.w != 0u) s.ng = -s.ng;
         s.material = floatBitsToUint(tri.v0.w);
         s.emitter = floatBitsToUint(tri.v1.w);
         uint a = floatBitsToUint(tri.v2.w);
@@ -349,7 +417,7 @@ Surface surface_at(Hit hit, vec3 o, vec3 d) {
             // pbrt's default (0,0), (1,0), (1,1).
             s.uv = vec2(hit.bary.x + hit.bary.y, hit.bary.y);
         } else {
-            GpuTriangleAttributes at = triangle_attributes[a];
+            GpuTriangleAttributes at = world_attributes(a, inst);
             s.uv = b0 * at.uv01.xy + hit.bary.x * at.uv01.zw + hit.bary.y * at.uv2.xy;
             if (at.uv2.z != 0.0) {
                 vec3 ns = b0 * at.n0.xyz + hit.bary.x * at.n1.xyz + hit.bary.y * at.n2.xyz;
@@ -376,8 +444,9 @@ Surface surface_at(Hit hit, vec3 o, vec3 d) {
 // through media asks of the surfaces it crosses.
 uint primitive_material(Hit hit, vec3 o, vec3 d, out vec3 ng) {
     if (hit.prim < scene.triangle_count) {
-        GpuTriangle tri = triangles[hit.prim];
-        ng = normalize(cross(tri.v1.xyz - tri.v0.xyz, tri.v2.xyz - tri.v0.xyz));
+        uint inst;
+        GpuTriangle tri = world_triangle(hit.prim, inst);
+        ng = world_triangle_normal(tri, inst);
         return floatBitsToUint(tri.v0.w);
     }
     GpuSphere sp = spheres[hit.prim - scene.triangle_count];

@@ -8,6 +8,10 @@ layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodeBuff
 #include "trace_bvh_common.glsl"
 
 #define BVH_STACK_SIZE 64
+// Stack entries past the nodes' (FEATURE_INSTANCES): an instance waiting to be walked
+// (BVH_INSTANCE_ENTRY + its index), and the end of the instance being walked.
+#define BVH_INSTANCE_ENTRY 0x80000000u
+#define BVH_INSTANCE_EXIT 0xffffffffu
 
 // Entry distance of the ray into a node's box, or INF when it misses within [0, tmax].
 float bvh_box_entry(BvhNode node, vec3 o, vec3 inv_d, float tmax) {
@@ -30,6 +34,11 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     hit.t = 0.0;
     hit.prim = 0u;
     hit.bary = vec2(0.0);
+    // The instance being walked, the world ray to go back to, the hits' id shift.
+    uint inst = NO_INSTANCE;
+    vec3 world_o = o;
+    vec3 world_d = d;
+    uint id_shift = 0u;
     BvhNode root = bvh_nodes[0];
     // An empty scene is one empty leaf with an inverted box.
     if (root.min_left.x > root.max_count.x) return false;
@@ -41,7 +50,12 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
         if (count > 0u) {
             for (uint i = 0u; i < count; ++i) {
                 uint prim = bvh_prims[first + i];
+                if (bvh_is_instance(prim, inst)) {
+                    if (sp < BVH_STACK_SIZE) stack[sp++] = BVH_INSTANCE_ENTRY + (prim - scene.flat_triangle_count);
+                    continue;
+                }
                 if (bvh_visit_prim(prim, o, d, closest, hit)) {
+                    hit.prim += id_shift;
                     found = true;
                     if (any_hit) return true;
                 }
@@ -62,6 +76,22 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
         bool next = false;
         while (sp > 0u) {
             uint candidate = stack[--sp];
+            if (has_feature(FEATURE_INSTANCES) && candidate >= BVH_INSTANCE_ENTRY) {
+                o = world_o;
+                d = world_d;
+                inst = NO_INSTANCE;
+                id_shift = 0u;
+                if (candidate != BVH_INSTANCE_EXIT) {
+                    // (The exit takes the entry's place on the stack.)
+                    inst = candidate - BVH_INSTANCE_ENTRY;
+                    stack[sp++] = BVH_INSTANCE_EXIT;
+                    bvh_ray_to_object(inst, o, d);
+                    id_shift = instances[inst].info.y;
+                    candidate = instances[inst].info.z;
+                }
+                inv_d = bvh_safe_inverse(d);
+                if (inst == NO_INSTANCE) continue;
+            }
             if (bvh_box_entry(bvh_nodes[candidate], o, inv_d, closest) != INF) {
                 node_index = candidate;
                 next = true;

@@ -58,6 +58,23 @@ bool bvh_visit_prim(uint prim, vec3 o, vec3 d, inout float closest, inout Hit hi
     return true;
 }
 
+// Two levels (FEATURE_INSTANCES): the tree at node 0 holds the world's primitives and the
+// instances, a leaf's reference scene.flat_triangle_count + k being instance k; each
+// object's tree (its root GpuInstance.info.z) holds its triangles' records. A walk meeting
+// an instance walks the object's tree with the ray carried to object space (o by the
+// instance's world-to-object transform, d by its linear part, unnormalized: t is the same
+// in both spaces), then goes on with the world ray; a hit's id is its record + info.y.
+bool bvh_is_instance(uint prim, uint inst) {
+    return has_feature(FEATURE_INSTANCES) && inst == NO_INSTANCE && prim >= scene.flat_triangle_count
+        && prim < scene.triangle_count;
+}
+
+void bvh_ray_to_object(uint inst, inout vec3 o, inout vec3 d) {
+    vec4 q = vec4(o, 1.0);
+    o = vec3(dot(instances[inst].w2o0, q), dot(instances[inst].w2o1, q), dot(instances[inst].w2o2, q));
+    d = vec3(dot(instances[inst].w2o0.xyz, d), dot(instances[inst].w2o1.xyz, d), dot(instances[inst].w2o2.xyz, d));
+}
+
 // Each walk (trace_bvh2.glsl, trace_cwbvh.glsl) defines its traversal; the kernels'
 // visibility interface (trace.glsl) is the same over either.
 bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit);

@@ -76,12 +76,38 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     hit.t = 0.0;
     hit.prim = 0u;
     hit.bary = vec2(0.0);
+    // The instance being walked, the world ray to go back to, the hits' id shift. On
+    // entering an instance the rest of the leaf and of the node wait on the stack under
+    // the instance's end (an entry whose y is 0; a leaf's rest has only y's low 24 bits,
+    // a node group some of its top 8).
+    uint inst = NO_INSTANCE;
+    vec3 world_o = o;
+    vec3 world_d = d;
+    uint id_shift = 0u;
     while (true) {
         while (prim_group.y != 0u) {
             uint bit = uint(findMSB(prim_group.y));
             prim_group.y &= ~(1u << bit);
             uint prim = bvh_prims[prim_group.x + bit];
+            if (bvh_is_instance(prim, inst)) {
+                // (The host checks that the two trees' depths fit the stack.)
+                if (sp + 3u > CWBVH_STACK_SIZE) continue;
+                if (prim_group.y != 0u) stack[sp++] = prim_group;
+                if ((node_group.y & 0xff000000u) != 0u) stack[sp++] = node_group;
+                stack[sp++] = uvec2(0u);
+                inst = prim - scene.flat_triangle_count;
+                bvh_ray_to_object(inst, o, d);
+                inv_d = bvh_safe_inverse(d);
+                neg = lessThan(inv_d, vec3(0.0));
+                oct_inv4 = (d.x < 0.0 ? 0u : 0x04040404u) | (d.y < 0.0 ? 0u : 0x02020202u) |
+                           (d.z < 0.0 ? 0u : 0x01010101u);
+                id_shift = instances[inst].info.y;
+                node_group = uvec2(instances[inst].info.z, 0x80000000u);
+                prim_group = uvec2(0u);
+                break;
+            }
             if (bvh_visit_prim(prim, o, d, closest, hit)) {
+                hit.prim += id_shift;
                 found = true;
                 if (any_hit) return true;
             }
@@ -100,7 +126,25 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
         }
         if (prim_group.y == 0u && (node_group.y & 0xff000000u) == 0u) {
             if (sp == 0u) break;
-            node_group = stack[--sp];
+            uvec2 g = stack[--sp];
+            if (has_feature(FEATURE_INSTANCES) && (g.y & 0xff000000u) == 0u) {
+                if (g.y == 0u) {
+                    // The instance's end: the world ray again.
+                    o = world_o;
+                    d = world_d;
+                    inv_d = bvh_safe_inverse(d);
+                    neg = lessThan(inv_d, vec3(0.0));
+                    oct_inv4 = (d.x < 0.0 ? 0u : 0x04040404u) | (d.y < 0.0 ? 0u : 0x02020202u) |
+                               (d.z < 0.0 ? 0u : 0x01010101u);
+                    inst = NO_INSTANCE;
+                    id_shift = 0u;
+                    node_group.y = 0u;
+                } else {
+                    prim_group = g;
+                }
+            } else {
+                node_group = g;
+            }
         }
     }
     return found;

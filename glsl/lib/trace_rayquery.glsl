@@ -1,4 +1,6 @@
-// Visibility by VK_KHR_ray_query. Triangles are one BLAS instance (identity transform);
+// Visibility by VK_KHR_ray_query. The world's triangles are one BLAS instance (identity
+// transform); each instance of an object (FEATURE_INSTANCES) an instance of the object's
+// BLAS (opaque: its triangles have no alpha) under its transform;
 // each sphere is an instance of a unit-cube AABB BLAS under the sphere's transform,
 // whose custom index is the sphere's index, intersected exactly here in world space.
 // With alpha cut-outs (FEATURE_ALPHA) the triangles are not opaque: each candidate is
@@ -43,6 +45,12 @@ bool trace_ray(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     if (kind == gl_RayQueryCommittedIntersectionTriangleEXT) {
         hit.t = rayQueryGetIntersectionTEXT(rq, true);
         hit.prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true));
+        // An object's instance (FEATURE_INSTANCES) has custom index 1 + its index; the
+        // world's triangles 0.
+        if (has_feature(FEATURE_INSTANCES)) {
+            uint c = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
+            if (c != 0u) hit.prim += instances[c - 1u].info.x;
+        }
         hit.bary = rayQueryGetIntersectionBarycentricsEXT(rq, true);
         return true;
     }

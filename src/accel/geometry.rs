@@ -79,6 +79,27 @@ pub fn triangle_bounds(v: [Vec3; 3]) -> Aabb {
     }
 }
 
+/// A box holding `b` under the affine `object_to_world`: its eight corners' box, widened
+/// by a few ulps of its largest coordinate so that the corners' rounding cannot leave out
+/// a point of the transformed box (an instance's box in the top tree).
+pub fn transformed_bounds(b: &Aabb, object_to_world: &Mat4) -> Aabb {
+    let mut out = Aabb::empty();
+    for i in 0..8 {
+        let c = Vec3::new(
+            if i & 1 == 0 { b.min.x } else { b.max.x },
+            if i & 2 == 0 { b.min.y } else { b.max.y },
+            if i & 4 == 0 { b.min.z } else { b.max.z },
+        );
+        out.grow(object_to_world.transform_point3(c));
+    }
+    let m = out.min.abs().max(out.max.abs()).max_element();
+    let pad = Vec3::splat(8.0 * f32::EPSILON * m);
+    Aabb {
+        min: out.min - pad,
+        max: out.max + pad,
+    }
+}
+
 /// Exact bounds of the unit sphere under the affine `object_to_world`: an ellipsoid
 /// centred at the translation whose half-extent along world axis `i` is the length of
 /// row `i` of the 3×3 linear part (the support function of the ellipsoid).

@@ -7,7 +7,8 @@ pub mod cwbvh;
 pub mod geometry;
 pub(crate) mod testing;
 
-use crate::scene::Scene;
+use crate::abi::GpuInstance;
+use crate::scene::{Scene, Triangle};
 use bvh::{Aabb, Bvh};
 use cwbvh::Cwbvh;
 
@@ -27,66 +28,100 @@ pub struct BvhData {
     pub prim_refs: Vec<u32>,
     /// The scene's index, before reordering, of each triangle (in the new order).
     pub triangle_order: Vec<u32>,
+    /// Each object's: its triangles' indices before reordering, in the new order.
+    pub object_orders: Vec<Vec<u32>>,
+    /// The instances' records (abi.h `GpuInstance`), in the scene's order.
+    pub instances: Vec<GpuInstance>,
+    /// Triangle ids: the world's, then each instance's (`SceneParams::triangle_count`).
+    pub triangle_ids: u32,
 }
 
-/// Build the tree over the scene's triangles and spheres, and reorder the scene's
-/// triangles into its leaf order, so that every backend (and lavapipe's BLAS builder,
-/// which splits index ranges without sorting) sees spatially coherent geometry.
-/// Primitive ids: triangles `0..n`, then spheres `n..n+m`.
-pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
-    let ntri = scene.triangles.len();
-    let mut bounds: Vec<Aabb> = scene
-        .triangles
-        .iter()
-        .map(|t| geometry::triangle_bounds(t.v))
-        .collect();
-    // (Hidden spheres — invisible lights — are left out: no ray meets them. `ids` maps
-    // the builders' primitive indices back to primitive ids.)
-    let mut ids: Vec<u32> = (0..ntri as u32).collect();
-    for (i, s) in scene.spheres.iter().enumerate() {
-        if !s.hidden {
-            bounds.push(geometry::sphere_world_bounds(&s.object_to_world));
-            ids.push((ntri + i) as u32);
+/// The largest id space of triangles and spheres: ids above are the kernels' markers
+/// (abi.h MEDIUM_HIT, NO_HIT) and the storage-buffer walks' instance entries.
+pub const MAX_PRIMITIVE_IDS: u64 = 0xffff_ff00;
+
+/// A tree of either kind, before it is laid out in bytes.
+enum Tree {
+    Binary(Vec<bvh::BvhNode>),
+    Compressed(Vec<obvhs::cwbvh::node::CwBvhNode>),
+}
+
+struct Built {
+    tree: Tree,
+    prim_refs: Vec<u32>,
+    depth: usize,
+}
+
+impl Tree {
+    fn len(&self) -> usize {
+        match self {
+            Tree::Binary(n) => n.len(),
+            Tree::Compressed(n) => n.len(),
         }
     }
-    let (nodes, prim_refs) = match kind {
-        BvhKind::Binary => {
-            let bvh = Bvh::build(&bounds);
-            let depth = bvh_depth(&bvh);
-            if depth > MAX_BVH_DEPTH {
-                anyhow::bail!(
-                    "the BVH is {depth} levels deep; the kernels' traversal stack holds {MAX_BVH_DEPTH}"
-                );
+
+    /// Moves the tree to node `nodes` and primitive reference `refs` of the buffers.
+    fn rebase(&mut self, nodes: u32, refs: u32) {
+        match self {
+            Tree::Binary(list) => {
+                for n in list {
+                    n.left_or_first += if n.count == 0 { nodes } else { refs };
+                }
             }
-            (bytemuck::cast_slice(&bvh.nodes).to_vec(), bvh.prim_refs)
+            Tree::Compressed(list) => {
+                for n in list {
+                    n.child_base_idx += nodes;
+                    n.primitive_base_idx += refs;
+                }
+            }
+        }
+    }
+
+    fn bytes(&self) -> &[u8] {
+        match self {
+            Tree::Binary(n) => bytemuck::cast_slice(n),
+            Tree::Compressed(n) => bytemuck::cast_slice(n),
+        }
+    }
+}
+
+fn build_tree(bounds: &[Aabb], kind: BvhKind) -> Built {
+    match kind {
+        BvhKind::Binary => {
+            let bvh = Bvh::build(bounds);
+            let depth = bvh_depth(&bvh);
+            Built {
+                tree: Tree::Binary(bvh.nodes),
+                prim_refs: bvh.prim_refs,
+                depth,
+            }
         }
         BvhKind::Compressed => {
-            let bvh = Cwbvh::build(&bounds);
+            let bvh = Cwbvh::build(bounds);
             let depth = bvh.depth();
-            if depth > cwbvh::STACK_SIZE {
-                anyhow::bail!(
-                    "the compressed BVH is {depth} levels deep; the kernels' traversal stack holds {} (try --accel bvh2)",
-                    cwbvh::STACK_SIZE
-                );
+            Built {
+                tree: Tree::Compressed(bvh.nodes),
+                prim_refs: bvh.prim_refs,
+                depth,
             }
-            (bytemuck::cast_slice(&bvh.nodes).to_vec(), bvh.prim_refs)
         }
-    };
-    let prim_refs = prim_refs.into_iter().map(|p| ids[p as usize]).collect();
-    let mut data = BvhData {
-        nodes,
-        prim_refs,
-        triangle_order: Vec::with_capacity(ntri),
-    };
-    // Leaf order of the triangles.
+    }
+}
+
+/// The leaf order of `triangles` by `refs` (indices into them; other values, at or above
+/// `triangles.len()`, are left alone): the triangles reordered, `refs` renumbered, and the
+/// old index of each triangle in the new order.
+fn reorder(triangles: &mut Vec<Triangle>, refs: &mut [u32]) -> anyhow::Result<Vec<u32>> {
+    let ntri = triangles.len();
     let mut new_index = vec![u32::MAX; ntri];
     let mut reordered = Vec::with_capacity(ntri);
-    for &p in &data.prim_refs {
+    let mut order = Vec::with_capacity(ntri);
+    for &p in refs.iter() {
         let p = p as usize;
         if p < ntri && new_index[p] == u32::MAX {
             new_index[p] = reordered.len() as u32;
-            reordered.push(scene.triangles[p]);
-            data.triangle_order.push(p as u32);
+            reordered.push(triangles[p]);
+            order.push(p as u32);
         }
     }
     if reordered.len() != ntri {
@@ -95,13 +130,170 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
             ntri - reordered.len()
         );
     }
-    scene.triangles = reordered;
-    for p in data.prim_refs.iter_mut() {
+    *triangles = reordered;
+    for p in refs.iter_mut() {
         if (*p as usize) < ntri {
             *p = new_index[*p as usize];
         }
     }
-    Ok(data)
+    Ok(order)
+}
+
+/// Build the trees over the scene's triangles, spheres and instances, and reorder the
+/// scene's triangles (the world's, each object's) into their leaf order, so that every
+/// backend (and lavapipe's BLAS builder, which splits index ranges without sorting) sees
+/// spatially coherent geometry.
+///
+/// Primitive ids: the world's triangles `0..n`, then each instance's triangles (its
+/// object's, in their order; `GpuInstance::info[0]` the first), then spheres. Triangle
+/// records (the triangle buffer): the world's, then each object's once. One tree at node
+/// 0 holds the world's primitives and the instances (instance k's reference `n + k`: never
+/// a primitive of the top tree, whose triangle ids stop at n); each object's tree follows,
+/// its leaves holding the records of the object's triangles.
+pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
+    let ntri = scene.triangles.len();
+    // The objects' records and the instances' ids.
+    let mut object_first = Vec::with_capacity(scene.objects.len());
+    let mut records = ntri as u64;
+    for o in &scene.objects {
+        object_first.push(records);
+        records += o.triangles.len() as u64;
+    }
+    let mut instance_first = Vec::with_capacity(scene.instances.len());
+    let mut ids = ntri as u64;
+    for i in &scene.instances {
+        let n = scene.objects[i.object as usize].triangles.len() as u64;
+        if n == 0 {
+            anyhow::bail!("internal error: an instance of an object without triangles");
+        }
+        instance_first.push(ids);
+        ids += n;
+    }
+    if ids + scene.spheres.len() as u64 > MAX_PRIMITIVE_IDS {
+        anyhow::bail!(
+            "the scene draws {ids} triangles (its instances' counted once per instance) and {} spheres: more than the {MAX_PRIMITIVE_IDS} primitives a 32-bit id names",
+            scene.spheres.len()
+        );
+    }
+    let triangle_ids = ids as u32;
+    // The objects' trees first: the top tree bounds each instance by its object's box.
+    let mut object_trees = Vec::with_capacity(scene.objects.len());
+    let mut object_orders = Vec::with_capacity(scene.objects.len());
+    let mut object_bounds = Vec::with_capacity(scene.objects.len());
+    for o in scene.objects.iter_mut() {
+        let bounds: Vec<Aabb> = o
+            .triangles
+            .iter()
+            .map(|t| geometry::triangle_bounds(t.v))
+            .collect();
+        object_bounds.push(bounds.iter().fold(Aabb::empty(), |a, &b| a.union(b)));
+        let mut built = build_tree(&bounds, kind);
+        object_orders.push(reorder(&mut o.triangles, &mut built.prim_refs)?);
+        object_trees.push(built);
+    }
+    // The top tree. (Hidden spheres — invisible lights — are left out: no ray meets
+    // them. `ids` maps the builder's primitive indices back to references.)
+    let mut bounds: Vec<Aabb> = scene
+        .triangles
+        .iter()
+        .map(|t| geometry::triangle_bounds(t.v))
+        .collect();
+    let mut refs: Vec<u32> = (0..ntri as u32).collect();
+    for (i, s) in scene.spheres.iter().enumerate() {
+        if !s.hidden {
+            bounds.push(geometry::sphere_world_bounds(&s.object_to_world));
+            refs.push(triangle_ids + i as u32);
+        }
+    }
+    for (k, inst) in scene.instances.iter().enumerate() {
+        bounds.push(geometry::transformed_bounds(
+            &object_bounds[inst.object as usize],
+            &inst.object_to_world,
+        ));
+        refs.push((ntri + k) as u32);
+    }
+    let mut top = build_tree(&bounds, kind);
+    top.prim_refs = top.prim_refs.iter().map(|&p| refs[p as usize]).collect();
+    let deepest_object = object_trees.iter().map(|t| t.depth).max().unwrap_or(0);
+    match kind {
+        BvhKind::Binary => {
+            // A walk holds at most a node per level of each tree and a leaf's instances.
+            let deepest = top.depth
+                + deepest_object
+                + bvh::MAX_LEAF_SIZE as usize * (deepest_object > 0) as usize;
+            if deepest > MAX_BVH_DEPTH {
+                anyhow::bail!(
+                    "the BVH is {deepest} levels deep (its instances' trees included); the kernels' traversal stack holds {MAX_BVH_DEPTH}"
+                );
+            }
+        }
+        BvhKind::Compressed => {
+            // Entering an instance keeps a leaf's and a node's rest and the instance's end.
+            let deepest = top.depth
+                + if deepest_object > 0 {
+                    deepest_object + 3
+                } else {
+                    0
+                };
+            if deepest > cwbvh::STACK_SIZE {
+                anyhow::bail!(
+                    "the compressed BVH is {deepest} levels deep (its instances' trees included); the kernels' traversal stack holds {} (try --accel bvh2)",
+                    cwbvh::STACK_SIZE
+                );
+            }
+        }
+    }
+    let triangle_order = reorder(&mut scene.triangles, &mut top.prim_refs)?;
+    // Lay the trees out: the top tree at node 0, each object's after it.
+    let mut nodes = top.tree.bytes().to_vec();
+    let mut prim_refs = top.prim_refs;
+    let mut node_count = top.tree.len() as u32;
+    let mut roots = Vec::with_capacity(object_trees.len());
+    for (o, mut t) in object_trees.into_iter().enumerate() {
+        let first = object_first[o] as u32;
+        t.tree.rebase(node_count, prim_refs.len() as u32);
+        roots.push(node_count);
+        node_count += t.tree.len() as u32;
+        nodes.extend_from_slice(t.tree.bytes());
+        prim_refs.extend(t.prim_refs.iter().map(|&p| first + p));
+    }
+    let instances = scene
+        .instances
+        .iter()
+        .enumerate()
+        .map(|(k, inst)| {
+            let o = inst.object as usize;
+            let o2w = inst.object_to_world.transpose().to_cols_array_2d(); // rows
+            let w2o = inst
+                .object_to_world
+                .inverse()
+                .transpose()
+                .to_cols_array_2d();
+            let first_id = instance_first[k] as u32;
+            GpuInstance {
+                w2o0: w2o[0],
+                w2o1: w2o[1],
+                w2o2: w2o[2],
+                o2w0: o2w[0],
+                o2w1: o2w[1],
+                o2w2: o2w[2],
+                info: [
+                    first_id,
+                    first_id.wrapping_sub(object_first[o] as u32),
+                    roots[o],
+                    inst.swaps_handedness() as u32,
+                ],
+            }
+        })
+        .collect();
+    Ok(BvhData {
+        nodes,
+        prim_refs,
+        triangle_order,
+        object_orders,
+        instances,
+        triangle_ids,
+    })
 }
 
 /// Depth of the BVH (the root alone is 1).

@@ -74,6 +74,21 @@ pub fn bvh_kind(backend: Backend) -> BvhKind {
     }
 }
 
+/// Each object's triangle records (first, count) in the triangle buffer: after the
+/// world's, object after object.
+pub fn object_ranges(scene: &Scene) -> Vec<(u32, u32)> {
+    let mut first = scene.triangles.len() as u32;
+    scene
+        .objects
+        .iter()
+        .map(|o| {
+            let r = (first, o.triangles.len() as u32);
+            first += r.1;
+            r
+        })
+        .collect()
+}
+
 /// How the engine's runs behave; set by the command line (or a test) per render.
 #[derive(Default)]
 pub struct RunControl {
@@ -107,7 +122,32 @@ pub struct PreparedScene {
     /// The scene's index of each triangle as the device holds them (see
     /// [`crate::accel::prepare`]).
     pub triangle_order: Vec<u32>,
+    /// Each object's: the scene's index of each of its triangles as the device holds them.
+    pub object_orders: Vec<Vec<u32>>,
+    /// Each instance's first triangle id (`GpuInstance::info[0]`).
+    pub instance_first: Vec<u32>,
+    /// Each instance's object.
+    pub instance_objects: Vec<u32>,
     specialization: Specialization,
+}
+
+impl PreparedScene {
+    /// The scene's numbering of a primitive id the device gave: the world's triangles
+    /// before reordering, each instance's triangles in its object's order before
+    /// reordering (from the instance's first id), spheres as they are.
+    pub fn scene_id(&self, id: u32) -> u32 {
+        let ntri = self.triangle_order.len() as u32;
+        if id < ntri {
+            return self.triangle_order[id as usize];
+        }
+        if id >= self.gpu_scene.params.triangle_count || self.instance_first.is_empty() {
+            return id;
+        }
+        let k = self.instance_first.partition_point(|&f| f <= id) - 1;
+        let first = self.instance_first[k];
+        let o = self.instance_objects[k] as usize;
+        first + self.object_orders[o][(id - first) as usize]
+    }
 }
 
 impl PreparedScene {
@@ -226,6 +266,8 @@ impl Engine {
                     scene.triangles.len() as u32,
                     &spheres,
                     scene.triangles.iter().any(|t| t.alpha.is_some()),
+                    &object_ranges(&scene),
+                    &scene.instances,
                 )
             })?)
         } else {
@@ -238,6 +280,9 @@ impl Engine {
             gpu_scene,
             rq,
             triangle_order: bvh.triangle_order,
+            object_orders: bvh.object_orders,
+            instance_first: bvh.instances.iter().map(|i| i.info[0]).collect(),
+            instance_objects: scene.instances.iter().map(|i| i.object).collect(),
             specialization,
         });
         if self.keep_scene {
@@ -251,10 +296,11 @@ impl Engine {
     /// storage buffer of the device can hold (GpuScene::new checks every buffer again).
     fn check_triangle_buffers(&self, scene: &Scene) -> Result<()> {
         let range = self.device.info.max_storage_buffer_range;
-        let count = scene.triangles.len() as u64;
+        let count = scene.unique_triangle_count();
         let attributed = scene
             .triangles
             .iter()
+            .chain(scene.objects.iter().flat_map(|o| o.triangles.iter()))
             .filter(|t| t.uv.is_some() || t.normals.is_some() || t.alpha.is_some())
             .count() as u64;
         for (what, records, size) in [
@@ -628,6 +674,9 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if scene.settings.max_depth < 0 {
         features |= FEATURE_UNBOUNDED;
     }
+    if !scene.instances.is_empty() {
+        features |= crate::abi::FEATURE_INSTANCES;
+    }
     if scene.triangles.iter().any(|t| t.alpha.is_some()) {
         features |= FEATURE_ALPHA;
     }
@@ -835,7 +884,8 @@ mod tests {
             | crate::abi::FEATURE_TEMPERATURE_MEDIA
             | crate::abi::FEATURE_NANOVDB_MEDIA
             | crate::abi::FEATURE_ENVIRONMENTS
-            | crate::abi::FEATURE_REALISTIC_CAMERA;
+            | crate::abi::FEATURE_REALISTIC_CAMERA
+            | crate::abi::FEATURE_INSTANCES;
         assert_eq!(FEATURE_ALL, every);
     }
 }

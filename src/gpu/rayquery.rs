@@ -134,6 +134,8 @@ pub fn build_scene(
     triangle_count: u32,
     sphere_transforms: &[Option<Mat4>],
     alpha: bool,
+    objects: &[(u32, u32)],
+    object_instances: &[crate::scene::Instance],
 ) -> GpuResult<RayQueryScene> {
     let mut blas = Vec::new();
     let mut inputs = Vec::new();
@@ -162,15 +164,19 @@ pub fn build_scene(
             },
         }
     };
-    if triangle_count > 0 {
-        let triangles_data = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+    // Triangles from record `first` of the triangle buffer, `count` of them.
+    let triangle_data = |first: u32, count: u32| {
+        vk::AccelerationStructureGeometryTrianglesDataKHR::default()
             .vertex_format(vk::Format::R32G32B32_SFLOAT)
             .vertex_data(vk::DeviceOrHostAddressConstKHR {
-                device_address: triangles.device_address(),
+                device_address: triangles.device_address() + 48 * first as u64,
             })
             .vertex_stride(16)
-            .max_vertex(triangle_count * 3 - 1)
-            .index_type(vk::IndexType::NONE_KHR);
+            .max_vertex(count * 3 - 1)
+            .index_type(vk::IndexType::NONE_KHR)
+    };
+    if triangle_count > 0 {
+        let triangles_data = triangle_data(0, triangle_count);
         let geometry = vk::AccelerationStructureGeometryKHR::default()
             .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
             .geometry(vk::AccelerationStructureGeometryDataKHR {
@@ -236,6 +242,46 @@ pub fn build_scene(
         }
         blas.push(b);
         inputs.push(aabb_buffer);
+    }
+    // Each object's BLAS (opaque: an object's triangles have no alpha), and an instance
+    // of it per instance, custom index 1 + the instance's index (trace_rayquery.glsl).
+    if object_instances.len() >= (1 << 24) - 1 {
+        return Err(other_error(
+            "building the TLAS",
+            format!(
+                "{} instances: a TLAS instance's custom index holds fewer than 2^24",
+                object_instances.len()
+            ),
+        ));
+    }
+    let mut object_blas = Vec::with_capacity(objects.len());
+    for (o, &(first, count)) in objects.iter().enumerate() {
+        let geometry = vk::AccelerationStructureGeometryKHR::default()
+            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+            .geometry(vk::AccelerationStructureGeometryDataKHR {
+                triangles: triangle_data(first, count),
+            })
+            .flags(vk::GeometryFlagsKHR::OPAQUE);
+        let b = build(
+            device,
+            &format!("object {o}'s BLAS"),
+            vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+            geometry,
+            count,
+        )?;
+        object_blas.push(address_of(device, &b));
+        blas.push(b);
+    }
+    for (k, inst) in object_instances.iter().enumerate() {
+        let r = inst.object_to_world.transpose().to_cols_array(); // rows
+        instances.push(instance(
+            [
+                r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], r[11],
+            ],
+            k as u32 + 1,
+            object_blas[inst.object as usize],
+            opaque,
+        ));
     }
     let instance_bytes: Vec<u8> = instances
         .iter()

@@ -1032,6 +1032,37 @@ pub struct Scene {
     /// The medium each of `delta_lights` is in, by index (`None`, or no entry: vacuum).
     /// (An area light's is its material's `medium_interface`.)
     pub delta_light_media: Vec<Option<u32>>,
+    /// Objects kept once and seen through `instances` (pbrt-v4's `ObjectBegin` /
+    /// `ObjectInstance`): their triangles are in object space. (Emitting, alpha-cut and
+    /// displaced shapes and spheres of an object are flattened into `triangles` and
+    /// `spheres` at each instance instead.)
+    pub objects: Vec<Object>,
+    /// The instances of `objects`, each under its object-to-world transform.
+    pub instances: Vec<Instance>,
+}
+
+/// An object's triangles, in object space, drawn wherever an `Instance` names it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Object {
+    /// The name the file gave it (for messages).
+    pub name: String,
+    pub triangles: Vec<Triangle>,
+}
+
+/// One object of `Scene::objects` under an invertible object-to-world transform.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    pub object: u32,
+    pub object_to_world: Mat4,
+}
+
+impl Instance {
+    /// Whether the transform mirrors (its determinant is negative): the triangles'
+    /// winding turns, and their geometric normals are flipped back (as pbrt-v4 flips a
+    /// shape's normal under a transform that swaps handedness).
+    pub fn swaps_handedness(&self) -> bool {
+        Mat3::from_mat4(self.object_to_world).determinant() < 0.0
+    }
 }
 
 impl Default for Scene {
@@ -1056,7 +1087,65 @@ impl Default for Scene {
             media: Vec::new(),
             camera_medium: None,
             delta_light_media: Vec::new(),
+            objects: Vec::new(),
+            instances: Vec::new(),
         }
+    }
+}
+
+impl Scene {
+    /// The triangles the instances draw (each object's, once per instance).
+    pub fn instanced_triangle_count(&self) -> u64 {
+        self.instances
+            .iter()
+            .map(|i| self.objects[i.object as usize].triangles.len() as u64)
+            .sum()
+    }
+
+    /// The scene with its instances copied into the world (the triangles each instance
+    /// draws, in instance order after the world's): what the reader made before objects
+    /// were kept once, and what an instanced render must agree with. Corners by the
+    /// transform, shading normals by its inverse transpose (normalized); under a
+    /// mirroring transform a triangle with normals is wound to face them, one without is
+    /// flipped back (as pbrt-v4 orients shapes under transforms that swap handedness).
+    pub fn flattened(&self) -> Scene {
+        let mut s = self.clone();
+        s.objects.clear();
+        s.instances.clear();
+        for i in &self.instances {
+            let m = i.object_to_world;
+            let normal_matrix = Mat3::from_mat4(m).inverse().transpose();
+            let swaps = i.swaps_handedness();
+            for t in &self.objects[i.object as usize].triangles {
+                let mut w = *t;
+                w.v = t.v.map(|v| m.transform_point3(v));
+                w.normals = t
+                    .normals
+                    .map(|n| n.map(|n| (normal_matrix * n).normalize_or_zero()));
+                if swaps {
+                    if w.normals.is_some() {
+                        w = w.facing_its_normals();
+                    } else {
+                        w.v.swap(1, 2);
+                        if let Some(uv) = &mut w.uv {
+                            uv.swap(1, 2);
+                        }
+                    }
+                }
+                s.triangles.push(w);
+            }
+        }
+        s
+    }
+
+    /// The triangles stored once: the world's and the objects'.
+    pub fn unique_triangle_count(&self) -> u64 {
+        self.triangles.len() as u64
+            + self
+                .objects
+                .iter()
+                .map(|o| o.triangles.len() as u64)
+                .sum::<u64>()
     }
 }
 

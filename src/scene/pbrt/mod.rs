@@ -113,6 +113,8 @@ struct Parser {
     objects: HashMap<String, (Vec<ShapeDecl>, String)>,
     /// The object being defined (ObjectBegin .. ObjectEnd).
     defining: Option<(String, Vec<ShapeDecl>, String)>,
+    /// The objects made so far (`Scene::objects`), by name.
+    object_ids: HashMap<String, u32>,
     /// Shapes whose named material was not defined when they were read, with the name,
     /// the `NamedMaterial`'s file and line and the shape's: made at the end of the file.
     deferred: Vec<(ShapeDecl, String, (u32, u32), (u32, u32))>,
@@ -191,6 +193,7 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
         measured_files: HashMap::new(),
         objects: HashMap::new(),
         defining: None,
+        object_ids: HashMap::new(),
         deferred: Vec::new(),
         deferring: None,
         unsupported: Vec::new(),
@@ -232,7 +235,14 @@ impl Parser {
         line: u32,
         command: &str,
     ) -> Result<(), ParseError> {
-        let total = self.scene.triangles.len() + adding;
+        let total = self.scene.triangles.len()
+            + self
+                .scene
+                .objects
+                .iter()
+                .map(|o| o.triangles.len())
+                .sum::<usize>()
+            + adding;
         if total <= MAX_SCENE_TRIANGLES {
             return Ok(());
         }
@@ -243,10 +253,74 @@ impl Parser {
             format!(
                 "this makes the scene {total} triangles, more than the {MAX_SCENE_TRIANGLES} \
                  that one device buffer of 48-byte triangles can hold on any Vulkan device \
-                 (4 GiB); lightpath copies each object instance's triangles (it has no \
-                 two-level acceleration structure yet)"
+                 (4 GiB); an object's triangles count once, but its spheres and alpha-cut \
+                 shapes once per instance"
             ),
         ))
+    }
+
+    /// An `ObjectInstance` of `name` (whose shapes are `shapes`) under `ctm`. Its triangle
+    /// meshes are the object's, made once (in the space of the object's definition) and
+    /// drawn through the instance's transform (`Scene::instances`); its spheres and
+    /// alpha-cut meshes are copied into the world at each instance (an alpha test hashes
+    /// world-space rays), and so is everything under a singular transform (which has no
+    /// inverse to carry rays into the object).
+    fn instance(
+        &mut self,
+        name: String,
+        shapes: Vec<ShapeDecl>,
+        ctm: Mat4,
+        file: u32,
+        line: u32,
+        d: &str,
+    ) -> Result<(), ParseError> {
+        let det = Mat3::from_mat4(ctm).determinant();
+        let invertible = det != 0.0 && det.is_finite();
+        let (kept, copied): (Vec<ShapeDecl>, Vec<ShapeDecl>) = shapes.into_iter().partition(|s| {
+            invertible && matches!(s.kind, ShapeKind::Mesh { .. }) && s.alpha.is_none()
+        });
+        let adding = copied.iter().map(|s| s.triangles()).sum();
+        self.check_triangles(adding, file, line, d)?;
+        for mut s in copied {
+            s.ctm = ctm * s.ctm;
+            self.emit(s)?;
+        }
+        if kept.is_empty() {
+            return Ok(());
+        }
+        let object = match self.object_ids.get(&name) {
+            Some(&o) => o,
+            None => {
+                let adding = kept.iter().map(|s| s.triangles()).sum();
+                self.check_triangles(adding, file, line, d)?;
+                // The object's triangles: its shapes emitted as they were defined.
+                let world = std::mem::take(&mut self.scene.triangles);
+                let mut emitted = Ok(());
+                for s in kept {
+                    emitted = self.emit(s);
+                    if emitted.is_err() {
+                        break;
+                    }
+                }
+                let triangles = std::mem::replace(&mut self.scene.triangles, world);
+                emitted?;
+                let o = self.scene.objects.len() as u32;
+                self.scene.objects.push(crate::scene::Object {
+                    name: name.clone(),
+                    triangles,
+                });
+                self.object_ids.insert(name, o);
+                o
+            }
+        };
+        if self.scene.objects[object as usize].triangles.is_empty() {
+            return Ok(());
+        }
+        self.scene.instances.push(crate::scene::Instance {
+            object,
+            object_to_world: ctm,
+        });
+        Ok(())
     }
 
     fn err_at(
@@ -721,12 +795,7 @@ impl Parser {
                         format!("no object named \"{name}\" is defined before this"),
                     ));
                 };
-                let adding = shapes.iter().map(|s| s.triangles()).sum();
-                self.check_triangles(adding, file, line, d)?;
-                for mut s in shapes {
-                    s.ctm = ctm * s.ctm;
-                    self.emit(s)?;
-                }
+                self.instance(name, shapes, ctm, file, line, d)?;
             }
             "TransformTimes" | "ActiveTransform" => {
                 if d == "TransformTimes" {

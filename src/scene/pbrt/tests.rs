@@ -991,13 +991,19 @@ fn transforms_attributes_and_instances() {
         {QUAD}
         "#
     ));
-    assert_eq!(s.triangles.len(), 6);
+    // The object is kept once, in the space of its definition, and drawn by an instance.
+    assert_eq!(s.triangles.len(), 4);
+    assert_eq!((s.objects.len(), s.instances.len()), (1, 1));
+    assert_eq!(s.objects[0].triangles.len(), 2);
     // Translated and scaled: corner (-1, -1, 0) at (8, -2, 0).
     assert!((s.triangles[0].v[0] - Vec3::new(8.0, -2.0, 0.0)).length() < 1e-5);
     // The instance: rotated 90° about z, then translated by the instance's transform.
-    assert!((s.triangles[2].v[0] - Vec3::new(1.0, -1.0, -3.0)).length() < 1e-5);
+    assert!((s.objects[0].triangles[0].v[0] - Vec3::new(1.0, -1.0, 0.0)).length() < 1e-5);
+    let flat = s.flattened();
+    assert_eq!(flat.triangles.len(), 6);
+    assert!((flat.triangles[4].v[0] - Vec3::new(1.0, -1.0, -3.0)).length() < 1e-5);
     // After the instance, the plain quad is only translated.
-    assert!((s.triangles[4].v[0] - Vec3::new(-1.0, -1.0, -3.0)).length() < 1e-5);
+    assert!((s.triangles[2].v[0] - Vec3::new(-1.0, -1.0, -3.0)).length() < 1e-5);
     // Transform takes the matrix column by column (translation last).
     let s = parse(&format!(
         "WorldBegin Transform [1 0 0 0  0 1 0 0  0 0 1 0  5 6 7 1] {QUAD}"
