@@ -1214,6 +1214,29 @@ impl GpuScene {
         })
     }
 
+    /// The bytes of device memory the scene's buffers hold.
+    pub fn device_bytes(&self) -> u64 {
+        [
+            &self.scene_params,
+            &self.triangles,
+            &self.spheres,
+            &self.materials,
+            &self.emitters,
+            &self.emitter_cdf,
+            &self.textures,
+            &self.texels,
+            &self.triangle_attributes,
+            &self.media,
+            &self.medium_grids,
+            &self.instances,
+        ]
+        .iter()
+        .map(|b| b.size)
+        .chain(self.bvh_nodes.iter().map(|b| b.size))
+        .chain(self.bvh_prims.iter().map(|b| b.size))
+        .sum()
+    }
+
     /// The scene's resources by binding number, for `Kernels::descriptor_set` (a kernel
     /// binds those it uses). `rq` holds the TLAS on the ray-query backend.
     pub fn resources(&self, rq: Option<&RayQueryScene>) -> Vec<(u32, Resource)> {

@@ -1,6 +1,8 @@
 //! Per-stage timing: CPU spans for host stages, GPU spans for dispatches (from Vulkan
 //! timestamps), written as a Chrome trace-event file (opens in Perfetto) and summarised
-//! in a table on stderr.
+//! in a table on stderr. Each host stage records the process's memory at its end (its
+//! resident set and peak resident set, from /proc/self/status where there is one), and a
+//! stage that allocates device memory may record how much.
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
@@ -11,6 +13,27 @@ pub struct Span {
     pub gpu: bool,
     pub start_us: f64,
     pub dur_us: f64,
+    /// Host stages: the resident set and the peak resident set at the stage's end (bytes;
+    /// None where the system does not say).
+    pub host_bytes: Option<(u64, u64)>,
+    /// The device memory the stage allocated (bytes), where it says.
+    pub device_bytes: Option<u64>,
+}
+
+/// The process's resident set and peak resident set (VmRSS, VmHWM) in bytes.
+pub fn host_memory() -> Option<(u64, u64)> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let field = |name: &str| -> Option<u64> {
+        let line = status.lines().find(|l| l.starts_with(name))?;
+        let kb: u64 = line[name.len()..]
+            .trim()
+            .trim_end_matches("kB")
+            .trim()
+            .parse()
+            .ok()?;
+        Some(kb * 1024)
+    };
+    Some((field("VmRSS:")?, field("VmHWM:")?))
 }
 
 pub struct Trace {
@@ -47,8 +70,17 @@ impl Trace {
             gpu: false,
             start_us: start,
             dur_us: end - start,
+            host_bytes: host_memory(),
+            device_bytes: None,
         });
         out
+    }
+
+    /// Records that the last stage allocated `bytes` of device memory.
+    pub fn device_bytes(&mut self, bytes: u64) {
+        if let Some(s) = self.spans.last_mut() {
+            s.device_bytes = Some(bytes);
+        }
     }
 
     pub fn add_gpu(&mut self, name: &str, start_us: f64, dur_us: f64) {
@@ -57,6 +89,8 @@ impl Trace {
             gpu: true,
             start_us,
             dur_us,
+            host_bytes: None,
+            device_bytes: None,
         });
     }
 
@@ -66,7 +100,7 @@ impl Trace {
             .spans
             .iter()
             .map(|s| {
-                serde_json::json!({
+                let mut e = serde_json::json!({
                     "name": s.name,
                     "cat": if s.gpu { "gpu" } else { "cpu" },
                     "ph": "X",
@@ -74,7 +108,19 @@ impl Trace {
                     "dur": s.dur_us,
                     "pid": 1,
                     "tid": if s.gpu { 2 } else { 1 },
-                })
+                });
+                let mut args = serde_json::Map::new();
+                if let Some((rss, peak)) = s.host_bytes {
+                    args.insert("host_bytes".into(), rss.into());
+                    args.insert("host_peak_bytes".into(), peak.into());
+                }
+                if let Some(d) = s.device_bytes {
+                    args.insert("device_bytes".into(), d.into());
+                }
+                if !args.is_empty() {
+                    e["args"] = serde_json::Value::Object(args);
+                }
+                e
             })
             .chain([
                 serde_json::json!({"name": "thread_name", "ph": "M", "pid": 1, "tid": 1, "args": {"name": "host (CPU)"}}),
@@ -90,30 +136,37 @@ impl Trace {
 
     /// Per-stage totals: stage, where, count, total ms, mean ms.
     pub fn summary(&self) -> String {
-        let mut by: BTreeMap<(bool, String), (usize, f64, f64)> = BTreeMap::new();
+        let mut by: BTreeMap<(bool, String), (usize, f64, u64)> = BTreeMap::new();
         let mut order: Vec<(bool, String)> = Vec::new();
         for s in &self.spans {
             let key = (s.gpu, s.name.clone());
             let e = by.entry(key.clone()).or_insert_with(|| {
                 order.push(key.clone());
-                (0, 0.0, s.start_us)
+                (0, 0.0, 0)
             });
             e.0 += 1;
             e.1 += s.dur_us;
+            e.2 = e.2.max(s.host_bytes.map_or(0, |m| m.1));
         }
         let mut out = format!(
-            "{:<32} {:>4} {:>7} {:>12} {:>12}\n",
-            "stage", "on", "count", "total ms", "mean ms"
+            "{:<32} {:>4} {:>7} {:>12} {:>12} {:>13}\n",
+            "stage", "on", "count", "total ms", "mean ms", "host peak MB"
         );
         for key in order {
-            let (n, total, _) = by[&key];
+            let (n, total, peak) = by[&key];
+            let peak = if peak > 0 {
+                format!("{:.0}", peak as f64 / 1e6)
+            } else {
+                String::new()
+            };
             out.push_str(&format!(
-                "{:<32} {:>4} {:>7} {:>12.2} {:>12.3}\n",
+                "{:<32} {:>4} {:>7} {:>12.2} {:>12.3} {:>13}\n",
                 key.1,
                 if key.0 { "gpu" } else { "cpu" },
                 n,
                 total / 1e3,
-                total / 1e3 / n as f64
+                total / 1e3 / n as f64,
+                peak
             ));
         }
         out

@@ -360,7 +360,8 @@ impl RenderResult {
     }
 
     /// The per-stage trace: a list of {name, gpu, start_us, dur_us} (CPU stages and GPU
-    /// dispatches), as `--trace` writes it.
+    /// dispatches), as `--trace` writes it; host stages add host_bytes and
+    /// host_peak_bytes (at their end), the scene upload device_bytes.
     #[getter]
     fn trace<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         let list = PyList::empty(py);
@@ -370,6 +371,13 @@ impl RenderResult {
             e.set_item("gpu", s.gpu)?;
             e.set_item("start_us", s.start_us)?;
             e.set_item("dur_us", s.dur_us)?;
+            if let Some((rss, peak)) = s.host_bytes {
+                e.set_item("host_bytes", rss)?;
+                e.set_item("host_peak_bytes", peak)?;
+            }
+            if let Some(d) = s.device_bytes {
+                e.set_item("device_bytes", d)?;
+            }
             list.append(e)?;
         }
         Ok(list)

@@ -253,13 +253,14 @@ impl Engine {
         let gpu_scene = trace.cpu("scene upload", || {
             GpuScene::new(&self.device, &scene, &bvh, backend, p)
         })?;
+        trace.device_bytes(gpu_scene.device_bytes());
         let rq = if backend == Backend::RayQuery {
             let spheres: Vec<_> = scene
                 .spheres
                 .iter()
                 .map(|s| (!s.hidden).then_some(s.object_to_world))
                 .collect();
-            Some(trace.cpu("acceleration structure build", || {
+            let rq = trace.cpu("acceleration structure build", || {
                 rayquery::build_scene(
                     &self.device,
                     &gpu_scene.triangles,
@@ -269,7 +270,9 @@ impl Engine {
                     &object_ranges(&scene),
                     &scene.instances,
                 )
-            })?)
+            })?;
+            trace.device_bytes(rq.device_bytes());
+            Some(rq)
         } else {
             None
         };

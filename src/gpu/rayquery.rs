@@ -29,6 +29,17 @@ pub struct RayQueryScene {
     _inputs: Vec<Buffer>,
 }
 
+impl RayQueryScene {
+    /// The bytes of device memory the acceleration structures and their inputs hold.
+    pub fn device_bytes(&self) -> u64 {
+        std::iter::once(&self.tlas)
+            .chain(&self._blas)
+            .map(|a| a._storage.size)
+            .chain(self._inputs.iter().map(|b| b.size))
+            .sum()
+    }
+}
+
 const INPUT_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
     vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw()
         | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR.as_raw()

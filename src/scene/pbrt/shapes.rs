@@ -615,7 +615,18 @@ impl Parser {
                         })
                         .collect()
                 });
-                let mut tris = Vec::with_capacity(indices.len() / 3);
+                let emission = s
+                    .area
+                    .as_ref()
+                    .map(|a| (a.radiance * self.imaging_ratio(), a.two_sided));
+                let power = s.area.as_ref().and_then(|a| {
+                    a.power
+                        .map(|phi| (phi, if a.two_sided { 2.0 } else { 1.0 }))
+                });
+                let index = self.intern_ref(&s.material, emission, s.media);
+                // (Straight into the scene: a copy of a mesh of millions of triangles
+                // costs its memory twice, and the time to touch it.)
+                self.scene.triangles.reserve(indices.len() / 3);
                 for c in indices.chunks(3) {
                     let (a, b, cc) = (c[0] as usize, c[1] as usize, c[2] as usize);
                     let mut t = Triangle::new([wp[a], wp[b], wp[cc]], 0);
@@ -645,18 +656,6 @@ impl Parser {
                         None if s.reverse ^ swaps => flip(t),
                         None => t,
                     };
-                    tris.push(t);
-                }
-                let emission = s
-                    .area
-                    .as_ref()
-                    .map(|a| (a.radiance * self.imaging_ratio(), a.two_sided));
-                let power = s.area.as_ref().and_then(|a| {
-                    a.power
-                        .map(|phi| (phi, if a.two_sided { 2.0 } else { 1.0 }))
-                });
-                let index = self.intern_ref(&s.material, emission, s.media);
-                for mut t in tris {
                     t.material = match (power, emission) {
                         // pbrt-v4 makes one light per triangle of a mesh, each emitting
                         // `power`: radiance power / (sides π area) per triangle.
