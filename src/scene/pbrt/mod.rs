@@ -113,8 +113,9 @@ struct Parser {
     objects: HashMap<String, (Vec<ShapeDecl>, String)>,
     /// The object being defined (ObjectBegin .. ObjectEnd).
     defining: Option<(String, Vec<ShapeDecl>, String)>,
-    /// The objects made so far (`Scene::objects`), by name.
-    object_ids: HashMap<String, u32>,
+    /// The objects made so far, by name: the index in `Scene::objects` (None: it keeps no
+    /// triangles).
+    object_ids: HashMap<String, Option<u32>>,
     /// Shapes whose named material was not defined when they were read, with the name,
     /// the `NamedMaterial`'s file and line and the shape's: made at the end of the file.
     deferred: Vec<(ShapeDecl, String, (u32, u32), (u32, u32))>,
@@ -259,16 +260,15 @@ impl Parser {
         ))
     }
 
-    /// An `ObjectInstance` of `name` (whose shapes are `shapes`) under `ctm`. Its triangle
-    /// meshes are the object's, made once (in the space of the object's definition) and
-    /// drawn through the instance's transform (`Scene::instances`); its spheres and
-    /// alpha-cut meshes are copied into the world at each instance (an alpha test hashes
-    /// world-space rays), and so is everything under a singular transform (which has no
-    /// inverse to carry rays into the object).
+    /// An `ObjectInstance` of the defined object `name` under `ctm`. Its triangle meshes
+    /// are the object's, made once at its first instance (in the space of the object's
+    /// definition) and drawn through each instance's transform (`Scene::instances`); its
+    /// spheres and alpha-cut meshes are copied into the world at each instance (an alpha
+    /// test hashes world-space rays), and so is everything under a singular transform
+    /// (which has no inverse to carry rays into the object).
     fn instance(
         &mut self,
         name: String,
-        shapes: Vec<ShapeDecl>,
         ctm: Mat4,
         file: u32,
         line: u32,
@@ -276,27 +276,35 @@ impl Parser {
     ) -> Result<(), ParseError> {
         let det = Mat3::from_mat4(ctm).determinant();
         let invertible = det != 0.0 && det.is_finite();
-        let (kept, copied): (Vec<ShapeDecl>, Vec<ShapeDecl>) = shapes.into_iter().partition(|s| {
+        let kept = |s: &ShapeDecl| {
             invertible && matches!(s.kind, ShapeKind::Mesh { .. }) && s.alpha.is_none()
-        });
+        };
+        let shapes = &self.objects[&name].0;
+        let copied: Vec<ShapeDecl> = shapes.iter().filter(|s| !kept(s)).cloned().collect();
         let adding = copied.iter().map(|s| s.triangles()).sum();
         self.check_triangles(adding, file, line, d)?;
         for mut s in copied {
             s.ctm = ctm * s.ctm;
             self.emit(s)?;
         }
-        if kept.is_empty() {
+        if !invertible {
             return Ok(());
         }
         let object = match self.object_ids.get(&name) {
             Some(&o) => o,
             None => {
-                let adding = kept.iter().map(|s| s.triangles()).sum();
+                let shapes: Vec<ShapeDecl> = self.objects[&name]
+                    .0
+                    .iter()
+                    .filter(|s| kept(s))
+                    .cloned()
+                    .collect();
+                let adding = shapes.iter().map(|s| s.triangles()).sum();
                 self.check_triangles(adding, file, line, d)?;
                 // The object's triangles: its shapes emitted as they were defined.
                 let world = std::mem::take(&mut self.scene.triangles);
                 let mut emitted = Ok(());
-                for s in kept {
+                for s in shapes {
                     emitted = self.emit(s);
                     if emitted.is_err() {
                         break;
@@ -304,22 +312,23 @@ impl Parser {
                 }
                 let triangles = std::mem::replace(&mut self.scene.triangles, world);
                 emitted?;
-                let o = self.scene.objects.len() as u32;
-                self.scene.objects.push(crate::scene::Object {
-                    name: name.clone(),
-                    triangles,
+                let o = (!triangles.is_empty()).then(|| {
+                    self.scene.objects.push(crate::scene::Object {
+                        name: name.clone(),
+                        triangles,
+                    });
+                    self.scene.objects.len() as u32 - 1
                 });
                 self.object_ids.insert(name, o);
                 o
             }
         };
-        if self.scene.objects[object as usize].triangles.is_empty() {
-            return Ok(());
+        if let Some(object) = object {
+            self.scene.instances.push(crate::scene::Instance {
+                object,
+                object_to_world: ctm,
+            });
         }
-        self.scene.instances.push(crate::scene::Instance {
-            object,
-            object_to_world: ctm,
-        });
         Ok(())
     }
 
@@ -787,15 +796,15 @@ impl Parser {
                     };
                     return Err(self.err_at(file, line, d, message));
                 }
-                let Some((shapes, _)) = self.objects.get(&name).cloned() else {
+                if !self.objects.contains_key(&name) {
                     return Err(self.err_at(
                         file,
                         line,
                         d,
                         format!("no object named \"{name}\" is defined before this"),
                     ));
-                };
-                self.instance(name, shapes, ctm, file, line, d)?;
+                }
+                self.instance(name, ctm, file, line, d)?;
             }
             "TransformTimes" | "ActiveTransform" => {
                 if d == "TransformTimes" {
