@@ -528,7 +528,7 @@ mod tests {
                 Vec3::ONE
             };
             let m = glam::Mat4::from_translation(rng.vec3(-10.0, 10.0))
-                * glam::Mat4::from_axis_angle(axis, rng.range(0.0, 6.28))
+                * glam::Mat4::from_axis_angle(axis, rng.range(0.0, std::f32::consts::TAU))
                 * glam::Mat4::from_scale(scale);
             scene.instances.push(crate::scene::Instance {
                 object: (k % 3) as u32,

@@ -116,6 +116,8 @@ struct Parser {
     /// The objects made so far, by name: the index in `Scene::objects` (None: it keeps no
     /// triangles).
     object_ids: HashMap<String, Option<u32>>,
+    /// The triangles of `Scene::objects`, all told.
+    object_triangles: usize,
     /// Shapes whose named material was not defined when they were read, with the name,
     /// the `NamedMaterial`'s file and line and the shape's: made at the end of the file.
     deferred: Vec<(ShapeDecl, String, (u32, u32), (u32, u32))>,
@@ -195,6 +197,7 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
         objects: HashMap::new(),
         defining: None,
         object_ids: HashMap::new(),
+        object_triangles: 0,
         deferred: Vec::new(),
         deferring: None,
         unsupported: Vec::new(),
@@ -236,14 +239,7 @@ impl Parser {
         line: u32,
         command: &str,
     ) -> Result<(), ParseError> {
-        let total = self.scene.triangles.len()
-            + self
-                .scene
-                .objects
-                .iter()
-                .map(|o| o.triangles.len())
-                .sum::<usize>()
-            + adding;
+        let total = self.scene.triangles.len() + self.object_triangles + adding;
         if total <= MAX_SCENE_TRIANGLES {
             return Ok(());
         }
@@ -312,6 +308,7 @@ impl Parser {
                 }
                 let triangles = std::mem::replace(&mut self.scene.triangles, world);
                 emitted?;
+                self.object_triangles += triangles.len();
                 let o = (!triangles.is_empty()).then(|| {
                     self.scene.objects.push(crate::scene::Object {
                         name: name.clone(),
