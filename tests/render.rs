@@ -204,14 +204,7 @@ fn every_backend_gives_the_same_image() {
             let b = render(&scene, 7, other);
             // Same seed, same paths: only hit-point rounding differs, so almost every
             // pixel is identical and the means agree tightly.
-            let close = a
-                .pixels
-                .iter()
-                .zip(&b.pixels)
-                .filter(|(p, q)| (0..3).all(|c| (p[c] - q[c]).abs() <= 1e-3 * (1.0 + p[c].abs())))
-                .count();
-            let frac = close as f64 / a.pixels.len() as f64;
-            let (ma, mb) = (a.mean(), b.mean());
+            let (frac, ma, mb) = twin_agreement(&a, &b);
             eprintln!(
                 "{}: {:.1}% of pixels the same as with {other:?}, means {ma:?} vs {mb:?}",
                 scene

@@ -593,6 +593,17 @@ impl Triangle {
         }
     }
 
+    /// The triangle with its orientation reversed (its geometric normal flipped): v1 and
+    /// v2 swap, with their texture coordinates and normals.
+    pub fn flipped(mut self) -> Triangle {
+        self.v.swap(1, 2);
+        if let Some(uv) = &mut self.uv {
+            uv.swap(1, 2);
+        }
+        n_swap(&mut self.normals);
+        self
+    }
+
     /// The triangle wound so that its geometric normal lies on the side of its shading
     /// normals (as pbrt-v4 turns a mesh's geometric normal toward its shading normal):
     /// which side is the outside of a glass object then follows the mesh's normals.
@@ -1123,14 +1134,11 @@ impl Scene {
                     .normals
                     .map(|n| n.map(|n| (normal_matrix * n).normalize_or_zero()));
                 if swaps {
-                    if w.normals.is_some() {
-                        w = w.facing_its_normals();
+                    w = if w.normals.is_some() {
+                        w.facing_its_normals()
                     } else {
-                        w.v.swap(1, 2);
-                        if let Some(uv) = &mut w.uv {
-                            uv.swap(1, 2);
-                        }
-                    }
+                        w.flipped()
+                    };
                 }
                 s.triangles.push(w);
             }

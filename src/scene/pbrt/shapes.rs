@@ -51,15 +51,8 @@ pub(super) enum ShapeKind {
 }
 
 /// The triangle with its orientation reversed (its geometric normal flipped).
-pub(super) fn flip(mut t: Triangle) -> Triangle {
-    t.v.swap(1, 2);
-    if let Some(uv) = &mut t.uv {
-        uv.swap(1, 2);
-    }
-    if let Some(n) = &mut t.normals {
-        n.swap(1, 2);
-    }
-    t
+pub(super) fn flip(t: Triangle) -> Triangle {
+    t.flipped()
 }
 
 impl Parser {
