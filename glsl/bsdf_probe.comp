@@ -2,7 +2,7 @@
 // (lib/bsdf.glsl) on given inputs, so that tests/bsdf_probe.rs can check the GLSL
 // itself against its CPU mirror (src/bsdf.rs), as trace_probe.comp does for traversal.
 // Materials at BINDING_MATERIALS (the probe's own records), measured materials' tables at
-// BINDING_TEXELS; pass_params.samples inputs.
+// DATA_TEXELS; pass_params.samples inputs.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 

@@ -7,6 +7,7 @@ use crate::accel::BvhData;
 use crate::gpu::buffer::Buffer;
 use crate::gpu::kernels::{Backend, Resource};
 use crate::gpu::rayquery::RayQueryScene;
+use crate::gpu::scene_data::{DataArray, SceneData};
 use crate::gpu::{other_error, Device};
 use crate::io::Image;
 use crate::scene::{DeltaLight, GridValues, NextEventEstimation, Scene, Texture, UV_MAPPING};
@@ -23,19 +24,16 @@ pub struct GpuScene {
     /// What `scene_params` holds.
     pub params: SceneParams,
     pub scene_params: Buffer,
-    pub triangles: Buffer,
     pub spheres: Buffer,
     pub materials: Buffer,
     pub emitters: Buffer,
     pub emitter_cdf: Buffer,
     pub textures: Buffer,
-    pub texels: Buffer,
-    pub triangle_attributes: Buffer,
     pub media: Buffer,
-    pub medium_grids: Buffer,
     pub instances: Buffer,
-    pub bvh_nodes: Option<Buffer>,
-    pub bvh_prims: Option<Buffer>,
+    /// Triangles, their attributes, the BVH (none for ray query), texels and medium
+    /// grids, in chunks read by address.
+    pub data: SceneData,
 }
 
 /// The emitter table: every emissive triangle and sphere, point and directional light,
@@ -700,7 +698,7 @@ pub fn material_records(scene: &Scene, textures: &TextureData) -> Vec<GpuMateria
 
 /// The media as the kernels read them (abi.h `GpuMedium`; one unused record for a scene
 /// without media, so that the buffer is never empty) and the grid media's floats
-/// (BINDING_MEDIUM_GRIDS: each grid's density, Le-scale and majorant grids; the
+/// (DATA_GRIDS: each grid's density, Le-scale and majorant grids; the
 /// majorants per unit length, times the largest channel's extinction per unit density).
 pub fn medium_records(scene: &Scene, textures: &TextureData) -> (Vec<GpuMedium>, Vec<f32>) {
     medium_data(
@@ -1016,6 +1014,16 @@ pub fn scene_params(scene: &Scene, seed: u32) -> SceneParams {
     }
 }
 
+/// The largest chunk of scene data the device allows: its largest allocation and buffer,
+/// at most 2 GiB (the kernels index a chunk's bytes with 32 bits).
+pub fn device_chunk_bytes(device: &Device) -> u64 {
+    device
+        .info
+        .max_allocation_bytes
+        .min(device.info.max_buffer_bytes)
+        .min(1 << 31)
+}
+
 /// The instance buffer of a scene without instances (a binding is never empty).
 const NO_INSTANCES: [GpuInstance; 1] = [GpuInstance {
     w2o0: [0.0; 4],
@@ -1034,6 +1042,7 @@ impl GpuScene {
         bvh: &BvhData,
         backend: Backend,
         params: SceneParams,
+        max_chunk_bytes: u64,
     ) -> Result<GpuScene> {
         let table = emitter_table(scene);
         let textures = texture_data(scene);
@@ -1096,29 +1105,17 @@ impl GpuScene {
             e.p2[3] = bits(portal);
         }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let triangle_usage = if backend == Backend::RayQuery {
-            storage
-                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
-                | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
-        } else {
-            storage
-        };
         let limit = device.info.max_storage_buffer_range;
         for (name, bytes) in [
-            ("triangles", triangles.len() * 48),
             ("spheres", spheres.len() * 112),
             (
                 "materials",
                 materials.len() * std::mem::size_of::<GpuMaterial>(),
             ),
-            ("BVH nodes", bvh.nodes.len()),
-            ("BVH primitive references", bvh.prim_refs.len() * 4),
             ("instances", bvh.instances.len() * 112),
             ("emitters", table.emitters.len() * 80),
-            ("texels", textures.texels.len() * 4),
             ("textures", textures.textures.len() * 80),
-            ("triangle attributes", attributes.len() * 80),
-            ("medium grids", medium_grids.len() * 4),
+            ("media", media.len() * std::mem::size_of::<GpuMedium>()),
         ] {
             if bytes as u64 > limit {
                 return Err(other_error(
@@ -1128,19 +1125,60 @@ impl GpuScene {
                 .into());
             }
         }
-        let (bvh_nodes, bvh_prims) = if backend != Backend::RayQuery {
-            (
-                Some(Buffer::with_data(device, "BVH nodes", &bvh.nodes, storage)?),
-                Some(Buffer::with_data(
-                    device,
-                    "BVH primitives",
-                    bytemuck::cast_slice(&bvh.prim_refs),
-                    storage,
-                )?),
-            )
-        } else {
-            (None, None)
-        };
+        let mut triangle_data = DataArray::new(
+            "triangles",
+            bytemuck::cast_slice(&triangles),
+            std::mem::size_of::<GpuTriangle>() as u64,
+        );
+        if backend == Backend::RayQuery {
+            // The BLAS builds read the triangles' corners where they lie: one buffer.
+            triangle_data.usage =
+                vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR;
+            let triangle_chunk_bytes = device_chunk_bytes(device);
+            triangle_data.chunk_bytes = Some(triangle_chunk_bytes);
+            if triangle_data.bytes.len() as u64 > triangle_chunk_bytes {
+                return Err(other_error(
+                    "uploading the scene",
+                    format!(
+                        "--accel rayquery keeps the triangles in one buffer, and {} triangles need {} bytes, more than {} holds in one ({triangle_chunk_bytes}); use --accel cwbvh",
+                        triangles.len(),
+                        triangle_data.bytes.len(),
+                        device.info.name
+                    ),
+                )
+                .into());
+            }
+        }
+        let ray_query = backend == Backend::RayQuery;
+        let node_record = if backend == Backend::Cwbvh { 80 } else { 32 };
+        let data = SceneData::new(
+            device,
+            &[
+                triangle_data,
+                DataArray::new(
+                    "triangle attributes",
+                    bytemuck::cast_slice(&attributes),
+                    std::mem::size_of::<GpuTriangleAttributes>() as u64,
+                ),
+                if ray_query {
+                    DataArray::none("BVH nodes")
+                } else {
+                    DataArray::new("BVH nodes", &bvh.nodes, node_record)
+                },
+                if ray_query {
+                    DataArray::none("BVH primitive references")
+                } else {
+                    DataArray::new(
+                        "BVH primitive references",
+                        bytemuck::cast_slice(&bvh.prim_refs),
+                        4,
+                    )
+                },
+                DataArray::new("texels", bytemuck::cast_slice(&textures.texels), 4),
+                DataArray::new("medium grids", bytemuck::cast_slice(&medium_grids), 4),
+            ],
+            max_chunk_bytes,
+        )?;
         Ok(GpuScene {
             params,
             scene_params: Buffer::with_data(
@@ -1148,12 +1186,6 @@ impl GpuScene {
                 "scene parameters",
                 bytemuck::bytes_of(&params),
                 vk::BufferUsageFlags::UNIFORM_BUFFER,
-            )?,
-            triangles: Buffer::with_data(
-                device,
-                "triangles",
-                bytemuck::cast_slice(&triangles),
-                triangle_usage,
             )?,
             spheres: Buffer::with_data(device, "spheres", bytemuck::cast_slice(&spheres), storage)?,
             materials: Buffer::with_data(
@@ -1180,25 +1212,7 @@ impl GpuScene {
                 bytemuck::cast_slice(&textures.textures),
                 storage,
             )?,
-            texels: Buffer::with_data(
-                device,
-                "texels",
-                bytemuck::cast_slice(&textures.texels),
-                storage,
-            )?,
-            triangle_attributes: Buffer::with_data(
-                device,
-                "triangle attributes",
-                bytemuck::cast_slice(&attributes),
-                storage,
-            )?,
             media: Buffer::with_data(device, "media", bytemuck::cast_slice(&media), storage)?,
-            medium_grids: Buffer::with_data(
-                device,
-                "medium grids",
-                bytemuck::cast_slice(&medium_grids),
-                storage,
-            )?,
             instances: Buffer::with_data(
                 device,
                 "instances",
@@ -1209,32 +1223,31 @@ impl GpuScene {
                 }),
                 storage,
             )?,
-            bvh_nodes,
-            bvh_prims,
+            data,
         })
+    }
+
+    /// The triangle buffer (one chunk: ray query's BLAS builds read it).
+    pub fn triangles(&self) -> &Buffer {
+        &self.data.chunks[DATA_TRIANGLES as usize][0]
     }
 
     /// The bytes of device memory the scene's buffers hold.
     pub fn device_bytes(&self) -> u64 {
         [
             &self.scene_params,
-            &self.triangles,
             &self.spheres,
             &self.materials,
             &self.emitters,
             &self.emitter_cdf,
             &self.textures,
-            &self.texels,
-            &self.triangle_attributes,
             &self.media,
-            &self.medium_grids,
             &self.instances,
         ]
         .iter()
         .map(|b| b.size)
-        .chain(self.bvh_nodes.iter().map(|b| b.size))
-        .chain(self.bvh_prims.iter().map(|b| b.size))
-        .sum()
+        .sum::<u64>()
+            + self.data.device_bytes()
     }
 
     /// The scene's resources by binding number, for `Kernels::descriptor_set` (a kernel
@@ -1242,28 +1255,15 @@ impl GpuScene {
     pub fn resources(&self, rq: Option<&RayQueryScene>) -> Vec<(u32, Resource)> {
         let mut list = vec![
             (BINDING_SCENE, Resource::Buffer(self.scene_params.raw)),
-            (BINDING_TRIANGLES, Resource::Buffer(self.triangles.raw)),
+            (BINDING_SCENE_DATA, Resource::Buffer(self.data.table.raw)),
             (BINDING_INSTANCES, Resource::Buffer(self.instances.raw)),
             (BINDING_SPHERES, Resource::Buffer(self.spheres.raw)),
             (BINDING_MATERIALS, Resource::Buffer(self.materials.raw)),
             (BINDING_EMITTERS, Resource::Buffer(self.emitters.raw)),
             (BINDING_EMITTER_CDF, Resource::Buffer(self.emitter_cdf.raw)),
             (BINDING_TEXTURES, Resource::Buffer(self.textures.raw)),
-            (BINDING_TEXELS, Resource::Buffer(self.texels.raw)),
-            (
-                BINDING_TRIANGLE_ATTRIBUTES,
-                Resource::Buffer(self.triangle_attributes.raw),
-            ),
             (BINDING_MEDIA, Resource::Buffer(self.media.raw)),
-            (
-                crate::abi::BINDING_MEDIUM_GRIDS,
-                Resource::Buffer(self.medium_grids.raw),
-            ),
         ];
-        if let (Some(n), Some(p)) = (&self.bvh_nodes, &self.bvh_prims) {
-            list.push((BINDING_BVH_NODES, Resource::Buffer(n.raw)));
-            list.push((BINDING_BVH_PRIMS, Resource::Buffer(p.raw)));
-        }
         if let Some(rq) = rq {
             list.push((BINDING_TLAS, Resource::AccelerationStructure(rq.tlas.raw)));
         }

@@ -101,8 +101,7 @@ pub fn bsdf(
     engine.kernels.reset_sets()?;
     let materials_buffer =
         engine.buffer_with("probe materials", bytemuck::cast_slice(materials))?;
-    let texels = if texels.is_empty() { &[0.0; 4] } else { texels };
-    let texels_buffer = engine.buffer_with("probe texels", bytemuck::cast_slice(texels))?;
+    let data = engine.float_data(&[(DATA_TEXELS, texels)])?;
     // (The probe's materials have no textures: surfaces look textures up, and the probe
     // has none.)
     let features = crate::abi::FEATURE_ALL;
@@ -113,7 +112,7 @@ pub fn bsdf(
         features,
         &[
             (BINDING_MATERIALS, &materials_buffer),
-            (BINDING_TEXELS, &texels_buffer),
+            (BINDING_SCENE_DATA, &data.table),
         ],
         inputs,
         what,
@@ -129,13 +128,13 @@ pub fn measured(
     inputs: &[BsdfProbeInput],
 ) -> Result<Vec<BsdfProbeOutput>> {
     engine.kernels.reset_sets()?;
-    let texels = engine.buffer_with("probe measured material", bytemuck::cast_slice(packed))?;
+    let data = engine.float_data(&[(DATA_TEXELS, packed)])?;
     let what = "running the measured-material probe";
     run_bsdf_probe(
         engine,
         "measured_probe",
         0,
-        &[(BINDING_TEXELS, &texels)],
+        &[(BINDING_SCENE_DATA, &data.table)],
         inputs,
         what,
     )
@@ -156,8 +155,7 @@ pub fn medium(
     tables.extend_from_slice(crate::media::blackbody_table());
     let (records, grids) = crate::gpu_scene::medium_data(media, 0, blackbody);
     let buffer = engine.buffer_with("probe media", bytemuck::cast_slice(&records))?;
-    let grids = engine.buffer_with("probe medium grids", bytemuck::cast_slice(&grids))?;
-    let texels = engine.buffer_with("probe tables", bytemuck::cast_slice(&tables))?;
+    let data = engine.float_data(&[(crate::abi::DATA_GRIDS, &grids), (DATA_TEXELS, &tables)])?;
     run_bsdf_probe(
         engine,
         "medium_probe",
@@ -169,8 +167,7 @@ pub fn medium(
             | crate::abi::FEATURE_NANOVDB_MEDIA,
         &[
             (crate::abi::BINDING_MEDIA, &buffer),
-            (crate::abi::BINDING_MEDIUM_GRIDS, &grids),
-            (crate::abi::BINDING_TEXELS, &texels),
+            (BINDING_SCENE_DATA, &data.table),
         ],
         inputs,
         "running the medium probe",

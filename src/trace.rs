@@ -18,6 +18,9 @@ pub struct Span {
     pub host_bytes: Option<(u64, u64)>,
     /// The device memory the stage allocated (bytes), where it says.
     pub device_bytes: Option<u64>,
+    /// The scene upload: each kind of scene data read by address (its name, bytes and
+    /// chunks; `GpuScene::data`).
+    pub data: Vec<(&'static str, u64, usize)>,
 }
 
 /// The process's resident set and peak resident set (VmRSS, VmHWM) in bytes.
@@ -72,6 +75,7 @@ impl Trace {
             dur_us: end - start,
             host_bytes: host_memory(),
             device_bytes: None,
+            data: Vec::new(),
         });
         out
     }
@@ -83,6 +87,13 @@ impl Trace {
         }
     }
 
+    /// Records the last stage's scene data: per kind, its name, bytes and chunks.
+    pub fn scene_data(&mut self, kinds: Vec<(&'static str, u64, usize)>) {
+        if let Some(s) = self.spans.last_mut() {
+            s.data = kinds;
+        }
+    }
+
     pub fn add_gpu(&mut self, name: &str, start_us: f64, dur_us: f64) {
         self.spans.push(Span {
             name: name.to_string(),
@@ -91,6 +102,7 @@ impl Trace {
             dur_us,
             host_bytes: None,
             device_bytes: None,
+            data: Vec::new(),
         });
     }
 
@@ -116,6 +128,12 @@ impl Trace {
                 }
                 if let Some(d) = s.device_bytes {
                     args.insert("device_bytes".into(), d.into());
+                }
+                for (name, bytes, chunks) in &s.data {
+                    args.insert(
+                        format!("data {name}"),
+                        serde_json::json!({ "bytes": bytes, "chunks": chunks }),
+                    );
                 }
                 if !args.is_empty() {
                     e["args"] = serde_json::Value::Object(args);

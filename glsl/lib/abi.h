@@ -13,14 +13,13 @@
 // host binds each resource by these numbers.
 // The scene:
 #define BINDING_SCENE 0
-#define BINDING_TRIANGLES 1
+// (1, 7, 8, 23, 24 and 35 held the scene's large arrays; they are read by device
+// address since issue 30: BINDING_SCENE_DATA.)
 #define BINDING_SPHERES 2
 #define BINDING_MATERIALS 3
 #define BINDING_EMITTERS 4
 #define BINDING_EMITTER_CDF 5
 #define BINDING_TLAS 6
-#define BINDING_BVH_NODES 7
-#define BINDING_BVH_PRIMS 8
 // Integrator outputs and state:
 #define BINDING_FILM 9
 #define BINDING_STATS 10
@@ -38,8 +37,6 @@
 #define BINDING_BSDF_PROBE_OUTPUTS 21
 // Textures and surface attributes (the scene, continued):
 #define BINDING_TEXTURES 22
-#define BINDING_TEXELS 23
-#define BINDING_TRIANGLE_ATTRIBUTES 24
 // Wavefront state (lib/wavefront.glsl): the paths, the queues' counts and dispatch
 // arguments, and the queues' entries.
 #define BINDING_WF_PATHS 25
@@ -67,13 +64,28 @@
 #define BINDING_WALK_TEXTURES 33
 // Participating media (the scene, continued): GpuMedium records (lib/media.glsl).
 #define BINDING_MEDIA 34
-// Grid media's floats (density, Le-scale and majorant grids; FEATURE_GRID_MEDIA).
-#define BINDING_MEDIUM_GRIDS 35
 // The gbuffer film's stages (lib/gbuffer.glsl): per pixel of a band, the surface its
 // camera sample found (GpuGbufferSurface), for the albedo stage of its material class.
 #define BINDING_GBUFFER_SURFACES 36
 // The instances of objects (GpuInstance), with FEATURE_INSTANCES.
 #define BINDING_INSTANCES 37
+// The scene's large arrays, by device address (lib/scene_data.glsl): per kind (DATA_*)
+// a header (the first chunk's address, the chunk's size as a power of two of records,
+// where the kind's chunk addresses start), then every chunk's address.
+#define BINDING_SCENE_DATA 38
+
+// The kinds of scene data read by address, each in chunks (lib/scene_data.glsl):
+// GpuTriangle records (the world's, then each object's); GpuTriangleAttributes records;
+// the BVH's nodes (BvhNode or CwbvhNode, as the backend's walk reads them); the BVH
+// leaves' primitive references (uint); texels (floats: images, tables, lens systems);
+// grid media's floats (density, Le-scale and majorant grids; FEATURE_GRID_MEDIA).
+#define DATA_TRIANGLES 0
+#define DATA_ATTRIBUTES 1
+#define DATA_BVH_NODES 2
+#define DATA_BVH_PRIMS 3
+#define DATA_TEXELS 4
+#define DATA_GRIDS 5
+#define DATA_KINDS 6
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0
@@ -509,7 +521,7 @@ struct GpuMaterial {
 // value); p0.xyz, p1.xyz, p2.xyz the world directions of the map frame's axes; info.y the
 // map (a GpuTexture; NO_TEXTURE: constant), info.z its ENV_MAPPING_*; as uint bits, p0.w
 // and p1.w the first floats of the map's marginal CDF (height + 1) and of its rows' CDFs
-// (height rows of width + 1) in BINDING_TEXELS, p2.w the first of its portal's nine floats
+// (height rows of width + 1) in DATA_TEXELS, p2.w the first of its portal's nine floats
 // there (pbrt-v4's portal: corner p0, edges p1 - p0 and p3 - p0, the light coming through
 // along (p3 - p0) x (p1 - p0); NO_TEXTURE: no portal).
 // radiance.w: the probability of picking this emitter. info: x kind, y primitive,
@@ -518,7 +530,7 @@ struct GpuMaterial {
 // grid's per unit density), w of sigma_a the Henyey-Greenstein g; emission the radiance
 // Le it emits (pbrt-v4's Le times Lescale: the emission per unit length is sigma_a Le; a
 // grid's Le is also times its Le-scale grid). Grids (MEDIUM_UNIFORMGRID, FEATURE_GRID_MEDIA):
-// info.y the first float of the density grid in BINDING_MEDIUM_GRIDS, info.z that of the
+// info.y the first float of the density grid in DATA_GRIDS, info.z that of the
 // Le-scale grid, info.w that of the majorant grid (MEDIUM_MAJORANT_RES^3 cells, each the
 // most the extinction reaches in it, per unit length, in its largest channel); unit_x,
 // unit_y and unit_z the rows of the affine map from world space to the grid's unit cube
@@ -527,20 +539,20 @@ struct GpuMaterial {
 // outside); density_res.w the first float of the temperature grid (density_res.xyz samples;
 // MEDIUM_NO_GRID where there is none, FEATURE_TEMPERATURE_MEDIA), sigma_s.w and emission.w
 // its offset and scale (pbrt-v4's temperatureoffset, temperaturescale), le_res.w the
-// blackbody table's first float in BINDING_TEXELS (src/media.rs's blackbody_table; the
+// blackbody table's first float in DATA_TEXELS (src/media.rs's blackbody_table; the
 // medium's emission.xyz is then 1). RGB grids (MEDIUM_RGBGRID): sigma_a.xyz and sigma_s.xyz pbrt's `scale`,
 // emission.xyz its `Lescale` (0 without an Le grid); three floats per sample (RGB) in
-// BINDING_MEDIUM_GRIDS; info.y the first of the sigma_a grid, density_res.w that of the
+// DATA_GRIDS; info.y the first of the sigma_a grid, density_res.w that of the
 // sigma_s grid (MEDIUM_NO_GRID where not given: 1), info.z that of the Le grid, info.w the
 // majorants; density_res.xyz and le_res.xyz the grids' sample counts. Clouds
 // (MEDIUM_CLOUD, FEATURE_CLOUD_MEDIA; pbrt-v4's procedural cloud, sigma_a and sigma_s per
 // unit density as a uniformgrid's): float bits of density_res.xyz the box's corner p0 and
 // le_res.xyz its extent p1 - p0 in the medium's space (the unit cube mapped back), of
 // density_res.w the `density` parameter, le_res.w `wispiness`, info.z `frequency`; info.y
-// the noise table's first float in BINDING_TEXELS, info.w the majorants (each the largest
+// the noise table's first float in DATA_TEXELS, info.w the majorants (each the largest
 // channel's extinction: the density is at most 1). NanoVDB grids (MEDIUM_NANOVDB,
 // FEATURE_NANOVDB_MEDIA; sigma_a and sigma_s per unit density): info.y the first float of
-// the density grid's header in BINDING_MEDIUM_GRIDS, info.z that of the temperature grid's
+// the density grid's header in DATA_GRIDS, info.z that of the temperature grid's
 // (MEDIUM_NO_GRID where there is none; its offset and scale in sigma_s.w and emission.w,
 // the blackbody table at le_res.w as a uniformgrid's), info.w the majorants. A header:
 // 12 floats, the rows of the affine map from the unit cube to the grid's index space; the

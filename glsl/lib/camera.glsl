@@ -53,9 +53,9 @@ bool lens_interface(vec3 o, vec3 d, float radius, float center, out float t, out
 // LensSystem::camera_ray, in camera space; here taken on to the world).
 float realistic_camera_ray(vec2 film, vec2 u, out vec3 o, out vec3 d) {
     uint base = scene.lens;
-    vec2 half_film = vec2(texels[base], texels[base + 1u]);
-    float rear = texels[base + 2u];
-    uint count = uint(texels[base + 3u]);
+    vec2 half_film = vec2(texel(base), texel(base + 1u));
+    float rear = texel(base + 2u);
+    uint count = uint(texel(base + 3u));
     o = scene.cam_eye.xyz;
     d = scene.cam_forward.xyz;
     vec2 f = -half_film + 2.0 * half_film * film;
@@ -63,7 +63,7 @@ float realistic_camera_ray(vec2 film, vec2 u, out vec3 o, out vec3 d) {
     float r = length(p_film.xy);
     uint interval = min(uint(r / length(half_film) * float(LENS_PUPIL_INTERVALS)), LENS_PUPIL_INTERVALS - 1u);
     uint pb = base + 4u + 4u * count + 4u * interval;
-    vec4 b = vec4(texels[pb], texels[pb + 1u], texels[pb + 2u], texels[pb + 3u]);
+    vec4 b = vec4(texel(pb), texel(pb + 1u), texel(pb + 2u), texel(pb + 3u));
     if (!(b.x < b.z && b.y < b.w)) return 0.0;
     vec2 q = vec2(b.x + (b.z - b.x) * u.x, b.y + (b.w - b.y) * u.y);
     float pdf = 1.0 / ((b.z - b.x) * (b.w - b.y));
@@ -76,9 +76,9 @@ float realistic_camera_ray(vec2 film, vec2 u, out vec3 o, out vec3 d) {
     float z = 0.0;
     for (uint k = count; k > 0u; --k) {
         uint e = base + 4u + 4u * (k - 1u);
-        float radius = texels[e];
-        float aperture = texels[e + 3u];
-        z -= texels[e + 1u];
+        float radius = texel(e);
+        float aperture = texel(e + 3u);
+        z -= texel(e + 1u);
         float t;
         vec3 n;
         if (radius == 0.0) {
@@ -90,9 +90,9 @@ float realistic_camera_ray(vec2 film, vec2 u, out vec3 o, out vec3 d) {
         lo += t * ld;
         if (dot(lo.xy, lo.xy) > aperture * aperture) return 0.0;
         if (radius != 0.0) {
-            float eta = texels[e + 2u];
+            float eta = texel(e + 2u);
             float eta_i = eta != 0.0 ? eta : 1.0;
-            float before = k > 1u ? texels[e - 2u] : 0.0;   // (the interface ahead's eta)
+            float before = k > 1u ? texel(e - 2u) : 0.0;   // (the interface ahead's eta)
             float eta_t = before != 0.0 ? before : 1.0;
             float rel = eta_t / eta_i;
             vec3 wi = -normalize(ld);

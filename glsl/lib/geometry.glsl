@@ -109,12 +109,12 @@ bool alpha_cut(GpuTriangle tri, vec2 bary, vec3 o, vec3 d) {
     if (!has_feature(FEATURE_ALPHA)) return false;
     uint ai = floatBitsToUint(tri.v2.w);
     if (ai == NO_ATTRIBUTES) return false;
-    float kind = triangle_attributes[ai].n0.w;
+    float kind = attribute_record(ai).n0.w;
     if (kind == float(ALPHA_NONE)) return false;
-    float alpha = triangle_attributes[ai].n1.w;
+    float alpha = attribute_record(ai).n1.w;
     if (kind == float(ALPHA_TEXTURE)) {
-        vec4 uv01 = triangle_attributes[ai].uv01;
-        vec2 uv2 = triangle_attributes[ai].uv2.xy;
+        vec4 uv01 = attribute_record(ai).uv01;
+        vec2 uv2 = attribute_record(ai).uv2.xy;
         float b0 = 1.0 - bary.x - bary.y;
         vec2 uv = b0 * uv01.xy + bary.x * uv01.zw + bary.y * uv2;
         vec3 p = tri.v0.xyz + bary.x * (tri.v1.xyz - tri.v0.xyz) + bary.y * (tri.v2.xyz - tri.v0.xyz);
@@ -185,9 +185,9 @@ vec3 instance_normal(uint inst, vec3 n) {
 // and the instance it is seen through (NO_INSTANCE: a world triangle).
 GpuTriangle world_triangle(uint id, out uint inst) {
     inst = NO_INSTANCE;
-    if (!has_feature(FEATURE_INSTANCES) || id < scene.flat_triangle_count) return triangles[id];
+    if (!has_feature(FEATURE_INSTANCES) || id < scene.flat_triangle_count) return triangle_record(id);
     inst = instance_of(id);
-    GpuTriangle tri = triangles[id - instances[inst].info.y];
+    GpuTriangle tri = triangle_record(id - instances[inst].info.y);
     tri.v0.xyz = instance_point(inst, tri.v0.xyz);
     tri.v1.xyz = instance_point(inst, tri.v1.xyz);
     tri.v2.xyz = instance_point(inst, tri.v2.xyz);
@@ -196,7 +196,7 @@ GpuTriangle world_triangle(uint id, out uint inst) {
 
 // The attribute record a, its shading normals carried to the world through inst.
 GpuTriangleAttributes world_attributes(uint a, uint inst) {
-    GpuTriangleAttributes at = triangle_attributes[a];
+    GpuTriangleAttributes at = attribute_record(a);
     if (has_feature(FEATURE_INSTANCES) && inst != NO_INSTANCE && at.uv2.z != 0.0) {
         at.n0.xyz = instance_normal(inst, at.n0.xyz);
         at.n1.xyz = instance_normal(inst, at.n1.xyz);
@@ -393,7 +393,7 @@ uint primitive_emitter(uint prim) {
     uint ntri = scene.triangle_count;
     if (prim >= ntri) return spheres[prim - ntri].info.y;
     // (An instance's triangles emit nothing: emitting shapes are flattened.)
-    return has_feature(FEATURE_INSTANCES) && prim >= scene.flat_triangle_count ? NO_EMITTER : floatBitsToUint(triangles[prim].v1.w);
+    return has_feature(FEATURE_INSTANCES) && prim >= scene.flat_triangle_count ? NO_EMITTER : floatBitsToUint(triangle_record(prim).v1.w);
 }
 
 Surface surface_at(Hit hit, vec3 o, vec3 d) {

@@ -135,13 +135,13 @@ float env_jacobian(uint mapping, vec2 uv) {
 // CPU mirror and builder is src/texture.rs Distribution2D. Sampling and the density both
 // read only the CDFs, so a sample's density is exactly the one it was drawn with.
 
-// The last i in 0 .. n-1 with cdf[i] <= u, for the n + 1 CDF entries from texels[first].
+// The last i in 0 .. n-1 with cdf[i] <= u, for the n + 1 CDF entries from texel(first).
 uint distribution_find_interval(uint first, uint n, float u) {
     uint lo = 0u;
     uint hi = n - 1u;
     while (lo < hi) {
         uint mid = (lo + hi + 1u) >> 1;
-        if (texels[first + mid] <= u) lo = mid; else hi = mid - 1u;
+        if (texel(first + mid) <= u) lo = mid; else hi = mid - 1u;
     }
     return lo;
 }
@@ -151,19 +151,19 @@ float distribution_pdf(uint marginal, uint conditional, uint w, uint h, vec2 uv)
     uint x = min(uint(uv.x * float(w)), w - 1u);
     uint y = min(uint(uv.y * float(h)), h - 1u);
     uint row = conditional + y * (w + 1u);
-    float m = texels[marginal + y + 1u] - texels[marginal + y];
-    return m * (texels[row + x + 1u] - texels[row + x]) * float(w * h);
+    float m = texel(marginal + y + 1u) - texel(marginal + y);
+    return m * (texel(row + x + 1u) - texel(row + x)) * float(w * h);
 }
 
 // A point of [0,1]^2 for uniforms u, with its density (0 where a cell has none).
 vec2 sample_distribution(uint marginal, uint conditional, uint w, uint h, vec2 u, out float pdf) {
     uint y = distribution_find_interval(marginal, h, u.y);
-    float m0 = texels[marginal + y];
-    float m1 = texels[marginal + y + 1u];
+    float m0 = texel(marginal + y);
+    float m1 = texel(marginal + y + 1u);
     uint row = conditional + y * (w + 1u);
     uint x = distribution_find_interval(row, w, u.x);
-    float c0 = texels[row + x];
-    float c1 = texels[row + x + 1u];
+    float c0 = texel(row + x);
+    float c1 = texel(row + x + 1u);
     float fy = m1 > m0 ? clamp((u.y - m0) / (m1 - m0), 0.0, 1.0) : 0.5;
     float fx = c1 > c0 ? clamp((u.x - c0) / (c1 - c0), 0.0, 1.0) : 0.5;
     pdf = (m1 - m0) * (c1 - c0) * float(w * h);
@@ -185,9 +185,9 @@ bool env_has_map(GpuEmitter em) {
 bool env_portal(GpuEmitter em, out vec3 p0, out vec3 e1, out vec3 e3) {
     uint i = floatBitsToUint(em.p2.w);
     if (i == NO_TEXTURE) return false;
-    p0 = vec3(texels[i], texels[i + 1u], texels[i + 2u]);
-    e1 = vec3(texels[i + 3u], texels[i + 4u], texels[i + 5u]);
-    e3 = vec3(texels[i + 6u], texels[i + 7u], texels[i + 8u]);
+    p0 = vec3(texel(i), texel(i + 1u), texel(i + 2u));
+    e1 = vec3(texel(i + 3u), texel(i + 4u), texel(i + 5u));
+    e3 = vec3(texel(i + 6u), texel(i + 7u), texel(i + 8u));
     return true;
 }
 
@@ -416,7 +416,7 @@ vec3 profile_intensity(GpuEmitter em, vec3 w) {
     uint x = min(uint(uv.x * float(width)), width - 1u);
     uint y = min(uint(uv.y * float(height)), height - 1u);
     uint i = em.info.y + (y * width + x) * profile_channels(em);
-    vec3 value = em.info.x == EMITTER_GONIOMETRIC ? vec3(texels[i]) : vec3(texels[i], texels[i + 1u], texels[i + 2u]);
+    vec3 value = em.info.x == EMITTER_GONIOMETRIC ? vec3(texel(i)) : vec3(texel(i), texel(i + 1u), texel(i + 2u));
     return em.radiance.xyz * value;
 }
 
@@ -461,7 +461,7 @@ float emitter_area_pdf(uint e, vec3 p) {
 
 // The material of an area emitter (triangle or sphere).
 uint emitter_material(GpuEmitter em) {
-    return em.info.x == EMITTER_TRIANGLE ? floatBitsToUint(triangles[em.info.y].v0.w)
+    return em.info.x == EMITTER_TRIANGLE ? floatBitsToUint(triangle_record(em.info.y).v0.w)
                                          : spheres[em.info.y].info.x;
 }
 

@@ -57,10 +57,9 @@ vec3 medium_transmittance(vec3 sigma_t, float d) {
 // (ratio tracking). The numbers after a ray's first come from a small generator seeded by a
 // hash (pbrt-v4's volpath seeds its tracking so, from two of the sampler's numbers), so
 // that a flight is a function of its ray and its two numbers in every integrator.
-layout(std430, set = 0, binding = BINDING_MEDIUM_GRIDS) readonly buffer MediumGrids { float medium_grids[]; };
 // (A word of it: the NanoVDB grids' headers and brick tables hold integers.)
 uint medium_grid_word(uint i) {
-    return floatBitsToUint(medium_grids[i]);
+    return floatBitsToUint(grid_value(i));
 }
 
 bool medium_is_grid(uint code) {
@@ -76,7 +75,7 @@ float medium_random(inout uint state) {
 // between them, zero outside.
 float grid_sample(uint first, uvec3 res, ivec3 i) {
     if (any(lessThan(i, ivec3(0))) || any(greaterThanEqual(i, ivec3(res)))) return 0.0;
-    return medium_grids[first + (uint(i.z) * res.y + uint(i.y)) * res.x + uint(i.x)];
+    return grid_value(first + (uint(i.z) * res.y + uint(i.y)) * res.x + uint(i.x));
 }
 
 float grid_lookup(uint first, uvec3 res, vec3 p) {
@@ -95,7 +94,7 @@ float grid_lookup(uint first, uvec3 res, vec3 p) {
 vec3 grid_sample3(uint first, uvec3 res, ivec3 i) {
     if (any(lessThan(i, ivec3(0))) || any(greaterThanEqual(i, ivec3(res)))) return vec3(0.0);
     uint k = first + 3u * ((uint(i.z) * res.y + uint(i.y)) * res.x + uint(i.x));
-    return vec3(medium_grids[k], medium_grids[k + 1u], medium_grids[k + 2u]);
+    return vec3(grid_value(k), grid_value(k + 1u), grid_value(k + 2u));
 }
 
 vec3 grid_lookup3(uint first, uvec3 res, vec3 p) {
@@ -111,7 +110,7 @@ vec3 grid_lookup3(uint first, uvec3 res, vec3 p) {
 }
 
 // A NanoVDB grid's voxel at index ijk from its bricks (CPU mirror: src/nanovdb.rs's
-// Bricks::value; the header at medium_grids[h], abi.h): 0 outside them and where a brick's
+// Bricks::value; the header at grid_value(h), abi.h): 0 outside them and where a brick's
 // table entry is 0.
 float bricks_value(uint h, ivec3 ijk) {
     ivec3 r = ijk - ivec3(medium_grid_word(h + 12u), medium_grid_word(h + 13u), medium_grid_word(h + 14u));
@@ -121,7 +120,7 @@ float bricks_value(uint h, ivec3 ijk) {
     uint t = medium_grid_word(medium_grid_word(h + 18u) + (b.z * dims.y + b.y) * dims.x + b.x);
     if (t == 0u) return 0.0;
     uvec3 l = uvec3(r) & 7u;
-    return medium_grids[medium_grid_word(h + 19u) + (t - 1u) * 512u + l.x + 8u * l.y + 64u * l.z];
+    return grid_value(medium_grid_word(h + 19u) + (t - 1u) * 512u + l.x + 8u * l.y + 64u * l.z);
 }
 
 // A NanoVDB grid at p of the unit cube (CPU mirror: src/scene/mod.rs's SparseGrid::lookup):
@@ -129,9 +128,9 @@ float bricks_value(uint h, ivec3 ijk) {
 // first, then y, then x; a + w (b - a)).
 float bricks_lookup(uint h, vec3 p) {
     vec4 q = vec4(p, 1.0);
-    vec3 x = vec3(dot(vec4(medium_grids[h], medium_grids[h + 1u], medium_grids[h + 2u], medium_grids[h + 3u]), q),
-                  dot(vec4(medium_grids[h + 4u], medium_grids[h + 5u], medium_grids[h + 6u], medium_grids[h + 7u]), q),
-                  dot(vec4(medium_grids[h + 8u], medium_grids[h + 9u], medium_grids[h + 10u], medium_grids[h + 11u]), q));
+    vec3 x = vec3(dot(vec4(grid_value(h), grid_value(h + 1u), grid_value(h + 2u), grid_value(h + 3u)), q),
+                  dot(vec4(grid_value(h + 4u), grid_value(h + 5u), grid_value(h + 6u), grid_value(h + 7u)), q),
+                  dot(vec4(grid_value(h + 8u), grid_value(h + 9u), grid_value(h + 10u), grid_value(h + 11u)), q));
     vec3 f = floor(x);
     ivec3 i = ivec3(f);
     vec3 w = x - f;
@@ -194,18 +193,18 @@ float cloud_density(uint table, vec3 p, float density, float wispiness, float fr
 }
 
 // pbrt-v4's BlackbodySpectrum (Planck's law over its peak) at `kelvin` as linear sRGB, from
-// the table at texels[table] (CPU mirror and maker: src/media.rs's blackbody and
+// the table at texel(table) (CPU mirror and maker: src/media.rs's blackbody and
 // blackbody_table): log2 of its first temperature, entries per unit of log2 T, their count,
 // then RGB entries; linear between them in log2 T, falling as T^-4 above the last.
 vec3 blackbody(uint table, float kelvin) {
-    float lo = texels[table], per = texels[table + 1u], last = texels[table + 2u] - 1.0;
+    float lo = texel(table), per = texel(table + 1u), last = texel(table + 2u) - 1.0;
     float x = (log2(kelvin) - lo) * per;
     float tail = x > last ? exp2((last - x) / per * 4.0) : 1.0;
     x = clamp(x, 0.0, last);
     float f = floor(min(x, last - 1.0));
     uint i = table + 3u + 3u * uint(f);
-    vec3 a = vec3(texels[i], texels[i + 1u], texels[i + 2u]);
-    vec3 b = vec3(texels[i + 3u], texels[i + 4u], texels[i + 5u]);
+    vec3 a = vec3(texel(i), texel(i + 1u), texel(i + 2u));
+    vec3 b = vec3(texel(i + 3u), texel(i + 4u), texel(i + 5u));
     return tail * mix(a, b, x - f);
 }
 
@@ -332,7 +331,7 @@ bool grid_track(inout FreeFlight f, uint code, vec3 o, vec3 d, float len, bool s
     bool emits = scatter && m.emission.xyz != vec3(0.0);
     [[dont_unroll]] while (t < t1) {
         float end = min(min(next.x, min(next.y, next.z)), t1);
-        float maj = medium_grids[m.info.w + (uint(cell.z) * uint(MEDIUM_MAJORANT_RES) + uint(cell.y)) * uint(MEDIUM_MAJORANT_RES) + uint(cell.x)];
+        float maj = grid_value(m.info.w + (uint(cell.z) * uint(MEDIUM_MAJORANT_RES) + uint(cell.y)) * uint(MEDIUM_MAJORANT_RES) + uint(cell.x));
         [[dont_unroll]] while (maj > 0.0 && f.tau < maj * (end - t)) {
             t += f.tau / maj;
             vec3 p = uo + t * ud;

@@ -12,7 +12,7 @@
 #extension GL_EXT_control_flow_attributes : require
 #include "bindings.glsl"
 
-int noise_perm(uint table, int i) { return int(texels[table + uint(i)]); }
+int noise_perm(uint table, int i) { return int(texel(table + uint(i))); }
 
 // The gradient of lattice point (x, y, z) dotted with the offset d from it.
 float noise_grad(uint table, ivec3 c, vec3 d) {
@@ -48,7 +48,7 @@ vec3 noise_marble_colour(uint table, float t) {
     float u = t * 6.0 - first;
     uint c = table + 512u + 3u * uint(first);
     vec3 p[4];
-    for (uint k = 0u; k < 4u; ++k) p[k] = vec3(texels[c + 3u * k], texels[c + 3u * k + 1u], texels[c + 3u * k + 2u]);
+    for (uint k = 0u; k < 4u; ++k) p[k] = vec3(texel(c + 3u * k), texel(c + 3u * k + 1u), texel(c + 3u * k + 2u));
     float s = 1.0 - u;
     vec3 rgb = s * s * s * p[0] + 3.0 * s * s * u * p[1] + 3.0 * s * u * u * p[2] + u * u * u * p[3];
     return clamp(1.5 * rgb, vec3(0.0), vec3(1.0));

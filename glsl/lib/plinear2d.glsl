@@ -8,7 +8,7 @@
 #extension GL_EXT_control_flow_attributes : require
 #include "bindings.glsl"
 
-uint plin_word(uint i) { return floatBitsToUint(texels[i]); }
+uint plin_word(uint i) { return floatBitsToUint(texel(i)); }
 
 struct Plinear {
     uint base;
@@ -51,7 +51,7 @@ void plinear_slices(Plinear t, vec3 p, out uint first, out vec3 w1) {
             [[dont_unroll]] while (len > 0u) {
                 uint half_ = len / 2u;
                 uint middle = lo + half_;
-                if (texels[values + middle] <= p[d]) {
+                if (texel(values + middle) <= p[d]) {
                     lo = middle + 1u;
                     len -= half_ + 1u;
                 } else {
@@ -59,7 +59,7 @@ void plinear_slices(Plinear t, vec3 p, out uint first, out vec3 w1) {
                 }
             }
             uint i = min(lo - 1u, res - 2u);
-            float v0 = texels[values + i], v1 = texels[values + i + 1u];
+            float v0 = texel(values + i), v1 = texel(values + i + 1u);
             w1[d] = clamp((p[d] - v0) / (v1 - v0), 0.0, 1.0);
             first += i * t.stride[d];
         }
@@ -79,7 +79,7 @@ float plinear_lookup(Plinear t, uint array, uint len, uint offset, uint first, v
             w *= up ? w1[d] : 1.0 - w1[d];
             slice += up ? t.stride[d] : 0u;
         }
-        if (w > 0.0) sum += w * texels[array + slice * len + offset];
+        if (w > 0.0) sum += w * texel(array + slice * len + offset);
     }
     return sum;
 }

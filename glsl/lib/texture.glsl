@@ -12,7 +12,7 @@
 vec3 texel(GpuTexture t, int x, int y) {
     if (x < 0 || y < 0) return vec3(0.0);
     uint i = t.info.y + 3u * (uint(y) * t.info.z + uint(x));
-    return vec3(texels[i], texels[i + 1u], texels[i + 2u]);
+    return vec3(texel(i), texel(i + 1u), texel(i + 2u));
 }
 
 // The texel index of the (floored) coordinate i along a side of n texels: repeating,
@@ -60,10 +60,10 @@ vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, vec3 dpdx, vec3 dpdy, uint tf) 
     }
     if (has_texture_feature(tf, FEATURE_BILERP_TEXTURES) && t.info.x == TEXTURE_BILERP) {
         uint i = t.info.y;
-        vec3 v00 = vec3(texels[i], texels[i + 1u], texels[i + 2u]);
-        vec3 v01 = vec3(texels[i + 3u], texels[i + 4u], texels[i + 5u]);
-        vec3 v10 = vec3(texels[i + 6u], texels[i + 7u], texels[i + 8u]);
-        vec3 v11 = vec3(texels[i + 9u], texels[i + 10u], texels[i + 11u]);
+        vec3 v00 = vec3(texel(i), texel(i + 1u), texel(i + 2u));
+        vec3 v01 = vec3(texel(i + 3u), texel(i + 4u), texel(i + 5u));
+        vec3 v10 = vec3(texel(i + 6u), texel(i + 7u), texel(i + 8u));
+        vec3 v11 = vec3(texel(i + 9u), texel(i + 10u), texel(i + 11u));
         return (1.0 - st.x) * (1.0 - st.y) * v00 + (1.0 - st.x) * st.y * v01
              + st.x * (1.0 - st.y) * v10 + st.x * st.y * v11;
     }

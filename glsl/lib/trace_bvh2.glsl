@@ -4,7 +4,12 @@
 // node whose first child follows it and whose second child is left_or_first.
 struct BvhNode { vec4 min_left; vec4 max_count; };
 
-layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodeBuffer { BvhNode bvh_nodes[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer BvhNodeChunk { BvhNode at[]; };
+BvhNode bvh_node(uint i) {
+    uint j;
+    uvec2 a = data_chunk(DATA_BVH_NODES, i, j);
+    return BvhNodeChunk(a).at[j];
+}
 #include "trace_bvh_common.glsl"
 
 #define BVH_STACK_SIZE 64
@@ -39,17 +44,17 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     vec3 world_o = o;
     vec3 world_d = d;
     uint id_shift = 0u;
-    BvhNode root = bvh_nodes[0];
+    BvhNode root = bvh_node(0);
     // An empty scene is one empty leaf with an inverted box.
     if (root.min_left.x > root.max_count.x) return false;
     if (bvh_box_entry(root, o, inv_d, closest) == INF) return false;
     while (true) {
-        BvhNode node = bvh_nodes[node_index];
+        BvhNode node = bvh_node(node_index);
         uint count = floatBitsToUint(node.max_count.w);
         uint first = floatBitsToUint(node.min_left.w);
         if (count > 0u) {
             for (uint i = 0u; i < count; ++i) {
-                uint prim = bvh_prims[first + i];
+                uint prim = bvh_prim(first + i);
                 if (bvh_is_instance(prim, inst)) {
                     if (sp < BVH_STACK_SIZE) stack[sp++] = BVH_INSTANCE_ENTRY + (prim - scene.flat_triangle_count);
                     continue;
@@ -63,8 +68,8 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
         } else {
             uint a = node_index + 1u;
             uint b = first;
-            float ta = bvh_box_entry(bvh_nodes[a], o, inv_d, closest);
-            float tb = bvh_box_entry(bvh_nodes[b], o, inv_d, closest);
+            float ta = bvh_box_entry(bvh_node(a), o, inv_d, closest);
+            float tb = bvh_box_entry(bvh_node(b), o, inv_d, closest);
             if (ta > tb) { float tt = ta; ta = tb; tb = tt; uint x = a; a = b; b = x; }
             if (ta != INF) {
                 if (tb != INF && sp < BVH_STACK_SIZE) stack[sp++] = b;
@@ -92,7 +97,7 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
                 inv_d = bvh_safe_inverse(d);
                 if (inst == NO_INSTANCE) continue;
             }
-            if (bvh_box_entry(bvh_nodes[candidate], o, inv_d, closest) != INF) {
+            if (bvh_box_entry(bvh_node(candidate), o, inv_d, closest) != INF) {
                 node_index = candidate;
                 next = true;
                 break;

@@ -1,7 +1,6 @@
 // What the two storage-buffer BVH walks share: the primitive references of their
 // leaves, the slab test's constants, the exact primitive tests and the visibility
 // interface over the walk.
-layout(std430, set = 0, binding = BINDING_BVH_PRIMS) readonly buffer BvhPrimBuffer { uint bvh_prims[]; };
 
 // Mirrors of src/accel/bvh.rs: SLAB_EXIT_SCALE = 1 + 2 gamma(3), MIN_DIR_COMPONENT.
 const float BVH_SLAB_EXIT_SCALE = 1.0 + 2.0 * (3.0 * 5.9604645e-8) / (1.0 - 3.0 * 5.9604645e-8);
@@ -17,7 +16,7 @@ bool bvh_intersect_prim_once(uint prim, vec3 o, vec3 d, float tmax, out float t,
     uint ntri = scene.triangle_count;
     bary = vec2(0.0);
     if (prim < ntri) {
-        GpuTriangle tri = triangles[prim];
+        GpuTriangle tri = triangle_record(prim);
         return intersect_triangle(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, o, d, 0.0, tmax, t, bary)
             && !alpha_cut(tri, bary, o, d);
     }

@@ -9,7 +9,12 @@
 // arithmetic, contain the children, and the box test below bounds its own rounding.
 struct CwbvhNode { uvec4 a; uvec4 b; uvec4 c; uvec4 d; uvec4 e; };
 
-layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodeBuffer { CwbvhNode bvh_nodes[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer CwbvhNodeChunk { CwbvhNode at[]; };
+CwbvhNode bvh_node(uint i) {
+    uint j;
+    uvec2 a = data_chunk(DATA_BVH_NODES, i, j);
+    return CwbvhNodeChunk(a).at[j];
+}
 #include "trace_bvh_common.glsl"
 
 // Mirror of src/accel/cwbvh.rs STACK_SIZE (the builder caps the depth to it).
@@ -88,7 +93,7 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
         while (prim_group.y != 0u) {
             uint bit = uint(findMSB(prim_group.y));
             prim_group.y &= ~(1u << bit);
-            uint prim = bvh_prims[prim_group.x + bit];
+            uint prim = bvh_prim(prim_group.x + bit);
             if (bvh_is_instance(prim, inst)) {
                 // (The host checks that the two trees' depths fit the stack.)
                 if (sp + 3u > CWBVH_STACK_SIZE) continue;
@@ -119,7 +124,7 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             if ((node_group.y & 0xff000000u) != 0u && sp < CWBVH_STACK_SIZE) stack[sp++] = node_group;
             uint slot = (bit - 24u) ^ (oct_inv4 & 0xffu);
             uint relative = bitCount(hits & ~(0xffffffffu << slot));
-            CwbvhNode node = bvh_nodes[node_group.x + relative];
+            CwbvhNode node = bvh_node(node_group.x + relative);
             uint hitmask = cwbvh_intersect_node(node, o, inv_d, neg, oct_inv4, closest);
             node_group = uvec2(node.b.x, (hitmask & 0xff000000u) | (node.a.w >> 24));
             prim_group = uvec2(node.b.y, hitmask & 0x00ffffffu);

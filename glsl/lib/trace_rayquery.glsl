@@ -18,7 +18,7 @@ bool trace_ray(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     rayQueryInitializeEXT(rq, tlas, flags, 0xFF, o, 0.0, d, tmax);
     while (rayQueryProceedEXT(rq)) {
         if (has_feature(FEATURE_ALPHA) && rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionTriangleEXT) {
-            if (!alpha_cut(triangles[rayQueryGetIntersectionPrimitiveIndexEXT(rq, false)], rayQueryGetIntersectionBarycentricsEXT(rq, false), o, d)) {
+            if (!alpha_cut(triangle_record(rayQueryGetIntersectionPrimitiveIndexEXT(rq, false)), rayQueryGetIntersectionBarycentricsEXT(rq, false), o, d)) {
                 rayQueryConfirmIntersectionEXT(rq);
                 if (any_hit) rayQueryTerminateEXT(rq);
             }

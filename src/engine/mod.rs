@@ -22,6 +22,7 @@ use crate::gpu::buffer::{memory_barrier, Buffer};
 pub use crate::gpu::kernels::Specialization;
 use crate::gpu::kernels::{Backend, Kernel, Kernels, Resource};
 use crate::gpu::rayquery::{self, RayQueryScene};
+use crate::gpu::scene_data::{DataArray, SceneData};
 pub use crate::gpu::Validation;
 use crate::gpu::{Device, ValidationReport};
 use crate::gpu_scene::{scene_params, GpuScene};
@@ -113,6 +114,9 @@ pub struct Engine {
     /// has a pass after its integrator's, on the same scene: the gbuffer film's).
     keep_scene: bool,
     kept_scene: Option<Arc<PreparedScene>>,
+    /// The largest chunk of scene data (`GpuScene::data`): the device's
+    /// (`gpu_scene::device_chunk_bytes`) unless [`Engine::set_chunk_bytes`] set a smaller one.
+    chunk_bytes: Option<u64>,
 }
 
 /// A scene made ready for the device: its buffers, parameters and visibility structure.
@@ -161,6 +165,21 @@ impl PreparedScene {
     }
 }
 
+/// An error naming what does not fit where `triangles` triangle records and
+/// `attributed` attribute records need more than a device heap of `heap` bytes (0: not
+/// known, no check).
+fn fits_device(triangles: u64, attributed: u64, heap: u64, device: &str) -> Result<()> {
+    let triangle_bytes = triangles * std::mem::size_of::<crate::abi::GpuTriangle>() as u64;
+    let attribute_bytes =
+        attributed * std::mem::size_of::<crate::abi::GpuTriangleAttributes>() as u64;
+    if heap > 0 && triangle_bytes + attribute_bytes > heap {
+        bail!(
+            "the scene's {triangles} triangles need {triangle_bytes} bytes on the device, and their attribute records (texture coordinates, normals or alpha) {attribute_bytes} more: more than {device} holds ({heap} bytes in its largest memory heap); the scene does not fit this device"
+        );
+    }
+    Ok(())
+}
+
 impl Engine {
     /// Open a device (by index or name; the best one when `None`) for the backend
     /// `accel` picks. With `validation`, everything runs under the Khronos validation
@@ -201,6 +220,7 @@ impl Engine {
             control: RunControl::default(),
             keep_scene: false,
             kept_scene: None,
+            chunk_bytes: None,
         })
     }
 
@@ -212,6 +232,14 @@ impl Engine {
     /// it was opened without validation.
     pub fn validation(&self) -> Option<ValidationReport> {
         self.device.instance.validation()
+    }
+
+    /// Cut the scene's large arrays into chunks of at most `bytes` (rounded down to a
+    /// power of two of records; `None`: as large as the device allows), from the next
+    /// `prepare` on. Images do not depend on it (tests cut small scenes into many chunks
+    /// to see that).
+    pub fn set_chunk_bytes(&mut self, bytes: Option<u64>) {
+        self.chunk_bytes = bytes;
     }
 
     /// Keep (or not) the next prepared scene for [`Engine::take_kept_scene`]; either way
@@ -242,7 +270,7 @@ impl Engine {
         self.kept_scene = None;
         // The previous render's descriptor sets are no longer in use.
         self.kernels.reset_sets()?;
-        self.check_triangle_buffers(scene)?;
+        self.check_device_memory(scene)?;
         let mut scene = scene.clone();
         let backend = self.backend();
         let bvh = trace.cpu("BVH build", || {
@@ -251,9 +279,14 @@ impl Engine {
         let mut p = scene_params(&scene, seed);
         params(&mut p);
         let gpu_scene = trace.cpu("scene upload", || {
-            GpuScene::new(&self.device, &scene, &bvh, backend, p)
+            let device_chunk = crate::gpu_scene::device_chunk_bytes(&self.device);
+            let chunk = self
+                .chunk_bytes
+                .map_or(device_chunk, |c| c.min(device_chunk));
+            GpuScene::new(&self.device, &scene, &bvh, backend, p, chunk)
         })?;
         trace.device_bytes(gpu_scene.device_bytes());
+        trace.scene_data(gpu_scene.data.kinds());
         let rq = if backend == Backend::RayQuery {
             let spheres: Vec<_> = scene
                 .spheres
@@ -263,7 +296,7 @@ impl Engine {
             let rq = trace.cpu("acceleration structure build", || {
                 rayquery::build_scene(
                     &self.device,
-                    &gpu_scene.triangles,
+                    gpu_scene.triangles(),
                     scene.triangles.len() as u32,
                     &spheres,
                     scene.triangles.iter().any(|t| t.alpha.is_some()),
@@ -294,11 +327,12 @@ impl Engine {
         Ok(prepared)
     }
 
-    /// An error, before the BVH is built, where the scene's triangles or their attribute
-    /// records (texture coordinates, shading normals, alpha) would need more than one
-    /// storage buffer of the device can hold (GpuScene::new checks every buffer again).
-    fn check_triangle_buffers(&self, scene: &Scene) -> Result<()> {
-        let range = self.device.info.max_storage_buffer_range;
+    /// An error, before the BVH is built, where the scene's triangles and their attribute
+    /// records (texture coordinates, shading normals, alpha) alone would need more than
+    /// the device's largest memory heap (they are the bulk of a large scene; the upload
+    /// names any other allocation that fails).
+    fn check_device_memory(&self, scene: &Scene) -> Result<()> {
+        let heap = self.device.info.device_local_bytes;
         let count = scene.unique_triangle_count();
         let attributed = scene
             .triangles
@@ -306,28 +340,7 @@ impl Engine {
             .chain(scene.objects.iter().flat_map(|o| o.triangles.iter()))
             .filter(|t| t.uv.is_some() || t.normals.is_some() || t.alpha.is_some())
             .count() as u64;
-        for (what, records, size) in [
-            (
-                "triangles",
-                count,
-                std::mem::size_of::<crate::abi::GpuTriangle>() as u64,
-            ),
-            (
-                "triangle attributes (for those with texture coordinates, normals or alpha)",
-                attributed,
-                std::mem::size_of::<crate::abi::GpuTriangleAttributes>() as u64,
-            ),
-        ] {
-            let bytes = records * size;
-            if bytes > range {
-                bail!(
-                    "the scene's {count} triangles need {bytes} bytes of {what} on the device, more than one storage buffer of {} holds ({range} bytes: {} records of {size} bytes): the scene does not fit this device",
-                    self.device.info.name,
-                    range / size
-                );
-            }
-        }
-        Ok(())
+        fits_device(count, attributed, heap, &self.device.info.name)
     }
 
     /// The kernel `name`, or with `variant` its profiling variant (`name+variant`),
@@ -427,6 +440,31 @@ impl Engine {
     }
 
     /// A storage buffer holding `data`.
+    /// Scene data (`GpuScene::data`'s kind) for a probe: `arrays` as (abi.h `DATA_*`,
+    /// floats), the other kinds empty; bind its `table` at `BINDING_SCENE_DATA`.
+    pub fn float_data(&self, arrays: &[(u32, &[f32])]) -> Result<SceneData> {
+        const NAMES: [&str; crate::abi::DATA_KINDS as usize] = [
+            "probe triangles",
+            "probe attributes",
+            "probe BVH nodes",
+            "probe BVH primitives",
+            "probe texels",
+            "probe medium grids",
+        ];
+        let kinds: [DataArray; crate::abi::DATA_KINDS as usize] =
+            std::array::from_fn(
+                |k| match arrays.iter().find(|(kind, _)| *kind as usize == k) {
+                    Some((_, floats)) => DataArray::new(NAMES[k], bytemuck::cast_slice(floats), 4),
+                    None => DataArray::none(NAMES[k]),
+                },
+            );
+        let device_chunk = crate::gpu_scene::device_chunk_bytes(&self.device);
+        let chunk = self
+            .chunk_bytes
+            .map_or(device_chunk, |c| c.min(device_chunk));
+        Ok(SceneData::new(&self.device, &kinds, chunk)?)
+    }
+
     pub fn buffer_with(&self, name: &str, data: &[u8]) -> Result<Buffer> {
         Ok(Buffer::with_data(
             &self.device,
@@ -755,6 +793,28 @@ mod tests {
             "size 8 8\ncamera 0 0 4 0 0 0 0 1 0 45\npoint 0 3 0 1 1 1\n{materials}\nsphere 0 0 0 1\n"
         );
         parse_str(&text, "features.test").unwrap()
+    }
+
+    /// A scene past the device's largest heap is an error that says how many bytes of
+    /// which records it needs and what the device holds; one that fits, or a device whose
+    /// heap is not known, passes.
+    #[test]
+    fn a_scene_past_the_devices_memory_is_an_error_that_names_it() {
+        let err = fits_device(20_000_000, 10_000_000, 1 << 30, "a small GPU")
+            .unwrap_err()
+            .to_string();
+        for part in [
+            "20000000 triangles",
+            "960000000 bytes",
+            "800000000 more",
+            "a small GPU",
+            "1073741824 bytes",
+            "does not fit",
+        ] {
+            assert!(err.contains(part), "{part}: {err}");
+        }
+        assert!(fits_device(20_000_000, 0, 1 << 30, "a small GPU").is_ok());
+        assert!(fits_device(20_000_000, 10_000_000, 0, "unknown").is_ok());
     }
 
     #[test]

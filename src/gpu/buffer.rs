@@ -49,6 +49,9 @@ pub fn writes_visible_to_later_commands(
     );
 }
 
+/// The largest staging buffer an upload makes (64 MiB).
+pub const STAGING_BYTES: usize = 64 << 20;
+
 pub struct Buffer {
     device: Arc<Device>,
     pub raw: vk::Buffer,
@@ -136,30 +139,14 @@ impl Buffer {
     ) -> GpuResult<Buffer> {
         let size = (data.len() as u64).max(16);
         let buffer = Buffer::device_local(device, name, size, usage)?;
-        if !data.is_empty() {
-            let mut staging = Buffer::new(
-                device,
-                &format!("{name} (staging)"),
-                size,
-                vk::BufferUsageFlags::TRANSFER_SRC,
-                MemoryLocation::CpuToGpu,
-            )?;
-            staging.write(data)?;
-            device.run_commands(&format!("uploading '{name}'"), |cmd| unsafe {
-                device.raw.cmd_copy_buffer(
-                    cmd,
-                    staging.raw,
-                    buffer.raw,
-                    &[vk::BufferCopy::default().size(data.len() as u64)],
-                );
-                writes_visible_to_later_commands(device, cmd, vk::AccessFlags::TRANSFER_WRITE);
-            })?;
-        }
+        buffer.upload(data)?;
         Ok(buffer)
     }
 
     /// Copy `data` into the start of this device-local buffer (made with TRANSFER_DST),
-    /// ordered after every earlier command and before every later one.
+    /// ordered after every earlier command and before every later one: through a
+    /// staging buffer of at most `STAGING_BYTES`, piece by piece, so that a large upload
+    /// does not hold a second copy of itself in host memory.
     pub fn upload(&self, data: &[u8]) -> GpuResult<()> {
         if data.is_empty() {
             return Ok(());
@@ -169,28 +156,35 @@ impl Buffer {
         if data.len() as u64 > self.size {
             return Err(other_error(&stage, "data larger than the buffer"));
         }
+        let piece = data.len().min(STAGING_BYTES);
         let mut staging = Buffer::new(
             device,
             &format!("{} (staging)", self.name),
-            data.len() as u64,
+            piece as u64,
             vk::BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::CpuToGpu,
         )?;
-        staging.write(data)?;
-        device.run_commands(&stage, |cmd| unsafe {
-            writes_visible_to_later_commands(
-                device,
-                cmd,
-                vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
-            );
-            device.raw.cmd_copy_buffer(
-                cmd,
-                staging.raw,
-                self.raw,
-                &[vk::BufferCopy::default().size(data.len() as u64)],
-            );
-            writes_visible_to_later_commands(device, cmd, vk::AccessFlags::TRANSFER_WRITE);
-        })
+        for (k, part) in data.chunks(piece).enumerate() {
+            // (Each piece's commands have ended before the next overwrites the staging.)
+            staging.write(part)?;
+            device.run_commands(&stage, |cmd| unsafe {
+                writes_visible_to_later_commands(
+                    device,
+                    cmd,
+                    vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
+                );
+                device.raw.cmd_copy_buffer(
+                    cmd,
+                    staging.raw,
+                    self.raw,
+                    &[vk::BufferCopy::default()
+                        .dst_offset((k * piece) as u64)
+                        .size(part.len() as u64)],
+                );
+                writes_visible_to_later_commands(device, cmd, vk::AccessFlags::TRANSFER_WRITE);
+            })?;
+        }
+        Ok(())
     }
 
     /// Fill the whole buffer with zeros, ordered after every earlier command.

@@ -7,6 +7,7 @@ pub mod buffer;
 pub mod kernels;
 pub mod rayquery;
 pub mod reflect;
+pub mod scene_data;
 pub mod timing;
 
 use ash::vk;
@@ -72,6 +73,15 @@ pub struct DeviceInfo {
     pub ray_query: bool,
     pub atomic_float: bool,
     pub max_storage_buffer_range: u64,
+    /// The largest allocation and the largest buffer (maxMemoryAllocationSize, and
+    /// maxBufferSize where Vulkan 1.3 says it): the scene data's chunks stay below both.
+    pub max_allocation_bytes: u64,
+    pub max_buffer_bytes: u64,
+    /// The largest device-local memory heap: a scene that needs more is an error.
+    pub device_local_bytes: u64,
+    /// bufferDeviceAddress (Vulkan 1.2): the kernels read the scene's large arrays by
+    /// address (glsl/lib/scene_data.glsl); lightpath needs it.
+    pub buffer_device_address: bool,
     pub max_workgroup_invocations: u32,
     pub timestamp_period_ns: f32,
     pub timestamps: bool,
@@ -332,8 +342,23 @@ impl Instance {
         for (index, &pd) in physicals.iter().enumerate() {
             let props = unsafe { self.raw.get_physical_device_properties(pd) };
             let mut driver = vk::PhysicalDeviceDriverProperties::default();
-            let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+            let mut m3 = vk::PhysicalDeviceMaintenance3Properties::default();
+            let mut m4 = vk::PhysicalDeviceMaintenance4Properties::default();
+            let mut props2 = vk::PhysicalDeviceProperties2::default()
+                .push_next(&mut driver)
+                .push_next(&mut m3);
+            let is_13 = props.api_version >= vk::API_VERSION_1_3;
+            if is_13 {
+                props2 = props2.push_next(&mut m4);
+            }
             unsafe { self.raw.get_physical_device_properties2(pd, &mut props2) };
+            let memory = unsafe { self.raw.get_physical_device_memory_properties(pd) };
+            let device_local_bytes = memory.memory_heaps[..memory.memory_heap_count as usize]
+                .iter()
+                .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+                .map(|h| h.size)
+                .max()
+                .unwrap_or(0);
             let exts = unsafe { self.raw.enumerate_device_extension_properties(pd) }
                 .stage("listing device extensions")?;
             let has = |name: &CStr| exts.iter().any(|e| e.extension_name_as_c_str() == Ok(name));
@@ -391,6 +416,14 @@ impl Instance {
                         && v12.buffer_device_address == vk::TRUE,
                     atomic_float: float_ext && af.shader_buffer_float32_atomic_add == vk::TRUE,
                     max_storage_buffer_range: limits.max_storage_buffer_range as u64,
+                    max_allocation_bytes: m3.max_memory_allocation_size,
+                    max_buffer_bytes: if is_13 {
+                        m4.max_buffer_size
+                    } else {
+                        m3.max_memory_allocation_size
+                    },
+                    device_local_bytes,
+                    buffer_device_address: is_12 && v12.buffer_device_address == vk::TRUE,
                     max_workgroup_invocations: limits.max_compute_work_group_invocations,
                     timestamp_period_ns: limits.timestamp_period,
                     timestamps: queue_ok == Some(true),
@@ -528,8 +561,16 @@ impl Device {
         if info.atomic_float {
             ext_names.push(ash::ext::shader_atomic_float::NAME.as_ptr());
         }
-        let mut v12 =
-            vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(ray_query);
+        if !info.buffer_device_address {
+            return Err(other_error(
+                "opening the device",
+                format!(
+                    "{} has no bufferDeviceAddress; lightpath reads the scene's large arrays by address",
+                    info.name
+                ),
+            ));
+        }
+        let mut v12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
         let mut rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
         let mut asf = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
             .acceleration_structure(true);
@@ -602,7 +643,7 @@ impl Device {
             device: raw.clone(),
             physical_device: physical,
             debug_settings: Default::default(),
-            buffer_device_address: ray_query,
+            buffer_device_address: true,
             allocation_sizes: Default::default(),
         })
         .map_err(|e| {

@@ -1,0 +1,64 @@
+// The scene's large arrays (triangles, their attributes, the BVH, texels, medium grids)
+// read by device address, so that none is bounded by a binding's range (lavapipe: 128
+// MiB) or by one allocation (2 GiB): each kind (abi.h DATA_*) is cut into chunks of 2^shift
+// records, each chunk a buffer of its own (src/gpu_scene.rs `SceneData`, which picks the
+// shift from the device's limits). BINDING_SCENE_DATA holds a header per kind (x, y: the
+// first chunk's address; z: shift; w: where the kind's chunk addresses start in
+// data_chunks) and then every chunk's address. A record never straddles two chunks; a
+// float array's reader asks per float (`texel`, `grid_value`).
+#ifndef SCENE_DATA_GLSL
+#define SCENE_DATA_GLSL
+#extension GL_EXT_buffer_reference : require
+#extension GL_EXT_buffer_reference_uvec2 : require
+#include "abi.h"
+
+layout(std430, set = 0, binding = BINDING_SCENE_DATA) readonly buffer SceneDataBuffer {
+    uvec4 data_kinds[DATA_KINDS];
+    uvec2 data_chunks[];
+};
+
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer TriangleChunk { GpuTriangle at[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer AttributeChunk { GpuTriangleAttributes at[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer FloatChunk { float at[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer UintChunk { uint at[]; };
+
+// The address of the chunk that holds record i of kind k, and (j) its index there.
+uvec2 data_chunk(uint k, uint i, out uint j) {
+    uvec4 h = data_kinds[k];
+    uint c = i >> h.z;
+    j = i & ((1u << h.z) - 1u);
+    uvec2 a = h.xy;
+    if (c != 0u) a = data_chunks[h.w + c];
+    return a;
+}
+
+GpuTriangle triangle_record(uint i) {
+    uint j;
+    uvec2 a = data_chunk(DATA_TRIANGLES, i, j);
+    return TriangleChunk(a).at[j];
+}
+
+GpuTriangleAttributes attribute_record(uint i) {
+    uint j;
+    uvec2 a = data_chunk(DATA_ATTRIBUTES, i, j);
+    return AttributeChunk(a).at[j];
+}
+
+float texel(uint i) {
+    uint j;
+    uvec2 a = data_chunk(DATA_TEXELS, i, j);
+    return FloatChunk(a).at[j];
+}
+
+float grid_value(uint i) {
+    uint j;
+    uvec2 a = data_chunk(DATA_GRIDS, i, j);
+    return FloatChunk(a).at[j];
+}
+
+uint bvh_prim(uint i) {
+    uint j;
+    uvec2 a = data_chunk(DATA_BVH_PRIMS, i, j);
+    return UintChunk(a).at[j];
+}
+#endif

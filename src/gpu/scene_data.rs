@@ -1,0 +1,153 @@
+//! The scene's large arrays on the device, in chunks read by address
+//! (glsl/lib/scene_data.glsl): triangles, their attribute records, the BVH's nodes and
+//! primitive references, texels and medium grids (abi.h `DATA_*`). Each kind is cut into
+//! chunks of 2^shift records, each chunk a buffer of its own below the device's largest
+//! allocation and buffer, so that no kind meets a binding's range (lavapipe: 128 MiB) or
+//! one allocation's size (lavapipe: 2 GiB); the kernels find a record's chunk by its index
+//! (`index >> shift`) in the table at `BINDING_SCENE_DATA`.
+use super::buffer::Buffer;
+use super::{Device, GpuResult};
+use crate::abi::DATA_KINDS;
+use ash::vk;
+use std::sync::Arc;
+
+/// One kind's data as the host has it: its bytes, the size of one record (a record never
+/// straddles two chunks) and the usage its buffers need beyond storage and addressing.
+pub struct DataArray<'a> {
+    pub name: &'static str,
+    pub bytes: &'a [u8],
+    pub record: u64,
+    pub usage: vk::BufferUsageFlags,
+    /// The largest chunk for this kind, where it is not the scene's.
+    pub chunk_bytes: Option<u64>,
+}
+
+impl<'a> DataArray<'a> {
+    pub fn new(name: &'static str, bytes: &'a [u8], record: u64) -> DataArray<'a> {
+        DataArray {
+            name,
+            bytes,
+            record,
+            usage: vk::BufferUsageFlags::empty(),
+            chunk_bytes: None,
+        }
+    }
+
+    /// An empty kind (a kernel that reads none of it).
+    pub fn none(name: &'static str) -> DataArray<'static> {
+        DataArray::new(name, &[], 4)
+    }
+}
+
+/// The largest power of two of records of `record` bytes that fits in `max_chunk_bytes`
+/// (at least one record, at most 2^31): a chunk's size as its shift.
+pub fn chunk_shift(record: u64, max_chunk_bytes: u64) -> u32 {
+    let records = (max_chunk_bytes / record.max(1)).max(1);
+    (63 - records.leading_zeros()).min(31)
+}
+
+/// The chunks of each kind and the table the kernels find them by.
+pub struct SceneData {
+    /// Per kind (abi.h `DATA_*`), its chunks in order.
+    pub chunks: Vec<Vec<Buffer>>,
+    /// Per kind, the shift of its chunks' record count.
+    pub shifts: Vec<u32>,
+    /// The table at `BINDING_SCENE_DATA`.
+    pub table: Buffer,
+    /// Per kind, its name.
+    pub names: Vec<&'static str>,
+}
+
+impl SceneData {
+    /// Uploads `arrays` (one per kind, in `DATA_*` order) in chunks of at most
+    /// `max_chunk_bytes` each.
+    pub fn new(
+        device: &Arc<Device>,
+        arrays: &[DataArray; DATA_KINDS as usize],
+        max_chunk_bytes: u64,
+    ) -> GpuResult<SceneData> {
+        let mut chunks = Vec::new();
+        let mut shifts = Vec::new();
+        for a in arrays {
+            let shift = chunk_shift(a.record, a.chunk_bytes.unwrap_or(max_chunk_bytes));
+            let chunk_bytes = (a.record << shift) as usize;
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+                | a.usage;
+            let mut list = Vec::new();
+            if a.bytes.is_empty() {
+                list.push(Buffer::with_data(device, a.name, &[], usage)?);
+            }
+            let count = a.bytes.len().div_ceil(chunk_bytes);
+            for (k, part) in a.bytes.chunks(chunk_bytes).enumerate() {
+                let name = if count == 1 {
+                    a.name.to_string()
+                } else {
+                    format!("{} (chunk {k} of {count})", a.name)
+                };
+                list.push(Buffer::with_data(device, &name, part, usage)?);
+            }
+            chunks.push(list);
+            shifts.push(shift);
+        }
+        let mut headers: Vec<[u32; 4]> = Vec::new();
+        let mut addresses: Vec<[u32; 2]> = Vec::new();
+        for (list, &shift) in chunks.iter().zip(&shifts) {
+            let first = list[0].device_address();
+            headers.push([
+                first as u32,
+                (first >> 32) as u32,
+                shift,
+                addresses.len() as u32,
+            ]);
+            addresses.extend(
+                list.iter()
+                    .map(|b| b.device_address())
+                    .map(|a| [a as u32, (a >> 32) as u32]),
+            );
+        }
+        let mut table: Vec<u8> = bytemuck::cast_slice(&headers).to_vec();
+        table.extend_from_slice(bytemuck::cast_slice(&addresses));
+        let table = Buffer::with_data(
+            device,
+            "scene data table",
+            &table,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        Ok(SceneData {
+            chunks,
+            shifts,
+            table,
+            names: arrays.iter().map(|a| a.name).collect(),
+        })
+    }
+
+    /// Per kind: its name, bytes and chunks (for the trace).
+    pub fn kinds(&self) -> Vec<(&'static str, u64, usize)> {
+        self.names
+            .iter()
+            .zip(&self.chunks)
+            .map(|(&n, c)| (n, c.iter().map(|b| b.size).sum(), c.len()))
+            .collect()
+    }
+
+    /// The bytes of device memory the chunks and the table hold.
+    pub fn device_bytes(&self) -> u64 {
+        self.chunks.iter().flatten().map(|b| b.size).sum::<u64>() + self.table.size
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::chunk_shift;
+
+    #[test]
+    fn a_chunk_is_the_largest_power_of_two_of_records_that_fits() {
+        assert_eq!(chunk_shift(48, 2 << 30), 25); // 2^25 triangles: 1.5 GiB
+        assert_eq!(chunk_shift(4, 2 << 30), 29);
+        assert_eq!(chunk_shift(4, u64::MAX), 31);
+        assert_eq!(chunk_shift(80, 100), 0); // one record at least
+        assert_eq!(chunk_shift(16, 64), 2);
+        assert_eq!(chunk_shift(16, 63), 1);
+    }
+}
