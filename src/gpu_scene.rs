@@ -1130,6 +1130,7 @@ impl GpuScene {
             bytemuck::cast_slice(&triangles),
             std::mem::size_of::<GpuTriangle>() as u64,
         );
+        triangle_data.bindable = true;
         if backend == Backend::RayQuery {
             // The BLAS builds read the triangles' corners where they lie: one buffer.
             triangle_data.usage =
@@ -1163,16 +1164,22 @@ impl GpuScene {
                 if ray_query {
                     DataArray::none("BVH nodes")
                 } else {
-                    DataArray::new("BVH nodes", &bvh.nodes, node_record)
+                    DataArray {
+                        bindable: true,
+                        ..DataArray::new("BVH nodes", &bvh.nodes, node_record)
+                    }
                 },
                 if ray_query {
                     DataArray::none("BVH primitive references")
                 } else {
-                    DataArray::new(
-                        "BVH primitive references",
-                        bytemuck::cast_slice(&bvh.prim_refs),
-                        4,
-                    )
+                    DataArray {
+                        bindable: true,
+                        ..DataArray::new(
+                            "BVH primitive references",
+                            bytemuck::cast_slice(&bvh.prim_refs),
+                            4,
+                        )
+                    }
                 },
                 DataArray::new("texels", bytemuck::cast_slice(&textures.texels), 4),
                 DataArray::new("medium grids", bytemuck::cast_slice(&medium_grids), 4),
@@ -1256,6 +1263,18 @@ impl GpuScene {
         let mut list = vec![
             (BINDING_SCENE, Resource::Buffer(self.scene_params.raw)),
             (BINDING_SCENE_DATA, Resource::Buffer(self.data.table.raw)),
+            (
+                BINDING_TRIANGLES,
+                Resource::Buffer(self.data.bound(DATA_TRIANGLES).raw),
+            ),
+            (
+                BINDING_BVH_NODES,
+                Resource::Buffer(self.data.bound(DATA_BVH_NODES).raw),
+            ),
+            (
+                BINDING_BVH_PRIMS,
+                Resource::Buffer(self.data.bound(DATA_BVH_PRIMS).raw),
+            ),
             (BINDING_INSTANCES, Resource::Buffer(self.instances.raw)),
             (BINDING_SPHERES, Resource::Buffer(self.spheres.raw)),
             (BINDING_MATERIALS, Resource::Buffer(self.materials.raw)),

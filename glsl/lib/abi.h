@@ -13,13 +13,18 @@
 // host binds each resource by these numbers.
 // The scene:
 #define BINDING_SCENE 0
-// (1, 7, 8, 23, 24 and 35 held the scene's large arrays; they are read by device
-// address since issue 30: BINDING_SCENE_DATA.)
+// The first chunk of the triangles, the BVH's nodes and its primitive references where it
+// fits one binding (DATA_IN_BINDING; lib/scene_data.glsl): a binding's gathers are half
+// those of an address's on lavapipe. (23, 24 and 35 held texels, attributes and grids:
+// they are read by address only.)
+#define BINDING_TRIANGLES 1
 #define BINDING_SPHERES 2
 #define BINDING_MATERIALS 3
 #define BINDING_EMITTERS 4
 #define BINDING_EMITTER_CDF 5
 #define BINDING_TLAS 6
+#define BINDING_BVH_NODES 7
+#define BINDING_BVH_PRIMS 8
 // Integrator outputs and state:
 #define BINDING_FILM 9
 #define BINDING_STATS 10
@@ -86,6 +91,9 @@
 #define DATA_TEXELS 4
 #define DATA_GRIDS 5
 #define DATA_KINDS 6
+// A kind's shift (its header's z) when its one chunk is also bound at its binding
+// (triangles, BVH nodes, BVH primitive references): the kernels read the binding.
+#define DATA_IN_BINDING 32
 
 // Emitter kinds (GpuEmitter.info.x).
 #define EMITTER_TRIANGLE 0

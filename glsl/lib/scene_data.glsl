@@ -5,14 +5,19 @@
 // shift from the device's limits). BINDING_SCENE_DATA holds a header per kind (x, y: the
 // first chunk's address; z: shift; w: where the kind's chunk addresses start in
 // data_chunks) and then every chunk's address. A record never straddles two chunks; a
-// float array's reader asks per float (`texel`, `grid_value`).
+// float array's reader asks per float (`texel`, `grid_value`). The triangles, the BVH's
+// nodes and its references, the walks' hottest reads, are read from their binding where
+// they fit one (shift DATA_IN_BINDING): an address per lane costs lavapipe twice the
+// gathers of a binding's 32-bit offsets (docs/performance.md, issue 30). The others read
+// the table every time: a branch that skipped it for one-chunk kinds made the
+// every-feature scene's BDPT kernels compile 24 % longer cold.
 #ifndef SCENE_DATA_GLSL
 #define SCENE_DATA_GLSL
 #extension GL_EXT_buffer_reference : require
 #extension GL_EXT_buffer_reference_uvec2 : require
 #include "abi.h"
 
-layout(std430, set = 0, binding = BINDING_SCENE_DATA) readonly buffer SceneDataBuffer {
+layout(std430, set = 0, binding = BINDING_SCENE_DATA) restrict readonly buffer SceneDataBuffer {
     uvec4 data_kinds[DATA_KINDS];
     uvec2 data_chunks[];
 };
@@ -22,17 +27,20 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer At
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer FloatChunk { float at[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer UintChunk { uint at[]; };
 
-// The address of the chunk that holds record i of kind k, and (j) its index there.
+// The address of the chunk that holds record i of kind k, and (j) its index there (a
+// kind in one chunk has shift 31: every index is in chunk 0).
 uvec2 data_chunk(uint k, uint i, out uint j) {
     uvec4 h = data_kinds[k];
-    uint c = i >> h.z;
     j = i & ((1u << h.z) - 1u);
-    uvec2 a = h.xy;
-    if (c != 0u) a = data_chunks[h.w + c];
-    return a;
+    return data_chunks[h.w + (i >> h.z)];
 }
 
+// The kinds that may also be bound (DATA_IN_BINDING): their first chunk, where it fits.
+layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer TriangleBuffer { GpuTriangle triangles[]; };
+layout(std430, set = 0, binding = BINDING_BVH_PRIMS) readonly buffer BvhPrimBuffer { uint bvh_prims[]; };
+
 GpuTriangle triangle_record(uint i) {
+    if (data_kinds[DATA_TRIANGLES].z == DATA_IN_BINDING) return triangles[i];
     uint j;
     uvec2 a = data_chunk(DATA_TRIANGLES, i, j);
     return TriangleChunk(a).at[j];
@@ -57,6 +65,7 @@ float grid_value(uint i) {
 }
 
 uint bvh_prim(uint i) {
+    if (data_kinds[DATA_BVH_PRIMS].z == DATA_IN_BINDING) return bvh_prims[i];
     uint j;
     uvec2 a = data_chunk(DATA_BVH_PRIMS, i, j);
     return UintChunk(a).at[j];

@@ -5,7 +5,9 @@
 struct BvhNode { vec4 min_left; vec4 max_count; };
 
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer BvhNodeChunk { BvhNode at[]; };
+layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodeBuffer { BvhNode bvh_nodes[]; };
 BvhNode bvh_node(uint i) {
+    if (data_kinds[DATA_BVH_NODES].z == DATA_IN_BINDING) return bvh_nodes[i];
     uint j;
     uvec2 a = data_chunk(DATA_BVH_NODES, i, j);
     return BvhNodeChunk(a).at[j];

@@ -10,7 +10,9 @@
 struct CwbvhNode { uvec4 a; uvec4 b; uvec4 c; uvec4 d; uvec4 e; };
 
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer CwbvhNodeChunk { CwbvhNode at[]; };
+layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodeBuffer { CwbvhNode bvh_nodes[]; };
 CwbvhNode bvh_node(uint i) {
+    if (data_kinds[DATA_BVH_NODES].z == DATA_IN_BINDING) return bvh_nodes[i];
     uint j;
     uvec2 a = data_chunk(DATA_BVH_NODES, i, j);
     return CwbvhNodeChunk(a).at[j];

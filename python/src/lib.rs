@@ -361,7 +361,8 @@ impl RenderResult {
 
     /// The per-stage trace: a list of {name, gpu, start_us, dur_us} (CPU stages and GPU
     /// dispatches), as `--trace` writes it; host stages add host_bytes and
-    /// host_peak_bytes (at their end), the scene upload device_bytes.
+    /// host_peak_bytes (at their end), the scene upload device_bytes and data (per kind of
+    /// scene data read by address: {name: {bytes, chunks}}).
     #[getter]
     fn trace<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         let list = PyList::empty(py);
@@ -377,6 +378,16 @@ impl RenderResult {
             }
             if let Some(d) = s.device_bytes {
                 e.set_item("device_bytes", d)?;
+            }
+            if !s.data.is_empty() {
+                let data = PyDict::new(py);
+                for (name, bytes, chunks) in &s.data {
+                    let kind = PyDict::new(py);
+                    kind.set_item("bytes", bytes)?;
+                    kind.set_item("chunks", chunks)?;
+                    data.set_item(name, kind)?;
+                }
+                e.set_item("data", data)?;
             }
             list.append(e)?;
         }

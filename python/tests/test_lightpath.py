@@ -44,6 +44,10 @@ def test_images_are_the_command_lines_bit_for_bit(tmp_path):
     scene = small()
     r = lp.render(scene, integrator="pathtracer", spp=4, seed=7, accel="bvh")
     assert r.image.shape == (18, 24, 3) and r.image.dtype == np.float32
+    # The trace's upload: the scene's device bytes and its data kinds read by address.
+    upload = next(e for e in r.trace if e["name"] == "scene upload")
+    triangles = upload["data"]["triangles"]
+    assert upload["device_bytes"] > triangles["bytes"] > 0 and triangles["chunks"] == 1
     out = tmp_path / "cli.exr"
     subprocess.run(
         [binary(), "render", str(SCENES / "cornell-box.test"), "--size", "24x18", "--spp", "4",

@@ -7,7 +7,7 @@
 //! (`index >> shift`) in the table at `BINDING_SCENE_DATA`.
 use super::buffer::Buffer;
 use super::{Device, GpuResult};
-use crate::abi::DATA_KINDS;
+use crate::abi::{DATA_IN_BINDING, DATA_KINDS};
 use ash::vk;
 use std::sync::Arc;
 
@@ -20,6 +20,9 @@ pub struct DataArray<'a> {
     pub usage: vk::BufferUsageFlags,
     /// The largest chunk for this kind, where it is not the scene's.
     pub chunk_bytes: Option<u64>,
+    /// Whether its one chunk, where it fits a binding, is bound there too
+    /// (`DATA_IN_BINDING`: the triangles, the BVH's nodes and references).
+    pub bindable: bool,
 }
 
 impl<'a> DataArray<'a> {
@@ -30,6 +33,7 @@ impl<'a> DataArray<'a> {
             record,
             usage: vk::BufferUsageFlags::empty(),
             chunk_bytes: None,
+            bindable: false,
         }
     }
 
@@ -66,11 +70,22 @@ impl SceneData {
         arrays: &[DataArray; DATA_KINDS as usize],
         max_chunk_bytes: u64,
     ) -> GpuResult<SceneData> {
+        let binding_range = device.info.max_storage_buffer_range;
         let mut chunks = Vec::new();
         let mut shifts = Vec::new();
         for a in arrays {
-            let shift = chunk_shift(a.record, a.chunk_bytes.unwrap_or(max_chunk_bytes));
-            let chunk_bytes = (a.record << shift) as usize;
+            let limit = a.chunk_bytes.unwrap_or(max_chunk_bytes);
+            // One chunk: shift 31 (every index in it; the kernels read no table), or
+            // DATA_IN_BINDING where it is bound too.
+            let bytes = a.bytes.len() as u64;
+            let shift = if a.bindable && bytes <= limit && bytes <= binding_range {
+                DATA_IN_BINDING
+            } else if bytes <= limit {
+                31
+            } else {
+                chunk_shift(a.record, limit)
+            };
+            let chunk_bytes = (a.record << shift).max(1) as usize;
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER
                 | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
                 | a.usage;
@@ -120,6 +135,16 @@ impl SceneData {
             table,
             names: arrays.iter().map(|a| a.name).collect(),
         })
+    }
+
+    /// What the binding of `kind` holds: its one chunk where the kernels read it there
+    /// (`DATA_IN_BINDING`), else the table (a placeholder they never read).
+    pub fn bound(&self, kind: u32) -> &Buffer {
+        if self.shifts[kind as usize] == DATA_IN_BINDING {
+            &self.chunks[kind as usize][0]
+        } else {
+            &self.table
+        }
     }
 
     /// Per kind: its name, bytes and chunks (for the trace).

@@ -69,7 +69,9 @@ class RenderResult:
     @property
     def trace(self) -> List[Dict[str, Any]]:
         """The per-stage trace: {name, gpu, start_us, dur_us} for each CPU stage and GPU
-        dispatch, as --trace writes it."""
+        dispatch, as --trace writes it; host stages add host_bytes and host_peak_bytes,
+        the scene upload device_bytes and data ({kind: {bytes, chunks}} for each kind of
+        scene data read by address)."""
     def save(self, path: Union[str, "PathLike[str]"]) -> None:
         """Write the image: .exr (linear float, with the metadata) or .png (8-bit, with
         the scene's gamma), through a temporary file and a rename."""
