@@ -279,11 +279,7 @@ impl Engine {
         let mut p = scene_params(&scene, seed);
         params(&mut p);
         let gpu_scene = trace.cpu("scene upload", || {
-            let device_chunk = crate::gpu_scene::device_chunk_bytes(&self.device);
-            let chunk = self
-                .chunk_bytes
-                .map_or(device_chunk, |c| c.min(device_chunk));
-            GpuScene::new(&self.device, &scene, &bvh, backend, p, chunk)
+            GpuScene::new(&self.device, &scene, &bvh, backend, p, self.chunk_limit())
         })?;
         trace.device_bytes(gpu_scene.device_bytes());
         trace.scene_data(gpu_scene.data.kinds());
@@ -458,11 +454,14 @@ impl Engine {
                     None => DataArray::none(NAMES[k]),
                 },
             );
-        let device_chunk = crate::gpu_scene::device_chunk_bytes(&self.device);
-        let chunk = self
-            .chunk_bytes
-            .map_or(device_chunk, |c| c.min(device_chunk));
-        Ok(SceneData::new(&self.device, &kinds, chunk)?)
+        Ok(SceneData::new(&self.device, &kinds, self.chunk_limit())?)
+    }
+
+    /// The largest chunk of scene data: the device's, or the smaller one
+    /// [`Engine::set_chunk_bytes`] set.
+    fn chunk_limit(&self) -> u64 {
+        let device = crate::gpu_scene::device_chunk_bytes(&self.device);
+        self.chunk_bytes.map_or(device, |c| c.min(device))
     }
 
     pub fn buffer_with(&self, name: &str, data: &[u8]) -> Result<Buffer> {
