@@ -3,6 +3,7 @@
 //! the ray-query backend its coherent triangle order), and the exact intersections that
 //! mirror the kernels'. (The ray-query BLAS/TLAS are device objects: `gpu::rayquery`.)
 pub mod bvh;
+mod clusters;
 pub mod cwbvh;
 pub mod geometry;
 pub(crate) mod testing;

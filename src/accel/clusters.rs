@@ -1,0 +1,324 @@
+//! The compressed BVH's build, in spatial clusters on every core.
+//!
+//! obvhs's PLOC with reinsertion (the "slow" preset) makes the best trees measured here
+//! (docs/visibility.md), but on one core and in time that grows faster than the input:
+//! 1.7 s per million triangles at one million, 4.1 s at twenty million, as its working
+//! set leaves the caches. And when many primitives share one box its merge loop
+//! finds few mutual nearest neighbours a round: 20,000 copies of one triangle took
+//! 14 s, 100,000 took 355 s.
+//!
+//! So a large input is cut first. Primitives are sorted by the Morton code of their
+//! box centres (21 bits an axis) and the sorted list is split, as a radix tree is, at
+//! the highest bit where a range's first and last codes differ, until each range holds
+//! at most [`CLUSTER_SIZE`] primitives: each range is an octree cell, compact in space.
+//! Each cluster is built as before (PLOC, reinsertion, collapsed to eight-wide nodes),
+//! the clusters on all cores at once. A range of more than [`RUN_LIMIT`] primitives
+//! with one Morton code (coincident, or nearly) is not given to PLOC: it becomes a
+//! balanced tree, split at the index median, as the binary builder does. A small
+//! compressed tree over the pieces' root boxes, one piece a leaf, joins them: each of
+//! its leaf slots becomes the piece's root node (see [`join`]).
+//!
+//! An input of at most one cluster without such a run is built exactly as before (one
+//! PLOC over the input in its order), so small scenes' trees, and images, are unchanged.
+//! The tree depends on the input alone, never on the number of threads.
+//!
+//! Measured on the 20M-triangle mesh (docs/performance.md): 83.6 s before, 20.2 s after
+//! on this machine's two cores, the rays traced as fast.
+
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::{node::Bvh2Node, reinsertion::ReinsertionOptimizer, Bvh2};
+use obvhs::cwbvh::{bvh2_to_cwbvh::bvh2_to_cwbvh, node::CwBvhNode, CwBvh};
+use obvhs::ploc::PlocBuilder;
+use obvhs::BvhBuildParams;
+
+/// Most primitives one PLOC build is given (large enough that the top tree's seams cost
+/// little, small enough that its arrays stay in cache).
+pub const CLUSTER_SIZE: usize = 1 << 18;
+
+/// Longest run of one Morton code given to PLOC (a longer one, or one longer than the
+/// cluster size, is a balanced tree).
+pub const RUN_LIMIT: usize = 256;
+
+/// Bits of a Morton code an axis.
+const MORTON_BITS: u32 = 21;
+
+/// The compressed tree over `boxes` (leaves of at most `max_leaf` primitives, their
+/// references indexing `boxes`), built with `params` in clusters of at most
+/// `cluster_size` primitives on `threads` threads (the tree does not depend on them).
+pub fn build(
+    boxes: &[Aabb],
+    params: BvhBuildParams,
+    max_leaf: u32,
+    cluster_size: usize,
+    threads: usize,
+) -> (Vec<CwBvhNode>, Vec<u32>) {
+    if boxes.is_empty() {
+        return (vec![CwBvhNode::default()], Vec::new());
+    }
+    let keys = sorted_keys(boxes);
+    let mut items = Vec::new();
+    split(&keys, cluster_size.max(1), &mut items);
+    if let [Item::Cluster(_)] = items[..] {
+        // One cluster, no long run: the input in its own order, as before.
+        let cw = bvh2_to_cwbvh(&ploc(boxes, params), max_leaf, true, false);
+        return (cw.nodes, cw.primitive_indices);
+    }
+    let trees = build_items(boxes, &items, params, max_leaf, threads);
+    join(&trees, params)
+}
+
+/// One PLOC build with reinsertion over `boxes`.
+fn ploc(boxes: &[Aabb], params: BvhBuildParams) -> Bvh2 {
+    let mut bvh = PlocBuilder::with_capacity(boxes.len()).build(
+        params.ploc_search_distance,
+        boxes,
+        (0..boxes.len() as u32).collect(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    ReinsertionOptimizer::default().run(&mut bvh, params.reinsertion_batch_ratio, None);
+    bvh
+}
+
+/// `(Morton code of the box centre, index)`, sorted (the index breaks ties, so the
+/// order is the input's alone).
+fn sorted_keys(boxes: &[Aabb]) -> Vec<(u64, u32)> {
+    let mut centres = Aabb::empty();
+    for b in boxes {
+        centres.extend(b.center());
+    }
+    let extent = centres.diagonal();
+    let cells = ((1u32 << MORTON_BITS) - 1) as f32;
+    let scale = glam::Vec3A::select(
+        extent.cmpgt(glam::Vec3A::ZERO),
+        cells / extent,
+        glam::Vec3A::ZERO,
+    );
+    let mut keys: Vec<(u64, u32)> = boxes
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let q = ((b.center() - centres.min) * scale)
+                .clamp(glam::Vec3A::ZERO, glam::Vec3A::splat(cells))
+                .as_uvec3();
+            (morton(q.x, q.y, q.z), i as u32)
+        })
+        .collect();
+    keys.sort_unstable();
+    keys
+}
+
+/// The 63-bit Morton code of three 21-bit coordinates.
+fn morton(x: u32, y: u32, z: u32) -> u64 {
+    fn spread(v: u32) -> u64 {
+        let mut v = v as u64 & 0x1f_ffff;
+        v = (v | v << 32) & 0x001f_0000_0000_ffff;
+        v = (v | v << 16) & 0x001f_0000_ff00_00ff;
+        v = (v | v << 8) & 0x100f_00f0_0f00_f00f;
+        v = (v | v << 4) & 0x10c3_0c30_c30c_30c3;
+        v = (v | v << 2) & 0x1249_2492_4924_9249;
+        v
+    }
+    spread(x) << 2 | spread(y) << 1 | spread(z)
+}
+
+/// A piece of the sorted list, built on its own.
+enum Item<'a> {
+    /// Built by PLOC.
+    Cluster(&'a [(u64, u32)]),
+    /// One Morton code throughout: a balanced tree.
+    Run(&'a [(u64, u32)]),
+}
+
+impl<'a> Item<'a> {
+    fn keys(&self) -> &'a [(u64, u32)] {
+        match self {
+            Item::Cluster(k) | Item::Run(k) => k,
+        }
+    }
+}
+
+fn longest_run(keys: &[(u64, u32)]) -> usize {
+    let (mut longest, mut run) = (0, 0);
+    for (i, k) in keys.iter().enumerate() {
+        run = if i > 0 && keys[i - 1].0 == k.0 {
+            run + 1
+        } else {
+            1
+        };
+        longest = longest.max(run);
+    }
+    longest
+}
+
+/// Cuts `keys` at the highest differing bit until each piece is a cluster of at most
+/// `cluster_size` without a run longer than [`RUN_LIMIT`], or a run.
+fn split<'a>(keys: &'a [(u64, u32)], cluster_size: usize, items: &mut Vec<Item<'a>>) {
+    let (first, last) = (keys[0].0, keys[keys.len() - 1].0);
+    if keys.len() <= cluster_size && longest_run(keys) <= RUN_LIMIT {
+        items.push(Item::Cluster(keys));
+        return;
+    }
+    if first == last {
+        items.push(Item::Run(keys));
+        return;
+    }
+    let bit = 63 - (first ^ last).leading_zeros();
+    let middle = keys.partition_point(|k| k.0 >> bit & 1 == 0);
+    split(&keys[..middle], cluster_size, items);
+    split(&keys[middle..], cluster_size, items);
+}
+
+/// Each item's compressed tree (its references mapped to input indices), the items
+/// shared out to the threads.
+fn build_items(
+    boxes: &[Aabb],
+    items: &[Item],
+    params: BvhBuildParams,
+    max_leaf: u32,
+    threads: usize,
+) -> Vec<CwBvh> {
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let slots: Vec<std::sync::Mutex<Option<CwBvh>>> =
+        items.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|s| {
+        for _ in 0..threads.clamp(1, items.len()) {
+            s.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(item) = items.get(i) else { break };
+                let keys = item.keys();
+                let sub: Vec<Aabb> = keys.iter().map(|&(_, p)| boxes[p as usize]).collect();
+                let binary = match item {
+                    Item::Cluster(_) => ploc(&sub, params),
+                    Item::Run(_) => balanced(&sub),
+                };
+                drop(sub);
+                let mut cw = bvh2_to_cwbvh(&binary, max_leaf, true, false);
+                drop(binary);
+                for r in &mut cw.primitive_indices {
+                    *r = keys[*r as usize].1;
+                }
+                *slots[i].lock().unwrap() = Some(cw);
+            });
+        }
+    });
+    slots
+        .into_iter()
+        .map(|s| s.into_inner().unwrap().expect("every item built"))
+        .collect()
+}
+
+/// A tree over `boxes` split at the index median (siblings adjacent, root at 0).
+fn balanced(boxes: &[Aabb]) -> Bvh2 {
+    fn node(boxes: &[Aabb], first: usize, nodes: &mut Vec<Bvh2Node>, at: usize) {
+        if boxes.len() == 1 {
+            nodes[at] = Bvh2Node::new(boxes[0], 1, first as u32);
+            return;
+        }
+        let left = nodes.len();
+        nodes.extend([Bvh2Node::default(); 2]);
+        let half = boxes.len() / 2;
+        node(&boxes[..half], first, nodes, left);
+        node(&boxes[half..], first + half, nodes, left + 1);
+        let both = nodes[left].aabb.union(&nodes[left + 1].aabb);
+        nodes[at] = Bvh2Node::new(both, 0, left as u32);
+    }
+    let mut nodes = vec![Bvh2Node::default()];
+    node(boxes, 0, &mut nodes, 0);
+    Bvh2 {
+        nodes,
+        primitive_indices: (0..boxes.len() as u32).collect(),
+        ..Bvh2::default()
+    }
+}
+
+/// One compressed tree: a compressed tree over the items' root boxes (one item a leaf
+/// slot) whose leaf slots become the items' roots.
+///
+/// A node's internal children sit together from its `child_base_idx`, in slot order, so
+/// each top node's children are laid out anew: its occupied slots all internal, an item's
+/// root copied into its place and the item's other nodes after it, their child and
+/// primitive indices moved by where the item's nodes and references now start.
+fn join(trees: &[CwBvh], params: BvhBuildParams) -> (Vec<CwBvhNode>, Vec<u32>) {
+    let roots: Vec<Aabb> = trees.iter().map(|t| t.total_aabb).collect();
+    let mut binary = PlocBuilder::with_capacity(roots.len()).build(
+        params.ploc_search_distance,
+        &roots,
+        (0..roots.len() as u32).collect(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    // The top tree is small: every node a candidate.
+    ReinsertionOptimizer::default().run(&mut binary, 1.0, None);
+    let top = bvh2_to_cwbvh(&binary, 1, true, false);
+    let mut first_ref = Vec::with_capacity(trees.len());
+    let mut refs = Vec::with_capacity(trees.iter().map(|t| t.primitive_indices.len()).sum());
+    for t in trees {
+        first_ref.push(refs.len() as u32);
+        refs.extend_from_slice(&t.primitive_indices);
+    }
+    let mut nodes: Vec<CwBvhNode> =
+        Vec::with_capacity(trees.iter().map(|t| t.nodes.len()).sum::<usize>() + top.nodes.len());
+    // (top node, where it goes); the root first.
+    nodes.push(CwBvhNode::default());
+    let mut queue = std::collections::VecDeque::from([(0usize, 0usize)]);
+    while let Some((t, at)) = queue.pop_front() {
+        let mut node = top.nodes[t];
+        let group = nodes.len();
+        let mut imask = 0u8;
+        let mut placed = Vec::new();
+        for slot in 0..8 {
+            if node.child_meta[slot] == 0 {
+                continue;
+            }
+            let here = group + placed.len();
+            let child = if node.imask & (1 << slot) != 0 {
+                let below = (node.imask as u32 & ((1u32 << slot) - 1)).count_ones();
+                Ok(node.child_base_idx as usize + below as usize)
+            } else {
+                let offset = (node.child_meta[slot] & 0x1f) as u32;
+                Err(top.primitive_indices[(node.primitive_base_idx + offset) as usize] as usize)
+            };
+            placed.push((here, child));
+            imask |= 1 << slot;
+            node.child_meta[slot] = (24 + slot as u8) | 0b0010_0000;
+        }
+        node.imask = imask;
+        node.child_base_idx = group as u32;
+        node.primitive_base_idx = 0;
+        nodes[at] = node;
+        nodes.resize(group + placed.len(), CwBvhNode::default());
+        for (here, child) in placed {
+            match child {
+                Ok(top_child) => queue.push_back((top_child, here)),
+                Err(item) => {
+                    // Item node j > 0 goes to `base + j`, its root to `here`.
+                    let base = nodes.len() as u32 - 1;
+                    let moved = |mut n: CwBvhNode| {
+                        n.child_base_idx += base;
+                        n.primitive_base_idx += first_ref[item];
+                        n
+                    };
+                    let tree = &trees[item].nodes;
+                    nodes[here] = moved(tree[0]);
+                    nodes.extend(tree[1..].iter().map(|&n| moved(n)));
+                }
+            }
+        }
+    }
+    (nodes, refs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_interleaves_x_high() {
+        assert_eq!(morton(1, 0, 0), 0b100);
+        assert_eq!(morton(0, 1, 0), 0b010);
+        assert_eq!(morton(0, 0, 1), 0b001);
+        assert_eq!(morton(0x1f_ffff, 0x1f_ffff, 0x1f_ffff), (1u64 << 63) - 1);
+        assert_eq!(morton(2, 0, 0), 0b100_000);
+    }
+}
