@@ -271,7 +271,8 @@ impl Engine {
         // The previous render's descriptor sets are no longer in use.
         self.kernels.reset_sets()?;
         self.check_device_memory(scene)?;
-        let mut scene = scene.clone();
+        // The BVH build reorders the triangles; the caller's scene stays as it was.
+        let mut scene = trace.cpu("scene copy", || scene.clone());
         let backend = self.backend();
         let bvh = trace.cpu("BVH build", || {
             crate::accel::prepare(&mut scene, bvh_kind(backend))
