@@ -140,6 +140,31 @@ fn reorder(triangles: &mut Vec<Triangle>, refs: &mut [u32]) -> anyhow::Result<Ve
     Ok(order)
 }
 
+/// `f` of each item, on every core, in the items' order.
+fn each_in_parallel<T: Send, R: Send>(
+    items: &mut [T],
+    f: impl Fn(&mut T) -> anyhow::Result<R> + Sync,
+) -> Vec<anyhow::Result<R>> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let results: Vec<std::sync::Mutex<Option<anyhow::Result<R>>>> = (0..items.len())
+        .map(|_| std::sync::Mutex::new(None))
+        .collect();
+    let work = std::sync::Mutex::new(items.iter_mut().enumerate());
+    std::thread::scope(|s| {
+        for _ in 0..threads.min(results.len()) {
+            s.spawn(|| loop {
+                let next = work.lock().unwrap().next();
+                let Some((i, item)) = next else { break };
+                *results[i].lock().unwrap() = Some(f(item));
+            });
+        }
+    });
+    results
+        .into_iter()
+        .map(|r| r.into_inner().unwrap().expect("every item done"))
+        .collect()
+}
+
 /// Build the trees over the scene's triangles, spheres and instances, and reorder the
 /// scene's triangles (the world's, each object's) into their leaf order, so that every
 /// backend (and lavapipe's BLAS builder, which splits index ranges without sorting) sees
@@ -181,15 +206,23 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
     let mut object_trees = Vec::with_capacity(scene.objects.len());
     let mut object_orders = Vec::with_capacity(scene.objects.len());
     let mut object_bounds = Vec::with_capacity(scene.objects.len());
-    for o in scene.objects.iter_mut() {
+    // Each object's tree on its own, the objects shared out to every core (a tree
+    // depends on its object alone, so the order of the work does not matter).
+    let built = each_in_parallel(&mut scene.objects, |o| {
         let bounds: Vec<Aabb> = o
             .triangles
             .iter()
             .map(|t| geometry::triangle_bounds(t.v))
             .collect();
-        object_bounds.push(bounds.iter().fold(Aabb::empty(), |a, &b| a.union(b)));
+        let whole = bounds.iter().fold(Aabb::empty(), |a, &b| a.union(b));
         let mut built = build_tree(&bounds, kind);
-        object_orders.push(reorder(&mut o.triangles, &mut built.prim_refs)?);
+        let order = reorder(&mut o.triangles, &mut built.prim_refs)?;
+        Ok((whole, built, order))
+    });
+    for b in built {
+        let (whole, built, order) = b?;
+        object_bounds.push(whole);
+        object_orders.push(order);
         object_trees.push(built);
     }
     // The top tree. (Hidden spheres — invisible lights — are left out: no ray meets
