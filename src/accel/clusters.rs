@@ -178,34 +178,22 @@ fn build_items(
     max_leaf: u32,
     threads: usize,
 ) -> Vec<CwBvh> {
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let slots: Vec<std::sync::Mutex<Option<CwBvh>>> =
-        items.iter().map(|_| std::sync::Mutex::new(None)).collect();
-    std::thread::scope(|s| {
-        for _ in 0..threads.clamp(1, items.len()) {
-            s.spawn(|| loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                let Some(item) = items.get(i) else { break };
-                let keys = item.keys();
-                let sub: Vec<Aabb> = keys.iter().map(|&(_, p)| boxes[p as usize]).collect();
-                let binary = match item {
-                    Item::Cluster(_) => ploc(&sub, params),
-                    Item::Run(_) => balanced(&sub),
-                };
-                drop(sub);
-                let mut cw = bvh2_to_cwbvh(&binary, max_leaf, true, false);
-                drop(binary);
-                for r in &mut cw.primitive_indices {
-                    *r = keys[*r as usize].1;
-                }
-                *slots[i].lock().unwrap() = Some(cw);
-            });
+    let mut items: Vec<&Item> = items.iter().collect();
+    super::map_in_parallel(&mut items, threads, |item| {
+        let keys = item.keys();
+        let sub: Vec<Aabb> = keys.iter().map(|&(_, p)| boxes[p as usize]).collect();
+        let binary = match item {
+            Item::Cluster(_) => ploc(&sub, params),
+            Item::Run(_) => balanced(&sub),
+        };
+        drop(sub);
+        let mut cw = bvh2_to_cwbvh(&binary, max_leaf, true, false);
+        drop(binary);
+        for r in &mut cw.primitive_indices {
+            *r = keys[*r as usize].1;
         }
-    });
-    slots
-        .into_iter()
-        .map(|s| s.into_inner().unwrap().expect("every item built"))
-        .collect()
+        cw
+    })
 }
 
 /// A tree over `boxes` split at the index median (siblings adjacent, root at 0).

@@ -167,8 +167,7 @@ fn quantize_up(v: f32, e: u8, p: f32) -> u8 {
 impl Cwbvh {
     /// Builds the tree over primitives whose bounds are `bounds[i]`. Deterministic.
     pub fn build(bounds: &[Aabb]) -> Cwbvh {
-        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-        Cwbvh::build_in_clusters(bounds, super::clusters::CLUSTER_SIZE, threads)
+        Cwbvh::build_in_clusters(bounds, super::clusters::CLUSTER_SIZE, super::threads())
     }
 
     /// [`Cwbvh::build`] with clusters of at most `cluster_size` primitives built on

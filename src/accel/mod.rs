@@ -140,18 +140,20 @@ fn reorder(triangles: &mut Vec<Triangle>, refs: &mut [u32]) -> anyhow::Result<Ve
     Ok(order)
 }
 
-/// `f` of each item, on every core, in the items' order.
-fn each_in_parallel<T: Send, R: Send>(
+/// `f` of each item, on `threads` threads (at least one), in the items' order: each
+/// thread takes the next item left until none is. (The trees' builds; a result depends
+/// on its item alone, never on which thread made it.)
+pub(crate) fn map_in_parallel<T: Send, R: Send>(
     items: &mut [T],
-    f: impl Fn(&mut T) -> anyhow::Result<R> + Sync,
-) -> Vec<anyhow::Result<R>> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let results: Vec<std::sync::Mutex<Option<anyhow::Result<R>>>> = (0..items.len())
+    threads: usize,
+    f: impl Fn(&mut T) -> R + Sync,
+) -> Vec<R> {
+    let results: Vec<std::sync::Mutex<Option<R>>> = (0..items.len())
         .map(|_| std::sync::Mutex::new(None))
         .collect();
     let work = std::sync::Mutex::new(items.iter_mut().enumerate());
     std::thread::scope(|s| {
-        for _ in 0..threads.min(results.len()) {
+        for _ in 0..threads.clamp(1, results.len().max(1)) {
             s.spawn(|| loop {
                 let next = work.lock().unwrap().next();
                 let Some((i, item)) = next else { break };
@@ -163,6 +165,11 @@ fn each_in_parallel<T: Send, R: Send>(
         .into_iter()
         .map(|r| r.into_inner().unwrap().expect("every item done"))
         .collect()
+}
+
+/// The threads the builds use: every core.
+pub(crate) fn threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
 /// Build the trees over the scene's triangles, spheres and instances, and reorder the
@@ -208,7 +215,7 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
     let mut object_bounds = Vec::with_capacity(scene.objects.len());
     // Each object's tree on its own, the objects shared out to every core (a tree
     // depends on its object alone, so the order of the work does not matter).
-    let built = each_in_parallel(&mut scene.objects, |o| {
+    let built = map_in_parallel(&mut scene.objects, threads(), |o| {
         let bounds: Vec<Aabb> = o
             .triangles
             .iter()
@@ -217,7 +224,7 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
         let whole = bounds.iter().fold(Aabb::empty(), |a, &b| a.union(b));
         let mut built = build_tree(&bounds, kind);
         let order = reorder(&mut o.triangles, &mut built.prim_refs)?;
-        Ok((whole, built, order))
+        anyhow::Ok((whole, built, order))
     });
     for b in built {
         let (whole, built, order) = b?;
