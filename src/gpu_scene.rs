@@ -12,7 +12,7 @@ use crate::gpu::{other_error, Device};
 use crate::io::Image;
 use crate::scene::{DeltaLight, GridValues, NextEventEstimation, Scene, Texture, UV_MAPPING};
 use crate::texture::{
-    environment_mean, environment_weights, Distribution2D, EnvMapping, Operand, Wrap,
+    environment_mean, environment_weights, ByteDecoding, Distribution2D, EnvMapping, Operand, Texels as _, TextureImage, Wrap,
 };
 use anyhow::Result;
 use ash::vk;
@@ -391,24 +391,47 @@ fn push_image(texels: &mut Vec<f32>, image: &Image) -> u32 {
 }
 
 /// The record of an image or checkerboard texture (its texels appended to `texels`).
-/// Texels: the floats and, per image already in them, its first float (an image
-/// that several textures read is stored once).
+/// Texels: the floats and, per image already in them, its first float and its
+/// `GpuTexture.flags.w` (an image that several textures read is stored once).
 #[derive(Default)]
 struct Texels {
     floats: Vec<f32>,
-    first: std::collections::HashMap<*const Image, u32>,
+    first: std::collections::HashMap<*const TextureImage, (u32, u32)>,
+    /// Where each byte table is ([`ByteDecoding::table`]), once an
+    /// 8-bit image needs it.
+    tables: std::collections::HashMap<ByteDecoding, u32>,
     /// Where the noise table is (src/noise.rs), once a texture needs it.
     noise: Option<u32>,
 }
 
 impl Texels {
-    fn image(&mut self, image: &Arc<Image>) -> u32 {
-        if let Some(&first) = self.first.get(&Arc::as_ptr(image)) {
-            return first;
+    /// An image's first float and its record's `flags.w`: 0 for float RGB texels (three
+    /// floats each), else one word per texel (R | G << 8 | B << 16, stored as the float of
+    /// those bits) and the first float of the 256-entry table its bytes are read through,
+    /// plus 1 (texture.glsl `texel`).
+    fn image(&mut self, image: &Arc<TextureImage>) -> (u32, u32) {
+        if let Some(&found) = self.first.get(&Arc::as_ptr(image)) {
+            return found;
         }
-        let first = push_image(&mut self.floats, image);
-        self.first.insert(Arc::as_ptr(image), first);
-        first
+        let found = match &**image {
+            TextureImage::Float(image) => (push_image(&mut self.floats, image), 0),
+            TextureImage::Bytes {
+                texels, decoding, ..
+            } => {
+                let table = *self.tables.entry(*decoding).or_insert_with(|| {
+                    let first = self.floats.len() as u32;
+                    self.floats.extend(decoding.table());
+                    first
+                });
+                let first = self.floats.len() as u32;
+                self.floats.extend(texels.iter().map(|&[r, g, b]| {
+                    f32::from_bits(r as u32 | (g as u32) << 8 | (b as u32) << 16)
+                }));
+                (first, table + 1)
+            }
+        };
+        self.first.insert(Arc::as_ptr(image), found);
+        found
     }
 
     /// The noise table's first float (stored once).
@@ -429,13 +452,11 @@ fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
             mapping,
             wrap,
             ..
-        } => GpuTexture {
-            info: [
-                TEXTURE_IMAGE,
-                texels.image(image),
-                image.width,
-                image.height,
-            ],
+        } => {
+            let (first, bytes) = texels.image(image);
+            let (width, height) = image.size();
+            GpuTexture {
+            info: [TEXTURE_IMAGE, first, width, height],
             flags: [
                 match wrap {
                     Wrap::Repeat => TEXTURE_WRAP_REPEAT,
@@ -444,13 +465,14 @@ fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
                 },
                 0,
                 0,
-                0,
+                bytes,
             ],
             scale: scale.extend(0.0).to_array(),
             other: [0.0; 4],
             mapping: *mapping,
             ..GpuTexture::default()
-        },
+        }
+        }
         Texture::Checkerboard {
             even, odd, mapping, ..
         } => GpuTexture {
@@ -1346,6 +1368,61 @@ mod tests {
         );
         let p0 = d.environments[1][3] as usize;
         assert_eq!(d.texels[p0 + 1], 2.0);
+    }
+
+    /// An 8-bit image is stored as one word a texel after its table (once per decoding,
+    /// however many images read it; an image read twice stored once), its record's
+    /// flags.w the table + 1; a float image three floats a texel, flags.w 0.
+    #[test]
+    fn eight_bit_images_are_one_word_a_texel_after_their_table() {
+        use crate::texture::{Encoding, Projection, TextureImage};
+        let bytes = |texels: Vec<[u8; 3]>, grey| {
+            Arc::new(TextureImage::Bytes {
+                width: 2,
+                height: 1,
+                texels,
+                decoding: ByteDecoding {
+                    encoding: Encoding::Srgb,
+                    grey,
+                },
+            })
+        };
+        let a = bytes(vec![[1, 2, 3], [250, 0, 9]], false);
+        let b = bytes(vec![[7, 7, 7], [0, 0, 0]], false);
+        let c = bytes(vec![[5, 5, 5], [6, 6, 6]], true);
+        let f = Arc::new(TextureImage::Float((*a).clone().into_floats()));
+        let mut s = Scene::default();
+        for image in [&a, &b, &a, &c, &f] {
+            s.textures.push(Texture::Image {
+                image: image.clone(),
+                scale: Vec3::ONE,
+                mapping: UV_MAPPING,
+                wrap: Wrap::Repeat,
+                projection: Projection::Uv,
+            });
+        }
+        let d = texture_data(&s);
+        let r = &d.textures;
+        assert_eq!(d.texels.len(), 256 + 2 + 2 + 256 + 2 + 6);
+        let table = r[0].flags[3] as usize - 1;
+        assert_eq!(r[1].flags[3], r[0].flags[3]);
+        assert_eq!(r[2].info, r[0].info);
+        assert_ne!(r[3].flags[3], r[0].flags[3]);
+        assert_eq!(r[4].flags[3], 0);
+        assert_eq!(d.texels[table..table + 256], decoding_table(false)[..]);
+        let word = d.texels[r[0].info[1] as usize + 1].to_bits();
+        assert_eq!(word, 250 | 9 << 16);
+        let floats = r[4].info[1] as usize;
+        assert_eq!(d.texels[floats + 3..floats + 6], a.texel(1));
+        assert_eq!(a.texel(1)[0], d.texels[table + 250]);
+    }
+
+    fn decoding_table(grey: bool) -> &'static [f32; 256] {
+        ByteDecoding {
+            encoding: crate::texture::Encoding::Srgb,
+            grey,
+        }
+        .table()
     }
 
     #[test]

@@ -21,7 +21,7 @@ pub enum Texture {
     /// An image, bilinearly filtered, repeating; t = 0 is its bottom row (as pbrt's).
     /// Values are `scale` times the (linear) texels.
     Image {
-        image: Arc<Image>,
+        image: Arc<TextureImage>,
         scale: Vec3,
         mapping: [f32; 4],
         /// Beyond the image's sides (both axes alike).
@@ -313,29 +313,106 @@ pub fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
-/// [`srgb_to_linear`] of the 256 values an 8-bit channel reads as (`k / 255`), so that
-/// an 8-bit image does not call `powf` per texel (300 1k × 1k textures: 4 s). Any
-/// other value is computed; either way the result is `srgb_to_linear`'s, bit for bit.
-struct SrgbTable {
-    input: [f32; 256],
-    output: [f32; 256],
+/// How an 8-bit image's bytes become linear values: through one of four tables of 256
+/// (`table`). An image is kept as its bytes ([`TextureImage::Bytes`]) and read through its
+/// table on the host and in the kernels (gpu_scene.rs stores each table once in the
+/// texels), so that its values are bit for bit those of decoding the file to floats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ByteDecoding {
+    pub encoding: Encoding,
+    /// A grey file (with or without alpha): the image crate turns grey bytes into floats
+    /// by another path than colour bytes, an ulp apart at some codes.
+    pub grey: bool,
 }
 
-impl SrgbTable {
-    fn new() -> SrgbTable {
-        let input: [f32; 256] = std::array::from_fn(|k| k as f32 / 255.0);
-        SrgbTable {
-            input,
-            output: input.map(srgb_to_linear),
+impl ByteDecoding {
+    /// The linear value of each code: the image crate's float (about k / 255), or
+    /// [`srgb_to_linear`] of it.
+    pub fn table(self) -> &'static [f32; 256] {
+        static TABLES: std::sync::OnceLock<[[f32; 256]; 4]> = std::sync::OnceLock::new();
+        let tables = TABLES.get_or_init(|| {
+            let floats = |image: image::DynamicImage| -> [f32; 256] {
+                let f = image.to_rgb32f();
+                std::array::from_fn(|k| f.get_pixel(k as u32, 0).0[0])
+            };
+            let colour = floats(image::DynamicImage::ImageRgb8(image::RgbImage::from_fn(
+                256,
+                1,
+                |x, _| image::Rgb([x as u8; 3]),
+            )));
+            let grey = floats(image::DynamicImage::ImageLuma8(image::GrayImage::from_fn(
+                256,
+                1,
+                |x, _| image::Luma([x as u8]),
+            )));
+            [colour, colour.map(srgb_to_linear), grey, grey.map(srgb_to_linear)]
+        });
+        &tables[2 * self.grey as usize + (self.encoding == Encoding::Srgb) as usize]
+    }
+}
+
+/// The texels of an image texture: linear floats, or (an 8-bit file) its bytes, decoded
+/// through a [`ByteDecoding`]'s table where read, a quarter of the memory on the host and a third in
+/// the kernels' texel data.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TextureImage {
+    Float(Image),
+    Bytes {
+        width: u32,
+        height: u32,
+        texels: Vec<[u8; 3]>,
+        decoding: ByteDecoding,
+    },
+}
+
+/// An image's size and linear RGB texels, row by row from the top (for [`bilinear`]).
+pub trait Texels {
+    fn size(&self) -> (u32, u32);
+    fn texel(&self, i: usize) -> [f32; 3];
+}
+
+impl Texels for Image {
+    fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+    fn texel(&self, i: usize) -> [f32; 3] {
+        self.pixels[i]
+    }
+}
+
+impl Texels for TextureImage {
+    fn size(&self) -> (u32, u32) {
+        match self {
+            TextureImage::Float(image) => image.size(),
+            TextureImage::Bytes { width, height, .. } => (*width, *height),
         }
     }
+    fn texel(&self, i: usize) -> [f32; 3] {
+        match self {
+            TextureImage::Float(image) => image.pixels[i],
+            TextureImage::Bytes {
+                texels, decoding, ..
+            } => {
+                let table = decoding.table();
+                texels[i].map(|k| table[k as usize])
+            }
+        }
+    }
+}
 
-    fn to_linear(&self, c: f32) -> f32 {
-        let k = (c * 255.0).round().clamp(0.0, 255.0) as usize;
-        if self.input[k] == c {
-            self.output[k]
-        } else {
-            srgb_to_linear(c)
+impl TextureImage {
+    /// The texels as linear floats.
+    pub fn into_floats(self) -> Image {
+        match self {
+            TextureImage::Float(image) => image,
+            TextureImage::Bytes { .. } => {
+                let (width, height) = self.size();
+                Image {
+                    width,
+                    height,
+                    pixels: (0..(width * height) as usize).map(|i| self.texel(i)).collect(),
+                }
+            }
         }
     }
 }
@@ -344,6 +421,11 @@ impl SrgbTable {
 /// Radiance HDR, OpenEXR and PFM (linear floats). The error says what is wrong with the
 /// file (the caller adds where it was named).
 pub fn load_image(path: &Path, encoding: Encoding) -> Result<Image, String> {
+    load_texture(path, encoding).map(TextureImage::into_floats)
+}
+
+/// [`load_image`], keeping an 8-bit file's bytes ([`TextureImage::Bytes`]).
+pub fn load_texture(path: &Path, encoding: Encoding) -> Result<TextureImage, String> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
@@ -356,19 +438,31 @@ pub fn load_image(path: &Path, encoding: Encoding) -> Result<Image, String> {
             read_pfm(&bytes).map_err(|e| format!("{}: {e}", path.display()))?
         }
         "png" | "tga" | "hdr" => {
+            use image::ColorType;
             let img =
                 image::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-            let integer = !matches!(
+            if matches!(
                 img.color(),
-                image::ColorType::Rgb32F | image::ColorType::Rgba32F
-            );
+                ColorType::L8 | ColorType::La8 | ColorType::Rgb8 | ColorType::Rgba8
+            ) {
+                let rgb = img.to_rgb8();
+                if rgb.width() == 0 || rgb.height() == 0 {
+                    return Err(format!("{}: the image is empty", path.display()));
+                }
+                return Ok(TextureImage::Bytes {
+                    width: rgb.width(),
+                    height: rgb.height(),
+                    texels: rgb.pixels().map(|p| p.0).collect(),
+                    decoding: ByteDecoding {
+                        encoding,
+                        grey: matches!(img.color(), ColorType::L8 | ColorType::La8),
+                    },
+                });
+            }
+            let integer = !matches!(img.color(), ColorType::Rgb32F | ColorType::Rgba32F);
             let rgb = img.to_rgb32f();
             let srgb = integer && encoding == Encoding::Srgb;
-            let table = srgb.then(SrgbTable::new);
-            let decode = |c: f32| match &table {
-                Some(t) => t.to_linear(c),
-                None => c,
-            };
+            let decode = |c: f32| if srgb { srgb_to_linear(c) } else { c };
             Image {
                 width: rgb.width(),
                 height: rgb.height(),
@@ -399,7 +493,7 @@ pub fn load_image(path: &Path, encoding: Encoding) -> Result<Image, String> {
             path.display()
         ));
     }
-    Ok(image)
+    Ok(TextureImage::Float(image))
 }
 
 /// A Portable Float Map: "PF" (RGB) or "Pf" (grey), width and height, a scale whose sign
@@ -486,8 +580,9 @@ pub enum Wrap {
 /// Bilinear lookup of `image` at (x, y) in [0,1]² from its top-left corner (texel
 /// centres at half-integers of x·width, y·height), each side wrapped as `wrap_x`,
 /// `wrap_y` say.
-pub fn bilinear(image: &Image, p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
-    let (w, h) = (image.width as i64, image.height as i64);
+pub fn bilinear(image: &(impl Texels + ?Sized), p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
+    let (w, h) = image.size();
+    let (w, h) = (w as i64, h as i64);
     let wrap = |i: f32, n: i64, wrap: Wrap| -> Option<usize> {
         if wrap == Wrap::Black && (i < 0.0 || i >= n as f32) {
             return None;
@@ -504,7 +599,7 @@ pub fn bilinear(image: &Image, p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
     let (fx, fy) = (x.floor(), y.floor());
     let (ax, ay) = (x - fx, y - fy);
     let at = |i: f32, j: f32| match (wrap(i, w, wrap_x), wrap(j, h, wrap_y)) {
-        (Some(x), Some(y)) => Vec3::from_array(image.pixels[y * w as usize + x]),
+        (Some(x), Some(y)) => Vec3::from_array(image.texel(y * w as usize + x)),
         _ => Vec3::ZERO,
     };
     let top = at(fx, fy).lerp(at(fx + 1.0, fy), ax);
@@ -616,7 +711,7 @@ pub fn texture_value_in(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3, footprint: (Ve
             projection,
         } => {
             let st = projection.st(mapping, uv, p);
-            *scale * bilinear(image, Vec2::new(st.x, 1.0 - st.y), *wrap, *wrap)
+            *scale * bilinear(&**image, Vec2::new(st.x, 1.0 - st.y), *wrap, *wrap)
         }
     }
 }
@@ -633,7 +728,7 @@ pub fn environment_radiance(env: &Environment, dir: Vec3) -> Vec3 {
     } else {
         Wrap::Clamp
     };
-    env.radiance * bilinear(&map.image, uv, wrap_x, Wrap::Clamp)
+    env.radiance * bilinear(&*map.image, uv, wrap_x, Wrap::Clamp)
 }
 
 /// How an environment map's (u, v) in [0,1]² (u to the right, v down from the top row)
@@ -902,35 +997,52 @@ pub fn environment_mean(image: &Image, mapping: EnvMapping) -> Vec3 {
 mod tests {
     use super::*;
 
-    /// The table gives `srgb_to_linear` bit for bit: at the 8-bit values (mutation: a
-    /// table off by one entry fails), at 16-bit ones (computed) and between.
+    /// An 8-bit file read as a texture keeps its bytes, and every texel reads bit for bit
+    /// as decoding the file to floats did (the image crate's k / 255, then `srgb_to_linear`
+    /// unless linear), in each of the 8-bit layouts (mutation: a table entry off by one
+    /// ulp, or the channels' order changed, fails). 16-bit files stay floats.
     #[test]
-    fn the_srgb_table_is_the_transfer_function() {
-        let table = SrgbTable::new();
-        for k in 0..=255u32 {
-            let c = k as f32 / 255.0;
-            assert_eq!(
-                table.to_linear(c).to_bits(),
-                srgb_to_linear(c).to_bits(),
-                "{k}"
-            );
-        }
-        for k in (0..=65535u32).step_by(7) {
-            let c = k as f32 / 65535.0;
-            assert_eq!(
-                table.to_linear(c).to_bits(),
-                srgb_to_linear(c).to_bits(),
-                "{k}"
-            );
-        }
-        let img = image::RgbImage::from_fn(256, 1, |x, _| image::Rgb([x as u8, 255 - x as u8, 7]));
-        let f = image::DynamicImage::ImageRgb8(img).to_rgb32f();
-        for p in f.pixels() {
-            for &c in &p.0 {
-                // The image crate's 8-bit values are the table's.
-                assert!(table.input.contains(&c), "{c}");
+    fn eight_bit_textures_read_as_their_decoded_floats() {
+        let dir = std::env::temp_dir().join(format!("lightpath-bytes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let codes: Vec<u8> = (0..256 * 3).map(|i| (i * 7 % 256) as u8).collect();
+        for (name, data, layout) in [
+            ("rgb.png", codes.clone(), image::ExtendedColorType::Rgb8),
+            ("rgba.png", codes.clone(), image::ExtendedColorType::Rgba8),
+            ("grey.png", codes.clone(), image::ExtendedColorType::L8),
+            ("grey-alpha.png", codes.clone(), image::ExtendedColorType::La8),
+            ("rgb.tga", codes.clone(), image::ExtendedColorType::Rgb8),
+        ] {
+            let channels = match layout {
+                image::ExtendedColorType::Rgba8 => 4,
+                image::ExtendedColorType::L8 => 1,
+                image::ExtendedColorType::La8 => 2,
+                _ => 3,
+            };
+            let n = (data.len() / channels) as u32;
+            let path = dir.join(name);
+            image::save_buffer(&path, &data[..n as usize * channels], n, 1, layout).unwrap();
+            let floats = image::open(&path).unwrap().to_rgb32f();
+            for encoding in [Encoding::Srgb, Encoding::Linear] {
+                let t = load_texture(&path, encoding).unwrap();
+                assert!(matches!(t, TextureImage::Bytes { .. }), "{name}");
+                assert_eq!(t.size(), (n, 1));
+                for (i, p) in floats.pixels().enumerate() {
+                    let want = p.0.map(|c| match encoding {
+                        Encoding::Srgb => srgb_to_linear(c),
+                        Encoding::Linear => c,
+                    });
+                    assert_eq!(t.texel(i).map(f32::to_bits), want.map(f32::to_bits), "{name} {i}");
+                }
+                assert_eq!(t.clone().into_floats().pixels[5], t.texel(5));
             }
         }
+        let wide: Vec<u16> = (0..64 * 3).map(|i| (i * 1021 % 65536) as u16).collect();
+        let path = dir.join("wide.png");
+        let img = image::ImageBuffer::<image::Rgb<u16>, _>::from_raw(64, 1, wide).unwrap();
+        img.save(&path).unwrap();
+        assert!(matches!(load_texture(&path, Encoding::Srgb).unwrap(), TextureImage::Float(_)));
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     fn rng(state: &mut u64) -> f32 {
@@ -1096,7 +1208,7 @@ mod tests {
             pixels: vec![[1.0; 3], [2.0; 3], [3.0; 3], [4.0; 3]],
         };
         let t = Texture::Image {
-            image: std::sync::Arc::new(img),
+            image: std::sync::Arc::new(TextureImage::Float(img)),
             scale: Vec3::ONE,
             mapping: UV_MAPPING,
             wrap: Wrap::Repeat,

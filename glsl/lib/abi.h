@@ -477,12 +477,15 @@ struct GpuTriangleAttributes {
 
 // A texture. Images: texels are RGB float triples in the texel buffer from float
 // info.y on, row-major from the top row; t = 0 is the bottom row unless flags.y is 1
-// (environment maps: v = 0 is the top row). Values are scale * the bilinear lookup.
+// (environment maps: v = 0 is the top row). With flags.w > 0 (an 8-bit image) a texel
+// is one word instead, R | G << 8 | B << 16 as a float's bits, each byte an index into
+// the 256-float table at float flags.w - 1 (src/texture.rs ByteDecoding::table).
+// Values are scale * the bilinear lookup.
 // Checkerboards: scale where floor(s) + floor(t) is even, other where odd.
 // (s, t) = (mapping.x u + mapping.z, mapping.y v + mapping.w).
 struct GpuTexture {
     uvec4 info;         // x kind (TEXTURE_*), y first float, z width, w height
-    uvec4 flags;        // x wrap (TEXTURE_WRAP_*), y 1: rows top-down in v, z mapping (TEXTURE_MAP_*)
+    uvec4 flags;        // x wrap (TEXTURE_WRAP_*), y 1: rows top-down in v, z mapping (TEXTURE_MAP_*), w byte table + 1 (0: float texels)
     vec4 scale;
     vec4 other;
     vec4 mapping;       // uv mapping: s = x u + z, t = y v + w

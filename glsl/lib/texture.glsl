@@ -9,10 +9,17 @@
 #include "noise.glsl"
 
 // The texel (x, y); black outside the image (x or y negative: wrap_texel's `black`).
+// Float texels are three floats; an 8-bit image's one word of bytes, each read through
+// its table (abi.h GpuTexture).
 vec3 texel(GpuTexture t, int x, int y) {
     if (x < 0 || y < 0) return vec3(0.0);
-    uint i = t.info.y + 3u * (uint(y) * t.info.z + uint(x));
-    return vec3(texel(i), texel(i + 1u), texel(i + 2u));
+    uint p = uint(y) * t.info.z + uint(x);
+    uvec3 at = t.info.y + 3u * p + uvec3(0u, 1u, 2u);
+    if (t.flags.w != 0u) {
+        uint word = floatBitsToUint(texel(t.info.y + p));
+        at = t.flags.w - 1u + (uvec3(word, word >> 8u, word >> 16u) & 255u);
+    }
+    return vec3(texel(at.x), texel(at.y), texel(at.z));
 }
 
 // The texel index of the (floored) coordinate i along a side of n texels: repeating,

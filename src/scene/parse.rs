@@ -10,7 +10,7 @@ use super::{
     MediumInterface, NextEventEstimation, QuadLight, SampleMode, Scene, Sphere, Texture, Triangle,
     UV_MAPPING,
 };
-use crate::texture::{load_image, Encoding, EnvMapping};
+use crate::texture::{load_image, load_texture, Encoding, EnvMapping};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::collections::HashMap;
 use std::fmt;
@@ -1106,7 +1106,7 @@ impl Parser {
         if let Some(&index) = self.image_textures.get(&(path.clone(), encoding)) {
             return Ok(index);
         }
-        let image = load_image(&path, encoding).map_err(|e| cmd.error(e))?;
+        let image = load_texture(&path, encoding).map_err(|e| cmd.error(e))?;
         self.scene.textures.push(Texture::Image {
             image: Arc::new(image),
             scale: Vec3::ONE,

@@ -459,7 +459,7 @@ impl Parser {
                 Some(i) => i.clone(),
                 None => {
                     let image =
-                        Arc::new(load_image(&path, Encoding::Linear).map_err(|e| {
+                        Arc::new(load_texture(&path, Encoding::Linear).map_err(|e| {
                             self.err_at(p.file, p.line, d, format!("normalmap: {e}"))
                         })?);
                     self.image_textures.insert(key, image.clone());

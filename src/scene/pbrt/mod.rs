@@ -41,7 +41,7 @@ use super::{
     Material, MaterialMix, NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture,
     Triangle, MAX_MIX_DEPTH,
 };
-use crate::texture::{load_image, Encoding, EnvMapping, Projection, Wrap};
+use crate::texture::{load_image, load_texture, Encoding, EnvMapping, Projection, TextureImage, Wrap};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -105,7 +105,7 @@ struct Parser {
     textures: HashMap<String, Value>,
     float_textures: HashMap<String, Value>,
     material_lookup: HashMap<MaterialKey, u32>,
-    image_textures: HashMap<(PathBuf, Encoding), Arc<crate::io::Image>>,
+    image_textures: HashMap<(PathBuf, Encoding), Arc<crate::texture::TextureImage>>,
     /// Measured materials' files read so far: their index in `Scene::measured`.
     measured_files: HashMap<PathBuf, u32>,
     /// The objects defined (ObjectBegin .. ObjectEnd): their shapes and where each was

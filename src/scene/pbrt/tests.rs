@@ -194,7 +194,7 @@ fn imagemap_wrap_modes_invert_and_mappings() {
         match &s.textures[0] {
             Texture::Image {
                 image, scale, wrap, ..
-            } => (image.pixels.clone(), *scale, *wrap),
+            } => ((**image).clone().into_floats().pixels, *scale, *wrap),
             other => panic!("{other:?}"),
         }
     };

@@ -392,7 +392,7 @@ impl Parser {
                     Some(i) => i.clone(),
                     None => {
                         let image = Arc::new(
-                            load_image(&path, encoding)
+                            load_texture(&path, encoding)
                                 .map_err(|e| self.err_at(p.file, p.line, d, e))?,
                         );
                         self.image_textures.insert(key, image.clone());
@@ -402,11 +402,11 @@ impl Parser {
                 // pbrt-v4's invert: max(0, 1 - scale · v), made once on the texels (the
                 // same as after the lookup wherever scale · v <= 1, as in [0, 1] images).
                 let (image, scale) = if invert {
-                    let mut inverted = (*image).clone();
+                    let mut inverted = (*image).clone().into_floats();
                     for p in &mut inverted.pixels {
                         *p = p.map(|v| (1.0 - scale * v).max(0.0));
                     }
-                    (Arc::new(inverted), 1.0)
+                    (Arc::new(TextureImage::Float(inverted)), 1.0)
                 } else {
                     (image, scale)
                 };
