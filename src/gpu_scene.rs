@@ -12,7 +12,8 @@ use crate::gpu::{other_error, Device};
 use crate::io::Image;
 use crate::scene::{DeltaLight, GridValues, NextEventEstimation, Scene, Texture, UV_MAPPING};
 use crate::texture::{
-    environment_mean, environment_weights, ByteDecoding, Distribution2D, EnvMapping, Operand, Texels as _, TextureImage, Wrap,
+    environment_mean, environment_weights, ByteDecoding, Distribution2D, EnvMapping, Operand,
+    Texels as _, TextureImage, Wrap,
 };
 use anyhow::Result;
 use ash::vk;
@@ -456,22 +457,22 @@ fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
             let (first, bytes) = texels.image(image);
             let (width, height) = image.size();
             GpuTexture {
-            info: [TEXTURE_IMAGE, first, width, height],
-            flags: [
-                match wrap {
-                    Wrap::Repeat => TEXTURE_WRAP_REPEAT,
-                    Wrap::Clamp => TEXTURE_WRAP_CLAMP,
-                    Wrap::Black => TEXTURE_WRAP_BLACK,
-                },
-                0,
-                0,
-                bytes,
-            ],
-            scale: scale.extend(0.0).to_array(),
-            other: [0.0; 4],
-            mapping: *mapping,
-            ..GpuTexture::default()
-        }
+                info: [TEXTURE_IMAGE, first, width, height],
+                flags: [
+                    match wrap {
+                        Wrap::Repeat => TEXTURE_WRAP_REPEAT,
+                        Wrap::Clamp => TEXTURE_WRAP_CLAMP,
+                        Wrap::Black => TEXTURE_WRAP_BLACK,
+                    },
+                    0,
+                    0,
+                    bytes,
+                ],
+                scale: scale.extend(0.0).to_array(),
+                other: [0.0; 4],
+                mapping: *mapping,
+                ..GpuTexture::default()
+            }
         }
         Texture::Checkerboard {
             even, odd, mapping, ..

@@ -345,7 +345,12 @@ impl ByteDecoding {
                 1,
                 |x, _| image::Luma([x as u8]),
             )));
-            [colour, colour.map(srgb_to_linear), grey, grey.map(srgb_to_linear)]
+            [
+                colour,
+                colour.map(srgb_to_linear),
+                grey,
+                grey.map(srgb_to_linear),
+            ]
         });
         &tables[2 * self.grey as usize + (self.encoding == Encoding::Srgb) as usize]
     }
@@ -410,7 +415,9 @@ impl TextureImage {
                 Image {
                     width,
                     height,
-                    pixels: (0..(width * height) as usize).map(|i| self.texel(i)).collect(),
+                    pixels: (0..(width * height) as usize)
+                        .map(|i| self.texel(i))
+                        .collect(),
                 }
             }
         }
@@ -1010,7 +1017,11 @@ mod tests {
             ("rgb.png", codes.clone(), image::ExtendedColorType::Rgb8),
             ("rgba.png", codes.clone(), image::ExtendedColorType::Rgba8),
             ("grey.png", codes.clone(), image::ExtendedColorType::L8),
-            ("grey-alpha.png", codes.clone(), image::ExtendedColorType::La8),
+            (
+                "grey-alpha.png",
+                codes.clone(),
+                image::ExtendedColorType::La8,
+            ),
             ("rgb.tga", codes.clone(), image::ExtendedColorType::Rgb8),
         ] {
             let channels = match layout {
@@ -1032,7 +1043,11 @@ mod tests {
                         Encoding::Srgb => srgb_to_linear(c),
                         Encoding::Linear => c,
                     });
-                    assert_eq!(t.texel(i).map(f32::to_bits), want.map(f32::to_bits), "{name} {i}");
+                    assert_eq!(
+                        t.texel(i).map(f32::to_bits),
+                        want.map(f32::to_bits),
+                        "{name} {i}"
+                    );
                 }
                 assert_eq!(t.clone().into_floats().pixels[5], t.texel(5));
             }
@@ -1041,7 +1056,10 @@ mod tests {
         let path = dir.join("wide.png");
         let img = image::ImageBuffer::<image::Rgb<u16>, _>::from_raw(64, 1, wide).unwrap();
         img.save(&path).unwrap();
-        assert!(matches!(load_texture(&path, Encoding::Srgb).unwrap(), TextureImage::Float(_)));
+        assert!(matches!(
+            load_texture(&path, Encoding::Srgb).unwrap(),
+            TextureImage::Float(_)
+        ));
         std::fs::remove_dir_all(&dir).ok();
     }
 

@@ -95,7 +95,11 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
             let (x, y) = ((p.x + 1.0) / 2.0, (p.y + 1.0) / 2.0);
             seen(&s, &texture, Vec2::new(1.5 * (1.0 - y), x), p, Vec3::Z)
         });
-        let img = render(&with_integrator(s.clone(), IntegratorKind::PathTracer, 256), 1, Bvh);
+        let img = render(
+            &with_integrator(s.clone(), IntegratorKind::PathTracer, 256),
+            1,
+            Bvh,
+        );
         let (mean, max) = differences(&img, &expected);
         assert!(
             mean < 0.01 && max < 0.1,
@@ -111,8 +115,11 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
         *image = std::sync::Arc::new(TextureImage::Float((**image).clone().into_floats()));
         let floats = render(&with_integrator(s, IntegratorKind::PathTracer, 256), 1, Bvh);
         assert!(
-            img.pixels.iter().flatten().map(|x| x.to_bits())
-                .eq(floats.pixels.iter().flatten().map(|x| x.to_bits())),
+            img.pixels.iter().flatten().map(|x| x.to_bits()).eq(floats
+                .pixels
+                .iter()
+                .flatten()
+                .map(|x| x.to_bits())),
             "{wrap:?}: bytes and floats render differently"
         );
     }

@@ -41,7 +41,9 @@ use super::{
     Material, MaterialMix, NextEventEstimation, ParseError, SampleMode, Scene, Sphere, Texture,
     Triangle, MAX_MIX_DEPTH,
 };
-use crate::texture::{load_image, load_texture, Encoding, EnvMapping, Projection, TextureImage, Wrap};
+use crate::texture::{
+    load_image, load_texture, Encoding, EnvMapping, Projection, TextureImage, Wrap,
+};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
