@@ -876,39 +876,35 @@ fn sparse_grid(floats: &mut Vec<f32>, g: &crate::scene::SparseGrid) -> u32 {
     at
 }
 
-/// The per-triangle attribute records and each triangle's index into them
-/// (NO_ATTRIBUTES for a triangle with neither texture coordinates nor shading normals).
-/// Triangles: the world's, then each object's (the triangle records' order).
-pub fn triangle_attributes(scene: &Scene) -> (Vec<GpuTriangleAttributes>, Vec<u32>) {
-    let mut records = Vec::new();
-    let mut index = Vec::with_capacity(scene.triangles.len());
-    let objects = scene.objects.iter().flat_map(|o| o.triangles.iter());
-    for t in scene.triangles.iter().chain(objects) {
-        if t.uv.is_none() && t.normals.is_none() && t.alpha.is_none() {
-            index.push(NO_ATTRIBUTES);
-            continue;
-        }
-        let uv = t.uv.unwrap_or([
-            glam::Vec2::new(0.0, 0.0),
-            glam::Vec2::new(1.0, 0.0),
-            glam::Vec2::new(1.0, 1.0),
-        ]);
-        let n = t.normals.unwrap_or([Vec3::ZERO; 3]);
-        let (alpha_kind, alpha_value) = match t.alpha {
-            None => (crate::abi::ALPHA_NONE, 0.0),
-            Some(crate::scene::Alpha::Constant(a)) => (crate::abi::ALPHA_CONSTANT, a),
-            Some(crate::scene::Alpha::Texture(i)) => (crate::abi::ALPHA_TEXTURE, f32::from_bits(i)),
-        };
-        index.push(records.len() as u32);
-        records.push(GpuTriangleAttributes {
-            uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
-            uv2: [uv[2].x, uv[2].y, t.normals.is_some() as u32 as f32, 0.0],
-            n0: n[0].extend(alpha_kind as f32).to_array(),
-            n1: n[1].extend(alpha_value).to_array(),
-            n2: n[2].extend(0.0).to_array(),
-        });
+fn has_attributes(t: &crate::scene::Triangle) -> bool {
+    t.uv.is_some() || t.normals.is_some() || t.alpha.is_some()
+}
+
+/// A triangle's attribute record: none for one with neither texture coordinates, shading
+/// normals nor alpha (its triangle record's index NO_ATTRIBUTES). The records are in the
+/// triangles' order (the world's, then each object's), one for each that has one.
+pub fn triangle_attributes(t: &crate::scene::Triangle) -> Option<GpuTriangleAttributes> {
+    if !has_attributes(t) {
+        return None;
     }
-    (records, index)
+    let uv = t.uv.unwrap_or([
+        glam::Vec2::new(0.0, 0.0),
+        glam::Vec2::new(1.0, 0.0),
+        glam::Vec2::new(1.0, 1.0),
+    ]);
+    let n = t.normals.unwrap_or([Vec3::ZERO; 3]);
+    let (alpha_kind, alpha_value) = match t.alpha {
+        None => (crate::abi::ALPHA_NONE, 0.0),
+        Some(crate::scene::Alpha::Constant(a)) => (crate::abi::ALPHA_CONSTANT, a),
+        Some(crate::scene::Alpha::Texture(i)) => (crate::abi::ALPHA_TEXTURE, f32::from_bits(i)),
+    };
+    Some(GpuTriangleAttributes {
+        uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
+        uv2: [uv[2].x, uv[2].y, t.normals.is_some() as u32 as f32, 0.0],
+        n0: n[0].extend(alpha_kind as f32).to_array(),
+        n1: n[1].extend(alpha_value).to_array(),
+        n2: n[2].extend(0.0).to_array(),
+    })
 }
 
 /// CPU mirror of lights.glsl's `pick_emitter`: the first i with x < cdf[i], else the
@@ -1067,27 +1063,48 @@ impl GpuScene {
         params: SceneParams,
         max_chunk_bytes: u64,
     ) -> Result<GpuScene> {
-        let table = emitter_table(scene);
+        let mut table = emitter_table(scene);
         let textures = texture_data(scene);
-        let (attributes, attribute_index) = triangle_attributes(scene);
         let bits = f32::from_bits;
-        // The world's triangles, then each object's (in object space; none emits).
-        let objects = scene.objects.iter().flat_map(|o| o.triangles.iter());
-        let triangles: Vec<GpuTriangle> = scene
-            .triangles
-            .iter()
-            .chain(objects)
-            .enumerate()
-            .map(|(i, t)| GpuTriangle {
-                v0: t.v[0].extend(bits(t.material)).to_array(),
-                v1: t.v[1]
-                    .extend(bits(
-                        table.triangle_emitter.get(i).copied().unwrap_or(NO_EMITTER),
-                    ))
-                    .to_array(),
-                v2: t.v[2].extend(bits(attribute_index[i])).to_array(),
-            })
-            .collect();
+        // The world's triangles, then each object's (in object space; none emits); the
+        // records made as they are uploaded (DataArray::made).
+        let all_triangles = || {
+            let objects = scene.objects.iter().flat_map(|o| o.triangles.iter());
+            scene.triangles.iter().chain(objects)
+        };
+        let triangle_count = all_triangles().count() as u64;
+        let attribute_count = all_triangles().filter(|t| has_attributes(t)).count() as u64;
+        let triangle_emitter = std::mem::take(&mut table.triangle_emitter);
+        let triangle_records = {
+            let mut triangles = all_triangles().enumerate();
+            let mut attributes = 0u32;
+            move |out: &mut [u8]| {
+                for record in out.chunks_exact_mut(std::mem::size_of::<GpuTriangle>()) {
+                    let (i, t) = triangles.next().expect("as many records as triangles");
+                    let attribute = if has_attributes(t) {
+                        attributes += 1;
+                        attributes - 1
+                    } else {
+                        NO_ATTRIBUTES
+                    };
+                    let emitter = triangle_emitter.get(i).copied().unwrap_or(NO_EMITTER);
+                    record.copy_from_slice(bytemuck::bytes_of(&GpuTriangle {
+                        v0: t.v[0].extend(bits(t.material)).to_array(),
+                        v1: t.v[1].extend(bits(emitter)).to_array(),
+                        v2: t.v[2].extend(bits(attribute)).to_array(),
+                    }));
+                }
+            }
+        };
+        let attribute_records = {
+            let mut attributes = all_triangles().filter_map(triangle_attributes);
+            move |out: &mut [u8]| {
+                for record in out.chunks_exact_mut(std::mem::size_of::<GpuTriangleAttributes>()) {
+                    let a = attributes.next().expect("as many records as attributes");
+                    record.copy_from_slice(bytemuck::bytes_of(&a));
+                }
+            }
+        };
         let spheres: Vec<GpuSphere> = scene
             .spheres
             .iter()
@@ -1108,7 +1125,6 @@ impl GpuScene {
             .collect();
         let materials = material_records(scene, &textures);
         let (media, medium_grids) = medium_records(scene, &textures);
-        let mut table = table;
         for e in &mut table.emitters {
             if matches!(e.info[0], EMITTER_GONIOMETRIC | EMITTER_PROJECTION) {
                 e.info[1] = textures.light_profiles[e.info[1] as usize];
@@ -1148,10 +1164,11 @@ impl GpuScene {
                 .into());
             }
         }
-        let mut triangle_data = DataArray::new(
+        let mut triangle_data = DataArray::made(
             "triangles",
-            bytemuck::cast_slice(&triangles),
+            triangle_count,
             std::mem::size_of::<GpuTriangle>() as u64,
+            triangle_records,
         );
         triangle_data.bindable = true;
         if backend == Backend::RayQuery {
@@ -1160,12 +1177,12 @@ impl GpuScene {
                 vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR;
             let triangle_chunk_bytes = device_chunk_bytes(device);
             triangle_data.chunk_bytes = Some(triangle_chunk_bytes);
-            if triangle_data.bytes.len() as u64 > triangle_chunk_bytes {
+            if triangle_data.bytes.len() > triangle_chunk_bytes {
                 return Err(other_error(
                     "uploading the scene",
                     format!(
                         "--accel rayquery keeps the triangles in one buffer, and {} triangles need {} bytes, more than {} holds in one ({triangle_chunk_bytes}); use --accel cwbvh",
-                        triangles.len(),
+                        triangle_count,
                         triangle_data.bytes.len(),
                         device.info.name
                     ),
@@ -1177,12 +1194,13 @@ impl GpuScene {
         let node_record = if backend == Backend::Cwbvh { 80 } else { 32 };
         let data = SceneData::new(
             device,
-            &[
+            [
                 triangle_data,
-                DataArray::new(
+                DataArray::made(
                     "triangle attributes",
-                    bytemuck::cast_slice(&attributes),
+                    attribute_count,
                     std::mem::size_of::<GpuTriangleAttributes>() as u64,
+                    attribute_records,
                 ),
                 if ray_query {
                     DataArray::none("BVH nodes")

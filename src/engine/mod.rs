@@ -455,7 +455,7 @@ impl Engine {
                     None => DataArray::none(NAMES[k]),
                 },
             );
-        Ok(SceneData::new(&self.device, &kinds, self.chunk_limit())?)
+        Ok(SceneData::new(&self.device, kinds, self.chunk_limit())?)
     }
 
     /// The largest chunk of scene data: the device's, or the smaller one

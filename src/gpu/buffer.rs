@@ -148,25 +148,47 @@ impl Buffer {
     /// staging buffer of at most `STAGING_BYTES`, piece by piece, so that a large upload
     /// does not hold a second copy of itself in host memory.
     pub fn upload(&self, data: &[u8]) -> GpuResult<()> {
-        if data.is_empty() {
+        self.upload_with(data.len() as u64, 1, &mut |at, out| {
+            out.copy_from_slice(&data[at as usize..at as usize + out.len()])
+        })
+    }
+
+    /// As [`Buffer::upload`], the `len` bytes written by `fill(offset, piece)` straight
+    /// into the staging memory, piece by piece in order, each piece a whole number of
+    /// `record`-byte records.
+    pub fn upload_with(
+        &self,
+        len: u64,
+        record: u64,
+        fill: &mut dyn FnMut(u64, &mut [u8]),
+    ) -> GpuResult<()> {
+        if len == 0 {
             return Ok(());
         }
         let device = &self.device;
         let stage = format!("uploading into '{}'", self.name);
-        if data.len() as u64 > self.size {
+        if len > self.size {
             return Err(other_error(&stage, "data larger than the buffer"));
         }
-        let piece = data.len().min(STAGING_BYTES);
+        let record = record.max(1);
+        let piece = len.min((STAGING_BYTES as u64 / record).max(1) * record);
         let mut staging = Buffer::new(
             device,
             &format!("{} (staging)", self.name),
-            piece as u64,
+            piece,
             vk::BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::CpuToGpu,
         )?;
-        for (k, part) in data.chunks(piece).enumerate() {
+        let mut at = 0;
+        while at < len {
+            let part = piece.min(len - at);
             // (Each piece's commands have ended before the next overwrites the staging.)
-            staging.write(part)?;
+            let mapped = staging
+                .allocation
+                .as_mut()
+                .and_then(|a| a.mapped_slice_mut())
+                .ok_or_else(|| other_error(&stage, "the staging buffer is not host visible"))?;
+            fill(at, &mut mapped[..part as usize]);
             device.run_commands(&stage, |cmd| unsafe {
                 writes_visible_to_later_commands(
                     device,
@@ -177,12 +199,11 @@ impl Buffer {
                     cmd,
                     staging.raw,
                     self.raw,
-                    &[vk::BufferCopy::default()
-                        .dst_offset((k * piece) as u64)
-                        .size(part.len() as u64)],
+                    &[vk::BufferCopy::default().dst_offset(at).size(part)],
                 );
                 writes_visible_to_later_commands(device, cmd, vk::AccessFlags::TRANSFER_WRITE);
             })?;
+            at += part;
         }
         Ok(())
     }

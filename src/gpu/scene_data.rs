@@ -11,11 +11,12 @@ use crate::abi::{DATA_IN_BINDING, DATA_KINDS};
 use ash::vk;
 use std::sync::Arc;
 
-/// One kind's data as the host has it: its bytes, the size of one record (a record never
-/// straddles two chunks) and the usage its buffers need beyond storage and addressing.
+/// One kind's data as the host has it: its bytes (a slice, or made record by record as
+/// they are uploaded), the size of one record (a record never straddles two chunks) and
+/// the usage its buffers need beyond storage and addressing.
 pub struct DataArray<'a> {
     pub name: &'static str,
-    pub bytes: &'a [u8],
+    pub bytes: DataBytes<'a>,
     pub record: u64,
     pub usage: vk::BufferUsageFlags,
     /// The largest chunk for this kind, where it is not the scene's.
@@ -25,15 +26,65 @@ pub struct DataArray<'a> {
     pub bindable: bool,
 }
 
+/// A kind's bytes: a slice the host holds, or `len` bytes that `fill` writes in order,
+/// whole records at a time, straight into the upload's staging memory (the triangles and
+/// their attributes: no host array of the whole kind, whose fresh pages cost more than
+/// making the records; docs/performance.md).
+pub enum DataBytes<'a> {
+    Slice(&'a [u8]),
+    Made {
+        len: u64,
+        fill: Box<dyn FnMut(&mut [u8]) + 'a>,
+    },
+}
+
+impl DataBytes<'_> {
+    pub fn len(&self) -> u64 {
+        match self {
+            DataBytes::Slice(s) => s.len() as u64,
+            DataBytes::Made { len, .. } => *len,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Writes the next `out.len()` bytes (a whole number of records) into `out`; `at` is
+    /// where they start (the slices' offset; made bytes come in order).
+    fn next(&mut self, at: u64, out: &mut [u8]) {
+        match self {
+            DataBytes::Slice(s) => out.copy_from_slice(&s[at as usize..at as usize + out.len()]),
+            DataBytes::Made { fill, .. } => fill(out),
+        }
+    }
+}
+
 impl<'a> DataArray<'a> {
     pub fn new(name: &'static str, bytes: &'a [u8], record: u64) -> DataArray<'a> {
         DataArray {
             name,
-            bytes,
+            bytes: DataBytes::Slice(bytes),
             record,
             usage: vk::BufferUsageFlags::empty(),
             chunk_bytes: None,
             bindable: false,
+        }
+    }
+
+    /// `count` records of `record` bytes that `fill` writes in order (`DataBytes::Made`).
+    pub fn made(
+        name: &'static str,
+        count: u64,
+        record: u64,
+        fill: impl FnMut(&mut [u8]) + 'a,
+    ) -> DataArray<'a> {
+        DataArray {
+            bytes: DataBytes::Made {
+                len: count * record,
+                fill: Box::new(fill),
+            },
+            ..DataArray::new(name, &[], record)
         }
     }
 
@@ -67,17 +118,18 @@ impl SceneData {
     /// `max_chunk_bytes` each.
     pub fn new(
         device: &Arc<Device>,
-        arrays: &[DataArray; DATA_KINDS as usize],
+        arrays: [DataArray; DATA_KINDS as usize],
         max_chunk_bytes: u64,
     ) -> GpuResult<SceneData> {
         let binding_range = device.info.max_storage_buffer_range;
         let mut chunks = Vec::new();
         let mut shifts = Vec::new();
-        for a in arrays {
+        let names = arrays.iter().map(|a| a.name).collect();
+        for mut a in arrays {
             let limit = a.chunk_bytes.unwrap_or(max_chunk_bytes);
             // One chunk: shift 31 (every index in it; the kernels read no table), or
             // DATA_IN_BINDING where it is bound too.
-            let bytes = a.bytes.len() as u64;
+            let bytes = a.bytes.len();
             let shift = if a.bindable && bytes <= limit && bytes <= binding_range {
                 DATA_IN_BINDING
             } else if bytes <= limit {
@@ -85,7 +137,7 @@ impl SceneData {
             } else {
                 chunk_shift(a.record, limit)
             };
-            let chunk_bytes = (a.record << shift).max(1) as usize;
+            let chunk_bytes = (a.record << shift).max(1);
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER
                 | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
                 | a.usage;
@@ -93,14 +145,20 @@ impl SceneData {
             if a.bytes.is_empty() {
                 list.push(Buffer::with_data(device, a.name, &[], usage)?);
             }
-            let count = a.bytes.len().div_ceil(chunk_bytes);
-            for (k, part) in a.bytes.chunks(chunk_bytes).enumerate() {
+            let count = bytes.div_ceil(chunk_bytes);
+            for k in 0..count {
                 let name = if count == 1 {
                     a.name.to_string()
                 } else {
                     format!("{} (chunk {k} of {count})", a.name)
                 };
-                list.push(Buffer::with_data(device, &name, part, usage)?);
+                let at = k * chunk_bytes;
+                let len = chunk_bytes.min(bytes - at);
+                let buffer = Buffer::device_local(device, &name, len.max(16), usage)?;
+                buffer.upload_with(len, a.record, &mut |offset, out| {
+                    a.bytes.next(at + offset, out)
+                })?;
+                list.push(buffer);
             }
             chunks.push(list);
             shifts.push(shift);
@@ -133,7 +191,7 @@ impl SceneData {
             chunks,
             shifts,
             table,
-            names: arrays.iter().map(|a| a.name).collect(),
+            names,
         })
     }
 
