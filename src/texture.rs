@@ -145,6 +145,25 @@ impl Texture {
         }
     }
 
+    /// Each image of its tree (itself, if it is an image), to change.
+    pub fn for_each_image_mut(&mut self, f: &mut impl FnMut(&mut Arc<TextureImage>)) {
+        let operands = match self {
+            Texture::Image { image, .. } => return f(image),
+            Texture::Checkerboard { .. }
+            | Texture::Noise { .. }
+            | Texture::Dots { .. }
+            | Texture::Bilerp { .. } => return,
+            Texture::Scale { tex, scale } => vec![tex, scale],
+            Texture::Mix { tex1, tex2, amount } => vec![tex1, tex2, amount],
+            Texture::DirectionMix { tex1, tex2, .. } => vec![tex1, tex2],
+        };
+        for o in operands {
+            if let Operand::Texture(t) = o {
+                t.for_each_image_mut(f);
+            }
+        }
+    }
+
     /// The textures of its tree that are not made of textures (itself, if it is one).
     pub fn leaves(&self) -> Vec<&Texture> {
         let mut out = Vec::new();

@@ -454,18 +454,8 @@ impl Parser {
                 return Ok(None);
             };
             let path = self.resolve(p.file, name);
-            let key = (path.clone(), Encoding::Linear);
-            let image = match self.image_textures.get(&key) {
-                Some(i) => i.clone(),
-                None => {
-                    let image =
-                        Arc::new(load_texture(&path, Encoding::Linear).map_err(|e| {
-                            self.err_at(p.file, p.line, d, format!("normalmap: {e}"))
-                        })?);
-                    self.image_textures.insert(key, image.clone());
-                    image
-                }
-            };
+            let image =
+                self.image_texture(path, Encoding::Linear, (p.file, p.line, d), "normalmap: ");
             self.scene.textures.push(Texture::Image {
                 image,
                 scale: Vec3::ONE,

@@ -107,7 +107,10 @@ struct Parser {
     textures: HashMap<String, Value>,
     float_textures: HashMap<String, Value>,
     material_lookup: HashMap<MaterialKey, u32>,
-    image_textures: HashMap<(PathBuf, Encoding), Arc<crate::texture::TextureImage>>,
+    /// Image textures' files by name: the image, or the placeholder of one not read yet.
+    image_textures: HashMap<(PathBuf, Encoding), Arc<TextureImage>>,
+    /// The image files named and not read yet, in the order named (`read_images`).
+    pending_images: Vec<PendingImage>,
     /// Measured materials' files read so far: their index in `Scene::measured`.
     measured_files: HashMap<PathBuf, u32>,
     /// The objects defined (ObjectBegin .. ObjectEnd): their shapes and where each was
@@ -149,6 +152,18 @@ struct Parser {
     /// pbrt-v4's exposure time: the camera's shutterclose − shutteropen (1 by default).
     exposure: f32,
     in_world: bool,
+}
+
+/// An image texture's file named and not read yet (`Parser::read_images`): where it was
+/// named, and the placeholder the textures hold until it is read.
+struct PendingImage {
+    placeholder: Arc<TextureImage>,
+    path: PathBuf,
+    encoding: Encoding,
+    file: u32,
+    line: u32,
+    command: String,
+    what: &'static str,
 }
 
 /// Reads and parses a pbrt-v4 scene file.
@@ -195,6 +210,7 @@ fn parse_pbrt_text(text: &str, name: &str, dir: PathBuf) -> Result<Scene, ParseE
         float_textures: HashMap::new(),
         material_lookup: HashMap::new(),
         image_textures: HashMap::new(),
+        pending_images: Vec::new(),
         measured_files: HashMap::new(),
         objects: HashMap::new(),
         defining: None,
@@ -326,6 +342,71 @@ impl Parser {
             self.scene.instances.push(crate::scene::Instance {
                 object,
                 object_to_world: ctm,
+            });
+        }
+        Ok(())
+    }
+
+    /// The image file `path` as a texture's texels: the image where it was read before,
+    /// else a placeholder that `read_images` replaces, with the others named, on every
+    /// core. `what` begins the error's message where the file cannot be read.
+    fn image_texture(
+        &mut self,
+        path: PathBuf,
+        encoding: Encoding,
+        (file, line, command): (u32, u32, &str),
+        what: &'static str,
+    ) -> Arc<TextureImage> {
+        let key = (path, encoding);
+        if let Some(image) = self.image_textures.get(&key) {
+            return image.clone();
+        }
+        let placeholder = Arc::new(TextureImage::Float(crate::io::Image {
+            width: 0,
+            height: 0,
+            pixels: Vec::new(),
+        }));
+        self.pending_images.push(PendingImage {
+            placeholder: placeholder.clone(),
+            path: key.0.clone(),
+            encoding,
+            file,
+            line,
+            command: command.to_owned(),
+            what,
+        });
+        self.image_textures.insert(key, placeholder.clone());
+        placeholder
+    }
+
+    /// Reads the image files named and not read yet, on every core, and puts each image in
+    /// place of its placeholder (in every texture that holds it: a scaled copy of a
+    /// texture too). The first file that cannot be read, in the order named, is the
+    /// error, at the line that named it. At the end of the parse, and before a texture's
+    /// value is needed (displacement, `invert`).
+    fn read_images(&mut self) -> Result<(), ParseError> {
+        if self.pending_images.is_empty() {
+            return Ok(());
+        }
+        let mut pending = std::mem::take(&mut self.pending_images);
+        let read = crate::accel::map_in_parallel(&mut pending, crate::accel::threads(), |p| {
+            load_texture(&p.path, p.encoding)
+        });
+        let mut images = HashMap::new();
+        for (p, r) in pending.iter().zip(read) {
+            let image =
+                Arc::new(r.map_err(|e| {
+                    self.err_at(p.file, p.line, &p.command, format!("{}{e}", p.what))
+                })?);
+            self.image_textures
+                .insert((p.path.clone(), p.encoding), image.clone());
+            images.insert(Arc::as_ptr(&p.placeholder), image);
+        }
+        for t in &mut self.scene.textures {
+            t.for_each_image_mut(&mut |image| {
+                if let Some(read) = images.get(&Arc::as_ptr(image)) {
+                    *image = read.clone();
+                }
             });
         }
         Ok(())
@@ -934,6 +1015,16 @@ impl Parser {
     }
 
     fn finish(mut self) -> Result<Scene, ParseError> {
+        self.read_images()?;
+        for t in &mut self.scene.textures {
+            t.for_each_image_mut(&mut |image| {
+                debug_assert_ne!(
+                    crate::texture::Texels::size(&**image),
+                    (0, 0),
+                    "an image not read"
+                )
+            });
+        }
         // The shapes that waited for their named material, in the order they were read.
         for (mut decl, name, named, shape) in std::mem::take(&mut self.deferred) {
             let Some(material) = self.named_material(&name)? else {

@@ -267,6 +267,7 @@ impl Parser {
                     Some(value) => {
                         let dp = params.find("displacement").expect("just read");
                         let (dfile, dline) = (dp.file, dp.line);
+                        self.read_images()?;
                         self.displaced(mesh, value, edge_length, &path)
                             .map_err(|e| self.err_at(dfile, dline, d, format!("plymesh: {e}")))?
                     }

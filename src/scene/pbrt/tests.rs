@@ -2665,3 +2665,67 @@ fn a_gbuffer_film_asks_for_its_channels() {
     assert_eq!(e.line, 2, "{e}");
     assert!(e.message.contains("\"screen\""), "{e}");
 }
+
+/// Image files are read at the end of the parse, on every core: every texture that
+/// names one (a scaled copy of an imagemap, a texture made of textures holding one, and a
+/// normal map among them) holds the image read, a file named twice is read once, an
+/// `invert` reads its file at once, and of two files that cannot be read the first named
+/// is the error, at its line (mutations: the placeholders replaced in the first texture
+/// alone, or not inside a texture made of textures, fail it).
+#[test]
+fn image_files_are_read_together_at_the_end_of_the_parse() {
+    use crate::texture::{Texels, TextureImage};
+    let d = std::env::temp_dir().join(format!("lightpath-images-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    for (k, name) in ["a.png", "b.png", "n.png"].iter().enumerate() {
+        let texels: Vec<u8> = (0..12).map(|i| (i * 20 + k * 7) as u8).collect();
+        image::save_buffer(d.join(name), &texels, 2, 2, image::ExtendedColorType::Rgb8).unwrap();
+    }
+    let text = |extra: &str| {
+        format!(
+            "WorldBegin\n\
+             Texture \"a\" \"spectrum\" \"imagemap\" \"string filename\" \"a.png\"\n\
+             Texture \"a2\" \"spectrum\" \"imagemap\" \"string filename\" \"a.png\" \"float scale\" 2\n\
+             Texture \"k\" \"spectrum\" \"scale\" \"texture tex\" \"a\" \"float scale\" 0.5\n\
+             Texture \"f\" \"float\" \"checkerboard\" \"float tex1\" 0.2 \"float tex2\" 0.6\n\
+             Texture \"g\" \"spectrum\" \"scale\" \"texture tex\" \"a\" \"texture scale\" \"f\"\n\
+             Texture \"i\" \"float\" \"imagemap\" \"string filename\" \"b.png\" \"bool invert\" true\n\
+             {extra}\
+             Material \"diffuse\" \"texture reflectance\" \"k\" \"string normalmap\" \"n.png\"\n{QUAD}\n\
+             Material \"diffuse\" \"texture reflectance\" \"g\"\n{QUAD}\n"
+        )
+    };
+    std::fs::write(d.join("s.pbrt"), text("")).unwrap();
+    let s = parse_pbrt_file(&d.join("s.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+    // Every image of every texture's tree.
+    let mut images = Vec::new();
+    for t in &mut s.textures.clone() {
+        t.for_each_image_mut(&mut |image| images.push(image.clone()));
+    }
+    for image in &images {
+        assert_eq!(image.size(), (2, 2));
+    }
+    let bytes: Vec<_> = images
+        .iter()
+        .filter(|i| matches!(***i, TextureImage::Bytes { .. }))
+        .collect();
+    // a, a2, k, g's a (one image) and the normal map.
+    assert_eq!(bytes.len(), 5, "{:?}", s.textures);
+    assert!(bytes[1..4]
+        .iter()
+        .all(|i| std::sync::Arc::ptr_eq(bytes[0], i)));
+    assert!(!std::sync::Arc::ptr_eq(bytes[0], bytes[4]));
+    // Two files missing: the first named is the error.
+    std::fs::write(
+        d.join("s.pbrt"),
+        text(
+            "Texture \"m1\" \"spectrum\" \"imagemap\" \"string filename\" \"missing1.png\"\n\
+             Texture \"m2\" \"spectrum\" \"imagemap\" \"string filename\" \"missing2.png\"\n",
+        ),
+    )
+    .unwrap();
+    let e = parse_pbrt_file(&d.join("s.pbrt")).unwrap_err();
+    assert_eq!(e.line, 8, "{e}");
+    assert!(e.message.contains("missing1.png"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -387,21 +387,12 @@ impl Parser {
                 params.find("filter");
                 params.find("maxanisotropy");
                 let scale = num("scale", 1.0);
-                let key = (path.clone(), encoding);
-                let image = match self.image_textures.get(&key) {
-                    Some(i) => i.clone(),
-                    None => {
-                        let image = Arc::new(
-                            load_texture(&path, encoding)
-                                .map_err(|e| self.err_at(p.file, p.line, d, e))?,
-                        );
-                        self.image_textures.insert(key, image.clone());
-                        image
-                    }
-                };
+                let image = self.image_texture(path.clone(), encoding, (p.file, p.line, d), "");
                 // pbrt-v4's invert: max(0, 1 - scale · v), made once on the texels (the
                 // same as after the lookup wherever scale · v <= 1, as in [0, 1] images).
                 let (image, scale) = if invert {
+                    self.read_images()?;
+                    let image = self.image_textures[&(path, encoding)].clone();
                     let mut inverted = (*image).clone().into_floats();
                     for p in &mut inverted.pixels {
                         *p = p.map(|v| (1.0 - scale * v).max(0.0));
