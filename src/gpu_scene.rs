@@ -363,7 +363,11 @@ pub fn emitter_table(scene: &Scene) -> EmitterTable {
 /// kernels read them (abi.h `GpuTexture`, the texel buffer of floats).
 pub struct TextureData {
     pub textures: Vec<GpuTexture>,
+    /// The texel floats, then (not held here: `texel_words`) each of `byte_images`' texels
+    /// as one word.
     pub texels: Vec<f32>,
+    /// The 8-bit images, in the order their words follow `texels`.
+    pub byte_images: Vec<Arc<TextureImage>>,
     /// Per infinite light (`Scene::environments`' order): its map's texture and the
     /// first floats of the map's marginal and conditional CDFs in `texels` (NO_TEXTURE,
     /// 0, 0 for a constant light), and the first of its portal's nine floats (corner p0,
@@ -385,6 +389,33 @@ pub struct TextureData {
     pub blackbody: Option<u32>,
 }
 
+impl TextureData {
+    /// The words of the kernels' texel data: `texels`, then the 8-bit images' texels,
+    /// each R | G << 8 | B << 16 as a float's bits (texture.glsl `texel`).
+    pub fn texel_words(&self) -> impl Iterator<Item = f32> + '_ {
+        let bytes = self.byte_images.iter().flat_map(|image| match &**image {
+            TextureImage::Bytes { texels, .. } => texels.iter(),
+            TextureImage::Float(_) => [].iter(),
+        });
+        self.texels.iter().copied().chain(
+            bytes.map(|&[r, g, b]| f32::from_bits(r as u32 | (g as u32) << 8 | (b as u32) << 16)),
+        )
+    }
+
+    /// How many words `texel_words` gives.
+    pub fn texel_count(&self) -> u64 {
+        let words: u64 = self
+            .byte_images
+            .iter()
+            .map(|i| {
+                let (w, h) = i.size();
+                w as u64 * h as u64
+            })
+            .sum();
+        self.texels.len() as u64 + words
+    }
+}
+
 fn push_image(texels: &mut Vec<f32>, image: &Image) -> u32 {
     let first = texels.len() as u32;
     texels.extend(image.pixels.iter().flatten());
@@ -397,6 +428,10 @@ fn push_image(texels: &mut Vec<f32>, image: &Image) -> u32 {
 #[derive(Default)]
 struct Texels {
     floats: Vec<f32>,
+    /// The 8-bit images, their words after every float (the record's first float is
+    /// counted from there until `texture_data` adds the floats' count), and their words.
+    bytes: Vec<Arc<TextureImage>>,
+    words: u32,
     first: std::collections::HashMap<*const TextureImage, (u32, u32)>,
     /// Where each byte table is ([`ByteDecoding::table`]), once an
     /// 8-bit image needs it.
@@ -424,10 +459,9 @@ impl Texels {
                     self.floats.extend(decoding.table());
                     first
                 });
-                let first = self.floats.len() as u32;
-                self.floats.extend(texels.iter().map(|&[r, g, b]| {
-                    f32::from_bits(r as u32 | (g as u32) << 8 | (b as u32) << 16)
-                }));
+                let first = self.words;
+                self.words += texels.len() as u32;
+                self.bytes.push(image.clone());
                 (first, table + 1)
             }
         };
@@ -690,12 +724,20 @@ pub fn texture_data(scene: &Scene) -> TextureData {
             .extend(l.for_image(scene.width, scene.height).pack());
         first
     });
+    // The 8-bit images' words follow the floats.
+    let base = texels.floats.len() as u32;
+    for r in &mut textures {
+        if r.info[0] == TEXTURE_IMAGE && r.flags[3] != 0 {
+            r.info[1] += base;
+        }
+    }
     TextureData {
         lens,
         noise,
         blackbody,
         textures,
         texels: texels.floats,
+        byte_images: texels.bytes,
         environments,
         measured,
         light_profiles: light_profiles.into_iter().map(|x| x.unwrap_or(0)).collect(),
@@ -1222,7 +1264,15 @@ impl GpuScene {
                         )
                     }
                 },
-                DataArray::new("texels", bytemuck::cast_slice(&textures.texels), 4),
+                DataArray::made("texels", textures.texel_count(), 4, {
+                    let mut words = textures.texel_words();
+                    move |out: &mut [u8]| {
+                        for word in out.chunks_exact_mut(4) {
+                            let w = words.next().expect("as many words as texels");
+                            word.copy_from_slice(&w.to_ne_bytes());
+                        }
+                    }
+                }),
                 DataArray::new("medium grids", bytemuck::cast_slice(&medium_grids), 4),
             ],
             max_chunk_bytes,
@@ -1421,8 +1471,12 @@ mod tests {
             });
         }
         let d = texture_data(&s);
+        assert_eq!(d.texel_count(), 256 + 2 + 2 + 256 + 2 + 6);
+        let words: Vec<f32> = d.texel_words().collect();
+        assert_eq!(words.len() as u64, d.texel_count());
+        assert_eq!(words[..d.texels.len()], d.texels[..]);
+        let d = TextureData { texels: words, ..d };
         let r = &d.textures;
-        assert_eq!(d.texels.len(), 256 + 2 + 2 + 256 + 2 + 6);
         let table = r[0].flags[3] as usize - 1;
         assert_eq!(r[1].flags[3], r[0].flags[3]);
         assert_eq!(r[2].info, r[0].info);
