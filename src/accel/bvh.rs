@@ -146,6 +146,148 @@ struct Task {
     parent: Option<u32>,
 }
 
+/// Subtrees of more than this many primitives build their two children on two threads
+/// (while threads are left).
+const PARALLEL_PRIMS: usize = 1 << 16;
+
+/// The binned SAH build of one subtree, its nodes depth first (the first child right
+/// after its parent, the second at the parent's `left_or_first`), node indices counted
+/// from the subtree's root and leaves' primitive indices from the whole input's.
+struct SubtreeBuild {
+    max_depth: u32,
+    parallel_prims: usize,
+}
+
+impl SubtreeBuild {
+    /// The subtree over `prims` (the input's primitives from `first` on), its root at
+    /// `depth`, on up to `threads` threads.
+    fn subtree(
+        &self,
+        prims: &mut [BuildPrim],
+        first: u32,
+        depth: u32,
+        threads: usize,
+    ) -> Vec<BvhNode> {
+        if threads < 2 || prims.len() <= self.parallel_prims {
+            return self.serial(prims, first, depth);
+        }
+        let Some((root, left_count)) = self.node(prims, depth) else {
+            return self.serial(prims, first, depth);
+        };
+        let (left, right) = prims.split_at_mut(left_count as usize);
+        let half = threads / 2;
+        let (left, right) = std::thread::scope(|s| {
+            let l = s.spawn(|| self.subtree(left, first, depth + 1, threads - half));
+            let r = self.subtree(right, first + left_count, depth + 1, half);
+            (l.join().expect("a subtree's build"), r)
+        });
+        let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
+        nodes.push(BvhNode {
+            left_or_first: 1 + left.len() as u32,
+            ..root
+        });
+        let offset_right = 1 + left.len() as u32;
+        nodes.extend(left.into_iter().map(|n| moved(n, 1)));
+        nodes.extend(right.into_iter().map(|n| moved(n, offset_right)));
+        nodes
+    }
+
+    /// A node over `prims`: its record (internal, children not placed yet) and its first
+    /// child's size, `prims` reordered so that it comes first; `None` for a leaf.
+    fn node(&self, prims: &mut [BuildPrim], depth: u32) -> Option<(BvhNode, u32)> {
+        let (min, max, cmin, cmax) = node_bounds(prims);
+        let split = choose_split(prims, area(min, max), cmin, cmax, depth, self.max_depth)?;
+        Some((
+            BvhNode {
+                min: min.into(),
+                left_or_first: 0,
+                max: max.into(),
+                count: 0,
+            },
+            split,
+        ))
+    }
+
+    /// The subtree on this thread.
+    fn serial(&self, prims: &mut [BuildPrim], first: u32, depth: u32) -> Vec<BvhNode> {
+        let n = prims.len() as u32;
+        let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * n as usize);
+        let mut tasks = vec![Task {
+            begin: 0,
+            end: n,
+            depth,
+            parent: None,
+        }];
+        while let Some(task) = tasks.pop() {
+            let index = nodes.len() as u32;
+            if let Some(parent) = task.parent {
+                nodes[parent as usize].left_or_first = index;
+            }
+            let range = &mut prims[task.begin as usize..task.end as usize];
+            let (min, max, cmin, cmax) = node_bounds(range);
+            let split = choose_split(
+                range,
+                area(min, max),
+                cmin,
+                cmax,
+                task.depth,
+                self.max_depth,
+            );
+            let count = task.end - task.begin;
+            nodes.push(BvhNode {
+                min: min.into(),
+                left_or_first: if split.is_some() {
+                    0
+                } else {
+                    first + task.begin
+                },
+                max: max.into(),
+                count: if split.is_some() { 0 } else { count },
+            });
+            if let Some(left_count) = split {
+                let mid = task.begin + left_count;
+                // Pushed second, popped first: the first child lands at index + 1.
+                tasks.push(Task {
+                    begin: mid,
+                    end: task.end,
+                    depth: task.depth + 1,
+                    parent: Some(index),
+                });
+                tasks.push(Task {
+                    begin: task.begin,
+                    end: mid,
+                    depth: task.depth + 1,
+                    parent: None,
+                });
+            }
+        }
+        nodes
+    }
+}
+
+/// A subtree's node placed `offset` nodes further on (its second child's index moves
+/// with it; a leaf's primitives do not).
+fn moved(mut node: BvhNode, offset: u32) -> BvhNode {
+    if node.count == 0 {
+        node.left_or_first += offset;
+    }
+    node
+}
+
+/// The bounds of `prims`' boxes and of their centroids.
+fn node_bounds(prims: &[BuildPrim]) -> (Vec3A, Vec3A, Vec3A, Vec3A) {
+    let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    let (mut cmin, mut cmax) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    for p in prims {
+        min = min.min(p.min);
+        max = max.max(p.max);
+        let c = Vec3A::from(p.centroid);
+        cmin = cmin.min(c);
+        cmax = cmax.max(c);
+    }
+    (min, max, cmin, cmax)
+}
+
 /// Inverse direction for the slab test, with tiny components clamped away from 0
 /// (see [`MIN_DIR_COMPONENT`]).
 pub fn safe_inverse(d: Vec3) -> Vec3 {
@@ -180,12 +322,14 @@ pub fn box_entry(node: &BvhNode, o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> 
 }
 
 impl Bvh {
-    /// Builds the BVH over primitives whose bounds are `bounds[i]`. Deterministic.
+    /// Builds the BVH over primitives whose bounds are `bounds[i]`. Deterministic: the
+    /// same tree on any number of cores (subtrees of more than [`PARALLEL_PRIMS`]
+    /// primitives build their two children side by side).
     pub fn build(bounds: &[Aabb]) -> Bvh {
-        Self::build_with_max_depth(bounds, MAX_DEPTH)
+        Self::build_with(bounds, MAX_DEPTH, super::threads(), PARALLEL_PRIMS)
     }
 
-    fn build_with_max_depth(bounds: &[Aabb], max_depth: u32) -> Bvh {
+    fn build_with(bounds: &[Aabb], max_depth: u32, threads: usize, parallel_prims: usize) -> Bvh {
         let n = u32::try_from(bounds.len()).expect("more than 2^32 primitives");
         if n == 0 {
             let empty = Aabb::empty();
@@ -224,53 +368,11 @@ impl Bvh {
                 }
             })
             .collect();
-        let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * n as usize);
-        let mut tasks = vec![Task {
-            begin: 0,
-            end: n,
-            depth: 0,
-            parent: None,
-        }];
-        while let Some(task) = tasks.pop() {
-            let index = nodes.len() as u32;
-            if let Some(parent) = task.parent {
-                nodes[parent as usize].left_or_first = index;
-            }
-            let range = &mut prims[task.begin as usize..task.end as usize];
-            let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-            let (mut cmin, mut cmax) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-            for p in range.iter() {
-                min = min.min(p.min);
-                max = max.max(p.max);
-                let c = Vec3A::from(p.centroid);
-                cmin = cmin.min(c);
-                cmax = cmax.max(c);
-            }
-            let split = choose_split(range, area(min, max), cmin, cmax, task.depth, max_depth);
-            let count = task.end - task.begin;
-            nodes.push(BvhNode {
-                min: min.into(),
-                left_or_first: if split.is_some() { 0 } else { task.begin },
-                max: max.into(),
-                count: if split.is_some() { 0 } else { count },
-            });
-            if let Some(left_count) = split {
-                let mid = task.begin + left_count;
-                // Pushed second, popped first: the first child lands at index + 1.
-                tasks.push(Task {
-                    begin: mid,
-                    end: task.end,
-                    depth: task.depth + 1,
-                    parent: Some(index),
-                });
-                tasks.push(Task {
-                    begin: task.begin,
-                    end: mid,
-                    depth: task.depth + 1,
-                    parent: None,
-                });
-            }
-        }
+        let build = SubtreeBuild {
+            max_depth,
+            parallel_prims,
+        };
+        let nodes = build.subtree(&mut prims, 0, 0, threads);
         Bvh {
             nodes,
             prim_refs: prims.iter().map(|p| p.index).collect(),
@@ -616,7 +718,7 @@ mod tests {
         let bounds: Vec<Aabb> = prims.iter().map(Prim::bounds).collect();
         // 3000 primitives need 8 levels of halving to reach leaves of 16.
         for max_depth in [8, 9, 12] {
-            let bvh = Bvh::build_with_max_depth(&bounds, max_depth);
+            let bvh = Bvh::build_with(&bounds, max_depth, 2, PARALLEL_PRIMS);
             check_structure(&bvh, &bounds, max_depth);
         }
         // A chain-like distribution stays within the real cap too.
@@ -630,6 +732,22 @@ mod tests {
             })
             .collect();
         check_structure(&Bvh::build(&chain), &chain, MAX_DEPTH);
+    }
+
+    /// Subtrees built on several threads make the tree the serial build makes, node for
+    /// node (mutation: the second subtree's nodes not moved past the first's fails it).
+    #[test]
+    fn a_parallel_build_is_the_serial_build() {
+        let mut rng = Rng(9);
+        let mut prims = random_triangles(&mut rng, 20_000, 10.0);
+        prims.extend(random_spheres(&mut rng, 300, 10.0));
+        let bounds: Vec<Aabb> = prims.iter().map(Prim::bounds).collect();
+        let serial = Bvh::build_with(&bounds, MAX_DEPTH, 1, usize::MAX);
+        for threads in [2, 3, 8] {
+            let parallel = Bvh::build_with(&bounds, MAX_DEPTH, threads, 64);
+            assert!(parallel == serial, "{threads} threads");
+        }
+        check_structure(&serial, &bounds, MAX_DEPTH);
     }
 
     #[test]
