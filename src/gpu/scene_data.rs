@@ -27,9 +27,9 @@ pub struct DataArray<'a> {
 }
 
 /// A kind's bytes: a slice the host holds, or `len` bytes that `fill` writes in order,
-/// whole records at a time, straight into the upload's staging memory (the triangles and
-/// their attributes: no host array of the whole kind, whose fresh pages cost more than
-/// making the records; docs/performance.md).
+/// whole records at a time, straight into the upload's staging memory (the triangles,
+/// their attributes and the texels: no host array of the whole kind, whose fresh pages
+/// cost more than making the records; docs/performance.md).
 pub enum DataBytes<'a> {
     Slice(&'a [u8]),
     Made {
