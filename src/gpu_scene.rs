@@ -130,12 +130,20 @@ pub fn profile_weights(scene: &Scene, l: &DeltaLight) -> Option<(Vec<f32>, f32)>
 }
 
 pub fn emitter_table(scene: &Scene) -> EmitterTable {
+    let order: Vec<u32> = (0..scene.triangles.len() as u32).collect();
+    emitter_table_in(scene, &order)
+}
+
+/// [`emitter_table`] with the world's triangles in `order` (the old index of each: their
+/// records' order, `BvhData::triangle_order`); triangle indices are positions in it.
+pub fn emitter_table_in(scene: &Scene, order: &[u32]) -> EmitterTable {
     let pi = std::f32::consts::PI;
     let mut emitters = Vec::new();
     let mut power = Vec::new();
     let mut triangle_emitter = vec![NO_EMITTER; scene.triangles.len()];
     let mut sphere_emitter = vec![NO_EMITTER; scene.spheres.len()];
-    for (i, t) in scene.triangles.iter().enumerate() {
+    let triangles = order.iter().map(|&i| &scene.triangles[i as usize]);
+    for (i, t) in triangles.enumerate() {
         let m = &scene.materials[t.material as usize];
         if !m.is_emissive() {
             continue;
@@ -1105,14 +1113,23 @@ impl GpuScene {
         params: SceneParams,
         max_chunk_bytes: u64,
     ) -> Result<GpuScene> {
-        let mut table = emitter_table(scene);
+        let mut table = emitter_table_in(scene, &bvh.triangle_order);
         let textures = texture_data(scene);
         let bits = f32::from_bits;
-        // The world's triangles, then each object's (in object space; none emits); the
-        // records made as they are uploaded (DataArray::made).
+        // The world's triangles, then each object's (in object space; none emits), each
+        // in the BVH's leaf order; the records made as they are uploaded
+        // (DataArray::made).
         let all_triangles = || {
-            let objects = scene.objects.iter().flat_map(|o| o.triangles.iter());
-            scene.triangles.iter().chain(objects)
+            let world = bvh
+                .triangle_order
+                .iter()
+                .map(|&i| &scene.triangles[i as usize]);
+            let objects = scene
+                .objects
+                .iter()
+                .zip(&bvh.object_orders)
+                .flat_map(|(o, order)| order.iter().map(|&i| &o.triangles[i as usize]));
+            world.chain(objects)
         };
         let triangle_count = all_triangles().count() as u64;
         let attribute_count = all_triangles().filter(|t| has_attributes(t)).count() as u64;

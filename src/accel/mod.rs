@@ -9,7 +9,7 @@ pub mod geometry;
 pub(crate) mod testing;
 
 use crate::abi::GpuInstance;
-use crate::scene::{Scene, Triangle};
+use crate::scene::Scene;
 use bvh::{Aabb, Bvh};
 use cwbvh::Cwbvh;
 
@@ -109,39 +109,27 @@ fn build_tree(bounds: &[Aabb], kind: BvhKind) -> Built {
     }
 }
 
-/// The leaf order of `triangles` by `refs` (indices into them; other values, at or above
-/// `triangles.len()`, are left alone): the triangles reordered, `refs` renumbered, and the
-/// old index of each triangle in the new order. In place, cycle by cycle: a second array
-/// of the triangles would be fresh memory, which costs more here than the moves
-/// (docs/performance.md).
-fn reorder(triangles: &mut [Triangle], refs: &mut [u32]) -> anyhow::Result<Vec<u32>> {
-    let ntri = triangles.len();
-    let mut new_index = vec![u32::MAX; ntri];
-    let mut order = Vec::with_capacity(ntri);
+/// The leaf order of `n` triangles by `refs` (indices into them; other values, at or
+/// above `n`, are left alone): the old index of each triangle in the new order (the
+/// order their references first appear in), `refs` renumbered to it. The triangles
+/// themselves are not moved: their records are made in this order
+/// (`gpu_scene::GpuScene::new`), with no reordered copy of the scene.
+fn leaf_order(n: usize, refs: &mut [u32]) -> anyhow::Result<Vec<u32>> {
+    let mut new_index = vec![u32::MAX; n];
+    let mut order = Vec::with_capacity(n);
     for &p in refs.iter() {
         let p = p as usize;
-        if p < ntri && new_index[p] == u32::MAX {
+        if p < n && new_index[p] == u32::MAX {
             new_index[p] = order.len() as u32;
             order.push(p as u32);
         }
     }
-    if order.len() != ntri {
-        anyhow::bail!(
-            "internal error: the BVH lost {} triangles",
-            ntri - order.len()
-        );
+    if order.len() != n {
+        anyhow::bail!("internal error: the BVH lost {} triangles", n - order.len());
     }
     for p in refs.iter_mut() {
-        if (*p as usize) < ntri {
+        if (*p as usize) < n {
             *p = new_index[*p as usize];
-        }
-    }
-    // Slot i holds the triangle bound for new_index[i]: each swap puts one in its place.
-    for i in 0..ntri {
-        while new_index[i] as usize != i {
-            let j = new_index[i] as usize;
-            triangles.swap(i, j);
-            new_index.swap(i, j);
         }
     }
     Ok(order)
@@ -179,10 +167,11 @@ pub(crate) fn threads() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
-/// Build the trees over the scene's triangles, spheres and instances, and reorder the
-/// scene's triangles (the world's, each object's) into their leaf order, so that every
-/// backend (and lavapipe's BLAS builder, which splits index ranges without sorting) sees
-/// spatially coherent geometry.
+/// Build the trees over the scene's triangles, spheres and instances, and the leaf order
+/// of the triangles (the world's, each object's: `BvhData::triangle_order`,
+/// `object_orders`), the order their records are made in, so that every backend (and
+/// lavapipe's BLAS builder, which splits index ranges without sorting) sees spatially
+/// coherent geometry.
 ///
 /// Primitive ids: the world's triangles `0..n`, then each instance's triangles (its
 /// object's, in their order; `GpuInstance::info[0]` the first), then spheres. Triangle
@@ -190,7 +179,7 @@ pub(crate) fn threads() -> usize {
 /// 0 holds the world's primitives and the instances (instance k's reference `n + k`: never
 /// a primitive of the top tree, whose triangle ids stop at n); each object's tree follows,
 /// its leaves holding the records of the object's triangles.
-pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
+pub fn prepare(scene: &Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
     let ntri = scene.triangles.len();
     // The objects' records and the instances' ids.
     let mut object_first = Vec::with_capacity(scene.objects.len());
@@ -222,7 +211,8 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
     let mut object_bounds = Vec::with_capacity(scene.objects.len());
     // Each object's tree on its own, the objects shared out to every core (a tree
     // depends on its object alone, so the order of the work does not matter).
-    let built = map_in_parallel(&mut scene.objects, threads(), |o| {
+    let mut objects: Vec<&crate::scene::Object> = scene.objects.iter().collect();
+    let built = map_in_parallel(&mut objects, threads(), |o| {
         let bounds: Vec<Aabb> = o
             .triangles
             .iter()
@@ -230,7 +220,7 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
             .collect();
         let whole = bounds.iter().fold(Aabb::empty(), |a, &b| a.union(b));
         let mut built = build_tree(&bounds, kind);
-        let order = reorder(&mut o.triangles, &mut built.prim_refs)?;
+        let order = leaf_order(o.triangles.len(), &mut built.prim_refs)?;
         anyhow::Ok((whole, built, order))
     });
     for b in built {
@@ -291,7 +281,7 @@ pub fn prepare(scene: &mut Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
             }
         }
     }
-    let triangle_order = reorder(&mut scene.triangles, &mut top.prim_refs)?;
+    let triangle_order = leaf_order(ntri, &mut top.prim_refs)?;
     // Lay the trees out: the top tree at node 0, each object's after it.
     let mut nodes = top.tree.bytes().to_vec();
     let mut prim_refs = top.prim_refs;
@@ -363,39 +353,32 @@ pub fn bvh_depth(bvh: &Bvh) -> usize {
 mod tests {
     use super::*;
 
-    /// The triangles end in their references' first-seen order, in place: each new slot
-    /// holds the triangle `order` names, the references name the new slots, and ids past
-    /// the triangles (spheres, instances) are left alone; a lost triangle is an error.
+    /// The leaf order is the references' first-seen order: the references name the new
+    /// slots of the triangles they named, ids past the triangles (spheres, instances) are
+    /// left alone, and a lost triangle is an error.
     #[test]
-    fn reorder_moves_each_triangle_to_its_leaf_slot() {
+    fn leaf_order_is_the_references_first_seen_order() {
         let n = 1000;
-        let triangles: Vec<Triangle> = (0..n)
-            .map(|i| Triangle {
-                v: [glam::Vec3::splat(i as f32); 3],
-                material: i,
-                uv: None,
-                normals: None,
-                alpha: None,
-            })
-            .collect();
         // A permutation of long and short cycles, with repeats and ids past the end.
         let mut refs: Vec<u32> = (0..n).map(|i| (i * 389 + 17) % n).collect();
         refs.insert(10, refs[3]);
         refs.insert(500, n + 4);
         let before = refs.clone();
-        let mut moved = triangles.clone();
-        let order = reorder(&mut moved, &mut refs).unwrap();
-        for (k, &old) in order.iter().enumerate() {
-            assert_eq!(moved[k], triangles[old as usize], "slot {k}");
-        }
+        let order = leaf_order(n as usize, &mut refs).unwrap();
+        let mut seen = std::collections::HashSet::new();
+        let first_seen: Vec<u32> = before
+            .iter()
+            .copied()
+            .filter(|&p| p < n && seen.insert(p))
+            .collect();
+        assert_eq!(order, first_seen);
         for (new, old) in refs.iter().zip(&before) {
             if *old >= n {
                 assert_eq!(new, old);
             } else {
-                assert_eq!(moved[*new as usize], triangles[*old as usize]);
+                assert_eq!(order[*new as usize], *old);
             }
         }
-        let mut short = triangles.clone();
-        assert!(reorder(&mut short, &mut [0, 1, 2]).is_err());
+        assert!(leaf_order(n as usize, &mut [0, 1, 2]).is_err());
     }
 }

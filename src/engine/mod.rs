@@ -271,16 +271,16 @@ impl Engine {
         // The previous render's descriptor sets are no longer in use.
         self.kernels.reset_sets()?;
         self.check_device_memory(scene)?;
-        // The BVH build reorders the triangles; the caller's scene stays as it was.
-        let mut scene = trace.cpu("scene copy", || scene.clone());
+        // (The triangles stay where they are in the caller's scene: their records are
+        // made in the BVH's leaf order, `BvhData::triangle_order`.)
         let backend = self.backend();
         let bvh = trace.cpu("BVH build", || {
-            crate::accel::prepare(&mut scene, bvh_kind(backend))
+            crate::accel::prepare(scene, bvh_kind(backend))
         })?;
-        let mut p = scene_params(&scene, seed);
+        let mut p = scene_params(scene, seed);
         params(&mut p);
         let gpu_scene = trace.cpu("scene upload", || {
-            GpuScene::new(&self.device, &scene, &bvh, backend, p, self.chunk_limit())
+            GpuScene::new(&self.device, scene, &bvh, backend, p, self.chunk_limit())
         })?;
         trace.device_bytes(gpu_scene.device_bytes());
         trace.scene_data(gpu_scene.data.kinds());
@@ -297,7 +297,7 @@ impl Engine {
                     scene.triangles.len() as u32,
                     &spheres,
                     scene.triangles.iter().any(|t| t.alpha.is_some()),
-                    &object_ranges(&scene),
+                    &object_ranges(scene),
                     &scene.instances,
                 )
             })?;
@@ -307,7 +307,7 @@ impl Engine {
             None
         };
         let specialization = Specialization {
-            features: scene_features(&scene),
+            features: scene_features(scene),
         };
         let prepared = Arc::new(PreparedScene {
             gpu_scene,
