@@ -926,15 +926,11 @@ fn sparse_grid(floats: &mut Vec<f32>, g: &crate::scene::SparseGrid) -> u32 {
     at
 }
 
-fn has_attributes(t: &crate::scene::Triangle) -> bool {
-    t.uv.is_some() || t.normals.is_some() || t.alpha.is_some()
-}
-
 /// A triangle's attribute record: none for one with neither texture coordinates, shading
 /// normals nor alpha (its triangle record's index NO_ATTRIBUTES). The records are in the
 /// triangles' order (the world's, then each object's), one for each that has one.
 pub fn triangle_attributes(t: &crate::scene::Triangle) -> Option<GpuTriangleAttributes> {
-    if !has_attributes(t) {
+    if !t.has_attributes() {
         return None;
     }
     let uv = t.uv.unwrap_or([
@@ -1132,7 +1128,7 @@ impl GpuScene {
             world.chain(objects)
         };
         let triangle_count = all_triangles().count() as u64;
-        let attribute_count = all_triangles().filter(|t| has_attributes(t)).count() as u64;
+        let attribute_count = all_triangles().filter(|t| t.has_attributes()).count() as u64;
         let triangle_emitter = std::mem::take(&mut table.triangle_emitter);
         let triangle_records = {
             let mut triangles = all_triangles().enumerate();
@@ -1140,7 +1136,7 @@ impl GpuScene {
             move |out: &mut [u8]| {
                 for record in out.chunks_exact_mut(std::mem::size_of::<GpuTriangle>()) {
                     let (i, t) = triangles.next().expect("as many records as triangles");
-                    let attribute = if has_attributes(t) {
+                    let attribute = if t.has_attributes() {
                         attributes += 1;
                         attributes - 1
                     } else {

@@ -606,7 +606,7 @@ mod tests {
     use crate::accel::geometry::triangle_bounds;
     use crate::accel::testing::{
         check_against_brute_force as check_rays, coincident_and_cluster_cases,
-        far_from_origin_case, impl_traversal, mixed_cases, random_spheres, random_triangles,
+        far_from_origin_case, impl_traversal, mixed_cases, random_triangles, soup_bounds,
         soup_cases, Prim, Rng,
     };
 
@@ -738,10 +738,7 @@ mod tests {
     /// node (mutation: the second subtree's nodes not moved past the first's fails it).
     #[test]
     fn a_parallel_build_is_the_serial_build() {
-        let mut rng = Rng(9);
-        let mut prims = random_triangles(&mut rng, 20_000, 10.0);
-        prims.extend(random_spheres(&mut rng, 300, 10.0));
-        let bounds: Vec<Aabb> = prims.iter().map(Prim::bounds).collect();
+        let bounds = soup_bounds(9, 20_000, 300);
         let serial = Bvh::build_with(&bounds, MAX_DEPTH, 1, usize::MAX);
         for threads in [2, 3, 8] {
             let parallel = Bvh::build_with(&bounds, MAX_DEPTH, threads, 64);
@@ -752,10 +749,7 @@ mod tests {
 
     #[test]
     fn build_is_deterministic() {
-        let mut rng = Rng(5);
-        let mut prims = random_triangles(&mut rng, 5000, 10.0);
-        prims.extend(random_spheres(&mut rng, 100, 10.0));
-        let bounds: Vec<Aabb> = prims.iter().map(Prim::bounds).collect();
+        let bounds = soup_bounds(5, 5000, 100);
         assert_eq!(Bvh::build(&bounds), Bvh::build(&bounds));
     }
 

@@ -426,7 +426,7 @@ mod tests {
     use super::*;
     use crate::accel::testing::{
         check_against_brute_force as check_rays, coincident_and_cluster_cases,
-        far_from_origin_case, impl_traversal, mixed_cases, random_spheres, random_triangles,
+        far_from_origin_case, impl_traversal, mixed_cases, random_triangles, soup_bounds,
         soup_cases, Prim, Rng,
     };
 
@@ -745,10 +745,7 @@ mod tests {
 
     #[test]
     fn build_is_deterministic() {
-        let mut rng = Rng(105);
-        let mut prims = random_triangles(&mut rng, 5000, 10.0);
-        prims.extend(random_spheres(&mut rng, 100, 10.0));
-        let bounds: Vec<Aabb> = prims.iter().map(Prim::bounds).collect();
+        let bounds = soup_bounds(105, 5000, 100);
         assert_eq!(Cwbvh::build(&bounds), Cwbvh::build(&bounds));
     }
 }

@@ -157,6 +157,15 @@ pub(crate) fn random_spheres(rng: &mut Rng, n: usize, size: f32) -> Vec<Prim> {
         .collect()
 }
 
+/// The boxes of `triangles` random triangles then `spheres` random spheres in a box of
+/// side 10, drawn from `Rng(seed)` (the builds' determinism tests).
+pub(crate) fn soup_bounds(seed: u64, triangles: usize, spheres: usize) -> Vec<Aabb> {
+    let mut rng = Rng(seed);
+    let mut prims = random_triangles(&mut rng, triangles, 10.0);
+    prims.extend(random_spheres(&mut rng, spheres, 10.0));
+    prims.iter().map(Prim::bounds).collect()
+}
+
 pub(crate) fn brute_closest(
     prims: &[Prim],
     o: Vec3,

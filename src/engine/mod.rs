@@ -335,7 +335,7 @@ impl Engine {
             .triangles
             .iter()
             .chain(scene.objects.iter().flat_map(|o| o.triangles.iter()))
-            .filter(|t| t.uv.is_some() || t.normals.is_some() || t.alpha.is_some())
+            .filter(|t| t.has_attributes())
             .count() as u64;
         fits_device(count, attributed, heap, &self.device.info.name)
     }

@@ -183,12 +183,7 @@ impl Buffer {
         while at < len {
             let part = piece.min(len - at);
             // (Each piece's commands have ended before the next overwrites the staging.)
-            let mapped = staging
-                .allocation
-                .as_mut()
-                .and_then(|a| a.mapped_slice_mut())
-                .ok_or_else(|| other_error(&stage, "the staging buffer is not host visible"))?;
-            fill(at, &mut mapped[..part as usize]);
+            fill(at, &mut staging.mapped_mut(&stage)?[..part as usize]);
             device.run_commands(&stage, |cmd| unsafe {
                 writes_visible_to_later_commands(
                     device,
@@ -241,19 +236,12 @@ impl Buffer {
         Ok(buffer)
     }
 
-    /// Write into a host-visible buffer.
-    pub fn write(&mut self, data: &[u8]) -> GpuResult<()> {
-        let stage = format!("writing buffer '{}'", self.name);
-        let mapped = self
-            .allocation
+    /// The memory of a host-visible buffer, to write into.
+    fn mapped_mut(&mut self, stage: &str) -> GpuResult<&mut [u8]> {
+        self.allocation
             .as_mut()
             .and_then(|a| a.mapped_slice_mut())
-            .ok_or_else(|| other_error(&stage, "buffer is not host visible"))?;
-        if data.len() > mapped.len() {
-            return Err(other_error(&stage, "data larger than the buffer"));
-        }
-        mapped[..data.len()].copy_from_slice(data);
-        Ok(())
+            .ok_or_else(|| other_error(stage, "buffer is not host visible"))
     }
 
     /// Read `len` bytes of a host-visible buffer.

@@ -583,6 +583,12 @@ impl Alpha {
 }
 
 impl Triangle {
+    /// Whether it has an attribute record (texture coordinates, shading normals or
+    /// alpha; gpu_scene.rs `triangle_attributes`).
+    pub fn has_attributes(&self) -> bool {
+        self.uv.is_some() || self.normals.is_some() || self.alpha.is_some()
+    }
+
     pub fn new(v: [Vec3; 3], material: u32) -> Triangle {
         Triangle {
             v,
