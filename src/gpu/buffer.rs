@@ -49,6 +49,11 @@ pub fn writes_visible_to_later_commands(
     );
 }
 
+/// An upload's `fill` that copies `data`.
+fn copy_from(data: &[u8]) -> impl FnMut(u64, &mut [u8]) + '_ {
+    |at, out| out.copy_from_slice(&data[at as usize..at as usize + out.len()])
+}
+
 /// The largest staging buffer an upload makes (64 MiB).
 pub const STAGING_BYTES: usize = 64 << 20;
 
@@ -130,7 +135,7 @@ impl Buffer {
         )
     }
 
-    /// A device-local buffer holding `data`, copied through a staging buffer.
+    /// A device-local buffer holding `data` (see [`Buffer::upload`]).
     pub fn with_data(
         device: &Arc<Device>,
         name: &str,
@@ -138,26 +143,31 @@ impl Buffer {
         usage: vk::BufferUsageFlags,
     ) -> GpuResult<Buffer> {
         let size = (data.len() as u64).max(16);
-        let buffer = Buffer::device_local(device, name, size, usage)?;
-        buffer.upload(data)?;
+        let mut buffer = Buffer::device_local(device, name, size, usage)?;
+        buffer.upload_with(data.len() as u64, 1, &mut copy_from(data))?;
         Ok(buffer)
     }
 
     /// Copy `data` into the start of this device-local buffer (made with TRANSFER_DST),
-    /// ordered after every earlier command and before every later one: through a
-    /// staging buffer of at most `STAGING_BYTES`, piece by piece, so that a large upload
-    /// does not hold a second copy of itself in host memory.
+    /// ordered after every earlier command and before every later one, through a
+    /// staging buffer (of at most `STAGING_BYTES`, piece by piece, so that a large upload
+    /// does not hold a second copy of itself in host memory).
     pub fn upload(&self, data: &[u8]) -> GpuResult<()> {
-        self.upload_with(data.len() as u64, 1, &mut |at, out| {
-            out.copy_from_slice(&data[at as usize..at as usize + out.len()])
-        })
+        if data.is_empty() {
+            return Ok(());
+        }
+        let stage = format!("uploading into '{}'", self.name);
+        if data.len() as u64 > self.size {
+            return Err(other_error(&stage, "data larger than the buffer"));
+        }
+        self.upload_staged(data.len() as u64, 1, &mut copy_from(data), &stage)
     }
 
-    /// As [`Buffer::upload`], the `len` bytes written by `fill(offset, piece)` straight
-    /// into the staging memory, piece by piece in order, each piece a whole number of
-    /// `record`-byte records.
+    /// As [`Buffer::upload`], the `len` bytes written by `fill(offset, piece)` in order,
+    /// each piece a whole number of `record`-byte records: in place where the host sees
+    /// the buffer's memory ([`Buffer::host_writable`]), else into the staging memory.
     pub fn upload_with(
-        &self,
+        &mut self,
         len: u64,
         record: u64,
         fill: &mut dyn FnMut(u64, &mut [u8]),
@@ -165,11 +175,44 @@ impl Buffer {
         if len == 0 {
             return Ok(());
         }
-        let device = &self.device;
         let stage = format!("uploading into '{}'", self.name);
         if len > self.size {
             return Err(other_error(&stage, "data larger than the buffer"));
         }
+        match self.host_writable() {
+            // Every command submitted so far has ended (`Device::submit_and_wait`, the
+            // one way commands are submitted, waits for each), so none reads or writes
+            // this memory now; host writes to coherent memory before a submission are
+            // visible to its commands.
+            Some(memory) => {
+                fill(0, &mut memory[..len as usize]);
+                Ok(())
+            }
+            None => self.upload_staged(len, record, fill, &stage),
+        }
+    }
+
+    /// The buffer's memory, where the host sees it and its writes need no flush (memory
+    /// both device local and host visible and coherent: lavapipe's, an integrated GPU's;
+    /// gpu-allocator maps such memory): uploads write it in place, with no staging copy.
+    pub fn host_writable(&mut self) -> Option<&mut [u8]> {
+        let allocation = self.allocation.as_mut()?;
+        let coherent = allocation
+            .memory_properties()
+            .contains(vk::MemoryPropertyFlags::HOST_COHERENT);
+        allocation.mapped_slice_mut().filter(|_| coherent)
+    }
+
+    /// [`Buffer::upload_with`] through a staging buffer (the only way into memory the
+    /// host does not see).
+    pub(crate) fn upload_staged(
+        &self,
+        len: u64,
+        record: u64,
+        fill: &mut dyn FnMut(u64, &mut [u8]),
+        stage: &str,
+    ) -> GpuResult<()> {
+        let device = &self.device;
         let record = record.max(1);
         let piece = len.min((STAGING_BYTES as u64 / record).max(1) * record);
         let mut staging = Buffer::new(
@@ -183,8 +226,8 @@ impl Buffer {
         while at < len {
             let part = piece.min(len - at);
             // (Each piece's commands have ended before the next overwrites the staging.)
-            fill(at, &mut staging.mapped_mut(&stage)?[..part as usize]);
-            device.run_commands(&stage, |cmd| unsafe {
+            fill(at, &mut staging.mapped_mut(stage)?[..part as usize]);
+            device.run_commands(stage, |cmd| unsafe {
                 writes_visible_to_later_commands(
                     device,
                     cmd,
@@ -315,5 +358,50 @@ impl Drop for Buffer {
             }
         }
         unsafe { self.device.raw.destroy_buffer(self.raw, None) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::Validation;
+
+    /// The two ways into a device-local buffer give the same bytes: in place (lavapipe's
+    /// memory is host visible and coherent, so `upload_with` writes it) and through the
+    /// staging buffer, piece by piece (the way into a discrete GPU's memory), with records
+    /// of 48 bytes over more than one staging piece; both read back by a copy on the device.
+    #[test]
+    fn uploads_in_place_and_through_staging_give_the_same_bytes() {
+        let device = Arc::new(
+            Device::open(None, false, Validation::Off).expect("a Vulkan device (lavapipe)"),
+        );
+        let record = 48u64;
+        let len = (STAGING_BYTES as u64 / record + 1000) * record;
+        let word = |i: u64| (i.wrapping_mul(2654435761) >> 7) as u32;
+        let mut fill = |at: u64, out: &mut [u8]| {
+            assert_eq!(at % record, 0, "a piece starts at a record");
+            assert_eq!(out.len() as u64 % record, 0, "a piece is whole records");
+            for (k, w) in out.chunks_exact_mut(4).enumerate() {
+                w.copy_from_slice(&word(at / 4 + k as u64).to_ne_bytes());
+            }
+        };
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        let mut in_place = Buffer::device_local(&device, "in place", len, usage).unwrap();
+        assert!(
+            in_place.host_writable().is_some(),
+            "{}: device-local memory the host does not see (the test is for lavapipe)",
+            device.info.name
+        );
+        in_place.upload_with(len, record, &mut fill).unwrap();
+        let staged = Buffer::device_local(&device, "staged", len, usage).unwrap();
+        staged
+            .upload_staged(len, record, &mut fill, "test")
+            .unwrap();
+        let want: Vec<u8> = (0..len / 4).flat_map(|i| word(i).to_ne_bytes()).collect();
+        for (how, buffer) in [("in place", &in_place), ("staged", &staged)] {
+            let got = buffer.download(len).unwrap();
+            let first = got.iter().zip(&want).position(|(a, b)| a != b);
+            assert_eq!(first, None, "{how}: the first byte that differs");
+        }
     }
 }

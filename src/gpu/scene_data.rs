@@ -34,7 +34,7 @@ pub enum DataBytes<'a> {
     Slice(&'a [u8]),
     Made {
         len: u64,
-        fill: Box<dyn FnMut(&mut [u8]) + 'a>,
+        fill: Box<dyn FnMut(&mut [u8]) + Send + 'a>,
     },
 }
 
@@ -77,7 +77,7 @@ impl<'a> DataArray<'a> {
         name: &'static str,
         count: u64,
         record: u64,
-        fill: impl FnMut(&mut [u8]) + 'a,
+        fill: impl FnMut(&mut [u8]) + Send + 'a,
     ) -> DataArray<'a> {
         DataArray {
             bytes: DataBytes::Made {
@@ -124,8 +124,9 @@ impl SceneData {
         let binding_range = device.info.max_storage_buffer_range;
         let mut chunks = Vec::new();
         let mut shifts = Vec::new();
+        let mut lens = Vec::new();
         let names = arrays.iter().map(|a| a.name).collect();
-        for mut a in arrays {
+        for a in &arrays {
             let limit = a.chunk_bytes.unwrap_or(max_chunk_bytes);
             // One chunk: shift 31 (every index in it; the kernels read no table), or
             // DATA_IN_BINDING where it is bound too.
@@ -146,22 +147,57 @@ impl SceneData {
                 list.push(Buffer::with_data(device, a.name, &[], usage)?);
             }
             let count = bytes.div_ceil(chunk_bytes);
-            for k in 0..count {
+            let chunk_lens: Vec<u64> = (0..count)
+                .map(|k| chunk_bytes.min(bytes - k * chunk_bytes))
+                .collect();
+            for (k, &len) in chunk_lens.iter().enumerate() {
                 let name = if count == 1 {
                     a.name.to_string()
                 } else {
                     format!("{} (chunk {k} of {count})", a.name)
                 };
-                let at = k * chunk_bytes;
-                let len = chunk_bytes.min(bytes - at);
-                let buffer = Buffer::device_local(device, &name, len.max(16), usage)?;
-                buffer.upload_with(len, a.record, &mut |offset, out| {
-                    a.bytes.next(at + offset, out)
-                })?;
-                list.push(buffer);
+                list.push(Buffer::device_local(device, &name, len.max(16), usage)?);
             }
             chunks.push(list);
             shifts.push(shift);
+            lens.push(chunk_lens);
+        }
+        // Each kind's bytes into its chunks, in order. Where the host writes the device's
+        // memory in place (lavapipe, integrated GPUs), the kinds are made on every core at
+        // once: no command is submitted, so no queue is shared.
+        let upload = |a: &mut DataArray, list: &mut Vec<Buffer>, lens: &Vec<u64>| {
+            let mut at = 0;
+            // (An empty kind has one placeholder buffer and no chunk lengths.)
+            for (buffer, &len) in list.iter_mut().zip(lens) {
+                buffer.upload_with(len, a.record, &mut |offset, out| {
+                    a.bytes.next(at + offset, out)
+                })?;
+                at += len;
+            }
+            GpuResult::Ok(())
+        };
+        let in_place = chunks
+            .iter_mut()
+            .flatten()
+            .all(|b| b.host_writable().is_some());
+        let mut arrays = arrays;
+        if in_place {
+            std::thread::scope(|scope| {
+                let kinds: Vec<_> = arrays
+                    .iter_mut()
+                    .zip(chunks.iter_mut())
+                    .zip(&lens)
+                    .map(|((a, list), lens)| scope.spawn(move || upload(a, list, lens)))
+                    .collect();
+                kinds
+                    .into_iter()
+                    .map(|k| k.join().expect("a kind's upload panicked"))
+                    .collect::<GpuResult<()>>()
+            })?;
+        } else {
+            for ((a, list), lens) in arrays.iter_mut().zip(chunks.iter_mut()).zip(&lens) {
+                upload(a, list, lens)?;
+            }
         }
         let mut headers: Vec<[u32; 4]> = Vec::new();
         let mut addresses: Vec<[u32; 2]> = Vec::new();
