@@ -96,6 +96,58 @@ pub fn child_box(node: &CwBvhNode, slot: usize) -> Aabb {
     }
 }
 
+/// The node records and exact boxes that [`Cwbvh::requantize`] writes from several
+/// threads, each node by one thread.
+struct Shared {
+    nodes: *mut CwBvhNode,
+    exact: *mut Aabb,
+}
+
+// SAFETY: the threads write disjoint nodes (see `Cwbvh::requantize`).
+unsafe impl Sync for Shared {}
+
+impl Shared {
+    /// Re-encodes node `i` from the exact boxes of its children, and records its own.
+    ///
+    /// # Safety
+    /// `i` and its children are nodes of the tree; no other thread reads or writes node
+    /// `i` or its exact box, nor writes its children's exact boxes, meanwhile.
+    unsafe fn requantize_node(&self, i: usize, bounds: &[Aabb], prim_refs: &[u32]) {
+        let node = unsafe { &mut *self.nodes.add(i) };
+        let mut boxes = [Aabb::empty(); 8];
+        for (slot, b) in boxes.iter_mut().enumerate() {
+            *b = match child(node, slot) {
+                None => Aabb::empty(),
+                Some(Child::Node(c)) => unsafe { *self.exact.add(c as usize) },
+                Some(Child::Leaf { first, count }) => (first..first + count)
+                    .map(|r| bounds[prim_refs[r as usize] as usize])
+                    .fold(Aabb::empty(), Aabb::union),
+            };
+        }
+        let whole = boxes.iter().fold(Aabb::empty(), |a, b| a.union(*b));
+        unsafe { *self.exact.add(i) = whole };
+        if whole.is_empty() {
+            return;
+        }
+        node.p = whole.min;
+        for a in 0..3 {
+            node.e[a] = scale_exponent(whole.min[a], whole.max[a]);
+        }
+        let (p, e) = (node.p, node.e);
+        for (slot, b) in boxes.iter().enumerate() {
+            if b.is_empty() {
+                continue;
+            }
+            node.child_min_x[slot] = quantize_down(b.min.x, e[0], p.x);
+            node.child_min_y[slot] = quantize_down(b.min.y, e[1], p.y);
+            node.child_min_z[slot] = quantize_down(b.min.z, e[2], p.z);
+            node.child_max_x[slot] = quantize_up(b.max.x, e[0], p.x);
+            node.child_max_y[slot] = quantize_up(b.max.y, e[1], p.y);
+            node.child_max_z[slot] = quantize_up(b.max.z, e[2], p.z);
+        }
+    }
+}
+
 /// The scale of exponent bits `e`, 2^(e - 127).
 fn step(e: u8) -> f64 {
     f32::from_bits((e as u32) << 23) as f64
@@ -193,47 +245,69 @@ impl Cwbvh {
         let (nodes, prim_refs) =
             super::clusters::build(&boxes, params, MAX_LEAF_SIZE, cluster_size, threads);
         let mut bvh = Cwbvh { nodes, prim_refs };
-        bvh.requantize(bounds);
+        bvh.requantize(bounds, threads);
         bvh
     }
 
     /// Re-encodes every node from the exact boxes of its children (see the module
-    /// docs): children come after their parent, so one backward sweep has them all.
-    fn requantize(&mut self, bounds: &[Aabb]) {
-        let mut exact = vec![Aabb::empty(); self.nodes.len()];
-        for i in (0..self.nodes.len()).rev() {
-            let node = self.nodes[i];
-            let mut boxes = [Aabb::empty(); 8];
-            for (slot, b) in boxes.iter_mut().enumerate() {
-                *b = match child(&node, slot) {
-                    None => Aabb::empty(),
-                    Some(Child::Node(c)) => exact[c as usize],
-                    Some(Child::Leaf { first, count }) => (first..first + count)
-                        .map(|r| bounds[self.prim_refs[r as usize] as usize])
-                        .fold(Aabb::empty(), Aabb::union),
-                };
-            }
-            let whole = boxes.iter().fold(Aabb::empty(), |a, b| a.union(*b));
-            exact[i] = whole;
-            if whole.is_empty() {
-                continue;
-            }
-            let n = &mut self.nodes[i];
-            n.p = whole.min;
-            for a in 0..3 {
-                n.e[a] = scale_exponent(whole.min[a], whole.max[a]);
-            }
-            for (slot, b) in boxes.iter().enumerate() {
-                if b.is_empty() {
-                    continue;
+    /// docs), on `threads` threads: level by level from the deepest (a node's children
+    /// are one level below it), the nodes of a level in parallel, each from the exact
+    /// boxes of its children, which the level before made. Each node's encoding depends
+    /// on its children alone, so the tree is the same on any number of threads.
+    fn requantize(&mut self, bounds: &[Aabb], threads: usize) {
+        self.requantize_in_pieces(bounds, threads, 1 << 12);
+    }
+
+    /// [`Cwbvh::requantize`], a level's nodes taken `piece` at a time (a level of at
+    /// most `piece` nodes on the calling thread).
+    fn requantize_in_pieces(&mut self, bounds: &[Aabb], threads: usize, piece: usize) {
+        let n = self.nodes.len();
+        // Levels: children come after their parent, so one forward sweep has them all.
+        let mut level = vec![0u32; n];
+        for i in 0..n {
+            for slot in 0..8 {
+                if let Some(Child::Node(c)) = child(&self.nodes[i], slot) {
+                    level[c as usize] = level[i] + 1;
                 }
-                let (p, e) = (n.p, n.e);
-                n.child_min_x[slot] = quantize_down(b.min.x, e[0], p.x);
-                n.child_min_y[slot] = quantize_down(b.min.y, e[1], p.y);
-                n.child_min_z[slot] = quantize_down(b.min.z, e[2], p.z);
-                n.child_max_x[slot] = quantize_up(b.max.x, e[0], p.x);
-                n.child_max_y[slot] = quantize_up(b.max.y, e[1], p.y);
-                n.child_max_z[slot] = quantize_up(b.max.z, e[2], p.z);
+            }
+        }
+        let levels = level.iter().max().map_or(0, |&l| l as usize + 1);
+        // The nodes by level (a counting sort), each level in index order.
+        let mut start = vec![0usize; levels + 1];
+        for &l in &level {
+            start[l as usize + 1] += 1;
+        }
+        for l in 0..levels {
+            start[l + 1] += start[l];
+        }
+        let mut by_level = vec![0u32; n];
+        let mut next = start.clone();
+        for (i, &l) in level.iter().enumerate() {
+            by_level[next[l as usize]] = i as u32;
+            next[l as usize] += 1;
+        }
+        drop(level);
+        let mut exact = vec![Aabb::empty(); n];
+        let shared = Shared {
+            nodes: self.nodes.as_mut_ptr(),
+            exact: exact.as_mut_ptr(),
+        };
+        let prim_refs = &self.prim_refs;
+        for l in (0..levels).rev() {
+            let ids = &by_level[start[l]..start[l + 1]];
+            // SAFETY: each node of this level is written by one call alone, and a call
+            // reads only that node and the exact boxes of its children, one level deeper,
+            // which no call of this level writes.
+            let run = |ids: &[u32]| {
+                for &i in ids {
+                    unsafe { shared.requantize_node(i as usize, bounds, prim_refs) };
+                }
+            };
+            if ids.len() <= piece || threads <= 1 {
+                run(ids);
+            } else {
+                let mut pieces: Vec<&[u32]> = ids.chunks(piece.max(1)).collect();
+                super::map_in_parallel(&mut pieces, threads, |piece| run(piece));
             }
         }
     }
@@ -741,6 +815,29 @@ mod tests {
         assert_eq!(one, Cwbvh::build_in_clusters(&bounds, 1000, 2));
         assert_eq!(one, Cwbvh::build_in_clusters(&bounds, 1000, 5));
         assert!(one.nodes.len() > 1000 / 4);
+    }
+
+    /// Requantizing level by level on several threads gives every node the bytes it has
+    /// from one thread: the nodes' boxes wiped and requantized on three threads, a level
+    /// taken seven nodes at a time, are the one-thread build's.
+    #[test]
+    fn requantizing_on_threads_gives_the_same_nodes() {
+        let bounds = soup_bounds(7, 20_000, 500);
+        let one = Cwbvh::build_in_clusters(&bounds, 1 << 12, 1);
+        let mut again = Cwbvh {
+            nodes: one.nodes.clone(),
+            prim_refs: one.prim_refs.clone(),
+        };
+        for n in &mut again.nodes {
+            n.p = Vec3::ZERO;
+            n.e = [0; 3];
+            n.child_min_x = [0; 8];
+            n.child_max_y = [0; 8];
+        }
+        again.requantize_in_pieces(&bounds, 3, 7);
+        let bytes = |b: &Cwbvh| bytemuck::cast_slice::<_, u8>(&b.nodes).to_vec();
+        assert!(one.nodes.len() > 1000, "{} nodes", one.nodes.len());
+        assert!(bytes(&one) == bytes(&again), "the nodes differ");
     }
 
     #[test]
