@@ -1227,23 +1227,10 @@ impl GpuScene {
         );
         triangle_data.bindable = true;
         if backend == Backend::RayQuery {
-            // The BLAS builds read the triangles' corners where they lie: one buffer.
+            // The BLAS builds read the triangles' corners where they lie, chunk by chunk
+            // (src/gpu/rayquery.rs).
             triangle_data.usage =
                 vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR;
-            let triangle_chunk_bytes = device_chunk_bytes(device);
-            triangle_data.chunk_bytes = Some(triangle_chunk_bytes);
-            if triangle_data.bytes.len() > triangle_chunk_bytes {
-                return Err(other_error(
-                    "uploading the scene",
-                    format!(
-                        "--accel rayquery keeps the triangles in one buffer, and {} triangles need {} bytes, more than {} holds in one ({triangle_chunk_bytes}); use --accel cwbvh",
-                        triangle_count,
-                        triangle_data.bytes.len(),
-                        device.info.name
-                    ),
-                )
-                .into());
-            }
         }
         let ray_query = backend == Backend::RayQuery;
         let node_record = if backend == Backend::Cwbvh { 80 } else { 32 };
@@ -1339,8 +1326,11 @@ impl GpuScene {
     }
 
     /// The triangle buffer (one chunk: ray query's BLAS builds read it).
-    pub fn triangles(&self) -> &Buffer {
-        &self.data.chunks[DATA_TRIANGLES as usize][0]
+    /// The triangle records' chunks and the shift of their record count (31 or more:
+    /// one chunk holds every record).
+    pub fn triangle_chunks(&self) -> (&[Buffer], u32) {
+        let kind = DATA_TRIANGLES as usize;
+        (&self.data.chunks[kind], self.data.shifts[kind])
     }
 
     /// The bytes of device memory the scene's buffers hold.

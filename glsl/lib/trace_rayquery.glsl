@@ -11,6 +11,15 @@ layout(set = 0, binding = BINDING_TLAS) uniform accelerationStructureEXT tlas;
 
 uint rq_flags() { return has_feature(FEATURE_ALPHA) ? gl_RayFlagsNoneEXT : gl_RayFlagsOpaqueEXT; }
 
+// The triangle record of primitive p of geometry g of a BLAS over the records from
+// `first`: its geometries are that range cut where the triangle data's chunks begin
+// (src/gpu/rayquery.rs), so geometry g > 0 starts at a chunk.
+uint rq_record(uint first, uint g, uint p) {
+    if (g == 0u) return first + p;
+    uint s = data_kinds[DATA_TRIANGLES].z;
+    return (((first >> s) + g) << s) + p;
+}
+
 // (any_hit: the first hit found ends the query.)
 bool trace_ray(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     rayQueryEXT rq;
@@ -18,7 +27,10 @@ bool trace_ray(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     rayQueryInitializeEXT(rq, tlas, flags, 0xFF, o, 0.0, d, tmax);
     while (rayQueryProceedEXT(rq)) {
         if (has_feature(FEATURE_ALPHA) && rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionTriangleEXT) {
-            if (!alpha_cut(triangle_record(rayQueryGetIntersectionPrimitiveIndexEXT(rq, false)), rayQueryGetIntersectionBarycentricsEXT(rq, false), o, d)) {
+            // (Only the world's triangles have alpha: their BLAS starts at record 0.)
+            uint r = rq_record(0u, uint(rayQueryGetIntersectionGeometryIndexEXT(rq, false)),
+                               uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, false)));
+            if (!alpha_cut(triangle_record(r), rayQueryGetIntersectionBarycentricsEXT(rq, false), o, d)) {
                 rayQueryConfirmIntersectionEXT(rq);
                 if (any_hit) rayQueryTerminateEXT(rq);
             }
@@ -44,12 +56,18 @@ bool trace_ray(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     uint kind = rayQueryGetIntersectionTypeEXT(rq, true);
     if (kind == gl_RayQueryCommittedIntersectionTriangleEXT) {
         hit.t = rayQueryGetIntersectionTEXT(rq, true);
-        hit.prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true));
-        // An object's instance (FEATURE_INSTANCES) has custom index 1 + its index; the
+        uint g = uint(rayQueryGetIntersectionGeometryIndexEXT(rq, true));
+        uint p = uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true));
+        hit.prim = rq_record(0u, g, p);
+        // An object's instance (FEATURE_INSTANCES) has custom index 1 + its index (its
+        // object's records start at info.x - info.y, its triangle ids at info.x); the
         // world's triangles 0.
         if (has_feature(FEATURE_INSTANCES)) {
             uint c = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
-            if (c != 0u) hit.prim += instances[c - 1u].info.x;
+            if (c != 0u) {
+                uvec4 info = instances[c - 1u].info;
+                hit.prim = rq_record(info.x - info.y, g, p) + info.y;
+            }
         }
         hit.bary = rayQueryGetIntersectionBarycentricsEXT(rq, true);
         return true;

@@ -293,7 +293,7 @@ impl Engine {
             let rq = trace.cpu("acceleration structure build", || {
                 rayquery::build_scene(
                     &self.device,
-                    gpu_scene.triangles(),
+                    gpu_scene.triangle_chunks(),
                     scene.triangles.len() as u32,
                     &spheres,
                     scene.triangles.iter().any(|t| t.alpha.is_some()),

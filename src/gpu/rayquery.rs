@@ -46,19 +46,20 @@ const INPUT_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
         | vk::BufferUsageFlags::STORAGE_BUFFER.as_raw(),
 );
 
+/// An acceleration structure over `geometries`, each with its primitive count.
 fn build(
     device: &Arc<Device>,
     name: &str,
     ty: vk::AccelerationStructureTypeKHR,
-    geometry: vk::AccelerationStructureGeometryKHR,
-    count: u32,
+    geometries: &[(vk::AccelerationStructureGeometryKHR, u32)],
 ) -> GpuResult<AccelStructure> {
     let stage = format!("building the {name} acceleration structure");
     let loader = device
         .accel_loader
         .as_ref()
         .ok_or_else(|| other_error(&stage, "ray query not enabled"))?;
-    let geometries = [geometry];
+    let counts: Vec<u32> = geometries.iter().map(|g| g.1).collect();
+    let geometries: Vec<_> = geometries.iter().map(|g| g.0).collect();
     let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
         .ty(ty)
         .flags(vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE)
@@ -69,7 +70,7 @@ fn build(
         loader.get_acceleration_structure_build_sizes(
             vk::AccelerationStructureBuildTypeKHR::DEVICE,
             &info,
-            &[count],
+            &counts,
             &mut sizes,
         )
     };
@@ -111,7 +112,10 @@ fn build(
         .scratch_data(vk::DeviceOrHostAddressKHR {
             device_address: scratch_address,
         });
-    let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
+    let range: Vec<_> = counts
+        .iter()
+        .map(|&c| vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(c))
+        .collect();
     let ranges: [&[vk::AccelerationStructureBuildRangeInfoKHR]; 1] = [&range];
     device.run_commands(&stage, |cmd| unsafe {
         loader.cmd_build_acceleration_structures(cmd, std::slice::from_ref(&info), &ranges);
@@ -141,7 +145,7 @@ fn address_of(device: &Device, a: &AccelStructure) -> u64 {
 /// shaders test each candidate, trace_rayquery.glsl); otherwise everything is opaque.
 pub fn build_scene(
     device: &Arc<Device>,
-    triangles: &Buffer,
+    (chunks, shift): (&[Buffer], u32),
     triangle_count: u32,
     sphere_transforms: &[Option<Mat4>],
     alpha: bool,
@@ -175,35 +179,47 @@ pub fn build_scene(
             },
         }
     };
-    // Triangles from record `first` of the triangle buffer, `count` of them.
-    let triangle_data = |first: u32, count: u32| {
-        vk::AccelerationStructureGeometryTrianglesDataKHR::default()
-            .vertex_format(vk::Format::R32G32B32_SFLOAT)
-            .vertex_data(vk::DeviceOrHostAddressConstKHR {
-                device_address: triangles.device_address() + 48 * first as u64,
-            })
-            .vertex_stride(16)
-            .max_vertex(count * 3 - 1)
-            .index_type(vk::IndexType::NONE_KHR)
+    // The geometries of triangle records `first..first + count`: the range cut where the
+    // triangle data's chunks begin (a geometry's corners lie in one buffer), so that
+    // geometry g > 0 starts at a chunk (trace_rayquery.glsl `rq_record`).
+    let per_chunk = if shift >= 31 { u64::MAX } else { 1u64 << shift };
+    let triangle_geometries = |first: u32, count: u32, flags: vk::GeometryFlagsKHR| {
+        let (first, end) = (first as u64, first as u64 + count as u64);
+        let mut geometries = Vec::new();
+        let mut at = first;
+        while at < end {
+            let chunk = at / per_chunk;
+            let chunk_start = chunk * per_chunk;
+            let n = (end - at).min(chunk_start + per_chunk - at);
+            let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+                .vertex_format(vk::Format::R32G32B32_SFLOAT)
+                .vertex_data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: chunks[chunk as usize].device_address()
+                        + 48 * (at - chunk_start),
+                })
+                .vertex_stride(16)
+                .max_vertex(n as u32 * 3 - 1)
+                .index_type(vk::IndexType::NONE_KHR);
+            let geometry = vk::AccelerationStructureGeometryKHR::default()
+                .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+                .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
+                .flags(flags);
+            geometries.push((geometry, n as u32));
+            at += n;
+        }
+        geometries
     };
     if triangle_count > 0 {
-        let triangles_data = triangle_data(0, triangle_count);
-        let geometry = vk::AccelerationStructureGeometryKHR::default()
-            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
-            .geometry(vk::AccelerationStructureGeometryDataKHR {
-                triangles: triangles_data,
-            })
-            .flags(if alpha {
-                vk::GeometryFlagsKHR::empty()
-            } else {
-                vk::GeometryFlagsKHR::OPAQUE
-            });
+        let flags = if alpha {
+            vk::GeometryFlagsKHR::empty()
+        } else {
+            vk::GeometryFlagsKHR::OPAQUE
+        };
         let b = build(
             device,
             "triangle BLAS",
             vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-            geometry,
-            triangle_count,
+            &triangle_geometries(0, triangle_count, flags),
         )?;
         let identity = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
         instances.push(instance(
@@ -235,8 +251,7 @@ pub fn build_scene(
             device,
             "sphere BLAS",
             vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-            geometry,
-            1,
+            &[(geometry, 1)],
         )?;
         let reference = address_of(device, &b);
         for (i, m) in sphere_transforms.iter().enumerate() {
@@ -267,18 +282,11 @@ pub fn build_scene(
     }
     let mut object_blas = Vec::with_capacity(objects.len());
     for (o, &(first, count)) in objects.iter().enumerate() {
-        let geometry = vk::AccelerationStructureGeometryKHR::default()
-            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
-            .geometry(vk::AccelerationStructureGeometryDataKHR {
-                triangles: triangle_data(first, count),
-            })
-            .flags(vk::GeometryFlagsKHR::OPAQUE);
         let b = build(
             device,
             &format!("object {o}'s BLAS"),
             vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-            geometry,
-            count,
+            &triangle_geometries(first, count, vk::GeometryFlagsKHR::OPAQUE),
         )?;
         object_blas.push(address_of(device, &b));
         blas.push(b);
@@ -319,8 +327,7 @@ pub fn build_scene(
         device,
         "TLAS",
         vk::AccelerationStructureTypeKHR::TOP_LEVEL,
-        geometry,
-        instances.len() as u32,
+        &[(geometry, instances.len() as u32)],
     )?;
     inputs.push(instance_buffer);
     Ok(RayQueryScene {
