@@ -12,8 +12,8 @@ use crate::gpu::{other_error, Device};
 use crate::io::Image;
 use crate::scene::{DeltaLight, GridValues, NextEventEstimation, Scene, Texture, UV_MAPPING};
 use crate::texture::{
-    environment_mean, environment_weights, ByteDecoding, Distribution2D, EnvMapping, Operand,
-    Texels as _, TextureImage, Wrap,
+    environment_mean, environment_weights, ByteDecoding, Distribution2D, EnvMapping, Filter,
+    Operand, Texels as _, TextureImage, Wrap,
 };
 use anyhow::Result;
 use ash::vk;
@@ -494,6 +494,7 @@ fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
             scale,
             mapping,
             wrap,
+            filter,
             ..
         } => {
             let (first, bytes) = texels.image(image);
@@ -511,7 +512,8 @@ fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
                     bytes,
                 ],
                 scale: scale.extend(0.0).to_array(),
-                other: [0.0; 4],
+                // (x: 1 for pbrt-v4's point filter.)
+                other: [(*filter == Filter::Point) as u32 as f32, 0.0, 0.0, 0.0],
                 mapping: *mapping,
                 ..GpuTexture::default()
             }
@@ -1471,6 +1473,7 @@ mod tests {
                 mapping: UV_MAPPING,
                 wrap: Wrap::Repeat,
                 projection: Projection::Uv,
+                filter: crate::texture::Filter::Bilinear,
             });
         }
         let d = texture_data(&s);

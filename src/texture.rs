@@ -18,7 +18,7 @@ use std::sync::Arc;
 /// `(s, t) = (su u + du, sv v + dv)` (`mapping` holds su, sv, du, dv).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Texture {
-    /// An image, bilinearly filtered, repeating; t = 0 is its bottom row (as pbrt's).
+    /// An image, filtered as `filter` says; t = 0 is its bottom row (as pbrt's).
     /// Values are `scale` times the (linear) texels.
     Image {
         image: Arc<TextureImage>,
@@ -27,6 +27,7 @@ pub enum Texture {
         /// Beyond the image's sides (both axes alike).
         wrap: Wrap,
         projection: Projection,
+        filter: Filter,
     },
     /// pbrt's 2D checkerboard: `even` where floor(s) + floor(t) is even, else `odd`.
     Checkerboard {
@@ -603,23 +604,52 @@ pub enum Wrap {
     Black,
 }
 
+/// How an image texture is read between its texels (pbrt-v4's `imagemap` `filter`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Filter {
+    /// Bilinear between the four nearest texel centres (pbrt-v4's default).
+    #[default]
+    Bilinear,
+    /// The texel whose centre is nearest (pbrt-v4's `point`).
+    Point,
+}
+
+/// Texel column (or row) `i` of `n`, wrapped as `wrap` says; `None` outside a `Black`
+/// image (texture.glsl `wrap_texel`).
+fn wrap_texel(i: f32, n: i64, wrap: Wrap) -> Option<usize> {
+    if wrap == Wrap::Black && (i < 0.0 || i >= n as f32) {
+        return None;
+    }
+    let i = if wrap == Wrap::Repeat {
+        i - n as f32 * (i / n as f32).floor()
+    } else {
+        i
+    };
+    Some((i as i64).clamp(0, n - 1) as usize)
+}
+
+/// The texel of `image` whose centre is nearest (x, y) in [0,1]² from its top-left
+/// corner (pbrt-v4's point filter: x·width − ½ rounded; here half up, where pbrt-v4
+/// rounds half away from zero), wrapped as [`bilinear`] wraps.
+pub fn nearest(image: &(impl Texels + ?Sized), p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
+    let (w, h) = image.size();
+    let (w, h) = (w as i64, h as i64);
+    let round = |x: f32| x.floor() + (x - x.floor() >= 0.5) as u32 as f32;
+    let x = round(p.x * w as f32 - 0.5);
+    let y = round(p.y * h as f32 - 0.5);
+    match (wrap_texel(x, w, wrap_x), wrap_texel(y, h, wrap_y)) {
+        (Some(x), Some(y)) => Vec3::from_array(image.texel(y * w as usize + x)),
+        _ => Vec3::ZERO,
+    }
+}
+
 /// Bilinear lookup of `image` at (x, y) in [0,1]² from its top-left corner (texel
 /// centres at half-integers of x·width, y·height), each side wrapped as `wrap_x`,
 /// `wrap_y` say.
 pub fn bilinear(image: &(impl Texels + ?Sized), p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
     let (w, h) = image.size();
     let (w, h) = (w as i64, h as i64);
-    let wrap = |i: f32, n: i64, wrap: Wrap| -> Option<usize> {
-        if wrap == Wrap::Black && (i < 0.0 || i >= n as f32) {
-            return None;
-        }
-        let i = if wrap == Wrap::Repeat {
-            i - n as f32 * (i / n as f32).floor()
-        } else {
-            i
-        };
-        Some((i as i64).clamp(0, n - 1) as usize)
-    };
+    let wrap = wrap_texel;
     let x = p.x * w as f32 - 0.5;
     let y = p.y * h as f32 - 0.5;
     let (fx, fy) = (x.floor(), y.floor());
@@ -735,9 +765,15 @@ pub fn texture_value_in(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3, footprint: (Ve
             mapping,
             wrap,
             projection,
+            filter,
         } => {
             let st = projection.st(mapping, uv, p);
-            *scale * bilinear(&**image, Vec2::new(st.x, 1.0 - st.y), *wrap, *wrap)
+            let at = Vec2::new(st.x, 1.0 - st.y);
+            *scale
+                * match filter {
+                    Filter::Bilinear => bilinear(&**image, at, *wrap, *wrap),
+                    Filter::Point => nearest(&**image, at, *wrap, *wrap),
+                }
         }
     }
 }
@@ -1250,6 +1286,7 @@ mod tests {
             mapping: UV_MAPPING,
             wrap: Wrap::Repeat,
             projection: Projection::Uv,
+            filter: Filter::Bilinear,
         };
         assert_eq!(
             texture_value(&t, Vec2::new(0.25, 0.25), Vec3::ZERO, Vec3::Z),
@@ -1272,6 +1309,7 @@ mod tests {
                 mapping: UV_MAPPING,
                 wrap,
                 projection: Projection::Uv,
+                filter: Filter::Bilinear,
             },
             _ => unreachable!(),
         };
@@ -1306,6 +1344,40 @@ mod tests {
             ),
             Vec3::splat(3.0)
         );
+        // pbrt-v4's point filter: the texel whose centre is nearest (s·w − ½ rounded), on
+        // either side of the columns' midpoint, and past the side as each wrap says.
+        let point = |wrap| match with(wrap) {
+            Texture::Image {
+                image,
+                scale,
+                mapping,
+                wrap,
+                projection,
+                ..
+            } => Texture::Image {
+                image,
+                scale,
+                mapping,
+                wrap,
+                projection,
+                filter: Filter::Point,
+            },
+            _ => unreachable!(),
+        };
+        for (wrap, s, want) in [
+            (Wrap::Repeat, 0.49, 3.0),
+            (Wrap::Repeat, 0.51, 4.0),
+            (Wrap::Repeat, 1.2, 3.0),
+            (Wrap::Clamp, 1.2, 4.0),
+            (Wrap::Black, 1.2, 0.0),
+            (Wrap::Black, 0.99, 4.0),
+        ] {
+            assert_eq!(
+                texture_value(&point(wrap), Vec2::new(s, 0.3), Vec3::ZERO, Vec3::Z),
+                Vec3::splat(want),
+                "{wrap:?} at s = {s}"
+            );
+        }
     }
 
     #[test]

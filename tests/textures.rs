@@ -10,7 +10,9 @@ use glam::{Vec2, Vec3};
 use lightpath::io::Image;
 use lightpath::render::AccelChoice::Bvh;
 use lightpath::scene::{IntegratorKind, NextEventEstimation, Scene, Texture};
-use lightpath::texture::{environment_radiance, texture_value_in, Operand, TextureImage, Wrap};
+use lightpath::texture::{
+    environment_radiance, texture_value_in, Filter, Operand, TextureImage, Wrap,
+};
 
 /// The texture's value at a point the camera of `s` sees (unit geometric normal n), with
 /// the pixel footprint the kernels find there (noise textures drop the octaves finer
@@ -78,11 +80,19 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
         png.display(),
         obj.display()
     ));
-    // Each of pbrt-v4's wrap modes (u passes the image's side at 1).
-    for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Black] {
+    // Each of pbrt-v4's wrap modes (u passes the image's side at 1), filtered bilinear
+    // and as pbrt-v4's point filter (the nearest texel: the magnified image's blocks).
+    let filters = [Filter::Bilinear, Filter::Point];
+    for (wrap, filter) in [Wrap::Repeat, Wrap::Clamp, Wrap::Black]
+        .into_iter()
+        .flat_map(|w| filters.map(|f| (w, f)))
+    {
         let mut s = s.clone();
-        if let Texture::Image { wrap: w, .. } = &mut s.textures[0] {
-            *w = wrap;
+        if let Texture::Image {
+            wrap: w, filter: f, ..
+        } = &mut s.textures[0]
+        {
+            (*w, *f) = (wrap, filter);
         }
         let texture = s.textures[0].clone();
         let expected = expected_image(&s, |o, d| {
@@ -103,7 +113,7 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
         let (mean, max) = differences(&img, &expected);
         assert!(
             mean < 0.01 && max < 0.1,
-            "{wrap:?}: mean difference {mean}, largest {max}"
+            "{wrap:?}, {filter:?}: mean difference {mean}, largest {max}"
         );
         // The kernels read the 8-bit image's bytes through its table: the image is bit for
         // bit the one rendered from the same texels as floats (mutation: the green byte
@@ -120,7 +130,7 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
                 .iter()
                 .flatten()
                 .map(|x| x.to_bits())),
-            "{wrap:?}: bytes and floats render differently"
+            "{wrap:?}, {filter:?}: bytes and floats render differently"
         );
     }
 }

@@ -480,7 +480,8 @@ struct GpuTriangleAttributes {
 // (environment maps: v = 0 is the top row). With flags.w > 0 (an 8-bit image) a texel
 // is one word instead, R | G << 8 | B << 16 as a float's bits, each byte an index into
 // the 256-float table at float flags.w - 1 (src/texture.rs ByteDecoding::table).
-// Values are scale * the bilinear lookup.
+// Values are scale * the bilinear lookup, or (other.x 1: pbrt-v4's point filter) scale *
+// the texel whose centre is nearest.
 // Checkerboards: scale where floor(s) + floor(t) is even, other where odd.
 // (s, t) = (mapping.x u + mapping.z, mapping.y v + mapping.w).
 struct GpuTexture {

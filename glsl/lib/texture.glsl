@@ -92,6 +92,11 @@ vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, vec3 dpdx, vec3 dpdy, uint tf) 
     float fy = floor(y);
     float ax = x - fx;
     float ay = y - fy;
+    // pbrt-v4's point filter: the nearest texel, the weights 0 or 1 (x rounded half up).
+    if (t.other.x != 0.0) {
+        ax = step(0.5, ax);
+        ay = step(0.5, ay);
+    }
     bool repeat_u = t.flags.x == TEXTURE_WRAP_REPEAT || t.flags.x == TEXTURE_WRAP_REPEAT_U;
     bool repeat_v = t.flags.x == TEXTURE_WRAP_REPEAT;
     bool black = t.flags.x == TEXTURE_WRAP_BLACK;

@@ -1113,6 +1113,7 @@ impl Parser {
             mapping: UV_MAPPING,
             wrap: crate::texture::Wrap::Repeat,
             projection: crate::texture::Projection::Uv,
+            filter: crate::texture::Filter::Bilinear,
         });
         let index = (self.scene.textures.len() - 1) as u32;
         self.image_textures.insert((path, encoding), index);

@@ -462,6 +462,7 @@ impl Parser {
                 mapping: crate::texture::UV_MAPPING,
                 wrap: Wrap::Repeat,
                 projection: Projection::Uv,
+                filter: crate::texture::Filter::Bilinear,
             });
             return Ok(Some(ShadingMap::Normal(
                 self.scene.textures.len() as u32 - 1,

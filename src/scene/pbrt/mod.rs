@@ -42,7 +42,7 @@ use super::{
     Triangle, MAX_MIX_DEPTH,
 };
 use crate::texture::{
-    load_image, load_texture, Encoding, EnvMapping, Projection, TextureImage, Wrap,
+    load_image, load_texture, Encoding, EnvMapping, Filter, Projection, TextureImage, Wrap,
 };
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use std::collections::HashMap;

@@ -172,7 +172,7 @@ fn every_parameter_name_read_is_pbrt_v4s_own() {
 }
 
 /// imagemap's `wrap` (repeat, clamp, black), `invert` (max(0, 1 - scale v), made on the
-/// texels) and `mapping`; octahedralsphere is refused.
+/// texels), `mapping` and `filter`; octahedralsphere is refused.
 #[test]
 fn imagemap_wrap_modes_invert_and_mappings() {
     let d = std::env::temp_dir().join(format!("lightpath-wrap-{}", std::process::id()));
@@ -253,6 +253,29 @@ fn imagemap_wrap_modes_invert_and_mappings() {
     .unwrap();
     let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("octahedralsphere");
     assert!(e.message.contains("octahedralsphere"), "{e}");
+    // Filters: point as pbrt-v4's; bilinear its default; trilinear and EWA (MIP levels)
+    // read bilinear, with a warning; another, unsupported.
+    let filter = |extra: &str| {
+        std::fs::write(d.join("s.pbrt"), text(extra)).unwrap();
+        parse_pbrt_file(&d.join("s.pbrt")).map(|s| match &s.textures[0] {
+            Texture::Image { filter, .. } => *filter,
+            other => panic!("{other:?}"),
+        })
+    };
+    assert_eq!(filter("").unwrap(), Filter::Bilinear);
+    assert_eq!(
+        filter("\"string filter\" \"point\"").unwrap(),
+        Filter::Point
+    );
+    for f in ["bilinear", "trilinear", "ewa"] {
+        assert_eq!(
+            filter(&format!("\"string filter\" \"{f}\"")).unwrap(),
+            Filter::Bilinear,
+            "{f}"
+        );
+    }
+    let e = filter("\"string filter\" \"gaussian\"").expect_err("gaussian");
+    assert!(e.message.contains("filter \"gaussian\""), "{e}");
     std::fs::remove_dir_all(&d).ok();
 }
 

@@ -384,7 +384,34 @@ impl Parser {
                         }
                     },
                 };
-                params.find("filter");
+                // pbrt-v4's filters: bilinear (its default) and point as pbrt-v4's; its
+                // trilinear and EWA read MIP levels by the pixel footprint, which lightpath
+                // does not make yet: their lookups are bilinear at full resolution.
+                let filter = match params.find("filter") {
+                    None => Filter::Bilinear,
+                    Some(p) => match p.strs.first().map(String::as_str) {
+                        Some("bilinear") => Filter::Bilinear,
+                        Some("point") => Filter::Point,
+                        Some(f @ ("trilinear" | "ewa")) => {
+                            self.warn(
+                                "imagemap filter",
+                                format!("imagemap: filter \"{f}\" looked up bilinear at full resolution (lightpath makes no MIP levels yet)"),
+                            );
+                            Filter::Bilinear
+                        }
+                        other => {
+                            self.unsupported(
+                                p.file,
+                                p.line,
+                                format!(
+                                    "imagemap: filter \"{}\" (lightpath reads point, bilinear, trilinear and ewa)",
+                                    other.unwrap_or_default()
+                                ),
+                            );
+                            Filter::Bilinear
+                        }
+                    },
+                };
                 params.find("maxanisotropy");
                 let scale = num("scale", 1.0);
                 let image = self.image_texture(path.clone(), encoding, (p.file, p.line, d), "");
@@ -407,6 +434,7 @@ impl Parser {
                     mapping,
                     wrap,
                     projection,
+                    filter,
                 });
                 Value::Texture(self.scene.textures.len() as u32 - 1)
             }
