@@ -1302,17 +1302,18 @@ mod tests {
         );
         // Between the last and the first column: repeating mixes them, clamping keeps
         // the last, black fades to 0 beyond the side; outside entirely, black is 0.
-        let with = |wrap| match &t {
+        let filtered = |wrap, filter| match &t {
             Texture::Image { image, .. } => Texture::Image {
                 image: image.clone(),
                 scale: Vec3::ONE,
                 mapping: UV_MAPPING,
                 wrap,
                 projection: Projection::Uv,
-                filter: Filter::Bilinear,
+                filter,
             },
             _ => unreachable!(),
         };
+        let with = |wrap| filtered(wrap, Filter::Bilinear);
         let at = Vec2::new(1.0, 0.25);
         assert_eq!(
             texture_value(&with(Wrap::Repeat), at, Vec3::ZERO, Vec3::Z),
@@ -1346,24 +1347,7 @@ mod tests {
         );
         // pbrt-v4's point filter: the texel whose centre is nearest (s·w − ½ rounded), on
         // either side of the columns' midpoint, and past the side as each wrap says.
-        let point = |wrap| match with(wrap) {
-            Texture::Image {
-                image,
-                scale,
-                mapping,
-                wrap,
-                projection,
-                ..
-            } => Texture::Image {
-                image,
-                scale,
-                mapping,
-                wrap,
-                projection,
-                filter: Filter::Point,
-            },
-            _ => unreachable!(),
-        };
+        let point = |wrap| filtered(wrap, Filter::Point);
         for (wrap, s, want) in [
             (Wrap::Repeat, 0.49, 3.0),
             (Wrap::Repeat, 0.51, 4.0),
