@@ -12,8 +12,8 @@ use crate::gpu::{other_error, Device};
 use crate::io::Image;
 use crate::scene::{DeltaLight, GridValues, NextEventEstimation, Scene, Texture, UV_MAPPING};
 use crate::texture::{
-    environment_mean, environment_weights, ByteDecoding, Distribution2D, EnvMapping, Filter,
-    Operand, Texels as _, TextureImage, Wrap,
+    environment_mean, environment_weights, ByteDecoding, Distribution2D, EnvMapping, Operand,
+    Texels as _, TextureImage, Wrap,
 };
 use anyhow::Result;
 use ash::vk;
@@ -401,10 +401,14 @@ impl TextureData {
     /// The words of the kernels' texel data: `texels`, then the 8-bit images' texels,
     /// each R | G << 8 | B << 16 as a float's bits (texture.glsl `texel`).
     pub fn texel_words(&self) -> impl Iterator<Item = f32> + '_ {
-        let bytes = self.byte_images.iter().flat_map(|image| match &**image {
-            TextureImage::Bytes { texels, .. } => texels.iter(),
-            TextureImage::Float(_) => [].iter(),
-        });
+        let bytes = self
+            .byte_images
+            .iter()
+            .flat_map(|image| image.levels())
+            .flat_map(|level| match level {
+                TextureImage::Bytes { texels, .. } => texels.iter(),
+                _ => [].iter(),
+            });
         self.texels.iter().copied().chain(
             bytes.map(|&[r, g, b]| f32::from_bits(r as u32 | (g as u32) << 8 | (b as u32) << 16)),
         )
@@ -415,8 +419,9 @@ impl TextureData {
         let words: u64 = self
             .byte_images
             .iter()
-            .map(|i| {
-                let (w, h) = i.size();
+            .flat_map(|i| i.levels())
+            .map(|l| {
+                let (w, h) = l.size();
                 w as u64 * h as u64
             })
             .sum();
@@ -457,20 +462,34 @@ impl Texels {
         if let Some(&found) = self.first.get(&Arc::as_ptr(image)) {
             return found;
         }
-        let found = match &**image {
-            TextureImage::Float(image) => (push_image(&mut self.floats, image), 0),
-            TextureImage::Bytes {
-                texels, decoding, ..
-            } => {
+        // (A pyramid's levels follow one another, all of the base's kind.)
+        let levels = image.levels();
+        let found = match &levels[0] {
+            TextureImage::Bytes { decoding, .. } => {
                 let table = *self.tables.entry(*decoding).or_insert_with(|| {
                     let first = self.floats.len() as u32;
                     self.floats.extend(decoding.table());
                     first
                 });
                 let first = self.words;
-                self.words += texels.len() as u32;
+                for l in levels {
+                    let (w, h) = l.size();
+                    self.words += w * h;
+                }
                 self.bytes.push(image.clone());
                 (first, table + 1)
+            }
+            _ => {
+                let first = self.floats.len() as u32;
+                for l in levels {
+                    match l {
+                        TextureImage::Float(l) => {
+                            push_image(&mut self.floats, l);
+                        }
+                        _ => unreachable!("a pyramid's levels are of one kind"),
+                    }
+                }
+                (first, 0)
             }
         };
         self.first.insert(Arc::as_ptr(image), found);
@@ -512,8 +531,8 @@ fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
                     bytes,
                 ],
                 scale: scale.extend(0.0).to_array(),
-                // (x: 1 for pbrt-v4's point filter.)
-                other: [(*filter == Filter::Point) as u32 as f32, 0.0, 0.0, 0.0],
+                // (x: the filter; y: the MIP levels.)
+                other: [filter.code() as f32, image.levels().len() as f32, 0.0, 0.0],
                 mapping: *mapping,
                 ..GpuTexture::default()
             }

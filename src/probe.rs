@@ -174,6 +174,32 @@ pub fn medium(
     )
 }
 
+/// Runs the texture probe (glsl/texture_probe.comp) on `inputs` with the textures of
+/// `scene`: texture.glsl's `texture_value` at each input's point and footprint (the
+/// kernel says how it reads the records), every texture feature compiled in.
+pub fn texture(
+    engine: &mut Engine,
+    scene: &crate::scene::Scene,
+    inputs: &[BsdfProbeInput],
+) -> Result<Vec<BsdfProbeOutput>> {
+    engine.kernels.reset_sets()?;
+    let data = crate::gpu_scene::texture_data(scene);
+    let records = engine.buffer_with("probe textures", bytemuck::cast_slice(&data.textures))?;
+    let texels: Vec<f32> = data.texel_words().collect();
+    let texels = engine.float_data(&[(DATA_TEXELS, &texels)])?;
+    run_bsdf_probe(
+        engine,
+        "texture_probe",
+        crate::abi::FEATURE_ALL,
+        &[
+            (crate::abi::BINDING_TEXTURES, &records),
+            (BINDING_SCENE_DATA, &texels.table),
+        ],
+        inputs,
+        "running the texture probe",
+    )
+}
+
 /// One dispatch of a BSDF probe kernel over `inputs`, with its material data at `data`
 /// (binding, buffer):
 /// the outputs, one per input.

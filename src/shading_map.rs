@@ -13,7 +13,7 @@
 use crate::abi::BUMP_DELTA;
 use crate::bsdf::sampling::{build_onb, PI, TWO_PI};
 use crate::scene::{Scene, ShadingMap};
-use crate::texture::texture_value_in;
+use crate::texture::{texture_value_in, Footprint};
 use glam::{Mat3, Vec2, Vec3};
 
 /// pbrt-v4's shading geometry at a point: the unit shading normal and the partial
@@ -114,11 +114,11 @@ fn facing(ns: Vec3, ng: Vec3) -> Vec3 {
     }
 }
 
-/// pbrt-v4's steps in u and v for a bump map's differences (shading_map.glsl's
-/// `bump_steps`): half the pixel footprint's extent in u and in v, the least-squares
-/// (du/dx, dv/dx) and (du/dy, dv/dy) of dp/dx and dp/dy over dp/du and dp/dv (each
-/// clamped to 1e8); [`BUMP_DELTA`] where that is 0.
-pub fn bump_steps(g: &ShadingGeometry, dpdx: Vec3, dpdy: Vec3) -> Vec2 {
+/// The pixel footprint in (u, v) (geometry.glsl's `uv_footprint`, pbrt-v4's
+/// ComputeDifferentials): the least-squares (du/dx, dv/dx) and (du/dy, dv/dy) of dp/dx and
+/// dp/dy over dp/du and dp/dv, each clamped to ±1e8; zero where dp/du, dp/dv are
+/// degenerate.
+pub fn uv_footprint(g: &ShadingGeometry, dpdx: Vec3, dpdy: Vec3) -> (Vec2, Vec2) {
     let a00 = g.dpdu.dot(g.dpdu);
     let a01 = g.dpdu.dot(g.dpdv);
     let a11 = g.dpdv.dot(g.dpdv);
@@ -130,10 +130,18 @@ pub fn bump_steps(g: &ShadingGeometry, dpdx: Vec3, dpdy: Vec3) -> Vec2 {
     };
     let solve = |d: Vec3| {
         let (b0, b1) = (g.dpdu.dot(d), g.dpdv.dot(d));
-        Vec2::new(a11 * b0 - a01 * b1, a00 * b1 - a01 * b0) * inv
+        (Vec2::new(a11 * b0 - a01 * b1, a00 * b1 - a01 * b0) * inv)
+            .clamp(Vec2::splat(-1e8), Vec2::splat(1e8))
     };
-    let clamp = |v: Vec2| v.clamp(Vec2::splat(-1e8), Vec2::splat(1e8));
-    let steps = 0.5 * (clamp(solve(dpdx)).abs() + clamp(solve(dpdy)).abs());
+    (solve(dpdx), solve(dpdy))
+}
+
+/// pbrt-v4's steps in u and v for a bump map's differences (shading_map.glsl's
+/// `bump_steps`): half the pixel footprint's extent in u and in v ([`uv_footprint`]);
+/// [`BUMP_DELTA`] where that is 0.
+pub fn bump_steps(g: &ShadingGeometry, dpdx: Vec3, dpdy: Vec3) -> Vec2 {
+    let (ddx, ddy) = uv_footprint(g, dpdx, dpdy);
+    let steps = 0.5 * (ddx.abs() + ddy.abs());
     Vec2::new(
         if steps.x > 0.0 { steps.x } else { BUMP_DELTA },
         if steps.y > 0.0 { steps.y } else { BUMP_DELTA },
@@ -237,14 +245,21 @@ pub fn shading_normal(scene: &Scene, prim: usize, p: Vec3) -> Vec3 {
         geometry = Box::new(move || sphere_shading_geometry(linear, q, n));
     }
     // The pixel footprint there, as the kernels find it with the scene's camera.
-    let footprint =
+    let (dpdx, dpdy) =
         crate::gpu_scene::surface_footprint(&crate::gpu_scene::scene_params(scene, 0), p, ng);
+    let g = geometry();
+    let (duvdx, duvdy) = uv_footprint(&g, dpdx, dpdy);
+    let footprint = Footprint {
+        dpdx,
+        dpdy,
+        duvdx,
+        duvdy,
+    };
     match scene.materials[material as usize].shading_map {
         None => ns,
         Some(ShadingMap::Bump(tex)) => {
             let t = &scene.textures[tex as usize];
-            let g = geometry();
-            let delta = bump_steps(&g, footprint.0, footprint.1);
+            let delta = bump_steps(&g, dpdx, dpdy);
             bump_mapped_normal(
                 &g,
                 |uv, p| texture_value_in(t, uv, p, ng, footprint).x,
@@ -256,7 +271,7 @@ pub fn shading_normal(scene: &Scene, prim: usize, p: Vec3) -> Vec3 {
         }
         Some(ShadingMap::Normal(tex)) => {
             let t = &scene.textures[tex as usize];
-            normal_mapped_normal(&geometry(), texture_value_in(t, uv, p, ng, footprint), ng)
+            normal_mapped_normal(&g, texture_value_in(t, uv, p, ng, footprint), ng)
         }
     }
 }

@@ -109,7 +109,7 @@ pub enum Operand {
 }
 
 impl Operand {
-    fn value(&self, uv: Vec2, p: Vec3, ng: Vec3, footprint: (Vec3, Vec3)) -> Vec3 {
+    fn value(&self, uv: Vec2, p: Vec3, ng: Vec3, footprint: Footprint) -> Vec3 {
         match self {
             Operand::Const(c) => *c,
             Operand::Texture(t) => texture_value_in(t, uv, p, ng, footprint),
@@ -148,8 +148,14 @@ impl Texture {
 
     /// Each image of its tree (itself, if it is an image), to change.
     pub fn for_each_image_mut(&mut self, f: &mut impl FnMut(&mut Arc<TextureImage>)) {
+        self.for_each_image_texture_mut(&mut |image, _| f(image));
+    }
+
+    /// Each image texture of its tree (itself, if it is one), its image to change and its
+    /// wrap mode.
+    pub fn for_each_image_texture_mut(&mut self, f: &mut impl FnMut(&mut Arc<TextureImage>, Wrap)) {
         let operands = match self {
-            Texture::Image { image, .. } => return f(image),
+            Texture::Image { image, wrap, .. } => return f(image, *wrap),
             Texture::Checkerboard { .. }
             | Texture::Noise { .. }
             | Texture::Dots { .. }
@@ -160,7 +166,7 @@ impl Texture {
         };
         for o in operands {
             if let Operand::Texture(t) = o {
-                t.for_each_image_mut(f);
+                t.for_each_image_texture_mut(f);
             }
         }
     }
@@ -324,6 +330,15 @@ pub enum Encoding {
     Linear,
 }
 
+/// The sRGB transfer function (IEC 61966-2-1), linear to encoded.
+pub fn linear_to_srgb(v: f32) -> f32 {
+    if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
 /// The sRGB transfer function's inverse (IEC 61966-2-1).
 pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {
@@ -388,6 +403,9 @@ pub enum TextureImage {
         texels: Vec<[u8; 3]>,
         decoding: ByteDecoding,
     },
+    /// An image's MIP levels ([`crate::mipmap::pyramid`]), from its base (which the
+    /// image's size and texels are) to one texel, all floats or all bytes.
+    Pyramid(Vec<TextureImage>),
 }
 
 /// An image's size and linear RGB texels, row by row from the top (for [`bilinear`]).
@@ -410,11 +428,13 @@ impl Texels for TextureImage {
         match self {
             TextureImage::Float(image) => image.size(),
             TextureImage::Bytes { width, height, .. } => (*width, *height),
+            TextureImage::Pyramid(levels) => levels[0].size(),
         }
     }
     fn texel(&self, i: usize) -> [f32; 3] {
         match self {
             TextureImage::Float(image) => image.pixels[i],
+            TextureImage::Pyramid(levels) => levels[0].texel(i),
             TextureImage::Bytes {
                 texels, decoding, ..
             } => {
@@ -426,10 +446,19 @@ impl Texels for TextureImage {
 }
 
 impl TextureImage {
-    /// The texels as linear floats.
+    /// Its MIP levels: a pyramid's, else the image alone.
+    pub fn levels(&self) -> &[TextureImage] {
+        match self {
+            TextureImage::Pyramid(levels) => levels,
+            _ => std::slice::from_ref(self),
+        }
+    }
+
+    /// The texels as linear floats (a pyramid's base's).
     pub fn into_floats(self) -> Image {
         match self {
             TextureImage::Float(image) => image,
+            TextureImage::Pyramid(mut levels) => levels.swap_remove(0).into_floats(),
             TextureImage::Bytes { .. } => {
                 let (width, height) = self.size();
                 Image {
@@ -596,7 +625,7 @@ pub fn read_pfm(bytes: &[u8]) -> Result<Image, String> {
 
 /// What an image lookup finds beyond a side of the image (pbrt-v4's wrap modes; abi.h
 /// `TEXTURE_WRAP_*`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Wrap {
     Repeat,
     Clamp,
@@ -612,6 +641,22 @@ pub enum Filter {
     Bilinear,
     /// The texel whose centre is nearest (pbrt-v4's `point`).
     Point,
+    /// Bilinear in the two MIP levels about the footprint's, blended (pbrt-v4's
+    /// `trilinear`; [`crate::mipmap`]).
+    Trilinear,
+    /// pbrt-v4's `ewa`: read here as [`Filter::Trilinear`] (docs/pbrt.md).
+    Ewa,
+}
+
+impl Filter {
+    /// The kernels' code (abi.h GpuTexture: `other.x`).
+    pub fn code(self) -> u32 {
+        match self {
+            Filter::Bilinear => crate::abi::TEXTURE_FILTER_BILINEAR,
+            Filter::Point => crate::abi::TEXTURE_FILTER_POINT,
+            Filter::Trilinear | Filter::Ewa => crate::abi::TEXTURE_FILTER_TRILINEAR,
+        }
+    }
 }
 
 /// Texel column (or row) `i` of `n`, wrapped as `wrap` says; `None` outside a `Black`
@@ -663,17 +708,74 @@ pub fn bilinear(image: &(impl Texels + ?Sized), p: Vec2, wrap_x: Wrap, wrap_y: W
     top.lerp(bottom, ay)
 }
 
+/// The pixel footprint at a surface point: dp/dx and dp/dy (the kernels'
+/// `surface_footprint`, [`crate::gpu_scene::surface_footprint`]) and their (u, v) over the
+/// surface's dp/du, dp/dv (geometry.glsl's `uv_footprint`,
+/// [`crate::shading_map::uv_footprint`]). All zero: none.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Footprint {
+    pub dpdx: Vec3,
+    pub dpdy: Vec3,
+    pub duvdx: Vec2,
+    pub duvdy: Vec2,
+}
+
+impl Footprint {
+    /// dp/dx and dp/dy alone (no (u, v) extent: MIP lookups read the base).
+    pub fn of_point(dpdx: Vec3, dpdy: Vec3) -> Footprint {
+        Footprint {
+            dpdx,
+            dpdy,
+            ..Footprint::default()
+        }
+    }
+}
+
+/// The footprint's (s, t) derivatives for a texture projected as `projection` (texture.glsl
+/// `texture_st_footprint`): uv's scaled by the mapping, a plane's rows applied to dp/dx and
+/// dp/dy, and for the spherical and cylindrical mappings the difference of (s, t) one
+/// footprint step away (the periodic coordinate taken the short way round).
+pub fn st_footprint(
+    projection: &Projection,
+    mapping: &[f32; 4],
+    uv: Vec2,
+    p: Vec3,
+    f: &Footprint,
+) -> (Vec2, Vec2) {
+    let m = Vec2::new(mapping[0], mapping[1]);
+    match projection {
+        Projection::Uv => (m * f.duvdx, m * f.duvdy),
+        Projection::Planar { rows } => {
+            let d = |v: Vec3| Vec2::new(rows[0].truncate().dot(v), rows[1].truncate().dot(v));
+            (d(f.dpdx), d(f.dpdy))
+        }
+        Projection::Solid { .. } => (Vec2::ZERO, Vec2::ZERO),
+        Projection::Spherical { .. } | Projection::Cylindrical { .. } => {
+            let st = projection.st(mapping, uv, p);
+            let step = |dp: Vec3| {
+                let mut d = projection.st(mapping, uv, p + dp) - st;
+                if matches!(projection, Projection::Spherical { .. }) {
+                    d.y -= d.y.round();
+                } else {
+                    d.x -= d.x.round();
+                }
+                d
+            };
+            (step(f.dpdx), step(f.dpdy))
+        }
+    }
+}
+
 /// CPU mirror of texture.glsl's `texture_value`: the texture at surface coordinates uv
 /// and world point p where the surface's unit geometric normal is ng (either side; only a
 /// direction mix reads it).
 pub fn texture_value(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3) -> Vec3 {
-    texture_value_in(t, uv, p, ng, (Vec3::ZERO, Vec3::ZERO))
+    texture_value_in(t, uv, p, ng, Footprint::default())
 }
 
-/// [`texture_value`] where the pixel footprint is `footprint` (dp/dx, dp/dy: the
-/// kernels' `surface_footprint`, [`crate::gpu_scene::surface_footprint`]): the noise
-/// textures drop the octaves finer than it.
-pub fn texture_value_in(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3, footprint: (Vec3, Vec3)) -> Vec3 {
+/// [`texture_value`] where the pixel footprint is `footprint`: the noise textures drop the
+/// octaves finer than it, MIP-mapped images read the level it spans.
+pub fn texture_value_in(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3, footprint: Footprint) -> Vec3 {
     let f = footprint;
     match t {
         Texture::Scale { tex, scale } => tex.value(uv, p, ng, f) * scale.value(uv, p, ng, f).x,
@@ -699,9 +801,9 @@ pub fn texture_value_in(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3, footprint: (Ve
             let q = (*texture_from_world * p.extend(1.0)).truncate();
             // The footprint in the texture's space.
             let linear = glam::Mat3::from_mat4(*texture_from_world);
-            let len2 = (linear * f.0)
+            let len2 = (linear * f.dpdx)
                 .length_squared()
-                .max((linear * f.1).length_squared());
+                .max((linear * f.dpdy).length_squared());
             match kind {
                 NoiseKind::Fbm => Vec3::splat(crate::noise::fbm(q, len2, *omega, *octaves)),
                 NoiseKind::Wrinkled => {
@@ -769,11 +871,8 @@ pub fn texture_value_in(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3, footprint: (Ve
         } => {
             let st = projection.st(mapping, uv, p);
             let at = Vec2::new(st.x, 1.0 - st.y);
-            *scale
-                * match filter {
-                    Filter::Bilinear => bilinear(&**image, at, *wrap, *wrap),
-                    Filter::Point => nearest(&**image, at, *wrap, *wrap),
-                }
+            let dst = st_footprint(projection, mapping, uv, p, &f);
+            *scale * crate::mipmap::image_value(image, *filter, at, dst, *wrap)
         }
     }
 }

@@ -110,6 +110,19 @@ fn kernel_bindings_come_from_the_spirv() {
             );
             continue;
         }
+        if kernel.starts_with("texture_probe") {
+            assert_eq!(
+                numbers,
+                vec![
+                    abi::BINDING_BSDF_PROBE_INPUTS,
+                    abi::BINDING_BSDF_PROBE_OUTPUTS,
+                    abi::BINDING_TEXTURES,
+                    abi::BINDING_SCENE_DATA
+                ],
+                "{kernel} ({backend})"
+            );
+            continue;
+        }
         if kernel.starts_with("medium_probe") {
             assert_eq!(
                 numbers,

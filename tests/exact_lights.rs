@@ -678,6 +678,71 @@ fn procedural_textures_render_alike_in_every_strategy_and_integrator() {
     assert_integrators_agree("procedural", &s);
 }
 
+/// Image textures in each of pbrt-v4's `imagemap` filters, each read from its MIP pyramid
+/// at the level the pixel footprint picks (src/mipmap.rs): a floor whose reflectance
+/// repeats a 16 × 16 image four times each way (shrunk to tens of texels a pixel: levels
+/// 2 to 4) read `trilinear`, a back wall repeating it twelve times read `bilinear`, and
+/// on the wall a panel showing it once (magnified: the base) read `point`, under the quad
+/// light. Every BDPT strategy alone matches the path tracer's image of its depth (light
+/// subpaths and connections look the images up with the same footprint as camera paths:
+/// a function of the point), and PT, BDPT and MMLT agree (maxdepth 1, 2 and 5).
+#[test]
+fn image_textures_in_each_filter_render_alike_in_every_strategy_and_integrator() {
+    let dir = temp_dir("filtered-room");
+    let cells = dir.join("cells.pfm");
+    write_pfm(&cells, 16, 16, |x, y| {
+        let a = (x * 16 + y) as f32;
+        [
+            0.2 + 0.6 * ((x / 2 + y / 2) % 2) as f32,
+            0.3 + 0.15 * (a * 1.3).sin(),
+            0.5 + 0.3 * (a * 0.7).cos(),
+        ]
+    });
+    let (_, kind, quad) = lights().into_iter().next().expect("the quad light");
+    let light = format!(
+        "{quad}\nAttributeEnd\nAttributeBegin\n\
+         Texture \"tri\" \"spectrum\" \"imagemap\" \"string filename\" \"{cells}\" \"string filter\" \"trilinear\"\n\
+         Texture \"bi\" \"spectrum\" \"imagemap\" \"string filename\" \"{cells}\"\n\
+         Texture \"near\" \"spectrum\" \"imagemap\" \"string filename\" \"{cells}\" \"string filter\" \"point\"\n\
+         Material \"diffuse\" \"texture reflectance\" \"tri\"\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -3 0.02 3  3 0.02 3  3 0.02 -2.5  -3 0.02 -2.5 ] \"point2 uv\" [ 0 0  4 0  4 4  0 4 ]\n\
+         Material \"diffuse\" \"texture reflectance\" \"bi\"\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -3 0 -2.98  3 0 -2.98  3 4 -2.98  -3 4 -2.98 ] \"point2 uv\" [ 0 0  12 0  12 12  0 12 ]\n\
+         Material \"diffuse\" \"texture reflectance\" \"near\"\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ 1 0.5 -2.9  2.8 0.5 -2.9  2.8 2.3 -2.9  1 2.3 -2.9 ] \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]",
+        cells = cells.display(),
+    );
+    let s = room(&light, false, 3);
+    let filters: Vec<_> = s
+        .textures
+        .iter()
+        .filter_map(|t| match t {
+            lightpath::texture::Texture::Image { filter, image, .. } => {
+                Some((*filter, image.levels().len()))
+            }
+            _ => None,
+        })
+        .collect();
+    use lightpath::texture::Filter;
+    assert_eq!(
+        filters,
+        [
+            (Filter::Trilinear, 5),
+            (Filter::Bilinear, 5),
+            (Filter::Point, 5)
+        ]
+    );
+    assert_ne!(
+        lightpath::engine::scene_features(&s) & lightpath::abi::FEATURE_MIP_TEXTURES,
+        0
+    );
+    assert_each_strategy_alone_matches_pt("filtered images", kind, &s, 3);
+    assert_integrators_agree("filtered images", &s);
+}
+
 /// Alpha cut-outs (pbrt-v4's `alpha`): under the quad light hang a diffuse panel whose
 /// alpha is a ramp texture (0 to 1 across it) and one of constant alpha 0.5, so that the
 /// floor is lit through and around them and light bounces off their kept parts. Every

@@ -287,16 +287,18 @@ fn the_every_feature_scenes_measured_file_is_the_synthetic_ggx_table() {
 /// specialized to every feature bit but the environment map's, the goniometric and
 /// projection lights' (whose images are files), media's and grid media's (the scene is the
 /// three integrators' surface benchmark), several infinite lights' and the realistic
-/// camera's (whose lens is a file, and which BDPT and MMLT refuse), instances' and unbounded depth's (and
-/// its alpha texture, a bilerp, needs only that texture's code in the alpha test).
+/// camera's (whose lens is a file, and which BDPT and MMLT refuse), instances', unbounded
+/// depth's and the MIP-mapped image textures' (imagemaps are files) (and its alpha
+/// texture, a bilerp, needs only that texture's code in the alpha test).
 #[test]
 fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
     use lightpath::abi::{
         FEATURE_ALL, FEATURE_ALPHA_PROCEDURAL_TEXTURES, FEATURE_ALPHA_TEXTURE_GRAPHS,
         FEATURE_ALPHA_TEXTURE_PROJECTIONS, FEATURE_CLOUD_MEDIA, FEATURE_ENVIRONMENTS,
         FEATURE_ENVIRONMENT_MAP, FEATURE_GRID_MEDIA, FEATURE_INSTANCES, FEATURE_MEDIA,
-        FEATURE_NANOVDB_MEDIA, FEATURE_PROFILE_LIGHTS, FEATURE_REALISTIC_CAMERA,
-        FEATURE_RGB_GRID_MEDIA, FEATURE_TEMPERATURE_MEDIA, FEATURE_UNBOUNDED,
+        FEATURE_MIP_TEXTURES, FEATURE_NANOVDB_MEDIA, FEATURE_PROFILE_LIGHTS,
+        FEATURE_REALISTIC_CAMERA, FEATURE_RGB_GRID_MEDIA, FEATURE_TEMPERATURE_MEDIA,
+        FEATURE_UNBOUNDED,
     };
     let s = scene::load(&repo().join("scenes/pbrt/every-feature.pbrt"))
         .expect("the every-feature scene parses");
@@ -318,7 +320,8 @@ fn the_every_feature_scene_has_every_feature_but_maps_and_unbounded_depth() {
                 | FEATURE_NANOVDB_MEDIA
                 | FEATURE_ENVIRONMENTS
                 | FEATURE_REALISTIC_CAMERA
-                | FEATURE_INSTANCES),
+                | FEATURE_INSTANCES
+                | FEATURE_MIP_TEXTURES),
         "{features:b}"
     );
 }

@@ -215,8 +215,11 @@
 // Instanced objects (BINDING_INSTANCES): the BVH walks enter an object's own tree under
 // its instance's transform, and triangle ids past the world's are instances' triangles.
 #define FEATURE_INSTANCES 1073741824
+// Image textures with MIP levels (pbrt-v4's imagemap; texture.glsl image_value): the
+// surfaces find the footprint's extent in (u, v) and the lookups pick their level by it.
+#define FEATURE_MIP_TEXTURES 2147483648u
 // Every feature (kernels that must serve any scene: the BSDF probe).
-#define FEATURE_ALL 2147483647
+#define FEATURE_ALL 4294967295u
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -283,6 +286,10 @@
 #define TEXTURE_BILERP 8
 // The most records of a texture's program.
 #define MAX_TEXTURE_PROGRAM 8
+// How an image texture is read (GpuTexture.other.x; pbrt-v4's imagemap `filter`).
+#define TEXTURE_FILTER_BILINEAR 0
+#define TEXTURE_FILTER_POINT 1
+#define TEXTURE_FILTER_TRILINEAR 2
 // How an image texture wraps (GpuTexture.flags.x).
 #define TEXTURE_WRAP_REPEAT 0
 // u repeats, v clamps (latitude-longitude environment maps).
@@ -480,8 +487,11 @@ struct GpuTriangleAttributes {
 // (environment maps: v = 0 is the top row). With flags.w > 0 (an 8-bit image) a texel
 // is one word instead, R | G << 8 | B << 16 as a float's bits, each byte an index into
 // the 256-float table at float flags.w - 1 (src/texture.rs ByteDecoding::table).
-// Values are scale * the bilinear lookup, or (other.x 1: pbrt-v4's point filter) scale *
-// the texel whose centre is nearest.
+// Values are scale * the lookup other.x says (TEXTURE_FILTER_*): bilinear, the texel whose
+// centre is nearest (pbrt-v4's point filter), or trilinear. other.y > 1 (pbrt-v4's
+// imagemap, FEATURE_MIP_TEXTURES): the image is a pyramid of other.y levels one after
+// another from info.y, each max(1, w >> l) x max(1, h >> l) texels (src/mipmap.rs), and
+// the footprint picks the level the filter reads.
 // Checkerboards: scale where floor(s) + floor(t) is even, other where odd.
 // (s, t) = (mapping.x u + mapping.z, mapping.y v + mapping.w).
 struct GpuTexture {

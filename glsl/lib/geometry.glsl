@@ -120,7 +120,7 @@ bool alpha_cut(GpuTriangle tri, vec2 bary, vec3 o, vec3 d) {
         vec3 p = tri.v0.xyz + bary.x * (tri.v1.xyz - tri.v0.xyz) + bary.y * (tri.v2.xyz - tri.v0.xyz);
         vec3 ng = normalize(cross(tri.v1.xyz - tri.v0.xyz, tri.v2.xyz - tri.v0.xyz));
         // (pbrt-v4's alpha test looks its texture up without a footprint.)
-        alpha = texture_value(floatBitsToUint(alpha), uv, p, ng, vec3(0.0), vec3(0.0), alpha_texture_features()).x;
+        alpha = texture_value(floatBitsToUint(alpha), uv, p, ng, vec3(0.0), vec3(0.0), vec4(0.0), alpha_texture_features()).x;
     }
     if (alpha >= 1.0) return false;
     if (alpha <= 0.0) return true;
@@ -312,12 +312,19 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
     ShadingGeometry g;
     vec3 c = vec3(0.0);
     vec3 h = vec3(0.0);
-    // The pixel footprint at the point (surface_footprint), for the noise textures and
-    // the bump map's steps.
+    // The pixel footprint at the point (surface_footprint), for the noise textures, the
+    // bump map's steps and (in (u, v): uv_footprint, from the surface's dp/du, dp/dv) the
+    // MIP levels.
     vec3 dpdx = vec3(0.0);
     vec3 dpdy = vec3(0.0);
-    if (has_texture_feature(spec_features, FEATURE_PROCEDURAL_TEXTURES) || has_feature(FEATURE_SHADING_MAPS)) {
+    bool mip = has_feature(FEATURE_MIP_TEXTURES);
+    if (has_texture_feature(spec_features, FEATURE_PROCEDURAL_TEXTURES) || has_feature(FEATURE_SHADING_MAPS) || mip) {
         surface_footprint(s.p, s.ng, dpdx, dpdy);
+    }
+    vec4 duv = vec4(0.0);
+    if (mip) {
+        g = map_geometry(hit, s);
+        duv = uv_footprint(g, dpdx, dpdy);
     }
     vec2 delta = vec2(BUMP_DELTA);
     for (uint step = 0u; step < MAX_MATERIAL_MIX_DEPTH + 3u + MATERIAL_TEXTURE_SLOTS; ++step) {
@@ -338,7 +345,8 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
                 flags = materials[m].info.y;
                 bool map = has_feature(FEATURE_SHADING_MAPS) && (flags & (MATERIAL_BUMP_MAP | MATERIAL_NORMAL_MAP)) != 0u;
                 hair = has_feature(FEATURE_HAIR) && materials[m].info.x == BSDF_HAIR;
-                if (map || hair) g = map_geometry(hit, s);
+                // (With MIP textures g is the point's already.)
+                if ((map || hair) && !mip) g = map_geometry(hit, s);
                 if (map) {
                     tex = floatBitsToUint(materials[m].roughness.w);
                     lookups = (flags & MATERIAL_NORMAL_MAP) != 0u ? 1u : 3u;
@@ -357,7 +365,7 @@ void resolve_material_and_map(Hit hit, inout Surface s) {
                 break;
             }
         }
-        vec3 v = index == NO_TEXTURE ? vec3(0.0) : texture_value(index, uv, p, s.ng, dpdx, dpdy, spec_features);
+        vec3 v = index == NO_TEXTURE ? vec3(0.0) : texture_value(index, uv, p, s.ng, dpdx, dpdy, duv, spec_features);
         if (mixing) {
             vec4 mix_params = materials[m].specular;
             float amount = index == NO_TEXTURE ? mix_params.z : v.x;

@@ -219,7 +219,7 @@ vec3 environment_value(GpuEmitter em, vec3 dir) {
     vec3 L = em.radiance.xyz;
     if (!env_has_map(em)) return L;
     return L * texture_leaf(textures[em.info.y], env_uv(em.info.z, env_to_local(em, dir)), vec3(0.0), vec3(0.0),
-                            vec3(0.0), spec_features & FEATURE_TEXTURE_PROJECTIONS);
+                            vec3(0.0), vec4(0.0), spec_features & FEATURE_TEXTURE_PROJECTIONS);
 }
 
 // Environment emitter em's radiance arriving at p from the direction dir (zero where its

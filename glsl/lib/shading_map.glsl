@@ -93,12 +93,12 @@ ShadingGeometry sphere_shading_geometry(vec3 o2w0, vec3 o2w1, vec3 o2w2, vec3 w2
     return g;
 }
 
-// pbrt-v4's steps in u and v for a bump map's differences: half the footprint's extent
-// in u and in v, (|du/dx| + |du/dy|) / 2 and likewise, where (du/dx, dv/dx) is the least-
-// squares solution of dp/dx = du/dx dp/du + dv/dx dp/dv (clamped to 1e8 as pbrt-v4's);
-// BUMP_DELTA where that is 0 (no footprint). (pbrt-v4 solves with the surface's
-// geometric dp/du; this with the shading geometry's, the same but on meshes with normals.)
-vec2 bump_steps(ShadingGeometry g, vec3 dpdx, vec3 dpdy) {
+// The pixel footprint in (u, v): (du/dx, dv/dx, du/dy, dv/dy), the least-squares
+// solutions of dp/dx = du/dx dp/du + dv/dx dp/dv and likewise for y (pbrt-v4's
+// ComputeDifferentials, clamped to 1e8 as its); zero where dp/du, dp/dv are degenerate.
+// (pbrt-v4 solves with the surface's geometric dp/du; this with the shading geometry's,
+// the same but on meshes with normals.) CPU mirror: src/shading_map.rs uv_footprint.
+vec4 uv_footprint(ShadingGeometry g, vec3 dpdx, vec3 dpdy) {
     float a00 = dot(g.dpdu, g.dpdu);
     float a01 = dot(g.dpdu, g.dpdv);
     float a11 = dot(g.dpdv, g.dpdv);
@@ -108,7 +108,15 @@ vec2 bump_steps(ShadingGeometry g, vec3 dpdx, vec3 dpdy) {
     vec2 by = vec2(dot(g.dpdu, dpdy), dot(g.dpdv, dpdy));
     vec2 ddx = clamp(vec2(a11 * bx.x - a01 * bx.y, a00 * bx.y - a01 * bx.x) * inv, -1e8, 1e8);
     vec2 ddy = clamp(vec2(a11 * by.x - a01 * by.y, a00 * by.y - a01 * by.x) * inv, -1e8, 1e8);
-    vec2 steps = 0.5 * (abs(ddx) + abs(ddy));
+    return vec4(ddx, ddy);
+}
+
+// pbrt-v4's steps in u and v for a bump map's differences: half the footprint's extent
+// in u and in v, (|du/dx| + |du/dy|) / 2 and likewise (uv_footprint); BUMP_DELTA where
+// that is 0 (no footprint).
+vec2 bump_steps(ShadingGeometry g, vec3 dpdx, vec3 dpdy) {
+    vec4 d = uv_footprint(g, dpdx, dpdy);
+    vec2 steps = 0.5 * (abs(d.xy) + abs(d.zw));
     return vec2(steps.x > 0.0 ? steps.x : BUMP_DELTA, steps.y > 0.0 ? steps.y : BUMP_DELTA);
 }
 

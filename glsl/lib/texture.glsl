@@ -1,4 +1,4 @@
-// Textures: image lookup (bilinear, wrapped), pbrt's 2D and 3D checkerboard, and
+// Textures: image lookup (bilinear or point, wrapped; MIP levels), pbrt's 2D and 3D checkerboard, and
 // textures made of textures (pbrt-v4's scale, mix and directionmix, as programs). CPU mirror:
 // src/texture.rs (`texture_value`).
 #ifndef TEXTURE_GLSL
@@ -50,11 +50,117 @@ vec2 texture_st(GpuTexture t, vec2 uv, vec3 p, uint tf) {
     return vec2(acos(clamp(d.z, -1.0, 1.0)) * INV_PI, phi * INV_TWO_PI);
 }
 
+// An image's MIP level below the next: level l's texture (its first float and size)
+// becomes level l + 1's (levels one after another from info.y, each max(1, w >> l) x
+// max(1, h >> l) texels of three floats or one word; src/mipmap.rs).
+GpuTexture next_image_level(GpuTexture t) {
+    t.info.y += (t.flags.w != 0u ? 1u : 3u) * t.info.z * t.info.w;
+    t.info.zw = max(t.info.zw >> 1u, uvec2(1u));
+    return t;
+}
+
+// Bilinear lookup of the image (or one MIP level) t at (x, y) in [0,1]^2 from its top-left
+// corner (texel centres at half-integers), wrapped as flags.x says; with `point`, the
+// texel whose centre is nearest (pbrt-v4's point filter: the weights 0 or 1, halves up).
+vec3 image_lookup(GpuTexture t, vec2 at, bool point) {
+    int w = int(t.info.z);
+    int h = int(t.info.w);
+    // Texel centres at half-integers.
+    float x = at.x * float(w) - 0.5;
+    float y = at.y * float(h) - 0.5;
+    float fx = floor(x);
+    float fy = floor(y);
+    float ax = x - fx;
+    float ay = y - fy;
+    if (point) {
+        ax = step(0.5, ax);
+        ay = step(0.5, ay);
+    }
+    bool repeat_u = t.flags.x == TEXTURE_WRAP_REPEAT || t.flags.x == TEXTURE_WRAP_REPEAT_U;
+    bool repeat_v = t.flags.x == TEXTURE_WRAP_REPEAT;
+    bool black = t.flags.x == TEXTURE_WRAP_BLACK;
+    int x0 = wrap_texel(fx, w, repeat_u, black);
+    int x1 = wrap_texel(fx + 1.0, w, repeat_u, black);
+    int y0 = wrap_texel(fy, h, repeat_v, black);
+    int y1 = wrap_texel(fy + 1.0, h, repeat_v, black);
+    vec3 top = mix(texel(t, x0, y0), texel(t, x1, y0), ax);
+    vec3 bottom = mix(texel(t, x0, y1), texel(t, x1, y1), ax);
+    return mix(top, bottom, ay);
+}
+
+// An image texture's texels at (s, t) where the footprint's (s, t) derivatives are dst0
+// (along x) and dst1 (along y), read as other.x says (TEXTURE_FILTER_*); with MIP levels
+// (other.y > 1, FEATURE_MIP_TEXTURES) at the level they pick, pbrt-v4's MIPMap::Filter:
+// width = 2 max |d|, level = levels - 1 + log2(width); past the top level its one texel;
+// else point or bilinear at floor(level) (0 below it), trilinear blending floor(level)
+// and the next by level's fraction (bilinear at the base below level 1). The levels are
+// walked to in one loop, each lookup at one call. CPU mirror: src/mipmap.rs image_value.
+vec3 image_value(GpuTexture t, vec2 st, vec2 dst0, vec2 dst1, uint tf) {
+    if (t.flags.y == 0u) st.y = 1.0 - st.y;
+    bool point = t.other.x == float(TEXTURE_FILTER_POINT);
+    int first = 0;
+    int count = 1;
+    float blend = 0.0;
+    int levels = int(t.other.y);
+    if (has_texture_feature(tf, FEATURE_MIP_TEXTURES) && levels > 1) {
+        float width = 2.0 * max(max(abs(dst0.x), abs(dst0.y)), max(abs(dst1.x), abs(dst1.y)));
+        float level = float(levels - 1) + log2(max(width, 1e-8));
+        if (level >= float(levels - 1)) {
+            // The top level's one texel.
+            first = levels - 1;
+            point = true;
+            st = vec2(0.5);
+        } else {
+            first = max(0, int(floor(level)));
+            if (t.other.x == float(TEXTURE_FILTER_TRILINEAR) && first > 0) {
+                count = 2;
+                blend = level - float(first);
+            }
+        }
+    }
+    vec3 v = vec3(0.0);
+    for (int i = 0; i < first + count; ++i) {
+        if (i >= first) {
+            float weight = count == 1 ? 1.0 : i == first ? 1.0 - blend : blend;
+            v += weight * image_lookup(t, st, point);
+        }
+        t = next_image_level(t);
+    }
+    return v;
+}
+
+// The footprint's (s, t) derivatives along x (d0) and y (d1) for texture t at (uv, p) whose
+// (s, t) is st: uv's (duv) scaled by the mapping; a plane's rows applied to dp/dx and
+// dp/dy; for the spherical and cylindrical mappings the difference of (s, t) one footprint
+// step away, the periodic coordinate the short way round. CPU mirror: src/texture.rs
+// st_footprint.
+void texture_st_footprint(GpuTexture t, vec2 uv, vec3 p, vec2 st, vec3 dpdx, vec3 dpdy, vec4 duv,
+                          uint tf, out vec2 d0, out vec2 d1) {
+    d0 = t.mapping.xy * duv.xy;
+    d1 = t.mapping.xy * duv.zw;
+    if (!has_texture_feature(tf, FEATURE_TEXTURE_PROJECTIONS) || t.flags.z == TEXTURE_MAP_UV) return;
+    if (t.flags.z == TEXTURE_MAP_PLANAR) {
+        d0 = vec2(dot(t.proj0.xyz, dpdx), dot(t.proj1.xyz, dpdx));
+        d1 = vec2(dot(t.proj0.xyz, dpdy), dot(t.proj1.xyz, dpdy));
+        return;
+    }
+    d0 = texture_st(t, uv, p + dpdx, tf) - st;
+    d1 = texture_st(t, uv, p + dpdy, tf) - st;
+    if (t.flags.z == TEXTURE_MAP_SPHERICAL) {
+        d0.y -= floor(d0.y + 0.5);
+        d1.y -= floor(d1.y + 0.5);
+    } else {
+        d0.x -= floor(d0.x + 0.5);
+        d1.x -= floor(d1.x + 0.5);
+    }
+}
+
 // The value of a texture not made of textures (an image, a checkerboard, a procedural
 // texture) at the surface coordinates uv and world point p, whose pixel footprint is
-// (dpdx, dpdy) (surface_footprint; zero: none), with the code of the texture features tf
-// (the environment map, an image, looks up through it without the procedural textures').
-vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, vec3 dpdx, vec3 dpdy, uint tf) {
+// (dpdx, dpdy) (surface_footprint; zero: none) and in (u, v) duv (du/dx, dv/dx, du/dy,
+// dv/dy: uv_footprint), with the code of the texture features tf (the environment map, an
+// image, looks up through it without the procedural textures').
+vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, vec3 dpdx, vec3 dpdy, vec4 duv, uint tf) {
     bool noise = t.info.x == TEXTURE_NOISE;
     vec2 st = noise ? vec2(0.0) : texture_st(t, uv, p, tf);
     if (has_texture_feature(tf, FEATURE_PROCEDURAL_TEXTURES) && (noise || t.info.x == TEXTURE_DOTS)) {
@@ -82,40 +188,22 @@ vec3 texture_leaf(GpuTexture t, vec2 uv, vec3 p, vec3 dpdx, vec3 dpdy, uint tf) 
         float parity = mod(sum, 2.0);
         return parity == 0.0 ? t.scale.xyz : t.other.xyz;
     }
-    int w = int(t.info.z);
-    int h = int(t.info.w);
-    if (t.flags.y == 0u) st.y = 1.0 - st.y;
-    // Texel centres at half-integers.
-    float x = st.x * float(w) - 0.5;
-    float y = st.y * float(h) - 0.5;
-    float fx = floor(x);
-    float fy = floor(y);
-    float ax = x - fx;
-    float ay = y - fy;
-    // pbrt-v4's point filter: the nearest texel, the weights 0 or 1 (x rounded half up).
-    if (t.other.x != 0.0) {
-        ax = step(0.5, ax);
-        ay = step(0.5, ay);
+    vec2 dst0 = vec2(0.0);
+    vec2 dst1 = vec2(0.0);
+    if (has_texture_feature(tf, FEATURE_MIP_TEXTURES) && t.other.y > 1.0) {
+        texture_st_footprint(t, uv, p, st, dpdx, dpdy, duv, tf, dst0, dst1);
     }
-    bool repeat_u = t.flags.x == TEXTURE_WRAP_REPEAT || t.flags.x == TEXTURE_WRAP_REPEAT_U;
-    bool repeat_v = t.flags.x == TEXTURE_WRAP_REPEAT;
-    bool black = t.flags.x == TEXTURE_WRAP_BLACK;
-    int x0 = wrap_texel(fx, w, repeat_u, black);
-    int x1 = wrap_texel(fx + 1.0, w, repeat_u, black);
-    int y0 = wrap_texel(fy, h, repeat_v, black);
-    int y1 = wrap_texel(fy + 1.0, h, repeat_v, black);
-    vec3 top = mix(texel(t, x0, y0), texel(t, x1, y0), ax);
-    vec3 bottom = mix(texel(t, x0, y1), texel(t, x1, y1), ax);
-    return t.scale.xyz * mix(top, bottom, ay);
+    return t.scale.xyz * image_value(t, st, dst0, dst1, tf);
 }
+
 // The value of texture `index` at the surface coordinates uv and world point p, where the
 // surface's unit geometric normal is ng (read by a direction mix alone; either side) and
 // the pixel footprint (dpdx, dpdy) (zero: none; the procedural textures read it).
 // A texture made of textures runs its program (abi.h TEXTURE_GRAPH): its records in
 // order, each into a register, leaves looked up here at one call site. tf: the texture
 // features compiled in (has_texture_feature).
-vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng, vec3 dpdx, vec3 dpdy, uint tf) {
-    if (!has_texture_feature(tf, FEATURE_TEXTURE_GRAPHS)) return texture_leaf(textures[index], uv, p, dpdx, dpdy, tf);
+vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng, vec3 dpdx, vec3 dpdy, vec4 duv, uint tf) {
+    if (!has_texture_feature(tf, FEATURE_TEXTURE_GRAPHS)) return texture_leaf(textures[index], uv, p, dpdx, dpdy, duv, tf);
     GpuTexture t = textures[index];
     uint first = index, count = 1u;
     if (t.info.x == TEXTURE_GRAPH) {
@@ -134,7 +222,7 @@ vec3 texture_value(uint index, vec2 uv, vec3 p, vec3 ng, vec3 dpdx, vec3 dpdy, u
                          : n.flags.z == NO_TEXTURE ? n.mapping.x : regs[n.flags.z].x;
             v = n.info.x == TEXTURE_SCALE ? a * b.x : (1.0 - amount) * a + amount * b;
         } else {
-            v = texture_leaf(n, uv, p, dpdx, dpdy, tf);
+            v = texture_leaf(n, uv, p, dpdx, dpdy, duv, tf);
         }
         regs[i] = v;
     }

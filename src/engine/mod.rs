@@ -775,6 +775,9 @@ fn texture_features<'a>(textures: impl Iterator<Item = &'a crate::texture::Textu
                     features |= FEATURE_PROCEDURAL_TEXTURES
                 }
                 Texture::Bilerp { .. } => features |= FEATURE_BILERP_TEXTURES,
+                Texture::Image { image, .. } if image.levels().len() > 1 => {
+                    features |= crate::abi::FEATURE_MIP_TEXTURES
+                }
                 _ => {}
             }
         }
@@ -948,7 +951,8 @@ mod tests {
             | crate::abi::FEATURE_NANOVDB_MEDIA
             | crate::abi::FEATURE_ENVIRONMENTS
             | crate::abi::FEATURE_REALISTIC_CAMERA
-            | crate::abi::FEATURE_INSTANCES;
+            | crate::abi::FEATURE_INSTANCES
+            | crate::abi::FEATURE_MIP_TEXTURES;
         assert_eq!(FEATURE_ALL, every);
     }
 }

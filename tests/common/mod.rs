@@ -294,7 +294,15 @@ pub fn camera_ray(s: &Scene, fx: f32, fy: f32) -> (glam::Vec3, glam::Vec3) {
 
 /// Each pixel's mean of `f` over an 8 × 8 grid of camera rays through it.
 pub fn expected_image(s: &Scene, f: impl Fn(glam::Vec3, glam::Vec3) -> glam::Vec3) -> Image {
-    let n = 8;
+    expected_image_over(s, 8, f)
+}
+
+/// [`expected_image`] over n × n points a pixel (for images that vary much within one).
+pub fn expected_image_over(
+    s: &Scene,
+    n: u32,
+    f: impl Fn(glam::Vec3, glam::Vec3) -> glam::Vec3,
+) -> Image {
     let mut pixels = Vec::new();
     for y in 0..s.height {
         for x in 0..s.width {

@@ -1104,7 +1104,55 @@ impl Parser {
         for m in &mut self.scene.media {
             m.emission *= ratio;
         }
+        self.build_pyramids();
         Ok(self.scene)
+    }
+
+    /// pbrt-v4's MIP maps: every `imagemap` texture's image becomes its pyramid
+    /// ([`crate::mipmap::pyramid`]; one per image and wrap mode, made on every core). A
+    /// material's `normalmap` is read at full resolution, as pbrt-v4 reads it.
+    fn build_pyramids(&mut self) {
+        use crate::scene::ShadingMap;
+        use crate::texture::Wrap;
+        let normal_maps: std::collections::HashSet<u32> = self
+            .scene
+            .materials
+            .iter()
+            .filter_map(|m| match m.shading_map {
+                Some(ShadingMap::Normal(t)) => Some(t),
+                _ => None,
+            })
+            .collect();
+        let mipmapped = |i: usize| !normal_maps.contains(&(i as u32));
+        let mut keys: Vec<(*const TextureImage, Wrap)> = Vec::new();
+        let mut images: Vec<(Arc<TextureImage>, Wrap)> = Vec::new();
+        for (i, t) in self.scene.textures.iter_mut().enumerate() {
+            if mipmapped(i) {
+                t.for_each_image_texture_mut(&mut |image, wrap| {
+                    let key = (Arc::as_ptr(image), wrap);
+                    if !keys.contains(&key) {
+                        keys.push(key);
+                        images.push((image.clone(), wrap));
+                    }
+                });
+            }
+        }
+        if images.is_empty() {
+            return;
+        }
+        let built =
+            crate::accel::map_in_parallel(&mut images, crate::accel::threads(), |(image, wrap)| {
+                Arc::new(crate::mipmap::pyramid(image, *wrap))
+            });
+        let pyramids: HashMap<(*const TextureImage, Wrap), Arc<TextureImage>> =
+            keys.into_iter().zip(built).collect();
+        for (i, t) in self.scene.textures.iter_mut().enumerate() {
+            if mipmapped(i) {
+                t.for_each_image_texture_mut(&mut |image, wrap| {
+                    *image = pyramids[&(Arc::as_ptr(image), wrap)].clone();
+                });
+            }
+        }
     }
 }
 

@@ -253,24 +253,25 @@ fn imagemap_wrap_modes_invert_and_mappings() {
     .unwrap();
     let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("octahedralsphere");
     assert!(e.message.contains("octahedralsphere"), "{e}");
-    // Filters: point as pbrt-v4's; bilinear its default; trilinear and EWA (MIP levels)
-    // read bilinear, with a warning; another, unsupported.
+    // Filters: bilinear its default, point and trilinear as pbrt-v4's, EWA read as
+    // trilinear; every imagemap's image its MIP pyramid (the base 2 × 2: two levels).
     let filter = |extra: &str| {
         std::fs::write(d.join("s.pbrt"), text(extra)).unwrap();
         parse_pbrt_file(&d.join("s.pbrt")).map(|s| match &s.textures[0] {
-            Texture::Image { filter, .. } => *filter,
+            Texture::Image { filter, image, .. } => (*filter, image.levels().len()),
             other => panic!("{other:?}"),
         })
     };
-    assert_eq!(filter("").unwrap(), Filter::Bilinear);
-    assert_eq!(
-        filter("\"string filter\" \"point\"").unwrap(),
-        Filter::Point
-    );
-    for f in ["bilinear", "trilinear", "ewa"] {
+    assert_eq!(filter("").unwrap(), (Filter::Bilinear, 2));
+    for (f, want) in [
+        ("point", Filter::Point),
+        ("bilinear", Filter::Bilinear),
+        ("trilinear", Filter::Trilinear),
+        ("ewa", Filter::Ewa),
+    ] {
         assert_eq!(
             filter(&format!("\"string filter\" \"{f}\"")).unwrap(),
-            Filter::Bilinear,
+            (want, 2),
             "{f}"
         );
     }
@@ -2730,14 +2731,20 @@ fn image_files_are_read_together_at_the_end_of_the_parse() {
     }
     let bytes: Vec<_> = images
         .iter()
-        .filter(|i| matches!(***i, TextureImage::Bytes { .. }))
+        .filter(|i| matches!(i.levels()[0], TextureImage::Bytes { .. }))
         .collect();
-    // a, a2, k, g's a (one image) and the normal map.
+    // a, a2, k, g's a (one image: one MIP pyramid of bytes, its levels 2 × 2 and 1 × 1)
+    // and the normal map (read at full resolution, as pbrt-v4's: no pyramid).
     assert_eq!(bytes.len(), 5, "{:?}", s.textures);
     assert!(bytes[1..4]
         .iter()
         .all(|i| std::sync::Arc::ptr_eq(bytes[0], i)));
+    assert!(bytes[0..4].iter().all(|i| i.levels().len() == 2
+        && i.levels()
+            .iter()
+            .all(|l| matches!(l, TextureImage::Bytes { .. }))));
     assert!(!std::sync::Arc::ptr_eq(bytes[0], bytes[4]));
+    assert_eq!(bytes[4].levels().len(), 1);
     // Two files missing: the first named is the error.
     std::fs::write(
         d.join("s.pbrt"),

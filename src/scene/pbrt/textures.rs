@@ -384,20 +384,21 @@ impl Parser {
                         }
                     },
                 };
-                // pbrt-v4's filters: bilinear (its default) and point as pbrt-v4's; its
-                // trilinear and EWA read MIP levels by the pixel footprint, which lightpath
-                // does not make yet: their lookups are bilinear at full resolution.
+                // pbrt-v4's filters, each at the MIP level the pixel footprint picks
+                // (src/mipmap.rs): point, bilinear (its default), trilinear; EWA is read
+                // as trilinear.
                 let filter = match params.find("filter") {
                     None => Filter::Bilinear,
                     Some(p) => match p.strs.first().map(String::as_str) {
                         Some("bilinear") => Filter::Bilinear,
                         Some("point") => Filter::Point,
-                        Some(f @ ("trilinear" | "ewa")) => {
+                        Some("trilinear") => Filter::Trilinear,
+                        Some("ewa") => {
                             self.warn(
                                 "imagemap filter",
-                                format!("imagemap: filter \"{f}\" looked up bilinear at full resolution (lightpath makes no MIP levels yet)"),
+                                "imagemap: filter \"ewa\" read as trilinear (lightpath has no elliptical filter)".to_owned(),
                             );
-                            Filter::Bilinear
+                            Filter::Ewa
                         }
                         other => {
                             self.unsupported(

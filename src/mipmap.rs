@@ -1,0 +1,371 @@
+//! MIP maps for pbrt-v4's image textures (its `imagemap`), as pbrt-v4 builds and reads them:
+//! a pyramid whose base is the image, resampled up to a power of two on each side where it
+//! is not one (a separable windowed sinc of radius 2 with τ = 2, four texels per axis,
+//! weights normalised, results clamped at 0), each level above it the 2×2 box average of
+//! the one below, down to one texel; every level kept in the image's own kind (an 8-bit
+//! image's levels are bytes, rounded through its encoding). A lookup picks its level from
+//! the pixel footprint's extent in (s, t) (`2 max |∂(s,t)/∂(x,y)|`, level
+//! `levels − 1 + log2(width)`) and reads it as `filter` says: the nearest texel or
+//! bilinear at that level's floor, or (trilinear) between it and the next. EWA reads as
+//! trilinear (documented in docs/pbrt.md).
+//!
+//! The CPU mirror of texture.glsl's `image_value`; the kernels read the levels one after
+//! another in the texel data ([`crate::gpu_scene`]), each `max(1, w >> l) × max(1, h >> l)`.
+use crate::io::Image;
+use crate::texture::{
+    bilinear, linear_to_srgb, nearest, ByteDecoding, Encoding, Filter, Texels, TextureImage, Wrap,
+};
+use glam::{Vec2, Vec3};
+
+/// pbrt-v4's windowed sinc: sinc(x) sinc(x / τ) within `radius`, else 0.
+fn windowed_sinc(x: f32, radius: f32, tau: f32) -> f32 {
+    let sinc = |x: f32| {
+        let x = std::f32::consts::PI * x;
+        if 1.0 - x * x == 1.0 {
+            1.0
+        } else {
+            x.sin() / x
+        }
+    };
+    if x.abs() > radius {
+        0.0
+    } else {
+        sinc(x) * sinc(x / tau)
+    }
+}
+
+/// Per texel of a side resampled from `old` to `new` texels (new ≥ old): the first of the
+/// four source texels it reads and their normalised weights.
+fn resample_weights(old: u32, new: u32) -> Vec<(i64, [f32; 4])> {
+    (0..new)
+        .map(|i| {
+            let centre = (i as f32 + 0.5) * old as f32 / new as f32;
+            let first = (centre - 2.0 + 0.5).floor();
+            let mut w: [f32; 4] =
+                std::array::from_fn(|j| windowed_sinc(first + j as f32 + 0.5 - centre, 2.0, 2.0));
+            let inv = 1.0 / w.iter().sum::<f32>();
+            for v in &mut w {
+                *v *= inv;
+            }
+            (first as i64, w)
+        })
+        .collect()
+}
+
+/// Texel index `i` of a side of `n`, wrapped (None: black, outside).
+fn wrapped(i: i64, n: u32, wrap: Wrap) -> Option<usize> {
+    let n = n as i64;
+    match wrap {
+        Wrap::Repeat => Some(i.rem_euclid(n) as usize),
+        Wrap::Clamp => Some(i.clamp(0, n - 1) as usize),
+        Wrap::Black => (0..n).contains(&i).then_some(i as usize),
+    }
+}
+
+/// The image resampled up to `w × h` (pbrt-v4's FloatResize): in x, then in y, texels
+/// beyond the sides as `wrap` says, results clamped at 0.
+fn resize_up(image: &Image, w: u32, h: u32, wrap: Wrap) -> Image {
+    let xw = resample_weights(image.width, w);
+    let yw = resample_weights(image.height, h);
+    let at = |x: i64, y: u32| match wrapped(x, image.width, wrap) {
+        Some(x) => Vec3::from_array(image.pixels[(y * image.width) as usize + x]),
+        None => Vec3::ZERO,
+    };
+    // In x, every source row.
+    let mut rows = vec![Vec3::ZERO; (w * image.height) as usize];
+    for y in 0..image.height {
+        for (x, (first, wt)) in xw.iter().enumerate() {
+            rows[(y * w) as usize + x] =
+                (0..4).fold(Vec3::ZERO, |s, j| s + wt[j] * at(first + j as i64, y));
+        }
+    }
+    let row = |x: u32, y: i64| match wrapped(y, image.height, wrap) {
+        Some(y) => rows[y * w as usize + x as usize],
+        None => Vec3::ZERO,
+    };
+    let mut pixels = Vec::with_capacity((w * h) as usize);
+    for (first, wt) in &yw {
+        for x in 0..w {
+            let v = (0..4).fold(Vec3::ZERO, |s, j| s + wt[j] * row(x, first + j as i64));
+            pixels.push(v.max(Vec3::ZERO).to_array());
+        }
+    }
+    Image {
+        width: w,
+        height: h,
+        pixels,
+    }
+}
+
+/// The next level: each texel the mean of the 2 × 2 below it (a side of one texel read
+/// twice).
+fn halve(image: &Image) -> Image {
+    let (w, h) = ((image.width / 2).max(1), (image.height / 2).max(1));
+    let at = |x: u32, y: u32| {
+        let (x, y) = (x.min(image.width - 1), y.min(image.height - 1));
+        Vec3::from_array(image.pixels[(y * image.width + x) as usize])
+    };
+    let mut pixels = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let (x2, y2) = (2 * x, 2 * y);
+            let s = at(x2, y2) + at(x2 + 1, y2) + at(x2, y2 + 1) + at(x2 + 1, y2 + 1);
+            pixels.push((0.25 * s).to_array());
+        }
+    }
+    Image {
+        width: w,
+        height: h,
+        pixels,
+    }
+}
+
+/// A level of linear floats as bytes in `decoding`'s encoding (pbrt-v4's: v·255 + ½, or
+/// the sRGB curve's, truncated and clamped to 0..255).
+fn quantize(image: &Image, decoding: ByteDecoding) -> TextureImage {
+    let code = |v: f32| {
+        let e = match decoding.encoding {
+            Encoding::Linear => v,
+            Encoding::Srgb => linear_to_srgb(v),
+        };
+        (e * 255.0 + 0.5).clamp(0.0, 255.0) as u8
+    };
+    TextureImage::Bytes {
+        width: image.width,
+        height: image.height,
+        texels: image.pixels.iter().map(|p| p.map(code)).collect(),
+        decoding,
+    }
+}
+
+/// The image's pyramid (module docs): the levels from the base (a power of two on each
+/// side) to one texel, in the image's own kind. An image that is a pyramid already is
+/// returned as it is.
+pub fn pyramid(image: &TextureImage, wrap: Wrap) -> TextureImage {
+    if let TextureImage::Pyramid(_) = image {
+        return image.clone();
+    }
+    let (w, h) = image.size();
+    let pow2 = w.is_power_of_two() && h.is_power_of_two();
+    let floats = image.clone().into_floats();
+    let mut level = if pow2 {
+        floats
+    } else {
+        resize_up(&floats, w.next_power_of_two(), h.next_power_of_two(), wrap)
+    };
+    let mut levels = Vec::new();
+    loop {
+        let next = (level.width > 1 || level.height > 1).then(|| halve(&level));
+        levels.push(level);
+        match next {
+            Some(n) => level = n,
+            None => break,
+        }
+    }
+    let stored = levels
+        .into_iter()
+        .enumerate()
+        .map(|(i, l)| match image {
+            // (A power-of-two base is the file's own bytes.)
+            TextureImage::Bytes { .. } if i == 0 && pow2 => image.clone(),
+            TextureImage::Bytes { decoding, .. } => quantize(&l, *decoding),
+            _ => TextureImage::Float(l),
+        })
+        .collect();
+    TextureImage::Pyramid(stored)
+}
+
+/// The footprint's extent that picks a level (pbrt-v4's non-EWA width): twice the largest
+/// of |∂s/∂x|, |∂t/∂x|, |∂s/∂y|, |∂t/∂y|.
+pub fn filter_width(dst: (Vec2, Vec2)) -> f32 {
+    2.0 * dst.0.abs().max_element().max(dst.1.abs().max_element())
+}
+
+/// `image` (a pyramid, or one level) at `at` (x to the right, y down, in [0,1]²) where
+/// the footprint's (s, t) derivatives are `dst`, read as `filter` says (module docs).
+pub fn image_value(
+    image: &TextureImage,
+    filter: Filter,
+    at: Vec2,
+    dst: (Vec2, Vec2),
+    wrap: Wrap,
+) -> Vec3 {
+    let levels = image.levels();
+    let n = levels.len();
+    let bilerp = |l: usize| bilinear(&levels[l], at, wrap, wrap);
+    if n <= 1 {
+        return match filter {
+            Filter::Point => nearest(&levels[0], at, wrap, wrap),
+            _ => bilerp(0),
+        };
+    }
+    let level = (n - 1) as f32 + filter_width(dst).max(1e-8).log2();
+    if level >= (n - 1) as f32 {
+        return Vec3::from_array(levels[n - 1].texel(0));
+    }
+    let i = level.floor().max(0.0) as usize;
+    match filter {
+        Filter::Point => nearest(&levels[i], at, wrap, wrap),
+        Filter::Bilinear => bilerp(i),
+        Filter::Trilinear | Filter::Ewa => {
+            if i == 0 {
+                bilerp(0)
+            } else {
+                let t = level - i as f32;
+                (1.0 - t) * bilerp(i) + t * bilerp(i + 1)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn floats(w: u32, h: u32, f: impl Fn(u32, u32) -> [f32; 3]) -> TextureImage {
+        TextureImage::Float(Image {
+            width: w,
+            height: h,
+            pixels: (0..h)
+                .flat_map(|y| (0..w).map(move |x| (x, y)))
+                .map(|(x, y)| f(x, y))
+                .collect(),
+        })
+    }
+
+    /// A power-of-two image's pyramid: its base is the image, each level the 2 × 2 means
+    /// of the one below, sides halving to one texel (a side of one read twice), and the
+    /// top the image's mean.
+    #[test]
+    fn a_pyramid_halves_by_box_means_to_one_texel() {
+        let image = floats(8, 2, |x, y| [x as f32, y as f32, (x * y) as f32]);
+        let p = pyramid(&image, Wrap::Repeat);
+        let levels = p.levels();
+        let sizes: Vec<_> = levels.iter().map(|l| l.size()).collect();
+        assert_eq!(sizes, [(8, 2), (4, 1), (2, 1), (1, 1)]);
+        assert_eq!(levels[0], image);
+        assert_eq!(levels[1].texel(1), [2.5, 0.5, 1.25]);
+        let mean = image.clone().into_floats().mean();
+        let top = levels[3].texel(0);
+        for c in 0..3 {
+            assert!((top[c] as f64 - mean[c]).abs() < 1e-5, "{top:?} {mean:?}");
+        }
+    }
+
+    /// A side that is not a power of two is resampled up to the next (a constant stays
+    /// itself: the weights are normalised), and the windowed sinc interpolates: a texel
+    /// whose centre falls on a source texel's centre is that texel.
+    #[test]
+    fn a_side_not_a_power_of_two_is_resampled_up() {
+        let constant = floats(3, 5, |_, _| [0.25, 0.5, 0.75]);
+        let p = pyramid(&constant, Wrap::Clamp);
+        assert_eq!(p.size(), (4, 8));
+        for l in p.levels() {
+            let (w, h) = l.size();
+            for i in 0..(w * h) as usize {
+                for (c, v) in l.texel(i).into_iter().zip([0.25, 0.5, 0.75]) {
+                    assert!((c - v).abs() < 1e-6, "{c} {v}");
+                }
+            }
+        }
+        // A ramp 6 → 8 texels: within the ramp's range (the sinc's negative lobes clamped
+        // at 0, its overshoot at the clamped ends small), rising as the ramp does.
+        let ramp = floats(6, 1, |x, _| [x as f32, 1.0, 0.0]);
+        let p = pyramid(&ramp, Wrap::Clamp);
+        let base = &p.levels()[0];
+        assert_eq!(base.size(), (8, 1));
+        for i in 0..8 {
+            let v = base.texel(i)[0];
+            assert!((-0.0..=5.2).contains(&v), "{i}: {v}");
+        }
+        assert!((2..6).all(|i| base.texel(i)[0] < base.texel(i + 1)[0]));
+    }
+
+    /// An 8-bit image's levels are bytes through its encoding, each code the rounded
+    /// encoding of the mean of the decoded level below.
+    #[test]
+    fn an_8_bit_images_levels_are_bytes_rounded_through_its_encoding() {
+        let decoding = ByteDecoding {
+            encoding: Encoding::Srgb,
+            grey: false,
+        };
+        let image = TextureImage::Bytes {
+            width: 2,
+            height: 2,
+            texels: vec![[0, 255, 10], [255, 255, 200], [0, 0, 30], [255, 0, 40]],
+            decoding,
+        };
+        let p = pyramid(&image, Wrap::Repeat);
+        let levels = p.levels();
+        assert_eq!(levels[0], image);
+        let TextureImage::Bytes { texels, .. } = &levels[1] else {
+            panic!("bytes expected: {:?}", levels[1]);
+        };
+        let table = decoding.table();
+        let mean = |c: usize| {
+            let s: f32 = [0usize, 1, 2, 3]
+                .iter()
+                .map(|&i| match &image {
+                    TextureImage::Bytes { texels, .. } => table[texels[i][c] as usize],
+                    _ => unreachable!(),
+                })
+                .sum();
+            0.25 * s
+        };
+        for c in 0..3 {
+            let want = (linear_to_srgb(mean(c)) * 255.0 + 0.5) as u8;
+            assert_eq!(texels[0][c], want, "channel {c}");
+        }
+        // Half of 0 and half of 255 is not code 128 in sRGB: the mean is linear.
+        assert!(texels[0][0] > 180, "{:?}", texels[0]);
+    }
+
+    /// The level follows the footprint: below one texel the base, bilinear; at a width of
+    /// 2^k texels of the base, level k (trilinear: exactly level k's bilinear value); past
+    /// the top, the top texel; point reads the nearest texel of its level.
+    #[test]
+    fn the_footprint_picks_the_level() {
+        let image = floats(16, 16, |x, y| {
+            [((x / 4 + y / 4) % 2) as f32, x as f32 / 15.0, 0.5]
+        });
+        let p = pyramid(&image, Wrap::Repeat);
+        let levels = p.levels();
+        let at = Vec2::new(0.3, 0.6);
+        let fp = |texels: f32| {
+            // width = 2·d: d = texels / (2·16) in s.
+            let d = texels / 32.0;
+            (Vec2::new(d, 0.0), Vec2::new(0.0, d * 0.5))
+        };
+        let read = |f, texels| image_value(&p, f, at, fp(texels), Wrap::Repeat);
+        let bil = |l: usize| bilinear(&levels[l], at, Wrap::Repeat, Wrap::Repeat);
+        assert_eq!(read(Filter::Bilinear, 0.5), bil(0));
+        assert_eq!(read(Filter::Trilinear, 0.5), bil(0));
+        assert_eq!(read(Filter::Bilinear, 4.0), bil(2));
+        let tri = read(Filter::Trilinear, 4.0);
+        assert!(
+            (tri - bil(2)).abs().max_element() < 1e-6,
+            "{tri} {:?}",
+            bil(2)
+        );
+        // Between levels 2 and 3: trilinear mixes them.
+        let mid = read(Filter::Trilinear, 4.0 * 2f32.sqrt());
+        let t = 0.5;
+        let want = (1.0 - t) * bil(2) + t * bil(3);
+        assert!((mid - want).abs().max_element() < 1e-4, "{mid} {want}");
+        assert_eq!(read(Filter::Bilinear, 4.0 * 2f32.sqrt()), bil(2));
+        // Past the top.
+        assert_eq!(
+            read(Filter::Bilinear, 64.0),
+            Vec3::from_array(levels[4].texel(0))
+        );
+        assert_eq!(
+            read(Filter::Point, 4.0),
+            nearest(&levels[2], at, Wrap::Repeat, Wrap::Repeat)
+        );
+        // One level alone (no pyramid): the filter at full resolution, any footprint.
+        assert_eq!(
+            image_value(&image, Filter::Bilinear, at, fp(64.0), Wrap::Repeat),
+            bilinear(&image, at, Wrap::Repeat, Wrap::Repeat)
+        );
+    }
+}
