@@ -414,6 +414,42 @@ impl TextureData {
         )
     }
 
+    /// A writer of `texel_words` into successive byte slices (the upload's chunks): a
+    /// piece (the floats, an 8-bit level) at a time, the floats copied whole.
+    pub fn texel_writer(&self) -> impl FnMut(&mut [u8]) + Send + '_ {
+        let mut pieces: Vec<TexelPiece<'_>> = vec![TexelPiece::Floats(&self.texels)];
+        for level in self.byte_images.iter().flat_map(|image| image.levels()) {
+            if let TextureImage::Bytes { texels, .. } = level {
+                pieces.push(TexelPiece::Bytes(texels));
+            }
+        }
+        let (mut piece, mut at) = (0, 0);
+        move |mut out: &mut [u8]| {
+            assert_eq!(out.len() % 4, 0, "texel words are whole");
+            while !out.is_empty() {
+                let p = pieces.get(piece).expect("as many words as texels");
+                let n = (p.len() - at).min(out.len() / 4);
+                let (head, rest) = out.split_at_mut(4 * n);
+                match p {
+                    TexelPiece::Floats(f) => {
+                        head.copy_from_slice(bytemuck::cast_slice(&f[at..at + n]))
+                    }
+                    TexelPiece::Bytes(b) => {
+                        for (word, &[r, g, b]) in head.chunks_exact_mut(4).zip(&b[at..at + n]) {
+                            let w = r as u32 | (g as u32) << 8 | (b as u32) << 16;
+                            word.copy_from_slice(&w.to_ne_bytes());
+                        }
+                    }
+                }
+                out = rest;
+                at += n;
+                if at == p.len() {
+                    (piece, at) = (piece + 1, 0);
+                }
+            }
+        }
+    }
+
     /// How many words `texel_words` gives.
     pub fn texel_count(&self) -> u64 {
         let words: u64 = self
@@ -426,6 +462,21 @@ impl TextureData {
             })
             .sum();
         self.texels.len() as u64 + words
+    }
+}
+
+/// A run of the texel words: floats as they are, or an 8-bit level's texels.
+enum TexelPiece<'a> {
+    Floats(&'a [f32]),
+    Bytes(&'a [[u8; 3]]),
+}
+
+impl TexelPiece<'_> {
+    fn len(&self) -> usize {
+        match self {
+            TexelPiece::Floats(f) => f.len(),
+            TexelPiece::Bytes(b) => b.len(),
+        }
     }
 }
 
@@ -1285,15 +1336,7 @@ impl GpuScene {
                         )
                     }
                 },
-                DataArray::made("texels", textures.texel_count(), 4, {
-                    let mut words = textures.texel_words();
-                    move |out: &mut [u8]| {
-                        for word in out.chunks_exact_mut(4) {
-                            let w = words.next().expect("as many words as texels");
-                            word.copy_from_slice(&w.to_ne_bytes());
-                        }
-                    }
-                }),
+                DataArray::made("texels", textures.texel_count(), 4, textures.texel_writer()),
                 DataArray::new("medium grids", bytemuck::cast_slice(&medium_grids), 4),
             ],
             max_chunk_bytes,
@@ -1499,6 +1542,22 @@ mod tests {
         assert_eq!(d.texel_count(), 256 + 2 + 2 + 256 + 2 + 6);
         let words: Vec<f32> = d.texel_words().collect();
         assert_eq!(words.len() as u64, d.texel_count());
+        // The upload's writer gives the same words, in chunks of any size.
+        for chunk in [1, 3, 7, 1000] {
+            let mut write = d.texel_writer();
+            let mut bytes = vec![0u8; 4 * words.len()];
+            for piece in bytes.chunks_mut(4 * chunk) {
+                write(piece);
+            }
+            let written: &[f32] = bytemuck::cast_slice(&bytes);
+            assert!(
+                written
+                    .iter()
+                    .zip(&words)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "chunks of {chunk}"
+            );
+        }
         assert_eq!(words[..d.texels.len()], d.texels[..]);
         let d = TextureData { texels: words, ..d };
         let r = &d.textures;

@@ -13,7 +13,7 @@
 //! another in the texel data ([`crate::gpu_scene`]), each `max(1, w >> l) × max(1, h >> l)`.
 use crate::io::Image;
 use crate::texture::{
-    bilinear, linear_to_srgb, nearest, ByteDecoding, Encoding, Filter, Texels, TextureImage, Wrap,
+    bilinear, nearest, ByteDecoding, Encoding, Filter, Texels, TextureImage, Wrap,
 };
 use glam::{Vec2, Vec3};
 
@@ -97,14 +97,11 @@ fn resize_up(image: &Image, w: u32, h: u32, wrap: Wrap) -> Image {
     }
 }
 
-/// The next level: each texel the mean of the 2 × 2 below it (a side of one texel read
-/// twice).
-fn halve(image: &Image) -> Image {
-    let (w, h) = ((image.width / 2).max(1), (image.height / 2).max(1));
-    let at = |x: u32, y: u32| {
-        let (x, y) = (x.min(image.width - 1), y.min(image.height - 1));
-        Vec3::from_array(image.pixels[(y * image.width + x) as usize])
-    };
+/// The level above one of `width` × `height` texels (`at(i)`: texel i's linear value, row
+/// by row): each texel the mean of the 2 × 2 below it (a side of one texel read twice).
+fn halve(width: u32, height: u32, at: impl Fn(usize) -> Vec3) -> Image {
+    let (w, h) = ((width / 2).max(1), (height / 2).max(1));
+    let at = |x: u32, y: u32| at((y.min(height - 1) * width + x.min(width - 1)) as usize);
     let mut pixels = Vec::with_capacity((w * h) as usize);
     for y in 0..h {
         for x in 0..w {
@@ -120,59 +117,125 @@ fn halve(image: &Image) -> Image {
     }
 }
 
-/// A level of linear floats as bytes in `decoding`'s encoding (pbrt-v4's: v·255 + ½, or
-/// the sRGB curve's, truncated and clamped to 0..255).
+/// [`halve`] of a level of floats.
+fn halve_floats(image: &Image) -> Image {
+    halve(image.width, image.height, |i| {
+        Vec3::from_array(image.pixels[i])
+    })
+}
+
+/// Linear values to an 8-bit encoding's codes: the values at which each code begins (code k
+/// from the k-th on: the encoding's curve at the half-codes (k − ½)/255, so that a value's
+/// code is its encoding times 255, rounded: pbrt-v4's v·255 + ½, or the sRGB curve's,
+/// truncated), and per 1/4096 of [0, 1] the code where that bucket begins (a bucket holds
+/// at most two beginnings: a step or two past the table finds the code).
+struct Quantizer {
+    starts: [f32; 255],
+    buckets: Vec<u8>,
+}
+
+const BUCKETS: usize = 4096;
+
+impl Quantizer {
+    fn of(encoding: Encoding) -> &'static Quantizer {
+        static TABLES: std::sync::OnceLock<[Quantizer; 2]> = std::sync::OnceLock::new();
+        let tables = TABLES.get_or_init(|| {
+            let make = |curve: fn(f32) -> f32| {
+                let starts: [f32; 255] = std::array::from_fn(|k| curve((k as f32 + 0.5) / 255.0));
+                let buckets = (0..=BUCKETS)
+                    .map(|b| starts.partition_point(|&t| t <= b as f32 / BUCKETS as f32) as u8)
+                    .collect();
+                Quantizer { starts, buckets }
+            };
+            [make(|v| v), make(crate::texture::srgb_to_linear)]
+        });
+        &tables[(encoding == Encoding::Srgb) as usize]
+    }
+
+    /// The code of linear value v (0 below the first beginning, 255 from the last on).
+    fn code(&self, v: f32) -> u8 {
+        if !(v > 0.0) {
+            return self.starts.partition_point(|&t| t <= v) as u8;
+        }
+        let mut k = self.buckets[((v * BUCKETS as f32) as usize).min(BUCKETS)] as usize;
+        while k < 255 && self.starts[k] <= v {
+            k += 1;
+        }
+        k as u8
+    }
+}
+
+/// A level of linear floats as bytes in `decoding`'s encoding ([`Quantizer`]).
 fn quantize(image: &Image, decoding: ByteDecoding) -> TextureImage {
-    let code = |v: f32| {
-        let e = match decoding.encoding {
-            Encoding::Linear => v,
-            Encoding::Srgb => linear_to_srgb(v),
-        };
-        (e * 255.0 + 0.5).clamp(0.0, 255.0) as u8
-    };
+    let q = Quantizer::of(decoding.encoding);
     TextureImage::Bytes {
         width: image.width,
         height: image.height,
-        texels: image.pixels.iter().map(|p| p.map(code)).collect(),
+        texels: image.pixels.iter().map(|p| p.map(|v| q.code(v))).collect(),
         decoding,
     }
 }
 
 /// The image's pyramid (module docs): the levels from the base (a power of two on each
-/// side) to one texel, in the image's own kind. An image that is a pyramid already is
-/// returned as it is.
-pub fn pyramid(image: &TextureImage, wrap: Wrap) -> TextureImage {
+/// side; the image itself where it is one) to one texel, in the image's own kind. An
+/// image that is a pyramid already is returned as it is.
+pub fn pyramid(image: TextureImage, wrap: Wrap) -> TextureImage {
     if let TextureImage::Pyramid(_) = image {
-        return image.clone();
+        return image;
     }
     let (w, h) = image.size();
     let pow2 = w.is_power_of_two() && h.is_power_of_two();
-    let floats = image.clone().into_floats();
-    let mut level = if pow2 {
-        floats
-    } else {
-        resize_up(&floats, w.next_power_of_two(), h.next_power_of_two(), wrap)
+    let decoding = match &image {
+        TextureImage::Bytes { decoding, .. } => Some(*decoding),
+        _ => None,
     };
-    let mut levels = Vec::new();
-    loop {
-        let next = (level.width > 1 || level.height > 1).then(|| halve(&level));
-        levels.push(level);
-        match next {
-            Some(n) => level = n,
-            None => break,
-        }
+    // The level above the base, from the base's linear values (an 8-bit power-of-two base
+    // read through its table where it is), then each level from the one below.
+    let resampled = (!pow2).then(|| {
+        let floats = image.clone().into_floats();
+        resize_up(&floats, w.next_power_of_two(), h.next_power_of_two(), wrap)
+    });
+    let mut upper: Vec<Image> = Vec::new();
+    if w > 1 || h > 1 {
+        upper.push(match (&resampled, &image) {
+            (Some(r), _) => halve_floats(r),
+            (None, TextureImage::Float(f)) => halve_floats(f),
+            (
+                None,
+                TextureImage::Bytes {
+                    texels, decoding, ..
+                },
+            ) => {
+                let table = decoding.table();
+                halve(w, h, |i| {
+                    Vec3::from_array(texels[i].map(|k| table[k as usize]))
+                })
+            }
+            (None, TextureImage::Pyramid(_)) => unreachable!("returned above"),
+        });
     }
-    let stored = levels
-        .into_iter()
-        .enumerate()
-        .map(|(i, l)| match image {
-            // (A power-of-two base is the file's own bytes.)
-            TextureImage::Bytes { .. } if i == 0 && pow2 => image.clone(),
-            TextureImage::Bytes { decoding, .. } => quantize(&l, *decoding),
-            _ => TextureImage::Float(l),
-        })
-        .collect();
-    TextureImage::Pyramid(stored)
+    loop {
+        let Some(below) = upper.last() else {
+            break;
+        };
+        if below.width == 1 && below.height == 1 {
+            break;
+        }
+        let next = halve_floats(below);
+        upper.push(next);
+    }
+    let store = |l: Image| match decoding {
+        Some(d) => quantize(&l, d),
+        None => TextureImage::Float(l),
+    };
+    let mut levels = Vec::with_capacity(upper.len() + 1);
+    levels.push(match resampled {
+        Some(r) => store(r),
+        // (A power-of-two base is the image itself: an 8-bit file's own bytes.)
+        None => image,
+    });
+    levels.extend(upper.into_iter().map(store));
+    TextureImage::Pyramid(levels)
 }
 
 /// The footprint's extent that picks a level (pbrt-v4's non-EWA width): twice the largest
@@ -239,10 +302,12 @@ mod tests {
     #[test]
     fn a_pyramid_halves_by_box_means_to_one_texel() {
         let image = floats(8, 2, |x, y| [x as f32, y as f32, (x * y) as f32]);
-        let p = pyramid(&image, Wrap::Repeat);
+        let p = pyramid(image.clone(), Wrap::Repeat);
         let levels = p.levels();
         let sizes: Vec<_> = levels.iter().map(|l| l.size()).collect();
         assert_eq!(sizes, [(8, 2), (4, 1), (2, 1), (1, 1)]);
+        let one = floats(1, 1, |_, _| [0.5; 3]);
+        assert_eq!(pyramid(one.clone(), Wrap::Clamp).levels(), [one]);
         assert_eq!(levels[0], image);
         assert_eq!(levels[1].texel(1), [2.5, 0.5, 1.25]);
         let mean = image.clone().into_floats().mean();
@@ -258,7 +323,7 @@ mod tests {
     #[test]
     fn a_side_not_a_power_of_two_is_resampled_up() {
         let constant = floats(3, 5, |_, _| [0.25, 0.5, 0.75]);
-        let p = pyramid(&constant, Wrap::Clamp);
+        let p = pyramid(constant, Wrap::Clamp);
         assert_eq!(p.size(), (4, 8));
         for l in p.levels() {
             let (w, h) = l.size();
@@ -271,7 +336,7 @@ mod tests {
         // A ramp 6 → 8 texels: within the ramp's range (the sinc's negative lobes clamped
         // at 0, its overshoot at the clamped ends small), rising as the ramp does.
         let ramp = floats(6, 1, |x, _| [x as f32, 1.0, 0.0]);
-        let p = pyramid(&ramp, Wrap::Clamp);
+        let p = pyramid(ramp, Wrap::Clamp);
         let base = &p.levels()[0];
         assert_eq!(base.size(), (8, 1));
         for i in 0..8 {
@@ -295,7 +360,7 @@ mod tests {
             texels: vec![[0, 255, 10], [255, 255, 200], [0, 0, 30], [255, 0, 40]],
             decoding,
         };
-        let p = pyramid(&image, Wrap::Repeat);
+        let p = pyramid(image.clone(), Wrap::Repeat);
         let levels = p.levels();
         assert_eq!(levels[0], image);
         let TextureImage::Bytes { texels, .. } = &levels[1] else {
@@ -313,11 +378,36 @@ mod tests {
             0.25 * s
         };
         for c in 0..3 {
-            let want = (linear_to_srgb(mean(c)) * 255.0 + 0.5) as u8;
+            let want = (crate::texture::linear_to_srgb(mean(c)) * 255.0 + 0.5) as u8;
             assert_eq!(texels[0][c], want, "channel {c}");
         }
         // Half of 0 and half of 255 is not code 128 in sRGB: the mean is linear.
         assert!(texels[0][0] > 180, "{:?}", texels[0]);
+    }
+
+    /// The quantizer's table gives every value the code of a search of the beginnings, and
+    /// that code is the encoding's rounded (pbrt-v4's) but at an ulp or so from a half-code.
+    #[test]
+    fn the_quantizer_rounds_through_the_encoding() {
+        for encoding in [Encoding::Linear, Encoding::Srgb] {
+            let q = Quantizer::of(encoding);
+            let mut rough = 0;
+            for i in 0..=200_000 {
+                let v = i as f32 / 180_000.0 - 0.01;
+                let searched = q.starts.partition_point(|&t| t <= v) as u8;
+                assert_eq!(q.code(v), searched, "{encoding:?} {v}");
+                let e = match encoding {
+                    Encoding::Linear => v,
+                    Encoding::Srgb => crate::texture::linear_to_srgb(v),
+                };
+                let rounded = (e * 255.0 + 0.5).clamp(0.0, 255.0) as u8;
+                if rounded != searched {
+                    assert!(rounded.abs_diff(searched) == 1, "{encoding:?} {v}");
+                    rough += 1;
+                }
+            }
+            assert!(rough < 20, "{encoding:?}: {rough} values off by a code");
+        }
     }
 
     /// The level follows the footprint: below one texel the base, bilinear; at a width of
@@ -328,7 +418,7 @@ mod tests {
         let image = floats(16, 16, |x, y| {
             [((x / 4 + y / 4) % 2) as f32, x as f32 / 15.0, 0.5]
         });
-        let p = pyramid(&image, Wrap::Repeat);
+        let p = pyramid(image.clone(), Wrap::Repeat);
         let levels = p.levels();
         let at = Vec2::new(0.3, 0.6);
         let fp = |texels: f32| {

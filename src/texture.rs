@@ -459,13 +459,19 @@ impl TextureImage {
         match self {
             TextureImage::Float(image) => image,
             TextureImage::Pyramid(mut levels) => levels.swap_remove(0).into_floats(),
-            TextureImage::Bytes { .. } => {
-                let (width, height) = self.size();
+            TextureImage::Bytes {
+                width,
+                height,
+                texels,
+                decoding,
+            } => {
+                let table = decoding.table();
                 Image {
                     width,
                     height,
-                    pixels: (0..(width * height) as usize)
-                        .map(|i| self.texel(i))
+                    pixels: texels
+                        .iter()
+                        .map(|t| t.map(|k| table[k as usize]))
                         .collect(),
                 }
             }

@@ -219,7 +219,7 @@ fn mip_mapped_image_textures_render_their_lookup() {
         else {
             unreachable!()
         };
-        *image = std::sync::Arc::new(lightpath::mipmap::pyramid(image, *wrap));
+        *image = std::sync::Arc::new(lightpath::mipmap::pyramid((**image).clone(), *wrap));
         assert_eq!(image.levels().len(), 5);
         (*f, *p) = (filter, projection);
         // (Four repeats a unit: most of the floor reads levels above the base.)
@@ -357,7 +357,7 @@ fn mip_lookups_match_their_mirror_point_by_point() {
                     else {
                         unreachable!()
                     };
-                    *i = std::sync::Arc::new(lightpath::mipmap::pyramid(i, wrap));
+                    *i = std::sync::Arc::new(lightpath::mipmap::pyramid((**i).clone(), wrap));
                     (*f, *w, *p) = (filter, wrap, projection);
                     *mapping = [1.5, 0.75, 0.1, -0.2];
                     s.textures.push(t);

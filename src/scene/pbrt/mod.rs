@@ -1109,8 +1109,9 @@ impl Parser {
     }
 
     /// pbrt-v4's MIP maps: every `imagemap` texture's image becomes its pyramid
-    /// ([`crate::mipmap::pyramid`]; one per image and wrap mode, made on every core). A
-    /// material's `normalmap` is read at full resolution, as pbrt-v4 reads it.
+    /// ([`crate::mipmap::pyramid`]; one per image and wrap mode, made on every core, each
+    /// image moved into its pyramid's base where nothing else holds it). A material's
+    /// `normalmap` is read at full resolution, as pbrt-v4 reads it.
     fn build_pyramids(&mut self) {
         use crate::scene::ShadingMap;
         use crate::texture::Wrap;
@@ -1124,32 +1125,43 @@ impl Parser {
             })
             .collect();
         let mipmapped = |i: usize| !normal_maps.contains(&(i as u32));
-        let mut keys: Vec<(*const TextureImage, Wrap)> = Vec::new();
-        let mut images: Vec<(Arc<TextureImage>, Wrap)> = Vec::new();
+        // Each image texture's key (image, wrap) in the order met, the images taken out of
+        // the textures (an empty image in their place) so that their Arcs are held once.
+        let empty = Arc::new(TextureImage::Float(crate::io::Image {
+            width: 0,
+            height: 0,
+            pixels: Vec::new(),
+        }));
+        let mut order: Vec<usize> = Vec::new();
+        let mut index: HashMap<(*const TextureImage, Wrap), usize> = HashMap::new();
+        let mut images: Vec<(Option<Arc<TextureImage>>, Wrap)> = Vec::new();
         for (i, t) in self.scene.textures.iter_mut().enumerate() {
             if mipmapped(i) {
                 t.for_each_image_texture_mut(&mut |image, wrap| {
-                    let key = (Arc::as_ptr(image), wrap);
-                    if !keys.contains(&key) {
-                        keys.push(key);
-                        images.push((image.clone(), wrap));
-                    }
+                    let taken = std::mem::replace(image, empty.clone());
+                    let k = *index.entry((Arc::as_ptr(&taken), wrap)).or_insert_with(|| {
+                        images.push((Some(taken.clone()), wrap));
+                        images.len() - 1
+                    });
+                    order.push(k);
                 });
             }
         }
         if images.is_empty() {
             return;
         }
+        drop(index);
+        self.image_textures.clear();
         let built =
             crate::accel::map_in_parallel(&mut images, crate::accel::threads(), |(image, wrap)| {
-                Arc::new(crate::mipmap::pyramid(image, *wrap))
+                let image = image.take().expect("each image once");
+                Arc::new(crate::mipmap::pyramid(Arc::unwrap_or_clone(image), *wrap))
             });
-        let pyramids: HashMap<(*const TextureImage, Wrap), Arc<TextureImage>> =
-            keys.into_iter().zip(built).collect();
+        let mut next = order.into_iter();
         for (i, t) in self.scene.textures.iter_mut().enumerate() {
             if mipmapped(i) {
-                t.for_each_image_texture_mut(&mut |image, wrap| {
-                    *image = pyramids[&(Arc::as_ptr(image), wrap)].clone();
+                t.for_each_image_texture_mut(&mut |image, _| {
+                    *image = built[next.next().expect("a key per image texture")].clone();
                 });
             }
         }
