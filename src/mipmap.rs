@@ -13,7 +13,7 @@
 //! another in the texel data ([`crate::gpu_scene`]), each `max(1, w >> l) × max(1, h >> l)`.
 use crate::io::Image;
 use crate::texture::{
-    bilinear, nearest, ByteDecoding, Encoding, Filter, Texels, TextureImage, Wrap,
+    bilinear, nearest, wrap_texel, ByteDecoding, Encoding, Filter, Texels, TextureImage, Wrap,
 };
 use glam::{Vec2, Vec3};
 
@@ -52,22 +52,12 @@ fn resample_weights(old: u32, new: u32) -> Vec<(i64, [f32; 4])> {
         .collect()
 }
 
-/// Texel index `i` of a side of `n`, wrapped (None: black, outside).
-fn wrapped(i: i64, n: u32, wrap: Wrap) -> Option<usize> {
-    let n = n as i64;
-    match wrap {
-        Wrap::Repeat => Some(i.rem_euclid(n) as usize),
-        Wrap::Clamp => Some(i.clamp(0, n - 1) as usize),
-        Wrap::Black => (0..n).contains(&i).then_some(i as usize),
-    }
-}
-
 /// The image resampled up to `w × h` (pbrt-v4's FloatResize): in x, then in y, texels
 /// beyond the sides as `wrap` says, results clamped at 0.
 fn resize_up(image: &Image, w: u32, h: u32, wrap: Wrap) -> Image {
     let xw = resample_weights(image.width, w);
     let yw = resample_weights(image.height, h);
-    let at = |x: i64, y: u32| match wrapped(x, image.width, wrap) {
+    let at = |x: i64, y: u32| match wrap_texel(x as f32, image.width as i64, wrap) {
         Some(x) => Vec3::from_array(image.pixels[(y * image.width) as usize + x]),
         None => Vec3::ZERO,
     };
@@ -79,7 +69,7 @@ fn resize_up(image: &Image, w: u32, h: u32, wrap: Wrap) -> Image {
                 (0..4).fold(Vec3::ZERO, |s, j| s + wt[j] * at(first + j as i64, y));
         }
     }
-    let row = |x: u32, y: i64| match wrapped(y, image.height, wrap) {
+    let row = |x: u32, y: i64| match wrap_texel(y as f32, image.height as i64, wrap) {
         Some(y) => rows[y * w as usize + x as usize],
         None => Vec3::ZERO,
     };

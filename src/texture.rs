@@ -667,7 +667,7 @@ impl Filter {
 
 /// Texel column (or row) `i` of `n`, wrapped as `wrap` says; `None` outside a `Black`
 /// image (texture.glsl `wrap_texel`).
-fn wrap_texel(i: f32, n: i64, wrap: Wrap) -> Option<usize> {
+pub(crate) fn wrap_texel(i: f32, n: i64, wrap: Wrap) -> Option<usize> {
     if wrap == Wrap::Black && (i < 0.0 || i >= n as f32) {
         return None;
     }

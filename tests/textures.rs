@@ -141,6 +141,16 @@ fn an_image_texture_on_obj_texture_coordinates_renders_its_lookup() {
     }
 }
 
+/// `t` times its own first channel (pbrt-v4's scale of a texture by itself): a texture made
+/// of textures whose mean over a pixel shows which MIP level it read.
+fn squared_texture(t: &Texture) -> Texture {
+    let t = Operand::Texture(Box::new(t.clone()));
+    Texture::Scale {
+        tex: t.clone(),
+        scale: t,
+    }
+}
+
 /// pbrt-v4's MIP maps (src/mipmap.rs): a floor seen at a low angle, its texture (16 × 16,
 /// one repeat per unit) shrinking to many texels a pixel far off, renders the CPU
 /// mirror's lookup at each point, the level picked by the pixel footprint in (s, t), in
@@ -225,11 +235,7 @@ fn mip_mapped_image_textures_render_their_lookup() {
         // (Four repeats a unit: most of the floor reads levels above the base.)
         *mapping = [4.0, 4.0, 0.0, 0.0];
         if squared {
-            let image = Operand::Texture(Box::new(s.textures[0].clone()));
-            s.textures[0] = Texture::Scale {
-                tex: image.clone(),
-                scale: image,
-            };
+            s.textures[0] = squared_texture(&s.textures[0]);
         }
         let texture = s.textures[0].clone();
         let params = lightpath::gpu_scene::scene_params(&s, 0);
@@ -367,11 +373,7 @@ fn mip_lookups_match_their_mirror_point_by_point() {
     }
     // Each texture squared (scale: its value times its first channel's).
     for i in 0..s.textures.len() {
-        let t = Operand::Texture(Box::new(s.textures[i].clone()));
-        s.textures.push(Texture::Scale {
-            tex: t.clone(),
-            scale: t,
-        });
+        s.textures.push(squared_texture(&s.textures[i]));
     }
     let mut rng = 0x2545f491u32;
     let mut next = move || {
