@@ -11,8 +11,9 @@
 //! box centres (21 bits an axis) and the sorted list is split, as a radix tree is, at
 //! the highest bit where a range's first and last codes differ, until each range holds
 //! at most [`CLUSTER_SIZE`] primitives: each range is an octree cell, compact in space.
-//! Each cluster is built as before (PLOC, reinsertion, collapsed to eight-wide nodes),
-//! the clusters on all cores at once. A range of more than [`RUN_LIMIT`] primitives
+//! Each cluster is built as before (PLOC, reinsertion — a lighter one,
+//! [`CLUSTER_REINSERTION`] — collapsed to eight-wide nodes by [`super::collapse`]), the
+//! clusters on all cores at once. A range of more than [`RUN_LIMIT`] primitives
 //! with one Morton code (coincident, or nearly) is not given to PLOC: it becomes a
 //! balanced tree, split at the index median, as the binary builder does. A small
 //! compressed tree over the pieces' root boxes, one piece a leaf, joins them: each of
@@ -25,9 +26,10 @@
 //! Measured on the 20M-triangle mesh (docs/performance.md): 83.6 s before, 20.2 s after
 //! on this machine's two cores, the rays traced as fast.
 
+use super::collapse::collapse;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::{node::Bvh2Node, reinsertion::ReinsertionOptimizer, Bvh2};
-use obvhs::cwbvh::{bvh2_to_cwbvh::bvh2_to_cwbvh, node::CwBvhNode, CwBvh};
+use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
 use obvhs::ploc::PlocBuilder;
 use obvhs::BvhBuildParams;
 
@@ -38,6 +40,13 @@ pub const CLUSTER_SIZE: usize = 1 << 18;
 /// Longest run of one Morton code given to PLOC (a longer one, or one longer than the
 /// cluster size, is a balanced tree).
 pub const RUN_LIMIT: usize = 256;
+
+/// The reinsertion batch ratio of the pieces of an input built in several (obvhs's
+/// "medium" preset's; the "slow" preset's 0.2 for an input of one piece). On the
+/// 20M-triangle mesh it took the pieces' reinsertion from 10–12 s of the cores' time to
+/// 2 s and traced as fast (0.36–0.42 Mrays/s against 0.36–0.43 in interleaved runs;
+/// none at all: 0.33). docs/performance.md, "Twenty-eighth session".
+pub const CLUSTER_REINSERTION: f32 = 0.05;
 
 /// Bits of a Morton code an axis.
 const MORTON_BITS: u32 = 21;
@@ -55,20 +64,25 @@ pub fn build(
     if boxes.is_empty() {
         return (vec![CwBvhNode::default()], Vec::new());
     }
-    let keys = sorted_keys(boxes);
+    let keys = sorted_keys(boxes, threads);
     let mut items = Vec::new();
     split(&keys, cluster_size.max(1), &mut items);
     if let [Item::Cluster(_)] = items[..] {
         // One cluster, no long run: the input in its own order, as before.
-        let cw = bvh2_to_cwbvh(&ploc(boxes, params), max_leaf, true, false);
+        let cw = collapse(&ploc(boxes, params), max_leaf);
         return (cw.nodes, cw.primitive_indices);
     }
-    let trees = build_items(boxes, &items, params, max_leaf, threads);
+    // The pieces' reinsertion that of obvhs's "medium" preset (see CLUSTER_REINSERTION).
+    let pieces = BvhBuildParams {
+        reinsertion_batch_ratio: CLUSTER_REINSERTION,
+        ..params
+    };
+    let trees = build_items(boxes, &items, pieces, max_leaf, threads);
     join(&trees, params)
 }
 
 /// One PLOC build with reinsertion over `boxes`.
-fn ploc(boxes: &[Aabb], params: BvhBuildParams) -> Bvh2 {
+pub(super) fn ploc(boxes: &[Aabb], params: BvhBuildParams) -> Bvh2 {
     let mut bvh = PlocBuilder::with_capacity(boxes.len()).build(
         params.ploc_search_distance,
         boxes,
@@ -81,8 +95,8 @@ fn ploc(boxes: &[Aabb], params: BvhBuildParams) -> Bvh2 {
 }
 
 /// `(Morton code of the box centre, index)`, sorted (the index breaks ties, so the
-/// order is the input's alone).
-fn sorted_keys(boxes: &[Aabb]) -> Vec<(u64, u32)> {
+/// order is the input's alone), made and sorted in `threads` pieces at once, then merged.
+fn sorted_keys(boxes: &[Aabb], threads: usize) -> Vec<(u64, u32)> {
     let mut centres = Aabb::empty();
     for b in boxes {
         centres.extend(b.center());
@@ -94,18 +108,60 @@ fn sorted_keys(boxes: &[Aabb]) -> Vec<(u64, u32)> {
         cells / extent,
         glam::Vec3A::ZERO,
     );
-    let mut keys: Vec<(u64, u32)> = boxes
-        .iter()
+    let piece = boxes.len().div_ceil(threads.max(1)).max(1 << 16);
+    let mut pieces: Vec<(usize, &[Aabb])> = boxes
+        .chunks(piece)
         .enumerate()
-        .map(|(i, b)| {
-            let q = ((b.center() - centres.min) * scale)
-                .clamp(glam::Vec3A::ZERO, glam::Vec3A::splat(cells))
-                .as_uvec3();
-            (morton(q.x, q.y, q.z), i as u32)
-        })
+        .map(|(k, c)| (k * piece, c))
         .collect();
-    keys.sort_unstable();
-    keys
+    let mut sorted = super::map_in_parallel(&mut pieces, threads, |&mut (first, boxes)| {
+        let mut keys: Vec<(u64, u32)> = boxes
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let q = ((b.center() - centres.min) * scale)
+                    .clamp(glam::Vec3A::ZERO, glam::Vec3A::splat(cells))
+                    .as_uvec3();
+                (morton(q.x, q.y, q.z), (first + i) as u32)
+            })
+            .collect();
+        keys.sort_unstable();
+        keys
+    });
+    // Merge pairs of sorted runs until one is left (the pairs of a round at once).
+    while sorted.len() > 1 {
+        let mut pairs: Vec<(Keys, Option<Keys>)> = Vec::new();
+        let mut runs = sorted.into_iter();
+        while let Some(a) = runs.next() {
+            pairs.push((a, runs.next()));
+        }
+        sorted = super::map_in_parallel(&mut pairs, threads, |(a, b)| match b.take() {
+            Some(b) => merge(a, &b),
+            None => std::mem::take(a),
+        });
+    }
+    sorted.pop().unwrap_or_default()
+}
+
+/// Morton keys, `(code, index)`.
+type Keys = Vec<(u64, u32)>;
+
+/// Two sorted lists as one sorted list.
+fn merge(a: &[(u64, u32)], b: &[(u64, u32)]) -> Vec<(u64, u32)> {
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        if b[j] < a[i] {
+            out.push(b[j]);
+            j += 1;
+        } else {
+            out.push(a[i]);
+            i += 1;
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    out
 }
 
 /// The 63-bit Morton code of three 21-bit coordinates.
@@ -187,7 +243,7 @@ fn build_items(
             Item::Run(_) => balanced(&sub),
         };
         drop(sub);
-        let mut cw = bvh2_to_cwbvh(&binary, max_leaf, true, false);
+        let mut cw = collapse(&binary, max_leaf);
         drop(binary);
         for r in &mut cw.primitive_indices {
             *r = keys[*r as usize].1;
@@ -238,7 +294,7 @@ fn join(trees: &[CwBvh], params: BvhBuildParams) -> (Vec<CwBvhNode>, Vec<u32>) {
     );
     // The top tree is small: every node a candidate.
     ReinsertionOptimizer::default().run(&mut binary, 1.0, None);
-    let top = bvh2_to_cwbvh(&binary, 1, true, false);
+    let top = collapse(&binary, 1);
     let mut first_ref = Vec::with_capacity(trees.len());
     let mut refs = Vec::with_capacity(trees.iter().map(|t| t.primitive_indices.len()).sum());
     for t in trees {
@@ -308,5 +364,34 @@ mod tests {
         assert_eq!(morton(0, 0, 1), 0b001);
         assert_eq!(morton(0x1f_ffff, 0x1f_ffff, 0x1f_ffff), (1u64 << 63) - 1);
         assert_eq!(morton(2, 0, 0), 0b100_000);
+    }
+
+    /// The keys sorted in pieces and merged are the keys sorted on one thread (ties,
+    /// coincident centres, broken by the index).
+    #[test]
+    fn keys_sorted_in_pieces_are_sorted_keys() {
+        let mut state = 7u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let boxes: Vec<Aabb> = (0..300_000)
+            .map(|i| {
+                let c = if i % 3 == 0 {
+                    glam::Vec3A::splat(0.5)
+                } else {
+                    glam::Vec3A::new(next(), next(), next())
+                };
+                Aabb::new(c, c + glam::Vec3A::splat(0.01))
+            })
+            .collect();
+        let one = sorted_keys(&boxes, 1);
+        assert!(one.windows(2).all(|w| w[0] < w[1]));
+        assert_eq!(one.len(), boxes.len());
+        for threads in [2, 3, 5] {
+            assert_eq!(sorted_keys(&boxes, threads), one, "{threads} threads");
+        }
     }
 }

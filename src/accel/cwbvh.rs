@@ -161,7 +161,9 @@ fn two_sum(x: f64, y: f64) -> (f64, f64) {
 }
 
 /// `offset <= v - p` in real arithmetic (`offset` exact in f64; `v - p` is kept exact
-/// as a TwoSum pair, so this holds even where their exponents are far apart).
+/// as a TwoSum pair, so this holds even where their exponents are far apart). (The
+/// quantization inlines it; its test checks against it.)
+#[cfg(test)]
 fn at_most(offset: f64, v: f32, p: f32) -> bool {
     let (s, r) = two_sum(v as f64, -(p as f64));
     offset < s || (offset == s && r >= 0.0)
@@ -192,13 +194,16 @@ fn scale_exponent(p: f32, max: f32) -> u8 {
 }
 
 /// Largest `q` whose plane `p + q 2^e` (real arithmetic) is at or below `v`
-/// (`q = 0` is: `p <= v`).
+/// (`q = 0` is: `p <= v`). (As [`at_most`], with `v - p`'s pair made once.)
 fn quantize_down(v: f32, e: u8, p: f32) -> u8 {
-    let mut q = (((v as f64 - p as f64) / step(e)).floor()).clamp(0.0, 255.0) as u8;
-    while q > 0 && !at_most(q as f64 * step(e), v, p) {
+    let (s, r) = two_sum(v as f64, -(p as f64));
+    let step = step(e);
+    let at_most = |offset: f64| offset < s || (offset == s && r >= 0.0);
+    let mut q = (s / step).floor().clamp(0.0, 255.0) as u8;
+    while q > 0 && !at_most(q as f64 * step) {
         q -= 1;
     }
-    while q < 255 && at_most((q + 1) as f64 * step(e), v, p) {
+    while q < 255 && at_most((q + 1) as f64 * step) {
         q += 1;
     }
     q
@@ -206,11 +211,14 @@ fn quantize_down(v: f32, e: u8, p: f32) -> u8 {
 
 /// Smallest `q` whose plane is at or above `v` (`q = 255` is, by the scale's choice).
 fn quantize_up(v: f32, e: u8, p: f32) -> u8 {
-    let mut q = (((v as f64 - p as f64) / step(e)).ceil()).clamp(0.0, 255.0) as u8;
-    while q < 255 && !at_least(q as f64 * step(e), v, p) {
+    let (s, r) = two_sum(v as f64, -(p as f64));
+    let step = step(e);
+    let at_least = |offset: f64| offset > s || (offset == s && r <= 0.0);
+    let mut q = (s / step).ceil().clamp(0.0, 255.0) as u8;
+    while q < 255 && !at_least(q as f64 * step) {
         q += 1;
     }
-    while q > 0 && at_least((q - 1) as f64 * step(e), v, p) {
+    while q > 0 && at_least((q - 1) as f64 * step) {
         q -= 1;
     }
     q

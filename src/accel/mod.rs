@@ -4,6 +4,7 @@
 //! mirror the kernels'. (The ray-query BLAS/TLAS are device objects: `gpu::rayquery`.)
 pub mod bvh;
 mod clusters;
+mod collapse;
 pub mod cwbvh;
 pub mod geometry;
 pub(crate) mod testing;
