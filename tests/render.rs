@@ -323,11 +323,17 @@ fn every_pixel_gets_exactly_one_sample_per_pass_at_any_size() {
     }
 }
 
+/// A 370 × 370 height-field grid: 273,800 triangles from an OBJ file, past one cluster
+/// of the compressed build (262,144 primitives: built in pieces with the lighter
+/// reinsertion, joined). Every backend sees the same hits up to rounding; the
+/// triangles' orders may differ (and with them which light triangle a sample picks), so
+/// the means agree within the noise of 3,072 samples (measured: 0.06 % apart). (Mutation:
+/// the join's pieces' leaves left at their own reference bases → cwbvh half as bright,
+/// fails.)
 #[test]
-fn a_large_obj_mesh_renders_on_both_backends() {
-    // A 300 x 300 height-field grid: 180 000 triangles from an OBJ file.
+fn a_large_obj_mesh_renders_alike_on_every_backend() {
     let d = common::temp_dir("big-obj");
-    let n = 300;
+    let n = 370;
     let mut obj = String::with_capacity(12_000_000);
     for j in 0..=n {
         for i in 0..=n {
@@ -356,13 +362,17 @@ fn a_large_obj_mesh_renders_on_both_backends() {
     .unwrap();
     let s = lightpath::scene::parse_file(&d.join("s.test")).expect("scene with a large obj");
     assert_eq!(s.triangles.len(), 2 * n * n + 2); // and the quad light's two
+    let mut s = s;
+    s.settings.spp = 16;
     let a = render(&s, 1, Bvh).mean();
-    let b = render(&s, 1, RayQuery).mean();
-    for c in 0..3 {
-        assert!(
-            a[c] > 0.01 && (a[c] - b[c]).abs() < 0.2 * a[c],
-            "bvh {a:?} vs ray query {b:?}"
-        );
+    for accel in [Bvh2, RayQuery] {
+        let b = render(&s, 1, accel).mean();
+        for c in 0..3 {
+            assert!(
+                a[c] > 0.01 && (a[c] - b[c]).abs() < 0.01 * a[c],
+                "cwbvh {a:?} vs {accel:?} {b:?}"
+            );
+        }
     }
 }
 
