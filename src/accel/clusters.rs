@@ -51,25 +51,27 @@ pub const CLUSTER_REINSERTION: f32 = 0.05;
 /// Bits of a Morton code an axis.
 const MORTON_BITS: u32 = 21;
 
-/// The compressed tree over `boxes` (leaves of at most `max_leaf` primitives, their
-/// references indexing `boxes`), built with `params` in clusters of at most
+/// The compressed tree over `bounds` (leaves of at most `max_leaf` primitives, their
+/// references indexing `bounds`), built with `params` in clusters of at most
 /// `cluster_size` primitives on `threads` threads (the tree does not depend on them).
+/// (The boxes become obvhs's a cluster at a time: no copy of them all.)
 pub fn build(
-    boxes: &[Aabb],
+    bounds: &[Bounds],
     params: BvhBuildParams,
     max_leaf: u32,
     cluster_size: usize,
     threads: usize,
 ) -> (Vec<CwBvhNode>, Vec<u32>) {
-    if boxes.is_empty() {
+    if bounds.is_empty() {
         return (vec![CwBvhNode::default()], Vec::new());
     }
-    let keys = sorted_keys(boxes, threads);
+    let keys = sorted_keys(bounds, threads);
     let mut items = Vec::new();
     split(&keys, cluster_size.max(1), &mut items);
     if let [Item::Cluster(_)] = items[..] {
         // One cluster, no long run: the input in its own order, as before.
-        let cw = collapse(&ploc(boxes, params), max_leaf);
+        let boxes: Vec<Aabb> = bounds.iter().map(obvhs_box).collect();
+        let cw = collapse(&ploc(&boxes, params), max_leaf);
         return (cw.nodes, cw.primitive_indices);
     }
     // The pieces' reinsertion that of obvhs's "medium" preset (see CLUSTER_REINSERTION).
@@ -77,8 +79,16 @@ pub fn build(
         reinsertion_batch_ratio: CLUSTER_REINSERTION,
         ..params
     };
-    let trees = build_items(boxes, &items, pieces, max_leaf, threads);
+    let trees = build_items(bounds, &items, pieces, max_leaf, threads);
     join(&trees, params)
+}
+
+/// The tree's boxes.
+type Bounds = super::geometry::Aabb;
+
+/// `b` as obvhs's box.
+fn obvhs_box(b: &Bounds) -> Aabb {
+    Aabb::new(b.min.into(), b.max.into())
 }
 
 /// One PLOC build with reinsertion over `boxes`.
@@ -96,10 +106,10 @@ pub(super) fn ploc(boxes: &[Aabb], params: BvhBuildParams) -> Bvh2 {
 
 /// `(Morton code of the box centre, index)`, sorted (the index breaks ties, so the
 /// order is the input's alone), made and sorted in `threads` pieces at once, then merged.
-fn sorted_keys(boxes: &[Aabb], threads: usize) -> Vec<(u64, u32)> {
+fn sorted_keys(boxes: &[Bounds], threads: usize) -> Vec<(u64, u32)> {
     let mut centres = Aabb::empty();
     for b in boxes {
-        centres.extend(b.center());
+        centres.extend(obvhs_box(b).center());
     }
     let extent = centres.diagonal();
     let cells = ((1u32 << MORTON_BITS) - 1) as f32;
@@ -109,7 +119,7 @@ fn sorted_keys(boxes: &[Aabb], threads: usize) -> Vec<(u64, u32)> {
         glam::Vec3A::ZERO,
     );
     let piece = boxes.len().div_ceil(threads.max(1)).max(1 << 16);
-    let mut pieces: Vec<(usize, &[Aabb])> = boxes
+    let mut pieces: Vec<(usize, &[Bounds])> = boxes
         .chunks(piece)
         .enumerate()
         .map(|(k, c)| (k * piece, c))
@@ -119,7 +129,7 @@ fn sorted_keys(boxes: &[Aabb], threads: usize) -> Vec<(u64, u32)> {
             .iter()
             .enumerate()
             .map(|(i, b)| {
-                let q = ((b.center() - centres.min) * scale)
+                let q = ((obvhs_box(b).center() - centres.min) * scale)
                     .clamp(glam::Vec3A::ZERO, glam::Vec3A::splat(cells))
                     .as_uvec3();
                 (morton(q.x, q.y, q.z), (first + i) as u32)
@@ -228,7 +238,7 @@ fn split<'a>(keys: &'a [(u64, u32)], cluster_size: usize, items: &mut Vec<Item<'
 /// Each item's compressed tree (its references mapped to input indices), the items
 /// shared out to the threads.
 fn build_items(
-    boxes: &[Aabb],
+    bounds: &[Bounds],
     items: &[Item],
     params: BvhBuildParams,
     max_leaf: u32,
@@ -237,7 +247,10 @@ fn build_items(
     let mut items: Vec<&Item> = items.iter().collect();
     super::map_in_parallel(&mut items, threads, |item| {
         let keys = item.keys();
-        let sub: Vec<Aabb> = keys.iter().map(|&(_, p)| boxes[p as usize]).collect();
+        let sub: Vec<Aabb> = keys
+            .iter()
+            .map(|&(_, p)| obvhs_box(&bounds[p as usize]))
+            .collect();
         let binary = match item {
             Item::Cluster(_) => ploc(&sub, params),
             Item::Run(_) => balanced(&sub),
@@ -377,14 +390,17 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (state >> 40) as f32 / (1u64 << 24) as f32
         };
-        let boxes: Vec<Aabb> = (0..300_000)
+        let boxes: Vec<Bounds> = (0..300_000)
             .map(|i| {
                 let c = if i % 3 == 0 {
-                    glam::Vec3A::splat(0.5)
+                    glam::Vec3::splat(0.5)
                 } else {
-                    glam::Vec3A::new(next(), next(), next())
+                    glam::Vec3::new(next(), next(), next())
                 };
-                Aabb::new(c, c + glam::Vec3A::splat(0.01))
+                Bounds {
+                    min: c,
+                    max: c + glam::Vec3::splat(0.01),
+                }
             })
             .collect();
         let one = sorted_keys(&boxes, 1);
