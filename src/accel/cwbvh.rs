@@ -194,34 +194,39 @@ fn scale_exponent(p: f32, max: f32) -> u8 {
 }
 
 /// Largest `q` whose plane `p + q 2^e` (real arithmetic) is at or below `v`
-/// (`q = 0` is: `p <= v`). (As [`at_most`], with `v - p`'s pair made once.)
+/// (`q = 0` is: `p <= v`).
+///
+/// `v - p` is TwoSum's pair `s + r`, and `s / 2^e` is exact (a power of two), so its
+/// floor is the answer but where the plane meets `s` exactly and the remainder `r` puts
+/// `v` below it: then one step down. (The search this replaced — step down while the
+/// plane is above `v`, up while the next is not — gives the same `q` in every case;
+/// `quantize_matches_search` checks it.)
 fn quantize_down(v: f32, e: u8, p: f32) -> u8 {
     let (s, r) = two_sum(v as f64, -(p as f64));
     let step = step(e);
-    let at_most = |offset: f64| offset < s || (offset == s && r >= 0.0);
-    let mut q = (s / step).floor().clamp(0.0, 255.0) as u8;
-    while q > 0 && !at_most(q as f64 * step) {
-        q -= 1;
+    let q = (s / step).floor().clamp(0.0, 255.0) as u8;
+    if q > 0 && q as f64 * step == s && r < 0.0 {
+        q - 1
+    } else {
+        q
     }
-    while q < 255 && at_most((q + 1) as f64 * step) {
-        q += 1;
-    }
-    q
 }
 
-/// Smallest `q` whose plane is at or above `v` (`q = 255` is, by the scale's choice).
+/// Smallest `q` whose plane is at or above `v` (`q = 255` is, by the scale's choice):
+/// the ceiling of `(v - p) / 2^e`, one step up where the plane meets `s` exactly and `r`
+/// puts `v` above it (as [`quantize_down`]; a NaN difference gives 255, as the search did).
 fn quantize_up(v: f32, e: u8, p: f32) -> u8 {
     let (s, r) = two_sum(v as f64, -(p as f64));
+    if s.is_nan() {
+        return 255;
+    }
     let step = step(e);
-    let at_least = |offset: f64| offset > s || (offset == s && r <= 0.0);
-    let mut q = (s / step).ceil().clamp(0.0, 255.0) as u8;
-    while q < 255 && !at_least(q as f64 * step) {
-        q += 1;
+    let q = (s / step).ceil().clamp(0.0, 255.0) as u8;
+    if q < 255 && q as f64 * step == s && r > 0.0 {
+        q + 1
+    } else {
+        q
     }
-    while q > 0 && at_least((q - 1) as f64 * step) {
-        q -= 1;
-    }
-    q
 }
 
 impl Cwbvh {
@@ -606,6 +611,75 @@ mod tests {
         for (prims, rays, seed) in cases {
             check_against_brute_force(&prims, rays, seed);
         }
+    }
+
+    /// The searches [`quantize_down`] and [`quantize_up`] replaced.
+    fn quantize_down_by_search(v: f32, e: u8, p: f32) -> u8 {
+        let mut q = (((v as f64 - p as f64) / step(e)).floor()).clamp(0.0, 255.0) as u8;
+        while q > 0 && !at_most(q as f64 * step(e), v, p) {
+            q -= 1;
+        }
+        while q < 255 && at_most((q + 1) as f64 * step(e), v, p) {
+            q += 1;
+        }
+        q
+    }
+
+    fn quantize_up_by_search(v: f32, e: u8, p: f32) -> u8 {
+        let mut q = (((v as f64 - p as f64) / step(e)).ceil()).clamp(0.0, 255.0) as u8;
+        while q < 255 && !at_least(q as f64 * step(e), v, p) {
+            q += 1;
+        }
+        while q > 0 && at_least((q - 1) as f64 * step(e), v, p) {
+            q -= 1;
+        }
+        q
+    }
+
+    /// The closed forms give the searches' planes: random values, values on a plane
+    /// (ties, where TwoSum's remainder decides), below `p`, past the 255th plane, with
+    /// far-apart exponents (a remainder), and NaN.
+    #[test]
+    fn quantize_matches_search() {
+        let mut rng = Rng(105);
+        // On plane 128 of 8 from -1024, a remainder either side of it (TwoSum's r).
+        let mut cases = vec![
+            (f32::NAN, 120u8, 0.0f32),
+            (1e-30, 130, -1024.0),
+            (-1e-30, 130, -1024.0),
+            (1e-30, 118, -1024.0),
+        ];
+        assert_eq!(quantize_down(-1e-30, 130, -1024.0), 127);
+        assert_eq!(quantize_up(1e-30, 130, -1024.0), 129);
+        for _ in 0..200_000 {
+            let p = rng.range(-1e4, 1e4);
+            let max = p + rng.range(0.0, 1.0) * 10f32.powi(rng.below(9) as i32 - 4);
+            let e = scale_exponent(p, max);
+            let v = match rng.below(4) {
+                0 => p + (max - p) * rng.f32(),
+                // On (or rounded next to) a plane.
+                1 => (p as f64 + rng.below(256) as f64 * step(e)) as f32,
+                2 => p - rng.range(0.0, 1.0) * (max - p),
+                _ => max + rng.range(0.0, 1.0) * (max - p),
+            };
+            cases.push((v, e, p));
+        }
+        let mut ties = 0;
+        for (v, e, p) in cases {
+            assert_eq!(
+                quantize_down(v, e, p),
+                quantize_down_by_search(v, e, p),
+                "{v} {e} {p}"
+            );
+            assert_eq!(
+                quantize_up(v, e, p),
+                quantize_up_by_search(v, e, p),
+                "{v} {e} {p}"
+            );
+            let (s, _) = two_sum(v as f64, -(p as f64));
+            ties += ((s / step(e)).fract() == 0.0) as usize;
+        }
+        assert!(ties > 10_000, "only {ties} values on a plane");
     }
 
     /// Requantized planes are conservative in real arithmetic (what the transformed
