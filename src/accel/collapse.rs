@@ -1,16 +1,20 @@
 //! The binary tree collapsed to the compressed tree's eight-wide nodes: obvhs's
 //! `bvh2_to_cwbvh` (the cost-optimal collapse of Ylitie et al. 2017, children ordered
-//! by octant), node for node, without its costs.
+//! by octant), node for node, without the quantized planes.
 //!
 //! obvhs's conversion took about 40 % of the 20M-triangle mesh's cluster builds (10 s of
 //! the cores' 25 s): it allocates a table of seven decisions a node for every call
 //! (fresh pages each cluster: a quarter of its time went to the kernel's page
-//! clearing), fills it by recursion, and computes each node's quantized planes, which
-//! [`super::cwbvh::Cwbvh`] replaces with its own exact ones. Here the table is kept per
-//! thread and reused, it is filled in one sweep over the nodes in reverse pre-order
+//! clearing), fills it by recursion over the binary nodes (which PLOC and the
+//! reinsertion leave scattered in memory), and computes each node's quantized planes,
+//! which [`super::cwbvh::Cwbvh`] replaces with its own exact ones. Here the binary nodes
+//! are read once, into a list in pre-order (a node's left child is the next entry);
+//! the table, indexed by that position, is filled in one sweep over the list reversed
 //! (children before parents), and the nodes are emitted by an explicit stack in the
-//! order of obvhs's recursion. The planes and the scale are left zero: every slot's are
-//! made by the requantization. `tests` checks the structure against obvhs's.
+//! order of obvhs's recursion, every pass after the first reading nearly in order. The
+//! tables are kept per thread and reused (a thread keeps at most about 44 MB, for a
+//! cluster of 2^18 primitives). The planes and the scale are left zero: every slot's
+//! are made by the requantization. `tests` checks the structure against obvhs's.
 
 use obvhs::bvh2::Bvh2;
 use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
