@@ -162,7 +162,7 @@ fn two_sum(x: f64, y: f64) -> (f64, f64) {
 
 /// `offset <= v - p` in real arithmetic (`offset` exact in f64; `v - p` is kept exact
 /// as a TwoSum pair, so this holds even where their exponents are far apart). (The
-/// quantization inlines it; its test checks against it.)
+/// tests' reference: the closed-form quantization is checked against it.)
 #[cfg(test)]
 fn at_most(offset: f64, v: f32, p: f32) -> bool {
     let (s, r) = two_sum(v as f64, -(p as f64));
