@@ -385,8 +385,13 @@ mod tests {
     /// coincident centres, broken by the index).
     #[test]
     fn keys_sorted_in_pieces_are_sorted_keys() {
-        let mut rng = crate::accel::testing::Rng(7);
-        let mut next = || rng.f32();
+        let mut state = 7u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
         let boxes: Vec<Bounds> = (0..300_000)
             .map(|i| {
                 let c = if i % 3 == 0 {

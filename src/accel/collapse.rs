@@ -352,8 +352,13 @@ mod tests {
 
     /// Boxes of a few kinds: scattered, clustered, coincident, thin.
     fn boxes(n: usize, seed: u64) -> Vec<Aabb> {
-        let mut rng = crate::accel::testing::Rng(seed);
-        let mut next = || rng.f32();
+        let mut state = seed;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
         (0..n)
             .map(|i| {
                 let c = match i % 4 {
