@@ -414,18 +414,30 @@ impl TextureData {
         )
     }
 
-    /// A writer of `texel_words` into successive byte slices (the upload's chunks): a
-    /// piece (the floats, an 8-bit level) at a time, the floats copied whole.
-    pub fn texel_writer(&self) -> impl FnMut(&mut [u8]) + Send + '_ {
+    /// A writer of `texel_words` into byte slices: `write(at, out)` fills `out` with the
+    /// words from byte `at` on (both whole words), in any order and from any thread (the
+    /// upload's pieces); a piece (the floats, an 8-bit level) at a time, the floats copied
+    /// whole.
+    pub fn texel_writer(&self) -> impl Fn(u64, &mut [u8]) + Send + Sync + '_ {
         let mut pieces: Vec<TexelPiece<'_>> = vec![TexelPiece::Floats(&self.texels)];
         for level in self.byte_images.iter().flat_map(|image| image.levels()) {
             if let TextureImage::Bytes { texels, .. } = level {
                 pieces.push(TexelPiece::Bytes(texels));
             }
         }
-        let (mut piece, mut at) = (0, 0);
-        move |mut out: &mut [u8]| {
-            assert_eq!(out.len() % 4, 0, "texel words are whole");
+        // Each piece's first word.
+        let starts: Vec<usize> = std::iter::once(0)
+            .chain(pieces.iter().scan(0, |end, p| {
+                *end += p.len();
+                Some(*end)
+            }))
+            .collect();
+        move |at: u64, mut out: &mut [u8]| {
+            assert!(at % 4 == 0 && out.len() % 4 == 0, "texel words are whole");
+            let word = (at / 4) as usize;
+            // The last piece starting at or before `word` (a non-empty one, or the end).
+            let mut piece = starts.partition_point(|&s| s <= word) - 1;
+            let mut at = word - starts[piece];
             while !out.is_empty() {
                 let p = pieces.get(piece).expect("as many words as texels");
                 let n = (p.len() - at).min(out.len() / 4);
@@ -1172,6 +1184,98 @@ const NO_INSTANCES: [GpuInstance; 1] = [GpuInstance {
     info: [0; 4],
 }];
 
+/// The triangle records' triangles: the world's, then each object's, each in its BVH
+/// leaf order (`BvhData::triangle_order`, `object_orders`), found by record index, with
+/// the count of attribute records before every `ATTRIBUTE_BLOCK`-th record, so that any
+/// piece of the triangle and attribute records can be made on its own.
+struct TriangleRecords<'a> {
+    scene: &'a Scene,
+    bvh: &'a BvhData,
+    /// Each object's first record.
+    object_first: Vec<usize>,
+    count: usize,
+    attributes: usize,
+    /// The attribute records before record `k * ATTRIBUTE_BLOCK`, for each k.
+    blocks: Vec<usize>,
+}
+
+const ATTRIBUTE_BLOCK: usize = 4096;
+
+impl<'a> TriangleRecords<'a> {
+    fn new(scene: &'a Scene, bvh: &'a BvhData) -> TriangleRecords<'a> {
+        let mut object_first = Vec::with_capacity(bvh.object_orders.len());
+        let mut count = bvh.triangle_order.len();
+        for order in &bvh.object_orders {
+            object_first.push(count);
+            count += order.len();
+        }
+        let mut records = TriangleRecords {
+            scene,
+            bvh,
+            object_first,
+            count,
+            attributes: 0,
+            blocks: Vec::new(),
+        };
+        let mut blocks: Vec<usize> = (0..count.div_ceil(ATTRIBUTE_BLOCK)).collect();
+        let counts = crate::accel::map_in_parallel(&mut blocks, crate::accel::threads(), |b| {
+            let range = *b * ATTRIBUTE_BLOCK..((*b + 1) * ATTRIBUTE_BLOCK).min(count);
+            range
+                .filter(|&r| records.triangle(r).has_attributes())
+                .count()
+        });
+        let mut before = 0;
+        records.blocks = counts
+            .iter()
+            .map(|&c| {
+                before += c;
+                before - c
+            })
+            .collect();
+        records.attributes = before;
+        records
+    }
+
+    /// Record `r`'s triangle.
+    fn triangle(&self, r: usize) -> &'a crate::scene::Triangle {
+        let world = &self.bvh.triangle_order;
+        if r < world.len() {
+            return &self.scene.triangles[world[r] as usize];
+        }
+        let k = self.object_first.partition_point(|&f| f <= r) - 1;
+        let order = &self.bvh.object_orders[k];
+        &self.scene.objects[k].triangles[order[r - self.object_first[k]] as usize]
+    }
+
+    /// The attribute records before record `r`.
+    fn attributes_before(&self, r: usize) -> usize {
+        let b = r / ATTRIBUTE_BLOCK;
+        let Some(&before) = self.blocks.get(b) else {
+            return self.attributes;
+        };
+        before
+            + (b * ATTRIBUTE_BLOCK..r)
+                .filter(|&r| self.triangle(r).has_attributes())
+                .count()
+    }
+
+    /// The record whose triangle has attribute record `k` (`k < attributes`).
+    fn with_attribute(&self, k: usize) -> usize {
+        let b = self.blocks.partition_point(|&before| before <= k) - 1;
+        let mut before = self.blocks[b];
+        let mut r = b * ATTRIBUTE_BLOCK;
+        loop {
+            if self.triangle(r).has_attributes() {
+                if before == k {
+                    return r;
+                }
+                before += 1;
+            }
+            r += 1;
+        }
+    }
+}
+
 impl GpuScene {
     pub fn new(
         device: &Arc<Device>,
@@ -1185,51 +1289,42 @@ impl GpuScene {
         let textures = texture_data(scene);
         let bits = f32::from_bits;
         // The world's triangles, then each object's (in object space; none emits), each
-        // in the BVH's leaf order; the records made as they are uploaded
-        // (DataArray::made).
-        let all_triangles = || {
-            let world = bvh
-                .triangle_order
-                .iter()
-                .map(|&i| &scene.triangles[i as usize]);
-            let objects = scene
-                .objects
-                .iter()
-                .zip(&bvh.object_orders)
-                .flat_map(|(o, order)| order.iter().map(|&i| &o.triangles[i as usize]));
-            world.chain(objects)
-        };
-        let triangle_count = all_triangles().count() as u64;
-        let attribute_count = all_triangles().filter(|t| t.has_attributes()).count() as u64;
+        // in the BVH's leaf order; the records made as they are uploaded, piece by piece
+        // on every core (DataArray::made).
+        let records = TriangleRecords::new(scene, bvh);
+        let triangle_count = records.count as u64;
+        let attribute_count = records.attributes as u64;
         let triangle_emitter = std::mem::take(&mut table.triangle_emitter);
-        let triangle_records = {
-            let mut triangles = all_triangles().enumerate();
-            let mut attributes = 0u32;
-            move |out: &mut [u8]| {
-                for record in out.chunks_exact_mut(std::mem::size_of::<GpuTriangle>()) {
-                    let (i, t) = triangles.next().expect("as many records as triangles");
-                    let attribute = if t.has_attributes() {
-                        attributes += 1;
-                        attributes - 1
-                    } else {
-                        NO_ATTRIBUTES
-                    };
-                    let emitter = triangle_emitter.get(i).copied().unwrap_or(NO_EMITTER);
-                    record.copy_from_slice(bytemuck::bytes_of(&GpuTriangle {
-                        v0: t.v[0].extend(bits(t.material)).to_array(),
-                        v1: t.v[1].extend(bits(emitter)).to_array(),
-                        v2: t.v[2].extend(bits(attribute)).to_array(),
-                    }));
-                }
+        let triangle_records = |at: u64, out: &mut [u8]| {
+            let size = std::mem::size_of::<GpuTriangle>();
+            let first = at as usize / size;
+            let mut attribute = records.attributes_before(first) as u32;
+            for (record, r) in out.chunks_exact_mut(size).zip(first..) {
+                let t = records.triangle(r);
+                let a = if t.has_attributes() {
+                    attribute += 1;
+                    attribute - 1
+                } else {
+                    NO_ATTRIBUTES
+                };
+                let emitter = triangle_emitter.get(r).copied().unwrap_or(NO_EMITTER);
+                record.copy_from_slice(bytemuck::bytes_of(&GpuTriangle {
+                    v0: t.v[0].extend(bits(t.material)).to_array(),
+                    v1: t.v[1].extend(bits(emitter)).to_array(),
+                    v2: t.v[2].extend(bits(a)).to_array(),
+                }));
             }
         };
-        let attribute_records = {
-            let mut attributes = all_triangles().filter_map(triangle_attributes);
-            move |out: &mut [u8]| {
-                for record in out.chunks_exact_mut(std::mem::size_of::<GpuTriangleAttributes>()) {
-                    let a = attributes.next().expect("as many records as attributes");
-                    record.copy_from_slice(bytemuck::bytes_of(&a));
+        let attribute_records = |at: u64, out: &mut [u8]| {
+            let size = std::mem::size_of::<GpuTriangleAttributes>();
+            let mut r = records.with_attribute(at as usize / size);
+            for record in out.chunks_exact_mut(size) {
+                while !records.triangle(r).has_attributes() {
+                    r += 1;
                 }
+                let a = triangle_attributes(records.triangle(r)).expect("attributes");
+                record.copy_from_slice(bytemuck::bytes_of(&a));
+                r += 1;
             }
         };
         let spheres: Vec<GpuSphere> = scene
@@ -1454,6 +1549,90 @@ mod tests {
     use crate::scene::parse_str;
 
     #[test]
+    fn triangle_records_find_any_record_and_its_attributes() {
+        // The world's triangles and two objects', some with attributes (runs and lone
+        // ones across block boundaries), in shuffled leaf orders: each record's triangle,
+        // its attribute rank and the record of each attribute as a walk in order finds
+        // them.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move |n: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % n
+        };
+        let triangles = |count: usize, next: &mut dyn FnMut(u64) -> u64| {
+            let mut with = false;
+            (0..count)
+                .map(|i| {
+                    if next(97) == 0 {
+                        with = !with;
+                    }
+                    let mut t = crate::scene::Triangle::new([Vec3::splat(i as f32); 3], i as u32);
+                    if with || next(11) == 0 {
+                        t.uv = Some([glam::Vec2::ZERO; 3]);
+                    }
+                    t
+                })
+                .collect::<Vec<_>>()
+        };
+        let mut scene = Scene {
+            triangles: triangles(3 * ATTRIBUTE_BLOCK + 77, &mut next),
+            ..Scene::default()
+        };
+        for (name, n) in [("a", 1), ("b", 2 * ATTRIBUTE_BLOCK + 5)] {
+            scene.objects.push(crate::scene::Object {
+                name: name.into(),
+                triangles: triangles(n, &mut next),
+            });
+        }
+        let mut shuffled = |n: usize| {
+            let mut order: Vec<u32> = (0..n as u32).collect();
+            for i in (1..n).rev() {
+                order.swap(i, next(i as u64 + 1) as usize);
+            }
+            order
+        };
+        let bvh = BvhData {
+            nodes: Vec::new(),
+            prim_refs: Vec::new(),
+            triangle_order: shuffled(scene.triangles.len()),
+            object_orders: scene
+                .objects
+                .iter()
+                .map(|o| shuffled(o.triangles.len()))
+                .collect(),
+            instances: Vec::new(),
+            triangle_ids: 0,
+        };
+        let all: Vec<&crate::scene::Triangle> = (bvh
+            .triangle_order
+            .iter()
+            .map(|&i| &scene.triangles[i as usize]))
+        .chain(
+            scene
+                .objects
+                .iter()
+                .zip(&bvh.object_orders)
+                .flat_map(|(o, order)| order.iter().map(|&i| &o.triangles[i as usize])),
+        )
+        .collect();
+        let records = TriangleRecords::new(&scene, &bvh);
+        assert_eq!(records.count, all.len());
+        let mut before = 0;
+        for (r, t) in all.iter().enumerate() {
+            assert!(std::ptr::eq(records.triangle(r), *t), "record {r}");
+            assert_eq!(records.attributes_before(r), before, "record {r}");
+            if t.has_attributes() {
+                assert_eq!(records.with_attribute(before), r, "attribute {before}");
+                before += 1;
+            }
+        }
+        assert_eq!(records.attributes, before);
+        assert!(before > ATTRIBUTE_BLOCK && before < all.len() - ATTRIBUTE_BLOCK);
+    }
+
+    #[test]
     fn spot_lights_are_picked_by_their_cone_power() {
         // A point light of intensity 1 (power 4π) and a spot of intensity 2 with a 60°
         // cone and no falloff band (power 2 · 2π(1 − cos 60°) = 2π).
@@ -1543,11 +1722,12 @@ mod tests {
         let words: Vec<f32> = d.texel_words().collect();
         assert_eq!(words.len() as u64, d.texel_count());
         // The upload's writer gives the same words, in chunks of any size.
+        // (Last piece first: each piece is written from its offset alone.)
         for chunk in [1, 3, 7, 1000] {
-            let mut write = d.texel_writer();
+            let write = d.texel_writer();
             let mut bytes = vec![0u8; 4 * words.len()];
-            for piece in bytes.chunks_mut(4 * chunk) {
-                write(piece);
+            for (k, piece) in bytes.chunks_mut(4 * chunk).enumerate().rev() {
+                write((4 * chunk * k) as u64, piece);
             }
             let written: &[f32] = bytemuck::cast_slice(&bytes);
             assert!(

@@ -14,6 +14,7 @@ pub mod integrators;
 pub mod io;
 pub mod measured;
 pub mod media;
+pub mod memory;
 pub mod mipmap;
 pub mod nanovdb;
 pub mod noise;

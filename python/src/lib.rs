@@ -19,6 +19,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, OnceLock, Weak};
 use std::time::{Duration, Instant};
 
+// Large allocations on huge pages, as the command line's (src/memory.rs).
+#[global_allocator]
+static ALLOCATOR: lightpath::memory::LargePages = lightpath::memory::LargePages;
+
 create_exception!(
     _lightpath,
     SceneError,

@@ -26,17 +26,18 @@ pub struct DataArray<'a> {
     pub bindable: bool,
 }
 
-/// A kind's bytes: a slice the host holds, or `len` bytes that `fill` writes in order,
-/// whole records at a time, straight into the upload's staging memory (the triangles,
+/// A kind's bytes: a slice the host holds, or `len` bytes that `fill(at, out)` makes
+/// from byte `at` on, whole records at a time, straight into the device's memory or the
+/// upload's staging memory, in pieces in any order and on every core (the triangles,
 /// their attributes and the texels: no host array of the whole kind, whose fresh pages
 /// cost more than making the records; docs/performance.md).
 pub enum DataBytes<'a> {
     Slice(&'a [u8]),
-    Made {
-        len: u64,
-        fill: Box<dyn FnMut(&mut [u8]) + Send + 'a>,
-    },
+    Made { len: u64, fill: Fill<'a> },
 }
+
+/// What makes a kind's records: `fill(at, out)` writes the bytes from `at` on into `out`.
+pub type Fill<'a> = Box<dyn Fn(u64, &mut [u8]) + Send + Sync + 'a>;
 
 impl DataBytes<'_> {
     pub fn len(&self) -> u64 {
@@ -50,12 +51,11 @@ impl DataBytes<'_> {
         self.len() == 0
     }
 
-    /// Writes the next `out.len()` bytes (a whole number of records) into `out`; `at` is
-    /// where they start (the slices' offset; made bytes come in order).
-    fn next(&mut self, at: u64, out: &mut [u8]) {
+    /// Writes the `out.len()` bytes (a whole number of records) from byte `at` on.
+    fn write(&self, at: u64, out: &mut [u8]) {
         match self {
             DataBytes::Slice(s) => out.copy_from_slice(&s[at as usize..at as usize + out.len()]),
-            DataBytes::Made { fill, .. } => fill(out),
+            DataBytes::Made { fill, .. } => fill(at, out),
         }
     }
 }
@@ -72,12 +72,12 @@ impl<'a> DataArray<'a> {
         }
     }
 
-    /// `count` records of `record` bytes that `fill` writes in order (`DataBytes::Made`).
+    /// `count` records of `record` bytes that `fill` makes (`DataBytes::Made`).
     pub fn made(
         name: &'static str,
         count: u64,
         record: u64,
-        fill: impl FnMut(&mut [u8]) + Send + 'a,
+        fill: impl Fn(u64, &mut [u8]) + Send + Sync + 'a,
     ) -> DataArray<'a> {
         DataArray {
             bytes: DataBytes::Made {
@@ -93,6 +93,9 @@ impl<'a> DataArray<'a> {
         DataArray::new(name, &[], 4)
     }
 }
+
+/// The bytes of one piece of an in-place upload (rounded down to whole records).
+const UPLOAD_PIECE: u64 = 16 << 20;
 
 /// The largest power of two of records of `record` bytes that fits in `max_chunk_bytes`
 /// (at least one record, at most 2^31): a chunk's size as its shift.
@@ -162,41 +165,41 @@ impl SceneData {
             shifts.push(shift);
             lens.push(chunk_lens);
         }
-        // Each kind's bytes into its chunks, in order. Where the host writes the device's
-        // memory in place (lavapipe, integrated GPUs), the kinds are made on every core at
-        // once: no command is submitted, so no queue is shared.
-        let upload = |a: &mut DataArray, list: &mut Vec<Buffer>, lens: &Vec<u64>| {
-            let mut at = 0;
-            // (An empty kind has one placeholder buffer and no chunk lengths.)
-            for (buffer, &len) in list.iter_mut().zip(lens) {
-                buffer.upload_with(len, a.record, &mut |offset, out| {
-                    a.bytes.next(at + offset, out)
-                })?;
-                at += len;
-            }
-            GpuResult::Ok(())
-        };
+        // Each kind's bytes into its chunks. Where the host writes the device's memory in
+        // place (lavapipe, integrated GPUs), in pieces of about UPLOAD_PIECE bytes shared
+        // out to every core (no command is submitted, so no queue is shared; each piece's
+        // bytes depend on its place alone); else chunk by chunk through staging memory.
         let in_place = chunks
             .iter_mut()
             .flatten()
             .all(|b| b.host_writable().is_some());
-        let mut arrays = arrays;
         if in_place {
-            std::thread::scope(|scope| {
-                let kinds: Vec<_> = arrays
-                    .iter_mut()
-                    .zip(chunks.iter_mut())
-                    .zip(&lens)
-                    .map(|((a, list), lens)| scope.spawn(move || upload(a, list, lens)))
-                    .collect();
-                kinds
-                    .into_iter()
-                    .map(|k| k.join().expect("a kind's upload panicked"))
-                    .collect::<GpuResult<()>>()
-            })?;
+            let mut pieces = Vec::new();
+            for ((a, list), lens) in arrays.iter().zip(chunks.iter_mut()).zip(&lens) {
+                let piece = ((UPLOAD_PIECE / a.record).max(1) * a.record) as usize;
+                let mut at = 0;
+                // (An empty kind has one placeholder buffer and no chunk lengths.)
+                for (buffer, &len) in list.iter_mut().zip(lens) {
+                    let memory = buffer.host_writable().expect("host-writable chunks");
+                    for out in memory[..len as usize].chunks_mut(piece) {
+                        let n = out.len() as u64;
+                        pieces.push((&a.bytes, at, out));
+                        at += n;
+                    }
+                }
+            }
+            crate::accel::map_in_parallel(&mut pieces, crate::accel::threads(), |(b, at, out)| {
+                b.write(*at, out)
+            });
         } else {
-            for ((a, list), lens) in arrays.iter_mut().zip(chunks.iter_mut()).zip(&lens) {
-                upload(a, list, lens)?;
+            for ((a, list), lens) in arrays.iter().zip(chunks.iter_mut()).zip(&lens) {
+                let mut at = 0;
+                for (buffer, &len) in list.iter_mut().zip(lens) {
+                    buffer.upload_with(len, a.record, &mut |offset, out| {
+                        a.bytes.write(at + offset, out)
+                    })?;
+                    at += len;
+                }
             }
         }
         let mut headers: Vec<[u32; 4]> = Vec::new();
