@@ -79,24 +79,38 @@ enum Format {
 /// # Errors
 /// A message naming what is wrong (the header line, or the element that is truncated).
 pub fn read_ply(path: &Path) -> Result<PlyMesh, String> {
-    let raw = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let cannot = |e: std::io::Error| format!("cannot read {}: {e}", path.display());
+    let file = std::fs::File::open(path).map_err(cannot)?;
     let gz = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("gz"));
-    let bytes = if gz {
+    if gz {
         let mut out = Vec::new();
-        flate2::read::GzDecoder::new(&raw[..])
+        flate2::read::GzDecoder::new(std::io::BufReader::new(file))
             .read_to_end(&mut out)
             .map_err(|e| format!("{}: not a valid gzip file: {e}", path.display()))?;
-        out
-    } else {
-        raw
+        return parse_ply(&out).map_err(|e| format!("{}: {e}", path.display()));
+    }
+    // The file's pages mapped where they lie (no copy of a mesh's hundreds of megabytes
+    // into fresh memory); an empty file, which cannot be mapped, parses as empty bytes.
+    // SAFETY: the map is only read, while this function runs; a file changed meanwhile
+    // by another program reads as whatever bytes it then holds (or, cut short, ends the
+    // process with SIGBUS, as for any reader that maps its input).
+    let map = match file.metadata().map_err(cannot)?.len() {
+        0 => None,
+        _ => Some(unsafe { memmap2::Mmap::map(&file) }.map_err(cannot)?),
     };
-    parse_ply(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+    parse_ply(map.as_deref().unwrap_or(&[])).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Parses a PLY file's bytes.
 pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
+    parse(bytes, true)
+}
+
+/// [`parse_ply`]; `fast`: a binary file's vertices and faces read in bulk where their
+/// layout allows (else, and in the tests that compare the two, value by value).
+fn parse(bytes: &[u8], fast: bool) -> Result<PlyMesh, String> {
     // The header: ASCII lines up to `end_header`.
     let mut pos = 0;
     let mut lines = Vec::new();
@@ -232,6 +246,44 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                 have_uv = u.is_some() && v.is_some();
                 let mut values = vec![0.0f64; e.props.len()];
                 mesh.p.reserve(e.count.min(1 << 24));
+                let mut push = |values: &[f64]| {
+                    let f = |i: usize| values[i] as f32;
+                    mesh.p.push(Vec3::new(f(x), f(y), f(z)));
+                    if have_normals {
+                        normals.push(Vec3::new(f(nx.unwrap()), f(ny.unwrap()), f(nz.unwrap())));
+                    }
+                    if have_uv {
+                        uvs.push(Vec2::new(f(u.unwrap()), f(v.unwrap())));
+                    }
+                };
+                // A binary file's vertices without lists all have one size: each value is
+                // read where it lies (the same values and errors as value by value).
+                let stride: usize = e.props.iter().map(|p| p.ty.size()).sum();
+                let fixed = fast
+                    && format != Format::Ascii
+                    && e.props.iter().all(|p| p.list.is_none())
+                    && e.count.saturating_mul(stride) <= body.remaining();
+                if fixed {
+                    let big = format == Format::Big;
+                    let offsets: Vec<usize> = e
+                        .props
+                        .iter()
+                        .scan(0, |at, p| {
+                            *at += p.ty.size();
+                            Some(*at - p.ty.size())
+                        })
+                        .collect();
+                    let data = &body.bytes[body.pos..body.pos + e.count * stride];
+                    for (k, vertex) in data.chunks_exact(stride.max(1)).enumerate() {
+                        for (j, p) in e.props.iter().enumerate() {
+                            values[j] = finite(decode(&vertex[offsets[j]..], p.ty, big))
+                                .map_err(|m| format!("vertex {k}: {m}"))?;
+                        }
+                        push(&values);
+                    }
+                    body.pos += e.count * stride;
+                    continue;
+                }
                 for k in 0..e.count {
                     for (j, p) in e.props.iter().enumerate() {
                         match p.list {
@@ -248,14 +300,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                             }
                         }
                     }
-                    let f = |i: usize| values[i] as f32;
-                    mesh.p.push(Vec3::new(f(x), f(y), f(z)));
-                    if have_normals {
-                        normals.push(Vec3::new(f(nx.unwrap()), f(ny.unwrap()), f(nz.unwrap())));
-                    }
-                    if have_uv {
-                        uvs.push(Vec2::new(f(u.unwrap()), f(v.unwrap())));
-                    }
+                    push(&values);
                 }
             }
             "face" => {
@@ -264,6 +309,18 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                 }) else {
                     return Err("the face element has no vertex_indices list".into());
                 };
+                mesh.indices.reserve(3 * e.count.min(1 << 26));
+                let integer = |t: Scalar| !matches!(t, Scalar::F32 | Scalar::F64);
+                if fast
+                    && format != Format::Ascii
+                    && e.props
+                        .iter()
+                        .all(|p| p.list.is_none_or(|c| integer(c) && integer(p.ty)))
+                {
+                    body.pos = binary_faces(e, list, body.bytes, body.pos, format, &mut mesh)?;
+                    continue;
+                }
+                let mut corners = Vec::new();
                 for k in 0..e.count {
                     for (j, p) in e.props.iter().enumerate() {
                         match p.list {
@@ -275,7 +332,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                                 if !(0.0..=1e6).contains(&count) {
                                     return Err(format!("face {k}: a list of {count} entries"));
                                 }
-                                let mut corners = Vec::with_capacity(count as usize);
+                                corners.clear();
                                 for _ in 0..count as usize {
                                     corners.push(
                                         body.scalar(p.ty).map_err(|m| format!("face {k}: {m}"))?,
@@ -337,6 +394,68 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
     Ok(mesh)
 }
 
+/// The faces of a binary file whose lists hold integers, read from `pos` (the same
+/// triangles and errors as value by value; `list`: the vertex_indices property). Returns
+/// where they end.
+fn binary_faces(
+    e: &Element,
+    list: usize,
+    bytes: &[u8],
+    mut pos: usize,
+    format: Format,
+    mesh: &mut PlyMesh,
+) -> Result<usize, String> {
+    let big = format == Format::Big;
+    let early = |k: usize| format!("face {k}: the file ends early");
+    for k in 0..e.count {
+        for (j, p) in e.props.iter().enumerate() {
+            let size = p.ty.size();
+            let Some(c) = p.list else {
+                if bytes.len() - pos < size {
+                    return Err(early(k));
+                }
+                finite(decode(&bytes[pos..], p.ty, big)).map_err(|m| format!("face {k}: {m}"))?;
+                pos += size;
+                continue;
+            };
+            if bytes.len() - pos < c.size() {
+                return Err(early(k));
+            }
+            let count = decode(&bytes[pos..], c, big);
+            pos += c.size();
+            if !(0.0..=1e6).contains(&count) {
+                return Err(format!("face {k}: a list of {count} entries"));
+            }
+            let count = count as usize;
+            if bytes.len() - pos < count * size {
+                return Err(early(k));
+            }
+            let values = &bytes[pos..pos + count * size];
+            pos += count * size;
+            if j != list {
+                continue;
+            }
+            if count < 3 {
+                return Err(format!("face {k}: {count} vertices"));
+            }
+            let corner = |t: usize| decode(&values[t * size..], p.ty, big);
+            for t in 0..count {
+                let c = corner(t);
+                if c < 0.0 || c >= u32::MAX as f64 {
+                    return Err(format!("face {k}: bad vertex index {c}"));
+                }
+            }
+            // A fan: (0, 1, 2), (0, 2, 3), ...
+            let first = corner(0) as u32;
+            for t in 1..count - 1 {
+                mesh.indices
+                    .extend([first, corner(t) as u32, corner(t + 1) as u32]);
+            }
+        }
+    }
+    Ok(pos)
+}
+
 struct Body<'a> {
     bytes: &'a [u8],
     pos: usize,
@@ -348,6 +467,7 @@ impl Body<'_> {
         self.bytes.len() - self.pos
     }
 
+    #[inline]
     fn scalar(&mut self, ty: Scalar) -> Result<f64, String> {
         if self.format == Format::Ascii {
             while self.pos < self.bytes.len() && self.bytes[self.pos].is_ascii_whitespace() {
@@ -371,35 +491,48 @@ impl Body<'_> {
         if self.remaining() < n {
             return Err("the file ends early".into());
         }
-        let b = &self.bytes[self.pos..self.pos + n];
+        let x = decode(
+            &self.bytes[self.pos..self.pos + n],
+            ty,
+            self.format == Format::Big,
+        );
         self.pos += n;
-        let mut a = [0u8; 8];
-        a[..n].copy_from_slice(b);
-        if self.format == Format::Big {
-            a[..n].reverse();
-        }
-        Ok(match ty {
-            Scalar::I8 => a[0] as i8 as f64,
-            Scalar::U8 => a[0] as f64,
-            Scalar::I16 => i16::from_le_bytes([a[0], a[1]]) as f64,
-            Scalar::U16 => u16::from_le_bytes([a[0], a[1]]) as f64,
-            Scalar::I32 => i32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
-            Scalar::U32 => u32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
-            Scalar::F32 => {
-                let x = f32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64;
-                if !x.is_finite() {
-                    return Err(format!("a non-finite value {x}"));
-                }
-                x
+        finite(x)
+    }
+}
+
+/// A binary value of type `ty` at the start of `b` (at least its size).
+#[inline(always)]
+fn decode(b: &[u8], ty: Scalar, big: bool) -> f64 {
+    macro_rules! read {
+        ($t:ty, $n:literal) => {{
+            let a: [u8; $n] = b[..$n].try_into().unwrap();
+            if big {
+                <$t>::from_be_bytes(a) as f64
+            } else {
+                <$t>::from_le_bytes(a) as f64
             }
-            Scalar::F64 => {
-                let x = f64::from_le_bytes(a);
-                if !x.is_finite() {
-                    return Err(format!("a non-finite value {x}"));
-                }
-                x
-            }
-        })
+        }};
+    }
+    match ty {
+        Scalar::I8 => b[0] as i8 as f64,
+        Scalar::U8 => b[0] as f64,
+        Scalar::I16 => read!(i16, 2),
+        Scalar::U16 => read!(u16, 2),
+        Scalar::I32 => read!(i32, 4),
+        Scalar::U32 => read!(u32, 4),
+        Scalar::F32 => read!(f32, 4),
+        Scalar::F64 => read!(f64, 8),
+    }
+}
+
+/// `x`, or the error of a non-finite value (only a float's can be).
+#[inline(always)]
+fn finite(x: f64) -> Result<f64, String> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("a non-finite value {x}"))
     }
 }
 
@@ -498,6 +631,120 @@ mod tests {
         check(&parse_ply(ascii.as_bytes()).unwrap());
         check(&parse_ply(&binary(false)).unwrap());
         check(&parse_ply(&binary(true)).unwrap());
+    }
+
+    #[test]
+    fn bulk_reads_match_value_by_value_reads() {
+        // Random binary files (property types and orders, lists of 0 to 5 corners, extra
+        // properties and elements), whole, cut short and with bytes changed: the bulk
+        // paths give the same mesh or the same error as the value-by-value ones.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |n: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % n
+        };
+        let types = [
+            ("char", 1),
+            ("uchar", 1),
+            ("short", 2),
+            ("ushort", 2),
+            ("int", 4),
+            ("uint", 4),
+            ("float", 4),
+            ("double", 8),
+        ];
+        let (mut bulk, mut errors) = (0, 0);
+        for file in 0..300 {
+            let big = file % 2 == 1;
+            let vertices = 1 + next(20) as usize;
+            let mut header = format!(
+                "ply\nformat binary_{}_endian 1.0\nelement vertex {vertices}\n",
+                if big { "big" } else { "little" }
+            );
+            let mut names = vec!["x", "y", "z", "u", "v", "nx", "ny", "nz", "w"];
+            names.truncate(3 + next(7) as usize);
+            for i in (1..names.len()).rev() {
+                names.swap(i, next(i as u64 + 1) as usize);
+            }
+            let vtypes: Vec<(&str, usize)> =
+                names.iter().map(|_| types[next(8) as usize]).collect();
+            for (n, t) in names.iter().zip(&vtypes) {
+                header += &format!("property {} {n}\n", t.0);
+            }
+            let faces = next(30) as usize;
+            let count_type = types[next(6) as usize];
+            let index_type = types[2 + next(if file % 5 == 0 { 6 } else { 4 }) as usize];
+            let extra = next(2) == 0;
+            header += &format!(
+                "element face {faces}\nproperty list {} {} vertex_indices\n",
+                count_type.0, index_type.0
+            );
+            if extra {
+                header += "property float quality\n";
+            }
+            header += "end_header\n";
+            let mut out = header.into_bytes();
+            let mut value = |out: &mut Vec<u8>, (t, size): (&str, usize), x: f64| {
+                let b: Vec<u8> = match t {
+                    "char" => vec![x as i8 as u8],
+                    "uchar" => vec![x as u8],
+                    "short" => (x as i16).to_le_bytes().to_vec(),
+                    "ushort" => (x as u16).to_le_bytes().to_vec(),
+                    "int" => (x as i32).to_le_bytes().to_vec(),
+                    "uint" => (x as u32).to_le_bytes().to_vec(),
+                    "float" => (x as f32).to_le_bytes().to_vec(),
+                    _ => x.to_le_bytes().to_vec(),
+                };
+                assert_eq!(b.len(), size);
+                out.extend(
+                    b.iter()
+                        .rev()
+                        .filter(|_| big)
+                        .chain(b.iter().filter(|_| !big)),
+                );
+            };
+            for _ in 0..vertices {
+                for &t in &vtypes {
+                    value(&mut out, t, next(200) as f64 / 8.0);
+                }
+            }
+            for _ in 0..faces {
+                // (Now and then a list too short or an index out of range.)
+                let corners = if next(50) == 0 { next(3) } else { 3 + next(3) };
+                value(&mut out, count_type, corners as f64);
+                for _ in 0..corners {
+                    let index = match next(400) {
+                        0 => vertices as f64 + 9.0,
+                        1 => u32::MAX as f64,
+                        _ => next(vertices as u64) as f64,
+                    };
+                    value(&mut out, index_type, index);
+                }
+                if extra {
+                    value(&mut out, ("float", 4), 0.5);
+                }
+            }
+            let mut files = vec![out.clone()];
+            for _ in 0..8 {
+                let mut cut = out.clone();
+                cut.truncate(next(out.len() as u64) as usize);
+                files.push(cut);
+                let mut bad = out.clone();
+                let at = next(out.len() as u64) as usize;
+                bad[at] = [0, 0xff, 0x7f, 0x80][next(4) as usize];
+                files.push(bad);
+            }
+            for f in &files {
+                let (a, b) = (parse(f, true), parse(f, false));
+                assert_eq!(a, b, "file {file}");
+                bulk += a.is_ok() as usize;
+                errors += a.is_err() as usize;
+            }
+        }
+        // Both outcomes are common.
+        assert!(bulk > 300 && errors > 1000, "{bulk} read, {errors} errors");
     }
 
     #[test]

@@ -4,6 +4,9 @@
 
 use super::*;
 
+/// The triangles of a mesh made in one piece of the parallel emit.
+pub(super) const EMIT_PIECE: usize = 1 << 16;
+
 /// The most triangles a `loopsubdiv` may make.
 pub(super) const MAX_SUBDIVIDED_TRIANGLES: f64 = 8_000_000.0;
 
@@ -618,12 +621,10 @@ impl Parser {
                         .map(|phi| (phi, if a.two_sided { 2.0 } else { 1.0 }))
                 });
                 let index = self.intern_ref(&s.material, emission, s.media);
-                // (Straight into the scene: a copy of a mesh of millions of triangles
-                // costs its memory twice, and the time to touch it.)
-                self.scene.triangles.reserve(indices.len() / 3);
-                for c in indices.chunks(3) {
+                // Triangle `c`'s record, or None where it has no area.
+                let make = |c: &[u32]| {
                     let (a, b, cc) = (c[0] as usize, c[1] as usize, c[2] as usize);
-                    let mut t = Triangle::new([wp[a], wp[b], wp[cc]], 0);
+                    let mut t = Triangle::new([wp[a], wp[b], wp[cc]], index);
                     // pbrt's default uv for a triangle without them: (0,0), (1,0), (1,1).
                     t.uv = Some(match &uv {
                         Some(uv) => [uv[a], uv[b], uv[cc]],
@@ -631,7 +632,7 @@ impl Parser {
                     });
                     t.alpha = s.alpha;
                     if (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length_squared() == 0.0 {
-                        continue;
+                        return None;
                     }
                     // A normal a singular transform squashed to nothing (its inverse
                     // transpose does not exist): the triangle shades by its geometric
@@ -640,7 +641,7 @@ impl Parser {
                         .as_ref()
                         .map(|wn| [wn[a], wn[b], wn[cc]])
                         .filter(|n| n.iter().all(|v| *v != Vec3::ZERO));
-                    t = match normals {
+                    Some(match normals {
                         Some(n) => {
                             t.normals = Some(n);
                             t.facing_its_normals()
@@ -649,18 +650,55 @@ impl Parser {
                         // transform that swaps handedness.
                         None if s.reverse ^ swaps => flip(t),
                         None => t,
-                    };
-                    t.material = match (power, emission) {
-                        // pbrt-v4 makes one light per triangle of a mesh, each emitting
-                        // `power`: radiance power / (sides π area) per triangle.
-                        (Some((phi, sides)), Some((e, two_sided))) => {
+                    })
+                };
+                // (Straight into the scene: a copy of a mesh of millions of triangles
+                // costs its memory twice, and the time to touch it.)
+                let count = indices.len() / 3;
+                self.scene.triangles.reserve(count);
+                match (power, emission) {
+                    // pbrt-v4 makes one light per triangle of a mesh, each emitting
+                    // `power`: radiance power / (sides π area) per triangle.
+                    (Some((phi, sides)), Some((e, two_sided))) => {
+                        for t in indices.chunks(3).filter_map(make) {
                             let scale = phi
                                 / (sides * area(std::slice::from_ref(&t)) * std::f32::consts::PI);
-                            self.intern_ref(&s.material, Some((e * scale, two_sided)), s.media)
+                            let material =
+                                self.intern_ref(&s.material, Some((e * scale, two_sided)), s.media);
+                            self.scene.triangles.push(Triangle { material, ..t });
                         }
-                        _ => index,
-                    };
-                    self.scene.triangles.push(t);
+                    }
+                    // Made in pieces on every core, each written at its piece's start in
+                    // the scene's spare capacity, then moved down over the gaps the
+                    // triangles without area left: the same list as one by one.
+                    _ => {
+                        let start = self.scene.triangles.len();
+                        let spare = &mut self.scene.triangles.spare_capacity_mut()[..count];
+                        let mut pieces: Vec<_> = spare
+                            .chunks_mut(EMIT_PIECE)
+                            .zip(indices.chunks(3 * EMIT_PIECE))
+                            .collect();
+                        let made = crate::accel::map_in_parallel(
+                            &mut pieces,
+                            crate::accel::threads(),
+                            |(out, corners)| {
+                                let mut n = 0;
+                                for t in corners.chunks(3).filter_map(make) {
+                                    out[n].write(t);
+                                    n += 1;
+                                }
+                                n
+                            },
+                        );
+                        let mut end = 0;
+                        for (k, n) in made.into_iter().enumerate() {
+                            spare.copy_within(k * EMIT_PIECE..k * EMIT_PIECE + n, end);
+                            end += n;
+                        }
+                        // SAFETY: the first `end` spare records were written just above
+                        // (each piece's first n, moved down in order).
+                        unsafe { self.scene.triangles.set_len(start + end) };
+                    }
                 }
             }
             ShapeKind::Sphere { radius } => {

@@ -2759,3 +2759,27 @@ fn image_files_are_read_together_at_the_end_of_the_parse() {
     assert!(e.message.contains("missing1.png"), "{e}");
     std::fs::remove_dir_all(&d).ok();
 }
+
+/// A mesh of more triangles than one piece of the parallel emit, with triangles without
+/// area here and there (one in every piece's first and last place among them): the scene
+/// holds the others, in the file's order.
+#[test]
+fn a_large_mesh_keeps_its_triangles_in_order_without_the_degenerate_ones() {
+    let n = 3 * super::shapes::EMIT_PIECE + 123;
+    let degenerate = |i: usize| i % 97 == 5 || i % super::shapes::EMIT_PIECE == 0 || i == n - 1;
+    let (mut p, mut idx) = (String::new(), String::new());
+    for i in 0..n {
+        let x = i as f32;
+        let top = if degenerate(i) { 0.0 } else { 1.0 };
+        p += &format!("{x} 0 0 {} 0 0 {x} {top} 0 ", x + 1.0);
+        idx += &format!("{} {} {} ", 3 * i, 3 * i + 1, 3 * i + 2);
+    }
+    let s = parse(&format!(
+        "WorldBegin\nShape \"trianglemesh\" \"point3 P\" [{p}] \"integer indices\" [{idx}]"
+    ));
+    let kept: Vec<usize> = (0..n).filter(|&i| !degenerate(i)).collect();
+    assert_eq!(s.triangles.len(), kept.len());
+    for (t, &i) in s.triangles.iter().zip(&kept) {
+        assert_eq!(t.v[0].x, i as f32, "triangle {i}");
+    }
+}
