@@ -107,12 +107,23 @@ pub(super) fn ploc(boxes: &[Aabb], params: BvhBuildParams) -> Bvh2 {
 }
 
 /// `(Morton code of the box centre, index)`, sorted (the index breaks ties, so the
-/// order is the input's alone), made and sorted in `threads` pieces at once, then merged.
+/// order is the input's alone). The keys are made a piece per thread, then put in
+/// buckets by their codes' top [`BUCKET_BITS`] bits (a counting sort) and the buckets
+/// sorted at once; where one bucket would hold more than a quarter of them (a scene
+/// whose primitives crowd one corner of its box), sorted in `threads` pieces at once
+/// and merged instead. Either way the same list.
 fn sorted_keys(boxes: &[Bounds], threads: usize) -> Vec<(u64, u32)> {
-    let mut centres = Aabb::empty();
-    for b in boxes {
-        centres.extend(obvhs_box(b).center());
-    }
+    let piece = boxes.len().div_ceil(threads.max(1)).max(1 << 16);
+    let mut chunks: Vec<&[Bounds]> = boxes.chunks(piece).collect();
+    let centres = super::map_in_parallel(&mut chunks, threads, |boxes| {
+        let mut centres = Aabb::empty();
+        for b in boxes.iter() {
+            centres.extend(obvhs_box(b).center());
+        }
+        centres
+    })
+    .into_iter()
+    .fold(Aabb::empty(), |a, b| a.union(&b));
     let extent = centres.diagonal();
     let cells = ((1u32 << MORTON_BITS) - 1) as f32;
     let scale = glam::Vec3A::select(
@@ -120,26 +131,66 @@ fn sorted_keys(boxes: &[Bounds], threads: usize) -> Vec<(u64, u32)> {
         cells / extent,
         glam::Vec3A::ZERO,
     );
-    let piece = boxes.len().div_ceil(threads.max(1)).max(1 << 16);
-    let mut pieces: Vec<(usize, &[Bounds])> = boxes
-        .chunks(piece)
+    let mut keys = vec![(0u64, 0u32); boxes.len()];
+    let mut pieces: Vec<(usize, &mut [(u64, u32)])> = keys
+        .chunks_mut(piece)
         .enumerate()
         .map(|(k, c)| (k * piece, c))
         .collect();
-    let mut sorted = super::map_in_parallel(&mut pieces, threads, |&mut (first, boxes)| {
-        let mut keys: Vec<(u64, u32)> = boxes
-            .iter()
-            .enumerate()
-            .map(|(i, b)| {
-                let q = ((obvhs_box(b).center() - centres.min) * scale)
-                    .clamp(glam::Vec3A::ZERO, glam::Vec3A::splat(cells))
-                    .as_uvec3();
-                (morton(q.x, q.y, q.z), (first + i) as u32)
-            })
-            .collect();
+    super::map_in_parallel(&mut pieces, threads, |(first, out)| {
+        for (i, key) in out.iter_mut().enumerate() {
+            let q = ((obvhs_box(&boxes[*first + i]).center() - centres.min) * scale)
+                .clamp(glam::Vec3A::ZERO, glam::Vec3A::splat(cells))
+                .as_uvec3();
+            *key = (morton(q.x, q.y, q.z), (*first + i) as u32);
+        }
+    });
+    drop(pieces);
+    let bucket = |k: &(u64, u32)| (k.0 >> (3 * MORTON_BITS - BUCKET_BITS)) as usize;
+    let mut start = vec![0usize; (1 << BUCKET_BITS) + 1];
+    for k in &keys {
+        start[bucket(k) + 1] += 1;
+    }
+    if start.iter().any(|&c| c > keys.len() / 4) {
+        return merged_keys(keys, threads);
+    }
+    for b in 0..1 << BUCKET_BITS {
+        start[b + 1] += start[b];
+    }
+    let mut sorted = vec![(0u64, 0u32); keys.len()];
+    let mut next = start.clone();
+    for k in &keys {
+        let b = bucket(k);
+        sorted[next[b]] = *k;
+        next[b] += 1;
+    }
+    drop(keys);
+    let mut buckets = Vec::new();
+    let mut rest = &mut sorted[..];
+    for b in 0..1 << BUCKET_BITS {
+        let (head, tail) = rest.split_at_mut(start[b + 1] - start[b]);
+        if head.len() > 1 {
+            buckets.push(head);
+        }
+        rest = tail;
+    }
+    super::map_in_parallel(&mut buckets, threads, |b| b.sort_unstable());
+    sorted
+}
+
+/// The top bits of the Morton codes [`sorted_keys`] buckets by.
+const BUCKET_BITS: u32 = 12;
+
+/// `keys` sorted in `threads` pieces at once, then merged.
+fn merged_keys(keys: Keys, threads: usize) -> Keys {
+    let piece = keys.len().div_ceil(threads.max(1)).max(1 << 16);
+    let mut pieces: Vec<&[(u64, u32)]> = keys.chunks(piece).collect();
+    let mut sorted = super::map_in_parallel(&mut pieces, threads, |keys| {
+        let mut keys = keys.to_vec();
         keys.sort_unstable();
         keys
     });
+    drop(keys);
     // Merge pairs of sorted runs until one is left (the pairs of a round at once).
     while sorted.len() > 1 {
         let mut pairs: Vec<(Keys, Option<Keys>)> = Vec::new();
@@ -392,24 +443,32 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (state >> 40) as f32 / (1u64 << 24) as f32
         };
-        let boxes: Vec<Bounds> = (0..300_000)
-            .map(|i| {
-                let c = if i % 3 == 0 {
-                    glam::Vec3::splat(0.5)
-                } else {
-                    glam::Vec3::new(next(), next(), next())
-                };
-                Bounds {
-                    min: c,
-                    max: c + glam::Vec3::splat(0.01),
-                }
-            })
-            .collect();
-        let one = sorted_keys(&boxes, 1);
-        assert!(one.windows(2).all(|w| w[0] < w[1]));
-        assert_eq!(one.len(), boxes.len());
-        for threads in [2, 3, 5] {
-            assert_eq!(sorted_keys(&boxes, threads), one, "{threads} threads");
+        // A third of the boxes at one point (one bucket too full: sorted in pieces and
+        // merged), then one in fifty (bucketed); ties in both.
+        for crowd in [3, 50] {
+            let boxes: Vec<Bounds> = (0..300_000)
+                .map(|i| {
+                    let c = if i % crowd == 0 {
+                        glam::Vec3::splat(0.5)
+                    } else {
+                        glam::Vec3::new(next(), next(), next())
+                    };
+                    Bounds {
+                        min: c,
+                        max: c + glam::Vec3::splat(0.01),
+                    }
+                })
+                .collect();
+            let one = sorted_keys(&boxes, 1);
+            assert!(one.windows(2).all(|w| w[0] < w[1]));
+            let mut seen = vec![false; boxes.len()];
+            for &(_, i) in &one {
+                seen[i as usize] = true;
+            }
+            assert!(seen.iter().all(|&s| s), "every box once");
+            for threads in [2, 3, 5] {
+                assert_eq!(sorted_keys(&boxes, threads), one, "{threads} threads");
+            }
         }
     }
 }

@@ -163,6 +163,22 @@ pub(crate) fn map_in_parallel<T: Send, R: Send>(
         .collect()
 }
 
+/// Each triangle's box, made a piece per core.
+fn triangle_bounds(triangles: &[crate::scene::Triangle]) -> Vec<Aabb> {
+    let mut bounds = vec![Aabb::empty(); triangles.len()];
+    let piece = triangles.len().div_ceil(threads()).max(1 << 16);
+    let mut pieces: Vec<_> = bounds
+        .chunks_mut(piece)
+        .zip(triangles.chunks(piece))
+        .collect();
+    map_in_parallel(&mut pieces, threads(), |(out, triangles)| {
+        for (b, t) in out.iter_mut().zip(triangles.iter()) {
+            *b = geometry::triangle_bounds(t.v);
+        }
+    });
+    bounds
+}
+
 /// The threads the builds use: every core.
 pub(crate) fn threads() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
@@ -232,11 +248,7 @@ pub fn prepare(scene: &Scene, kind: BvhKind) -> anyhow::Result<BvhData> {
     }
     // The top tree. (Hidden spheres — invisible lights — are left out: no ray meets
     // them. `ids` maps the builder's primitive indices back to references.)
-    let mut bounds: Vec<Aabb> = scene
-        .triangles
-        .iter()
-        .map(|t| geometry::triangle_bounds(t.v))
-        .collect();
+    let mut bounds = triangle_bounds(&scene.triangles);
     let mut refs: Vec<u32> = (0..ntri as u32).collect();
     for (i, s) in scene.spheres.iter().enumerate() {
         if !s.hidden {
