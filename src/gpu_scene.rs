@@ -77,14 +77,25 @@ fn ellipsoid_area(m: Mat3) -> f32 {
 }
 
 pub fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    for t in &scene.triangles {
-        for v in t.v {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-    }
+    // (The triangles a piece per core: a minimum and maximum are the same in any order.)
+    let mut pieces: Vec<&[crate::scene::Triangle]> = scene.triangles.chunks(1 << 20).collect();
+    let (mut lo, mut hi) =
+        crate::accel::map_in_parallel(&mut pieces, crate::accel::threads(), |p| {
+            let mut lo = Vec3::splat(f32::INFINITY);
+            let mut hi = Vec3::splat(f32::NEG_INFINITY);
+            for t in p.iter() {
+                for v in t.v {
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+            }
+            (lo, hi)
+        })
+        .into_iter()
+        .fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), (a, b)| (lo.min(a), hi.max(b)),
+        );
     for s in &scene.spheres {
         let b = crate::accel::geometry::sphere_world_bounds(&s.object_to_world);
         lo = lo.min(b.min);
@@ -142,7 +153,18 @@ pub fn emitter_table_in(scene: &Scene, order: &[u32]) -> EmitterTable {
     let mut power = Vec::new();
     let mut triangle_emitter = vec![NO_EMITTER; scene.triangles.len()];
     let mut sphere_emitter = vec![NO_EMITTER; scene.spheres.len()];
-    let triangles = order.iter().map(|&i| &scene.triangles[i as usize]);
+    // (A walk in the BVH's order reads the triangles scattered: taken only where one
+    // emits, found by a walk in their own order, a piece per core.)
+    let emissive: Vec<bool> = scene.materials.iter().map(|m| m.is_emissive()).collect();
+    let mut pieces: Vec<&[crate::scene::Triangle]> = scene.triangles.chunks(1 << 20).collect();
+    let any = crate::accel::map_in_parallel(&mut pieces, crate::accel::threads(), |p| {
+        p.iter().any(|t| emissive[t.material as usize])
+    })
+    .contains(&true);
+    let triangles = order
+        .iter()
+        .take(if any { order.len() } else { 0 })
+        .map(|&i| &scene.triangles[i as usize]);
     for (i, t) in triangles.enumerate() {
         let m = &scene.materials[t.material as usize];
         if !m.is_emissive() {
