@@ -373,9 +373,24 @@ mod tests {
             .collect()
     }
 
+    /// Unit boxes on a lattice of `side`³ points: costs that tie exactly throughout (the
+    /// collapse must break ties as obvhs does, whatever generator made the other inputs).
+    fn lattice(side: u32) -> Vec<Aabb> {
+        let mut out = Vec::new();
+        for i in 0..side * side * side {
+            let c = glam::Vec3A::new(
+                (i % side) as f32,
+                (i / side % side) as f32,
+                (i / side / side) as f32,
+            );
+            out.push(Aabb::new(c * 2.0, c * 2.0 + glam::Vec3A::ONE));
+        }
+        out
+    }
+
     #[test]
     fn collapse_is_obvhs_node_for_node() {
-        for (n, seed) in [
+        let inputs = [
             (1, 1),
             (2, 2),
             (3, 3),
@@ -383,8 +398,12 @@ mod tests {
             (100, 5),
             (5000, 6),
             (40_000, 7),
-        ] {
-            let b = boxes(n, seed);
+        ]
+        .map(|(n, seed)| boxes(n, seed))
+        .into_iter()
+        .chain([lattice(4), lattice(11)]);
+        for b in inputs {
+            let n = b.len();
             let mut params = obvhs::BvhBuildParams::slow_build();
             params.pre_split = false;
             let bvh2 = super::super::clusters::ploc(&b, params);
