@@ -686,7 +686,7 @@ mod tests {
             }
             header += "end_header\n";
             let mut out = header.into_bytes();
-            let mut value = |out: &mut Vec<u8>, (t, size): (&str, usize), x: f64| {
+            let value = |out: &mut Vec<u8>, (t, size): (&str, usize), x: f64| {
                 let b: Vec<u8> = match t {
                     "char" => vec![x as i8 as u8],
                     "uchar" => vec![x as u8],
