@@ -406,7 +406,7 @@ mod tests {
             let n = b.len();
             let mut params = obvhs::BvhBuildParams::slow_build();
             params.pre_split = false;
-            let bvh2 = super::super::clusters::ploc(&b, params);
+            let bvh2 = super::super::clusters::ploc(b, params);
             for max_leaf in [1, 3] {
                 let ours = collapse(&bvh2, max_leaf);
                 let theirs = bvh2_to_cwbvh(&bvh2, max_leaf, true, false);
