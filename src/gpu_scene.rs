@@ -78,9 +78,8 @@ fn ellipsoid_area(m: Mat3) -> f32 {
 
 pub fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
     // (The triangles a piece per core: a minimum and maximum are the same in any order.)
-    let mut pieces: Vec<&[crate::scene::Triangle]> = scene.triangles.chunks(1 << 20).collect();
     let (mut lo, mut hi) =
-        crate::accel::map_in_parallel(&mut pieces, crate::accel::threads(), |p| {
+        crate::accel::map_pieces(&scene.triangles, 1 << 20, crate::accel::threads(), |p| {
             let mut lo = Vec3::splat(f32::INFINITY);
             let mut hi = Vec3::splat(f32::NEG_INFINITY);
             for t in p.iter() {
@@ -156,8 +155,7 @@ pub fn emitter_table_in(scene: &Scene, order: &[u32]) -> EmitterTable {
     // (A walk in the BVH's order reads the triangles scattered: taken only where one
     // emits, found by a walk in their own order, a piece per core.)
     let emissive: Vec<bool> = scene.materials.iter().map(|m| m.is_emissive()).collect();
-    let mut pieces: Vec<&[crate::scene::Triangle]> = scene.triangles.chunks(1 << 20).collect();
-    let any = crate::accel::map_in_parallel(&mut pieces, crate::accel::threads(), |p| {
+    let any = crate::accel::map_pieces(&scene.triangles, 1 << 20, crate::accel::threads(), |p| {
         p.iter().any(|t| emissive[t.material as usize])
     })
     .contains(&true);
@@ -221,7 +219,10 @@ pub fn emitter_table_in(scene: &Scene, order: &[u32]) -> EmitterTable {
             ],
         });
     }
-    let (_, radius) = scene_bounds(scene);
+    // The scene's radius, for the lights outside it (a pass over every triangle: made
+    // only where one is).
+    let bounds = std::cell::OnceCell::new();
+    let radius = || bounds.get_or_init(|| scene_bounds(scene)).1;
     // Delta lights that emit nothing are left out: they could never contribute.
     for (index, l) in scene
         .delta_lights
@@ -306,7 +307,7 @@ pub fn emitter_table_in(scene: &Scene, order: &[u32]) -> EmitterTable {
                 direction,
                 radiance,
             } => {
-                power.push(pi * radius * radius * avg(radiance));
+                power.push(pi * radius() * radius() * avg(radiance));
                 emitters.push(GpuEmitter {
                     p0: direction.normalize().extend(0.0).to_array(),
                     radiance: radiance.extend(0.0).to_array(),
@@ -333,7 +334,7 @@ pub fn emitter_table_in(scene: &Scene, order: &[u32]) -> EmitterTable {
                 environment = emitters.len() as u32;
             }
             environment_sources.push(i);
-            power.push(4.0 * pi * pi * radius * radius * avg(mean));
+            power.push(4.0 * pi * pi * radius() * radius() * avg(mean));
             let (to_world, mapping) = env
                 .map
                 .as_ref()

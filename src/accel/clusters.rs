@@ -148,8 +148,7 @@ thread_local! {
 /// and merged instead. Either way the same list.
 fn sorted_keys(boxes: &[Bounds], threads: usize) -> Vec<(u64, u32)> {
     let piece = boxes.len().div_ceil(threads.max(1)).max(1 << 16);
-    let mut chunks: Vec<&[Bounds]> = boxes.chunks(piece).collect();
-    let centres = super::map_in_parallel(&mut chunks, threads, |boxes| {
+    let centres = super::map_pieces(boxes, piece, threads, |boxes| {
         let mut centres = Aabb::empty();
         for b in boxes.iter() {
             centres.extend(obvhs_box(b).center());
@@ -218,8 +217,7 @@ const BUCKET_BITS: u32 = 12;
 /// `keys` sorted in `threads` pieces at once, then merged.
 fn merged_keys(keys: Keys, threads: usize) -> Keys {
     let piece = keys.len().div_ceil(threads.max(1)).max(1 << 16);
-    let mut pieces: Vec<&[(u64, u32)]> = keys.chunks(piece).collect();
-    let mut sorted = super::map_in_parallel(&mut pieces, threads, |keys| {
+    let mut sorted = super::map_pieces(&keys, piece, threads, |keys| {
         let mut keys = keys.to_vec();
         keys.sort_unstable();
         keys

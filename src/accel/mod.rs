@@ -163,6 +163,19 @@ pub(crate) fn map_in_parallel<T: Send, R: Send>(
         .collect()
 }
 
+/// `f` of each piece of `items` (`piece` long, the last one shorter) on `threads`
+/// threads, in the pieces' order (a pass over a large array on every core, whose results
+/// the caller folds).
+pub(crate) fn map_pieces<T: Sync, R: Send>(
+    items: &[T],
+    piece: usize,
+    threads: usize,
+    f: impl Fn(&[T]) -> R + Sync,
+) -> Vec<R> {
+    let mut pieces: Vec<&[T]> = items.chunks(piece.max(1)).collect();
+    map_in_parallel(&mut pieces, threads, |p| f(p))
+}
+
 /// Each triangle's box, made a piece per core.
 fn triangle_bounds(triangles: &[crate::scene::Triangle]) -> Vec<Aabb> {
     let mut bounds = vec![Aabb::empty(); triangles.len()];
