@@ -600,6 +600,7 @@ fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
             mapping,
             wrap,
             filter,
+            max_anisotropy,
             ..
         } => {
             let (first, bytes) = texels.image(image);
@@ -617,8 +618,14 @@ fn leaf_record(t: &Texture, texels: &mut Texels) -> GpuTexture {
                     bytes,
                 ],
                 scale: scale.extend(0.0).to_array(),
-                // (x: the filter; y: the MIP levels.)
-                other: [filter.code() as f32, image.levels().len() as f32, 0.0, 0.0],
+                // (x: the filter; y: the MIP levels; z: EWA's longest footprint for its
+                // width.)
+                other: [
+                    filter.code() as f32,
+                    image.levels().len() as f32,
+                    *max_anisotropy,
+                    0.0,
+                ],
                 mapping: *mapping,
                 ..GpuTexture::default()
             }
@@ -1738,6 +1745,7 @@ mod tests {
                 wrap: Wrap::Repeat,
                 projection: Projection::Uv,
                 filter: crate::texture::Filter::Bilinear,
+                max_anisotropy: 8.0,
             });
         }
         let d = texture_data(&s);

@@ -6,8 +6,9 @@
 //! image's levels are bytes, rounded through its encoding). A lookup picks its level from
 //! the pixel footprint's extent in (s, t) (`2 max |∂(s,t)/∂(x,y)|`, level
 //! `levels − 1 + log2(width)`) and reads it as `filter` says: the nearest texel or
-//! bilinear at that level's floor, or (trilinear) between it and the next. EWA reads as
-//! trilinear (documented in docs/pbrt.md).
+//! bilinear at that level's floor, or (trilinear) between it and the next. EWA (pbrt-v4's
+//! elliptically weighted average, after Heckbert) weighs the texels under the footprint's
+//! ellipse by a Gaussian, in the level of the ellipse's minor axis and the next ([`ewa`]).
 //!
 //! The CPU mirror of texture.glsl's `image_value`; the kernels read the levels one after
 //! another in the texel data ([`crate::gpu_scene`]), each `max(1, w >> l) × max(1, h >> l)`.
@@ -235,13 +236,15 @@ pub fn filter_width(dst: (Vec2, Vec2)) -> f32 {
 }
 
 /// `image` (a pyramid, or one level) at `at` (x to the right, y down, in [0,1]²) where
-/// the footprint's (s, t) derivatives are `dst`, read as `filter` says (module docs).
+/// the footprint's (s, t) derivatives are `dst`, read as `filter` says (module docs; EWA's
+/// footprint at most `max_anisotropy` times longer than wide).
 pub fn image_value(
     image: &TextureImage,
     filter: Filter,
     at: Vec2,
     dst: (Vec2, Vec2),
     wrap: Wrap,
+    max_anisotropy: f32,
 ) -> Vec3 {
     let levels = image.levels();
     let n = levels.len();
@@ -252,6 +255,11 @@ pub fn image_value(
             _ => bilerp(0),
         };
     }
+    if filter == Filter::Ewa {
+        // (In the image's frame, y down: the footprint turned as `at` was.)
+        let flip = Vec2::new(1.0, -1.0);
+        return ewa(levels, at, dst.0 * flip, dst.1 * flip, wrap, max_anisotropy);
+    }
     let level = (n - 1) as f32 + filter_width(dst).max(1e-8).log2();
     if level >= (n - 1) as f32 {
         return Vec3::from_array(levels[n - 1].texel(0));
@@ -261,6 +269,7 @@ pub fn image_value(
         Filter::Point => nearest(&levels[i], at, wrap, wrap),
         Filter::Bilinear => bilerp(i),
         Filter::Trilinear | Filter::Ewa => {
+            // (EWA returned above.)
             if i == 0 {
                 bilerp(0)
             } else {
@@ -269,6 +278,86 @@ pub fn image_value(
             }
         }
     }
+}
+
+/// pbrt-v4's EWA lookup of the pyramid `levels` at `at` under the footprint `d0`, `d1`
+/// (the image's frame, [0,1]², y down): the longer axis no more than `most` times the
+/// shorter (pbrt-v4's `maxanisotropy`: the shorter grown to it); no shorter axis,
+/// bilinear at the base; else [`ewa_level`] at `lod = levels − 1 + log2 |shorter|` (at
+/// least 0) and the next, blended by its fraction, a level past the top its one texel.
+/// texture.glsl `image_ewa`.
+pub fn ewa(levels: &[TextureImage], at: Vec2, d0: Vec2, d1: Vec2, wrap: Wrap, most: f32) -> Vec3 {
+    let (mut d0, mut d1) = (d0, d1);
+    if d0.length_squared() < d1.length_squared() {
+        std::mem::swap(&mut d0, &mut d1);
+    }
+    let longer = d0.length();
+    let mut shorter = d1.length();
+    if shorter * most < longer && shorter > 0.0 {
+        let k = longer / (shorter * most);
+        d1 *= k;
+        shorter *= k;
+    }
+    if shorter == 0.0 {
+        return bilinear(&levels[0], at, wrap, wrap);
+    }
+    let n = levels.len();
+    let lod = ((n - 1) as f32 + shorter.log2()).max(0.0);
+    let first = lod.floor() as usize;
+    let blend = lod - first as f32;
+    let level = |l: usize| match levels.get(l) {
+        Some(image) => ewa_level(image, at, d0, d1, wrap),
+        None => Vec3::from_array(levels[n - 1].texel(0)),
+    };
+    (1.0 - blend) * level(first) + blend * level(first + 1)
+}
+
+/// One level of [`ewa`]: in the level's texels (centres at half-integers), the ellipse
+/// `q(x) = A x² + B x y + C y² < 1` whose quadratic form is the inverse of the footprint's
+/// covariance `d0 d0ᵀ + d1 d1ᵀ` grown by one texel each way (the form's coefficients
+/// divided by its determinant), each texel centre inside it weighted by the Gaussian
+/// `exp(−2 q) − exp(−2)`, `q` quantised down to 1/128 (pbrt-v4's table of 128), the
+/// weights normalised; texels wrapped as `wrap` says (outside a black image: black,
+/// weighed still). texture.glsl `image_ewa_level`.
+pub fn ewa_level(image: &TextureImage, at: Vec2, d0: Vec2, d1: Vec2, wrap: Wrap) -> Vec3 {
+    let (w, h) = image.size();
+    let res = Vec2::new(w as f32, h as f32);
+    let c = at * res - 0.5;
+    let (d0, d1) = (d0 * res, d1 * res);
+    let mut a = d0.y * d0.y + d1.y * d1.y + 1.0;
+    let mut b = -2.0 * (d0.x * d0.y + d1.x * d1.y);
+    let mut cc = d0.x * d0.x + d1.x * d1.x + 1.0;
+    let inv_f = 1.0 / (a * cc - 0.25 * b * b);
+    a *= inv_f;
+    b *= inv_f;
+    cc *= inv_f;
+    let det = 4.0 * a * cc - b * b;
+    let hx = 2.0 * (det * cc).max(0.0).sqrt() / det;
+    let hy = 2.0 * (a * det).max(0.0).sqrt() / det;
+    let (x0, x1) = ((c.x - hx).ceil() as i64, (c.x + hx).floor() as i64);
+    let (y0, y1) = ((c.y - hy).ceil() as i64, (c.y + hy).floor() as i64);
+    let (mut sum, mut weights) = (Vec3::ZERO, 0.0);
+    for y in y0..=y1 {
+        let dy = y as f32 - c.y;
+        for x in x0..=x1 {
+            let dx = x as f32 - c.x;
+            let q = a * dx * dx + b * dx * dy + cc * dy * dy;
+            if q < 1.0 {
+                let k = ((q * 128.0) as i64).min(127) as f32 / 127.0;
+                let weight = (-2.0 * k).exp() - (-2.0f32).exp();
+                let texel = match (
+                    wrap_texel(x as f32, w as i64, wrap),
+                    wrap_texel(y as f32, h as i64, wrap),
+                ) {
+                    (Some(x), Some(y)) => Vec3::from_array(image.texel(y * w as usize + x)),
+                    _ => Vec3::ZERO,
+                };
+                sum += weight * texel;
+                weights += weight;
+            }
+        }
+    }
+    sum / weights
 }
 
 #[cfg(test)]
@@ -289,6 +378,132 @@ mod tests {
     /// A power-of-two image's pyramid: its base is the image, each level the 2 × 2 means
     /// of the one below, sides halving to one texel (a side of one read twice), and the
     /// top the image's mean.
+    /// EWA's weights are normalised: a constant image reads as itself under any footprint
+    /// (long, turned, clamped by the anisotropy, past the top level, none), in every wrap
+    /// but black (whose outside texels are black, weighed still).
+    #[test]
+    fn ewa_reads_a_constant_image_as_itself() {
+        let image = pyramid(floats(16, 8, |_, _| [0.25, 0.5, 0.75]), Wrap::Repeat);
+        let footprints = [
+            (Vec2::ZERO, Vec2::ZERO),
+            (Vec2::new(0.01, 0.0), Vec2::new(0.0, 0.002)),
+            (Vec2::new(0.3, 0.2), Vec2::new(-0.01, 0.02)),
+            (Vec2::new(0.001, 0.0), Vec2::ZERO),
+            (Vec2::new(3.0, 1.0), Vec2::new(-2.0, 4.0)),
+        ];
+        for wrap in [Wrap::Repeat, Wrap::Clamp] {
+            for (d0, d1) in footprints {
+                for most in [1.0, 8.0] {
+                    let at = Vec2::new(0.3, 0.9);
+                    let v = image_value(&image, Filter::Ewa, at, (d0, d1), wrap, most);
+                    assert!(
+                        (v - Vec3::new(0.25, 0.5, 0.75)).abs().max_element() < 1e-5,
+                        "{wrap:?} {d0} {d1} {most}: {v}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// One EWA level is the Gaussian-weighted mean over every texel of the level under the
+    /// ellipse `xᵀ Σ⁻¹ x < 1`, Σ the footprint's covariance `d0 d0ᵀ + d1 d1ᵀ` plus one texel²
+    /// each way (a brute-force sum over a square of texels well past the ellipse, with the
+    /// inverse taken by glam: the bounding box cuts no texel out); and centred on a texel
+    /// centre of a ramp, the weights (symmetric about it) read the ramp's value there.
+    #[test]
+    fn an_ewa_level_is_the_gaussian_mean_under_the_ellipse() {
+        let ramp = |x: u32, y: u32| [x as f32, y as f32, (x * 3 + y) as f32 % 5.0];
+        let image = floats(32, 16, ramp);
+        let brute = |at: Vec2, d0: Vec2, d1: Vec2| {
+            let res = Vec2::new(32.0, 16.0);
+            let c = at * res - 0.5;
+            let (d0, d1) = (d0 * res, d1 * res);
+            let cov = glam::Mat2::from_cols(d0 * d0.x + d1 * d1.x, d0 * d0.y + d1 * d1.y)
+                + glam::Mat2::IDENTITY;
+            let inv = cov.inverse();
+            let (mut sum, mut weights) = (Vec3::ZERO, 0.0);
+            for y in -40i64..=56 {
+                for x in -40i64..=72 {
+                    let v = Vec2::new(x as f32, y as f32) - c;
+                    let q = v.dot(inv * v);
+                    if q < 1.0 {
+                        let k = ((q * 128.0) as i64).min(127) as f32 / 127.0;
+                        let w = (-2.0 * k).exp() - (-2.0f32).exp();
+                        let texel =
+                            image.texel(y.rem_euclid(16) as usize * 32 + x.rem_euclid(32) as usize);
+                        sum += w * Vec3::from_array(texel);
+                        weights += w;
+                    }
+                }
+            }
+            sum / weights
+        };
+        let cases = [
+            (
+                Vec2::new(0.5, 0.5),
+                Vec2::new(0.05, 0.0),
+                Vec2::new(0.0, 0.1),
+            ),
+            (
+                Vec2::new(0.13, 0.71),
+                Vec2::new(0.2, 0.1),
+                Vec2::new(-0.01, 0.02),
+            ),
+            (
+                Vec2::new(0.91, 0.05),
+                Vec2::new(-0.1, 0.3),
+                Vec2::new(0.05, 0.02),
+            ),
+            (Vec2::new(0.4, 0.3), Vec2::ZERO, Vec2::ZERO),
+        ];
+        for (at, d0, d1) in cases {
+            let got = ewa_level(&image, at, d0, d1, Wrap::Repeat);
+            let want = brute(at, d0, d1);
+            assert!(
+                (got - want).abs().max_element() < 1e-4 * want.abs().max_element().max(1.0),
+                "{at} {d0} {d1}: {got} against {want}"
+            );
+        }
+        // Texel (10, 6)'s centre, far from the sides: the ramp's (x, y) there.
+        let at = Vec2::new(10.5 / 32.0, 6.5 / 16.0);
+        let v = ewa_level(
+            &image,
+            at,
+            Vec2::new(0.04, 0.05),
+            Vec2::new(-0.03, 0.02),
+            Wrap::Clamp,
+        );
+        assert!(
+            (v.truncate() - Vec2::new(10.0, 6.0)).abs().max_element() < 1e-4,
+            "{v}"
+        );
+    }
+
+    /// EWA filters along the footprint's ellipse, turned as the image is read (y down): on
+    /// stripes constant along (1, −1) in the image (x + y), so along (1, 1) in (s, t), a
+    /// footprint long along the stripes keeps their contrast and one long across them
+    /// blurs it away; with the anisotropy at 1 both are circles of the longer radius.
+    #[test]
+    fn ewa_blurs_across_its_ellipse_not_along_it() {
+        let stripes = |x: u32, y: u32| {
+            let v = 0.5 + 0.5 * (std::f32::consts::TAU * (x + y) as f32 / 8.0).cos();
+            [v; 3]
+        };
+        let image = pyramid(floats(64, 64, stripes), Wrap::Repeat);
+        // A crest: texel (8, 8)'s centre (x + y = 16); (s, t) = (x, 1 − y).
+        let at = Vec2::new(8.5 / 64.0, 8.5 / 64.0);
+        let (long, short) = (8.0 / 64.0 / 2f32.sqrt(), 1.0 / 64.0 / 2f32.sqrt());
+        let along = (Vec2::new(long, long), Vec2::new(short, -short));
+        let across = (Vec2::new(long, -long), Vec2::new(short, short));
+        let read = |(d0, d1): (Vec2, Vec2), most: f32| {
+            image_value(&image, Filter::Ewa, at, (d0, d1), Wrap::Repeat, most).x
+        };
+        let (a, c) = (read(along, 8.0), read(across, 8.0));
+        assert!(a > 0.85 && c < 0.6, "along {a}, across {c}");
+        let (a1, c1) = (read(along, 1.0), read(across, 1.0));
+        assert!((a1 - c1).abs() < 1e-5 && a1 < 0.6, "circles: {a1} {c1}");
+    }
+
     #[test]
     fn a_pyramid_halves_by_box_means_to_one_texel() {
         let image = floats(8, 2, |x, y| [x as f32, y as f32, (x * y) as f32]);
@@ -416,7 +631,7 @@ mod tests {
             let d = texels / 32.0;
             (Vec2::new(d, 0.0), Vec2::new(0.0, d * 0.5))
         };
-        let read = |f, texels| image_value(&p, f, at, fp(texels), Wrap::Repeat);
+        let read = |f, texels| image_value(&p, f, at, fp(texels), Wrap::Repeat, 8.0);
         let bil = |l: usize| bilinear(&levels[l], at, Wrap::Repeat, Wrap::Repeat);
         assert_eq!(read(Filter::Bilinear, 0.5), bil(0));
         assert_eq!(read(Filter::Trilinear, 0.5), bil(0));
@@ -444,7 +659,7 @@ mod tests {
         );
         // One level alone (no pyramid): the filter at full resolution, any footprint.
         assert_eq!(
-            image_value(&image, Filter::Bilinear, at, fp(64.0), Wrap::Repeat),
+            image_value(&image, Filter::Bilinear, at, fp(64.0), Wrap::Repeat, 8.0),
             bilinear(&image, at, Wrap::Repeat, Wrap::Repeat)
         );
     }

@@ -43,9 +43,7 @@ pub fn trace_rays(
     let kernel = engine.kernel(
         "trace_probe",
         None,
-        Specialization {
-            features: crate::engine::scene_features(scene),
-        },
+        crate::engine::scene_specialization(scene),
     )?;
     let set = engine.bind(
         &kernel,
@@ -215,7 +213,20 @@ fn run_bsdf_probe(
     let inputs_buffer = engine.buffer_with("probe inputs", bytemuck::cast_slice(inputs))?;
     let out_bytes = (inputs.len() * std::mem::size_of::<BsdfProbeOutput>()).max(16) as u64;
     let out = engine.storage_buffer("probe outputs", out_bytes)?;
-    let kernel = engine.kernel(kernel, None, Specialization { features })?;
+    // (Every MORE_FEATURE_* with every feature: the probes serve any scene.)
+    let more_features = if features == crate::abi::FEATURE_ALL {
+        u32::MAX
+    } else {
+        0
+    };
+    let kernel = engine.kernel(
+        kernel,
+        None,
+        Specialization {
+            features,
+            more_features,
+        },
+    )?;
     let mut bindings = data.to_vec();
     bindings.push((BINDING_BSDF_PROBE_INPUTS, &inputs_buffer));
     bindings.push((BINDING_BSDF_PROBE_OUTPUTS, &out));

@@ -28,6 +28,9 @@ pub enum Texture {
         wrap: Wrap,
         projection: Projection,
         filter: Filter,
+        /// The longest an EWA footprint may be for its width (pbrt-v4's `maxanisotropy`,
+        /// 8 by default; read by [`Filter::Ewa`] alone).
+        max_anisotropy: f32,
     },
     /// pbrt's 2D checkerboard: `even` where floor(s) + floor(t) is even, else `odd`.
     Checkerboard {
@@ -650,7 +653,8 @@ pub enum Filter {
     /// Bilinear in the two MIP levels about the footprint's, blended (pbrt-v4's
     /// `trilinear`; [`crate::mipmap`]).
     Trilinear,
-    /// pbrt-v4's `ewa`: read here as [`Filter::Trilinear`] (docs/pbrt.md).
+    /// pbrt-v4's `ewa`: a Gaussian over the footprint's ellipse in the two MIP levels
+    /// about its minor axis's ([`crate::mipmap`]).
     Ewa,
 }
 
@@ -660,7 +664,8 @@ impl Filter {
         match self {
             Filter::Bilinear => crate::abi::TEXTURE_FILTER_BILINEAR,
             Filter::Point => crate::abi::TEXTURE_FILTER_POINT,
-            Filter::Trilinear | Filter::Ewa => crate::abi::TEXTURE_FILTER_TRILINEAR,
+            Filter::Trilinear => crate::abi::TEXTURE_FILTER_TRILINEAR,
+            Filter::Ewa => crate::abi::TEXTURE_FILTER_EWA,
         }
     }
 }
@@ -874,11 +879,12 @@ pub fn texture_value_in(t: &Texture, uv: Vec2, p: Vec3, ng: Vec3, footprint: Foo
             wrap,
             projection,
             filter,
+            max_anisotropy,
         } => {
             let st = projection.st(mapping, uv, p);
             let at = Vec2::new(st.x, 1.0 - st.y);
             let dst = st_footprint(projection, mapping, uv, p, &f);
-            *scale * crate::mipmap::image_value(image, *filter, at, dst, *wrap)
+            *scale * crate::mipmap::image_value(image, *filter, at, dst, *wrap, *max_anisotropy)
         }
     }
 }
@@ -1392,6 +1398,7 @@ mod tests {
             wrap: Wrap::Repeat,
             projection: Projection::Uv,
             filter: Filter::Bilinear,
+            max_anisotropy: 8.0,
         };
         assert_eq!(
             texture_value(&t, Vec2::new(0.25, 0.25), Vec3::ZERO, Vec3::Z),
@@ -1415,6 +1422,7 @@ mod tests {
                 wrap,
                 projection: Projection::Uv,
                 filter,
+                max_anisotropy: 8.0,
             },
             _ => unreachable!(),
         };

@@ -154,7 +154,7 @@ fn squared_texture(t: &Texture) -> Texture {
 /// pbrt-v4's MIP maps (src/mipmap.rs): a floor seen at a low angle, its texture (16 × 16,
 /// one repeat per unit) shrinking to many texels a pixel far off, renders the CPU
 /// mirror's lookup at each point, the level picked by the pixel footprint in (s, t), in
-/// each filter (point, bilinear, trilinear), from 8-bit levels (bytes through the sRGB
+/// each filter (point, bilinear, trilinear, EWA), from 8-bit levels (bytes through the sRGB
 /// table) and float levels, through uv and through the planar and spherical projections.
 /// The levels matter: the mirror read at the base alone differs.
 #[test]
@@ -215,6 +215,7 @@ fn mip_mapped_image_textures_render_their_lookup() {
         (&pfm, Filter::Trilinear, Projection::Uv, true),
         (&pfm, Filter::Trilinear, planar, true),
         (&pfm, Filter::Bilinear, spherical, true),
+        (&pfm, Filter::Ewa, Projection::Uv, true),
     ];
     for (file, filter, projection, squared) in cases {
         let mut s = scene(file);
@@ -304,7 +305,7 @@ fn mip_mapped_image_textures_render_their_lookup() {
 /// texture.glsl's MIP lookups against their CPU mirror (src/mipmap.rs, src/texture.rs
 /// `texture_value_in`) point by point, on the texture probe (glsl/texture_probe.comp):
 /// 8-bit and float images of sides that are and are not powers of two (resampled up), in
-/// every filter and wrap mode, through uv, planar and spherical mappings, and squared (a
+/// every filter (EWA with two largest anisotropies) and wrap mode, through uv, planar and spherical mappings, and squared (a
 /// texture made of textures), at footprints from none through every level to past the
 /// top. Nearly every lookup agrees to 1e-4 (1e-3 through the spherical mapping; a
 /// footprint at a level's boundary may round to either side of it); most read a level
@@ -348,7 +349,12 @@ fn mip_lookups_match_their_mirror_point_by_point() {
     };
     s.textures.clear();
     for image in &images {
-        for filter in [Filter::Point, Filter::Bilinear, Filter::Trilinear] {
+        for filter in [
+            Filter::Point,
+            Filter::Bilinear,
+            Filter::Trilinear,
+            Filter::Ewa,
+        ] {
             for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Black] {
                 for projection in [Projection::Uv, planar, spherical] {
                     let mut t = image.clone();
@@ -358,6 +364,7 @@ fn mip_lookups_match_their_mirror_point_by_point() {
                         wrap: w,
                         projection: p,
                         mapping,
+                        max_anisotropy,
                         ..
                     } = &mut t
                     else {
@@ -365,6 +372,8 @@ fn mip_lookups_match_their_mirror_point_by_point() {
                     };
                     *i = std::sync::Arc::new(lightpath::mipmap::pyramid((**i).clone(), wrap));
                     (*f, *w, *p) = (filter, wrap, projection);
+                    // (EWA's longest footprint for its width: pbrt-v4's 8, and 2.5.)
+                    *max_anisotropy = if wrap == Wrap::Clamp { 2.5 } else { 8.0 };
                     *mapping = [1.5, 0.75, 0.1, -0.2];
                     s.textures.push(t);
                 }

@@ -220,6 +220,11 @@
 #define FEATURE_MIP_TEXTURES 2147483648u
 // Every feature (kernels that must serve any scene: the BSDF probe).
 #define FEATURE_ALL 4294967295u
+// SPEC_MORE_FEATURES: a uint, the MORE_FEATURE_* bits (FEATURE_*'s 32 are all taken).
+#define SPEC_MORE_FEATURES 1
+// Image textures read by pbrt-v4's elliptically weighted average (texture.glsl
+// image_ewa): a loop over the texels under the footprint's ellipse.
+#define MORE_FEATURE_EWA_TEXTURES 1
 
 // Texture slots of a material (texture.glsl's material_texture).
 #define MATERIAL_TEXTURE_SLOTS 4u
@@ -290,6 +295,9 @@
 #define TEXTURE_FILTER_BILINEAR 0
 #define TEXTURE_FILTER_POINT 1
 #define TEXTURE_FILTER_TRILINEAR 2
+// pbrt-v4's ewa: a Gaussian over the footprint's ellipse in the two MIP levels about its
+// minor axis's, the ellipse at most other.z times longer than wide (its maxanisotropy).
+#define TEXTURE_FILTER_EWA 3
 // How an image texture wraps (GpuTexture.flags.x).
 #define TEXTURE_WRAP_REPEAT 0
 // u repeats, v clamps (latitude-longitude environment maps).

@@ -11,4 +11,9 @@
 layout(constant_id = SPEC_FEATURES) const uint spec_features = 0u;
 
 bool has_feature(uint feature) { return (spec_features & feature) != 0u; }
+
+// The MORE_FEATURE_* bits (abi.h SPEC_MORE_FEATURES), as spec_features's.
+layout(constant_id = SPEC_MORE_FEATURES) const uint spec_more_features = 0u;
+
+bool has_more_feature(uint feature) { return (spec_more_features & feature) != 0u; }
 #endif

@@ -88,6 +88,99 @@ vec3 image_lookup(GpuTexture t, vec2 at, bool point) {
     return mix(top, bottom, ay);
 }
 
+// One MIP level t read by pbrt-v4's elliptically weighted average at st (in [0,1]^2 from
+// the top-left corner) under the footprint (d0, d1) (in the same units): in texels, the
+// ellipse q(x) = x^T M x <= 1 whose M is the inverse of the footprint's covariance plus
+// one texel in each direction (A, B, C below, normalised by its determinant F), and every
+// texel centre inside weighted by a Gaussian of q, exp(-2 q) - exp(-2), q quantised to
+// 1/128 as pbrt-v4's table. Texels wrap as image_lookup's. CPU mirror: src/mipmap.rs
+// ewa_level.
+vec3 image_ewa_level(GpuTexture t, vec2 st, vec2 d0, vec2 d1) {
+    int w = int(t.info.z);
+    int h = int(t.info.w);
+    vec2 res = vec2(t.info.zw);
+    vec2 c = st * res - 0.5;
+    d0 *= res;
+    d1 *= res;
+    float a = d0.y * d0.y + d1.y * d1.y + 1.0;
+    float b = -2.0 * (d0.x * d0.y + d1.x * d1.y);
+    float cc = d0.x * d0.x + d1.x * d1.x + 1.0;
+    float inv_f = 1.0 / (a * cc - 0.25 * b * b);
+    a *= inv_f;
+    b *= inv_f;
+    cc *= inv_f;
+    // The ellipse's bounding box: half-widths sqrt(4 C / det) and sqrt(4 A / det).
+    float det = 4.0 * a * cc - b * b;
+    float hx = 2.0 * sqrt(max(det * cc, 0.0)) / det;
+    float hy = 2.0 * sqrt(max(a * det, 0.0)) / det;
+    int x0 = int(ceil(c.x - hx));
+    int x1 = int(floor(c.x + hx));
+    int y0 = int(ceil(c.y - hy));
+    int y1 = int(floor(c.y + hy));
+    bool repeat_u = t.flags.x == TEXTURE_WRAP_REPEAT || t.flags.x == TEXTURE_WRAP_REPEAT_U;
+    bool repeat_v = t.flags.x == TEXTURE_WRAP_REPEAT;
+    bool black = t.flags.x == TEXTURE_WRAP_BLACK;
+    vec3 sum = vec3(0.0);
+    float weights = 0.0;
+    for (int y = y0; y <= y1; ++y) {
+        float dy = float(y) - c.y;
+        int ty = wrap_texel(float(y), h, repeat_v, black);
+        for (int x = x0; x <= x1; ++x) {
+            float dx = float(x) - c.x;
+            float q = a * dx * dx + b * dx * dy + cc * dy * dy;
+            if (q < 1.0) {
+                float k = float(min(int(q * 128.0), 127)) / 127.0;
+                float weight = exp(-2.0 * k) - exp(-2.0);
+                sum += weight * texel(t, wrap_texel(float(x), w, repeat_u, black), ty);
+                weights += weight;
+            }
+        }
+    }
+    return sum / weights;
+}
+
+// pbrt-v4's EWA lookup of image t (levels MIP levels) at st under the footprint (d0, d1):
+// the longer axis d0, the shorter stretched to at least 1/other.z of it (maxanisotropy);
+// without one (zero), bilinear at the base; else the level lod = levels - 1 + log2 of the
+// shorter's length (at least 0) and the next blended by its fraction, a level past the
+// top read as the top's one texel. CPU mirror: src/mipmap.rs ewa.
+vec3 image_ewa(GpuTexture t, int levels, vec2 st, vec2 d0, vec2 d1) {
+    if (dot(d0, d0) < dot(d1, d1)) {
+        vec2 s = d0;
+        d0 = d1;
+        d1 = s;
+    }
+    float longer = length(d0);
+    float shorter = length(d1);
+    float most = t.other.z;
+    if (shorter * most < longer && shorter > 0.0) {
+        float k = longer / (shorter * most);
+        d1 *= k;
+        shorter *= k;
+    }
+    if (shorter == 0.0) return image_lookup(t, st, false);
+    float lod = max(0.0, float(levels - 1) + log2(shorter));
+    int first = int(floor(lod));
+    float blend = lod - float(first);
+    vec3 v = vec3(0.0);
+    for (int i = 0; i < levels; ++i) {
+        if (i == first || i == first + 1) {
+            // (One call for both levels: the kernels inline it.)
+            v += (i == first ? 1.0 - blend : blend) * image_ewa_level(t, st, d0, d1);
+            if (i == first + 1) break;
+        }
+        if (i == levels - 1) {
+            // Past the top: its one texel.
+            vec3 top = texel(t, 0, 0);
+            if (first >= levels) v += (1.0 - blend) * top;
+            v += blend * top;
+            break;
+        }
+        t = next_image_level(t);
+    }
+    return v;
+}
+
 // An image texture's texels at (s, t) where the footprint's (s, t) derivatives are dst0
 // (along x) and dst1 (along y), read as other.x says (TEXTURE_FILTER_*); with MIP levels
 // (other.y > 1, FEATURE_MIP_TEXTURES) at the level they pick, pbrt-v4's MIPMap::Filter:
@@ -96,7 +189,16 @@ vec3 image_lookup(GpuTexture t, vec2 at, bool point) {
 // and the next by level's fraction (bilinear at the base below level 1). The levels are
 // walked to in one loop, each lookup at one call. CPU mirror: src/mipmap.rs image_value.
 vec3 image_value(GpuTexture t, vec2 st, vec2 dst0, vec2 dst1, uint tf) {
-    if (t.flags.y == 0u) st.y = 1.0 - st.y;
+    if (t.flags.y == 0u) {
+        st.y = 1.0 - st.y;
+        // (The footprint turned with it: EWA's ellipse would be mirrored otherwise.)
+        dst0.y = -dst0.y;
+        dst1.y = -dst1.y;
+    }
+    if (has_more_feature(MORE_FEATURE_EWA_TEXTURES) && t.other.x == float(TEXTURE_FILTER_EWA)
+        && has_texture_feature(tf, FEATURE_MIP_TEXTURES) && t.other.y > 1.0) {
+        return image_ewa(t, int(t.other.y), st, dst0, dst1);
+    }
     bool point = t.other.x == float(TEXTURE_FILTER_POINT);
     int first = 0;
     int count = 1;

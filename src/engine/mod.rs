@@ -306,9 +306,7 @@ impl Engine {
         } else {
             None
         };
-        let specialization = Specialization {
-            features: scene_features(scene),
-        };
+        let specialization = scene_specialization(scene);
         let prepared = Arc::new(PreparedScene {
             gpu_scene,
             rq,
@@ -623,6 +621,29 @@ impl Engine {
     /// Whether a signal asked the render to stop.
     pub fn interrupted(&self) -> bool {
         self.interrupt_signal().is_some()
+    }
+}
+
+/// The kernels' specialization for `scene`: its [`scene_features`] and
+/// [`scene_more_features`].
+pub fn scene_specialization(scene: &Scene) -> Specialization {
+    Specialization {
+        features: scene_features(scene),
+        more_features: scene_more_features(scene),
+    }
+}
+
+/// abi.h's `MORE_FEATURE_*` bits of what `scene` has (as [`scene_features`]'s): EWA
+/// lookups where an image texture with MIP levels is read by pbrt-v4's `ewa`.
+pub fn scene_more_features(scene: &Scene) -> u32 {
+    use crate::texture::{Filter, Texture};
+    let ewa = scene.textures.iter().flat_map(|t| t.leaves()).any(|l| {
+        matches!(l, Texture::Image { image, filter: Filter::Ewa, .. } if image.levels().len() > 1)
+    });
+    if ewa {
+        crate::abi::MORE_FEATURE_EWA_TEXTURES
+    } else {
+        0
     }
 }
 

@@ -71,6 +71,8 @@ pub enum Resource {
 pub struct Specialization {
     /// abi.h's `FEATURE_*` bits: what the scene has.
     pub features: u32,
+    /// abi.h's `MORE_FEATURE_*` bits (`SPEC_MORE_FEATURES`): what else it has.
+    pub more_features: u32,
 }
 
 /// The kernels of one backend, created on first use, and the pool their sets come from.
@@ -181,12 +183,19 @@ impl Kernels {
                     None,
                 )
             }?;
-            let values = [spec.features];
-            let entries = [vk::SpecializationMapEntry {
-                constant_id: crate::abi::SPEC_FEATURES,
-                offset: 0,
-                size: std::mem::size_of::<u32>(),
-            }];
+            let values = [spec.features, spec.more_features];
+            let entries = [
+                vk::SpecializationMapEntry {
+                    constant_id: crate::abi::SPEC_FEATURES,
+                    offset: 0,
+                    size: std::mem::size_of::<u32>(),
+                },
+                vk::SpecializationMapEntry {
+                    constant_id: crate::abi::SPEC_MORE_FEATURES,
+                    offset: std::mem::size_of::<u32>() as u32,
+                    size: std::mem::size_of::<u32>(),
+                },
+            ];
             let spec_info = vk::SpecializationInfo::default()
                 .map_entries(&entries)
                 .data(bytemuck::cast_slice(&values));

@@ -463,6 +463,7 @@ impl Parser {
                 wrap: Wrap::Repeat,
                 projection: Projection::Uv,
                 filter: crate::texture::Filter::Bilinear,
+                max_anisotropy: 8.0,
             });
             return Ok(Some(ShadingMap::Normal(
                 self.scene.textures.len() as u32 - 1,

@@ -253,8 +253,10 @@ fn imagemap_wrap_modes_invert_and_mappings() {
     .unwrap();
     let e = parse_pbrt_file(&d.join("s.pbrt")).expect_err("octahedralsphere");
     assert!(e.message.contains("octahedralsphere"), "{e}");
-    // Filters: bilinear its default, point and trilinear as pbrt-v4's, EWA read as
-    // trilinear; every imagemap's image its MIP pyramid (the base 2 × 2: two levels).
+    // Filters: bilinear its default, point, trilinear and EWA as pbrt-v4's (EWA's
+    // maxanisotropy 8 by default, at least 1); every imagemap's image its MIP pyramid (the
+    // base 2 × 2: two levels); the scene's kernels get EWA's code only where a texture
+    // reads it.
     let filter = |extra: &str| {
         std::fs::write(d.join("s.pbrt"), text(extra)).unwrap();
         parse_pbrt_file(&d.join("s.pbrt")).map(|s| match &s.textures[0] {
@@ -277,6 +279,25 @@ fn imagemap_wrap_modes_invert_and_mappings() {
     }
     let e = filter("\"string filter\" \"gaussian\"").expect_err("gaussian");
     assert!(e.message.contains("filter \"gaussian\""), "{e}");
+    let anisotropy = |extra: &str| {
+        std::fs::write(d.join("s.pbrt"), text(extra)).unwrap();
+        parse_pbrt_file(&d.join("s.pbrt")).map(|s| {
+            let more = crate::engine::scene_more_features(&s);
+            match &s.textures[0] {
+                Texture::Image { max_anisotropy, .. } => (*max_anisotropy, more),
+                other => panic!("{other:?}"),
+            }
+        })
+    };
+    let ewa = crate::abi::MORE_FEATURE_EWA_TEXTURES;
+    assert_eq!(anisotropy("").unwrap(), (8.0, 0));
+    assert_eq!(anisotropy("\"string filter\" \"ewa\"").unwrap(), (8.0, ewa));
+    assert_eq!(
+        anisotropy("\"string filter\" \"ewa\" \"float maxanisotropy\" 2.5").unwrap(),
+        (2.5, ewa)
+    );
+    let e = anisotropy("\"float maxanisotropy\" 0.5").expect_err("below 1");
+    assert!(e.message.contains("maxanisotropy 0.5") && e.line > 0, "{e}");
     std::fs::remove_dir_all(&d).ok();
 }
 

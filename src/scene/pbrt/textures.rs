@@ -385,21 +385,15 @@ impl Parser {
                     },
                 };
                 // pbrt-v4's filters, each at the MIP level the pixel footprint picks
-                // (src/mipmap.rs): point, bilinear (its default), trilinear; EWA is read
-                // as trilinear.
+                // (src/mipmap.rs): point, bilinear (its default), trilinear, EWA (at most
+                // `maxanisotropy` times longer than wide, 8 by default).
                 let filter = match params.find("filter") {
                     None => Filter::Bilinear,
                     Some(p) => match p.strs.first().map(String::as_str) {
                         Some("bilinear") => Filter::Bilinear,
                         Some("point") => Filter::Point,
                         Some("trilinear") => Filter::Trilinear,
-                        Some("ewa") => {
-                            self.warn(
-                                "imagemap filter",
-                                "imagemap: filter \"ewa\" read as trilinear (lightpath has no elliptical filter)".to_owned(),
-                            );
-                            Filter::Ewa
-                        }
+                        Some("ewa") => Filter::Ewa,
                         other => {
                             self.unsupported(
                                 p.file,
@@ -413,7 +407,18 @@ impl Parser {
                         }
                     },
                 };
-                params.find("maxanisotropy");
+                let max_anisotropy = num("maxanisotropy", 8.0);
+                if !(max_anisotropy >= 1.0 && max_anisotropy.is_finite()) {
+                    let p = params
+                        .find("maxanisotropy")
+                        .expect("given: not the default");
+                    return Err(self.err_at(
+                        p.file,
+                        p.line,
+                        d,
+                        format!("imagemap: maxanisotropy {max_anisotropy}: expected a number of at least 1"),
+                    ));
+                }
                 let scale = num("scale", 1.0);
                 let image = self.image_texture(path.clone(), encoding, (p.file, p.line, d), "");
                 // pbrt-v4's invert: max(0, 1 - scale · v), made once on the texels (the
@@ -436,6 +441,7 @@ impl Parser {
                     wrap,
                     projection,
                     filter,
+                    max_anisotropy,
                 });
                 Value::Texture(self.scene.textures.len() as u32 - 1)
             }
