@@ -681,9 +681,10 @@ fn procedural_textures_render_alike_in_every_strategy_and_integrator() {
 /// Image textures in each of pbrt-v4's `imagemap` filters, each read from its MIP pyramid
 /// at the level the pixel footprint picks (src/mipmap.rs): a floor whose reflectance
 /// repeats a 16 × 16 image four times each way (shrunk to tens of texels a pixel: levels
-/// 2 to 4) read `trilinear`, a back wall repeating it twelve times read `bilinear`, and
-/// on the wall a panel showing it once (magnified: the base) read `point`, under the quad
-/// light. Every BDPT strategy alone matches the path tracer's image of its depth (light
+/// 2 to 4, the footprint long across the view) read `ewa` (maxanisotropy 4), a back wall
+/// repeating it twelve times read `trilinear`, and on the wall a panel showing it once
+/// (magnified: the base) read `point` and one showing it twice read `bilinear`, under the
+/// quad light. Every BDPT strategy alone matches the path tracer's image of its depth (light
 /// subpaths and connections look the images up with the same footprint as camera paths:
 /// a function of the point), and PT, BDPT and MMLT agree (maxdepth 1, 2 and 5).
 #[test]
@@ -701,18 +702,22 @@ fn image_textures_in_each_filter_render_alike_in_every_strategy_and_integrator()
     let (_, kind, quad) = lights().into_iter().next().expect("the quad light");
     let light = format!(
         "{quad}\nAttributeEnd\nAttributeBegin\n\
+         Texture \"ell\" \"spectrum\" \"imagemap\" \"string filename\" \"{cells}\" \"string filter\" \"ewa\" \"float maxanisotropy\" 4\n\
          Texture \"tri\" \"spectrum\" \"imagemap\" \"string filename\" \"{cells}\" \"string filter\" \"trilinear\"\n\
-         Texture \"bi\" \"spectrum\" \"imagemap\" \"string filename\" \"{cells}\"\n\
          Texture \"near\" \"spectrum\" \"imagemap\" \"string filename\" \"{cells}\" \"string filter\" \"point\"\n\
-         Material \"diffuse\" \"texture reflectance\" \"tri\"\n\
+         Texture \"bi\" \"spectrum\" \"imagemap\" \"string filename\" \"{cells}\"\n\
+         Material \"diffuse\" \"texture reflectance\" \"ell\"\n\
          Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
          \"point3 P\" [ -3 0.02 3  3 0.02 3  3 0.02 -2.5  -3 0.02 -2.5 ] \"point2 uv\" [ 0 0  4 0  4 4  0 4 ]\n\
-         Material \"diffuse\" \"texture reflectance\" \"bi\"\n\
+         Material \"diffuse\" \"texture reflectance\" \"tri\"\n\
          Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
          \"point3 P\" [ -3 0 -2.98  3 0 -2.98  3 4 -2.98  -3 4 -2.98 ] \"point2 uv\" [ 0 0  12 0  12 12  0 12 ]\n\
          Material \"diffuse\" \"texture reflectance\" \"near\"\n\
          Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
-         \"point3 P\" [ 1 0.5 -2.9  2.8 0.5 -2.9  2.8 2.3 -2.9  1 2.3 -2.9 ] \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]",
+         \"point3 P\" [ 1 0.5 -2.9  2.8 0.5 -2.9  2.8 2.3 -2.9  1 2.3 -2.9 ] \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]\n\
+         Material \"diffuse\" \"texture reflectance\" \"bi\"\n\
+         Shape \"trianglemesh\" \"integer indices\" [ 0 1 2 0 2 3 ]\n\
+         \"point3 P\" [ -2.8 0.5 -2.9  -1 0.5 -2.9  -1 2.3 -2.9  -2.8 2.3 -2.9 ] \"point2 uv\" [ 0 0  2 0  2 2  0 2 ]",
         cells = cells.display(),
     );
     let s = room(&light, false, 3);
@@ -730,13 +735,18 @@ fn image_textures_in_each_filter_render_alike_in_every_strategy_and_integrator()
     assert_eq!(
         filters,
         [
+            (Filter::Ewa, 5),
             (Filter::Trilinear, 5),
-            (Filter::Bilinear, 5),
-            (Filter::Point, 5)
+            (Filter::Point, 5),
+            (Filter::Bilinear, 5)
         ]
     );
     assert_ne!(
         lightpath::engine::scene_features(&s) & lightpath::abi::FEATURE_MIP_TEXTURES,
+        0
+    );
+    assert_ne!(
+        lightpath::engine::scene_more_features(&s) & lightpath::abi::MORE_FEATURE_EWA_TEXTURES,
         0
     );
     assert_each_strategy_alone_matches_pt("filtered images", kind, &s, 3);
