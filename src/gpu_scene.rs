@@ -141,12 +141,14 @@ pub fn profile_weights(scene: &Scene, l: &DeltaLight) -> Option<(Vec<f32>, f32)>
 
 pub fn emitter_table(scene: &Scene) -> EmitterTable {
     let order: Vec<u32> = (0..scene.triangles.len() as u32).collect();
-    emitter_table_in(scene, &order)
+    emitter_table_in(scene, &order, || scene_bounds(scene).1)
 }
 
 /// [`emitter_table`] with the world's triangles in `order` (the old index of each: their
 /// records' order, `BvhData::triangle_order`); triangle indices are positions in it.
-pub fn emitter_table_in(scene: &Scene, order: &[u32]) -> EmitterTable {
+/// `radius` gives the scene's bounding radius ([`scene_bounds`]), asked for only where
+/// a light outside the scene needs it.
+pub fn emitter_table_in(scene: &Scene, order: &[u32], radius: impl Fn() -> f32) -> EmitterTable {
     let pi = std::f32::consts::PI;
     let mut emitters = Vec::new();
     let mut power = Vec::new();
@@ -219,10 +221,9 @@ pub fn emitter_table_in(scene: &Scene, order: &[u32]) -> EmitterTable {
             ],
         });
     }
-    // The scene's radius, for the lights outside it (a pass over every triangle: made
-    // only where one is).
+    // The scene's radius, for the lights outside it (asked for once, where one is).
     let bounds = std::cell::OnceCell::new();
-    let radius = || bounds.get_or_init(|| scene_bounds(scene)).1;
+    let radius = || *bounds.get_or_init(&radius);
     // Delta lights that emit nothing are left out: they could never contribute.
     for (index, l) in scene
         .delta_lights
@@ -1315,7 +1316,8 @@ impl GpuScene {
         params: SceneParams,
         max_chunk_bytes: u64,
     ) -> Result<GpuScene> {
-        let mut table = emitter_table_in(scene, &bvh.triangle_order);
+        // (The bounds scene_params found.)
+        let mut table = emitter_table_in(scene, &bvh.triangle_order, || params.bounds[3]);
         let textures = texture_data(scene);
         let bits = f32::from_bits;
         // The world's triangles, then each object's (in object space; none emits), each
@@ -1745,7 +1747,7 @@ mod tests {
                 wrap: Wrap::Repeat,
                 projection: Projection::Uv,
                 filter: crate::texture::Filter::Bilinear,
-                max_anisotropy: 8.0,
+                max_anisotropy: crate::texture::DEFAULT_MAX_ANISOTROPY,
             });
         }
         let d = texture_data(&s);

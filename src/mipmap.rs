@@ -14,7 +14,8 @@
 //! another in the texel data ([`crate::gpu_scene`]), each `max(1, w >> l) × max(1, h >> l)`.
 use crate::io::Image;
 use crate::texture::{
-    bilinear, nearest, wrap_texel, ByteDecoding, Encoding, Filter, Texels, TextureImage, Wrap,
+    bilinear, nearest, texel_at, wrap_texel, ByteDecoding, Encoding, Filter, Texels, TextureImage,
+    Wrap,
 };
 use glam::{Vec2, Vec3};
 
@@ -237,7 +238,8 @@ pub fn filter_width(dst: (Vec2, Vec2)) -> f32 {
 
 /// `image` (a pyramid, or one level) at `at` (x to the right, y down, in [0,1]²) where
 /// the footprint's (s, t) derivatives are `dst`, read as `filter` says (module docs; EWA's
-/// footprint at most `max_anisotropy` times longer than wide).
+/// footprint at most `max_anisotropy` times longer than wide). A footprint with a NaN or
+/// infinite component is read as none. GLSL: texture.glsl image_value.
 pub fn image_value(
     image: &TextureImage,
     filter: Filter,
@@ -249,6 +251,13 @@ pub fn image_value(
     let levels = image.levels();
     let n = levels.len();
     let bilerp = |l: usize| bilinear(&levels[l], at, wrap, wrap);
+    // A footprint with a NaN or infinite component (a degenerate differential) is none.
+    let finite = dst.0.is_finite() && dst.1.is_finite();
+    let dst = if finite {
+        dst
+    } else {
+        (Vec2::ZERO, Vec2::ZERO)
+    };
     if n <= 1 {
         return match filter {
             Filter::Point => nearest(&levels[0], at, wrap, wrap),
@@ -345,13 +354,7 @@ pub fn ewa_level(image: &TextureImage, at: Vec2, d0: Vec2, d1: Vec2, wrap: Wrap)
             if q < 1.0 {
                 let k = ((q * 128.0) as i64).min(127) as f32 / 127.0;
                 let weight = (-2.0 * k).exp() - (-2.0f32).exp();
-                let texel = match (
-                    wrap_texel(x as f32, w as i64, wrap),
-                    wrap_texel(y as f32, h as i64, wrap),
-                ) {
-                    (Some(x), Some(y)) => Vec3::from_array(image.texel(y * w as usize + x)),
-                    _ => Vec3::ZERO,
-                };
+                let texel = texel_at(image, x as f32, y as f32, wrap, wrap);
                 sum += weight * texel;
                 weights += weight;
             }
@@ -662,5 +665,35 @@ mod tests {
             image_value(&image, Filter::Bilinear, at, fp(64.0), Wrap::Repeat, 8.0),
             bilinear(&image, at, Wrap::Repeat, Wrap::Repeat)
         );
+    }
+
+    /// A degenerate footprint (a NaN or infinite component) is read as none by every
+    /// filter: the base level, never a level or ellipse made from it.
+    #[test]
+    fn a_nan_or_infinite_footprint_reads_as_none() {
+        let image = floats(16, 16, |x, y| {
+            [x as f32 / 15.0, y as f32 / 15.0, ((x ^ y) & 1) as f32]
+        });
+        let p = pyramid(image, Wrap::Repeat);
+        let at = Vec2::new(0.37, 0.61);
+        let none = (Vec2::ZERO, Vec2::ZERO);
+        for filter in [
+            Filter::Point,
+            Filter::Bilinear,
+            Filter::Trilinear,
+            Filter::Ewa,
+        ] {
+            let want = image_value(&p, filter, at, none, Wrap::Repeat, 8.0);
+            for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+                for dst in [
+                    (Vec2::new(bad, 0.01), Vec2::new(0.0, 0.01)),
+                    (Vec2::new(0.01, 0.0), Vec2::new(0.02, bad)),
+                    (Vec2::splat(bad), Vec2::splat(bad)),
+                ] {
+                    let got = image_value(&p, filter, at, dst, Wrap::Repeat, 8.0);
+                    assert_eq!(got, want, "{filter:?} {dst:?}");
+                }
+            }
+        }
     }
 }

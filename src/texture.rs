@@ -14,6 +14,9 @@ use std::f32::consts::PI;
 use std::path::Path;
 use std::sync::Arc;
 
+/// An image texture's `maxanisotropy` where none is given (pbrt-v4's default).
+pub const DEFAULT_MAX_ANISOTROPY: f32 = 8.0;
+
 /// A texture: what a material reads at a surface point's (u, v), after the mapping
 /// `(s, t) = (su u + du, sv v + dv)` (`mapping` holds su, sv, du, dv).
 #[derive(Clone, Debug, PartialEq)]
@@ -29,7 +32,7 @@ pub enum Texture {
         projection: Projection,
         filter: Filter,
         /// The longest an EWA footprint may be for its width (pbrt-v4's `maxanisotropy`,
-        /// 8 by default; read by [`Filter::Ewa`] alone).
+        /// [`DEFAULT_MAX_ANISOTROPY`] unless given; read by [`Filter::Ewa`] alone).
         max_anisotropy: f32,
     },
     /// pbrt's 2D checkerboard: `even` where floor(s) + floor(t) is even, else `odd`.
@@ -689,11 +692,26 @@ pub(crate) fn wrap_texel(i: f32, n: i64, wrap: Wrap) -> Option<usize> {
 /// rounds half away from zero), wrapped as [`bilinear`] wraps.
 pub fn nearest(image: &(impl Texels + ?Sized), p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
     let (w, h) = image.size();
-    let (w, h) = (w as i64, h as i64);
     let round = |x: f32| x.floor() + (x - x.floor() >= 0.5) as u32 as f32;
     let x = round(p.x * w as f32 - 0.5);
     let y = round(p.y * h as f32 - 0.5);
-    match (wrap_texel(x, w, wrap_x), wrap_texel(y, h, wrap_y)) {
+    texel_at(image, x, y, wrap_x, wrap_y)
+}
+
+/// `image`'s texel at the integer-valued (x, y), each side wrapped as `wrap_x`, `wrap_y`
+/// say ([`wrap_texel`]); outside a black side, black.
+pub fn texel_at(
+    image: &(impl Texels + ?Sized),
+    x: f32,
+    y: f32,
+    wrap_x: Wrap,
+    wrap_y: Wrap,
+) -> Vec3 {
+    let (w, h) = image.size();
+    match (
+        wrap_texel(x, w as i64, wrap_x),
+        wrap_texel(y, h as i64, wrap_y),
+    ) {
         (Some(x), Some(y)) => Vec3::from_array(image.texel(y * w as usize + x)),
         _ => Vec3::ZERO,
     }
@@ -704,16 +722,11 @@ pub fn nearest(image: &(impl Texels + ?Sized), p: Vec2, wrap_x: Wrap, wrap_y: Wr
 /// `wrap_y` say.
 pub fn bilinear(image: &(impl Texels + ?Sized), p: Vec2, wrap_x: Wrap, wrap_y: Wrap) -> Vec3 {
     let (w, h) = image.size();
-    let (w, h) = (w as i64, h as i64);
-    let wrap = wrap_texel;
     let x = p.x * w as f32 - 0.5;
     let y = p.y * h as f32 - 0.5;
     let (fx, fy) = (x.floor(), y.floor());
     let (ax, ay) = (x - fx, y - fy);
-    let at = |i: f32, j: f32| match (wrap(i, w, wrap_x), wrap(j, h, wrap_y)) {
-        (Some(x), Some(y)) => Vec3::from_array(image.texel(y * w as usize + x)),
-        _ => Vec3::ZERO,
-    };
+    let at = |i: f32, j: f32| texel_at(image, i, j, wrap_x, wrap_y);
     let top = at(fx, fy).lerp(at(fx + 1.0, fy), ax);
     let bottom = at(fx, fy + 1.0).lerp(at(fx + 1.0, fy + 1.0), ax);
     top.lerp(bottom, ay)
@@ -1398,7 +1411,7 @@ mod tests {
             wrap: Wrap::Repeat,
             projection: Projection::Uv,
             filter: Filter::Bilinear,
-            max_anisotropy: 8.0,
+            max_anisotropy: DEFAULT_MAX_ANISOTROPY,
         };
         assert_eq!(
             texture_value(&t, Vec2::new(0.25, 0.25), Vec3::ZERO, Vec3::Z),
@@ -1422,7 +1435,7 @@ mod tests {
                 wrap,
                 projection: Projection::Uv,
                 filter,
-                max_anisotropy: 8.0,
+                max_anisotropy: DEFAULT_MAX_ANISOTROPY,
             },
             _ => unreachable!(),
         };

@@ -187,13 +187,21 @@ vec3 image_ewa(GpuTexture t, int levels, vec2 st, vec2 d0, vec2 d1) {
 // width = 2 max |d|, level = levels - 1 + log2(width); past the top level its one texel;
 // else point or bilinear at floor(level) (0 below it), trilinear blending floor(level)
 // and the next by level's fraction (bilinear at the base below level 1). The levels are
-// walked to in one loop, each lookup at one call. CPU mirror: src/mipmap.rs image_value.
+// walked to in one loop, each lookup at one call. A NaN or infinite footprint reads as none.
+// CPU mirror: src/mipmap.rs image_value.
 vec3 image_value(GpuTexture t, vec2 st, vec2 dst0, vec2 dst1, uint tf) {
     if (t.flags.y == 0u) {
         st.y = 1.0 - st.y;
         // (The footprint turned with it: EWA's ellipse would be mirrored otherwise.)
         dst0.y = -dst0.y;
         dst1.y = -dst1.y;
+    }
+    // A footprint with a NaN or infinite component (a degenerate differential) is read as
+    // none: the level and the ellipse made from it would be undefined. (Its exponent bits
+    // tested, which no float optimisation may fold.)
+    if (any(equal(floatBitsToUint(vec4(dst0, dst1)) & 0x7f800000u, uvec4(0x7f800000u)))) {
+        dst0 = vec2(0.0);
+        dst1 = vec2(0.0);
     }
     if (has_more_feature(MORE_FEATURE_EWA_TEXTURES) && t.other.x == float(TEXTURE_FILTER_EWA)
         && has_texture_feature(tf, FEATURE_MIP_TEXTURES) && t.other.y > 1.0) {

@@ -1114,7 +1114,7 @@ impl Parser {
             wrap: crate::texture::Wrap::Repeat,
             projection: crate::texture::Projection::Uv,
             filter: crate::texture::Filter::Bilinear,
-            max_anisotropy: 8.0,
+            max_anisotropy: crate::texture::DEFAULT_MAX_ANISOTROPY,
         });
         let index = (self.scene.textures.len() - 1) as u32;
         self.image_textures.insert((path, encoding), index);

@@ -463,7 +463,7 @@ impl Parser {
                 wrap: Wrap::Repeat,
                 projection: Projection::Uv,
                 filter: crate::texture::Filter::Bilinear,
-                max_anisotropy: 8.0,
+                max_anisotropy: crate::texture::DEFAULT_MAX_ANISOTROPY,
             });
             return Ok(Some(ShadingMap::Normal(
                 self.scene.textures.len() as u32 - 1,

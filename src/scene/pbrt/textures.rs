@@ -407,7 +407,10 @@ impl Parser {
                         }
                     },
                 };
-                let max_anisotropy = num("maxanisotropy", 8.0);
+                let max_anisotropy = num(
+                    "maxanisotropy",
+                    crate::texture::DEFAULT_MAX_ANISOTROPY as f64,
+                );
                 if !(max_anisotropy >= 1.0 && max_anisotropy.is_finite()) {
                     let p = params
                         .find("maxanisotropy")
