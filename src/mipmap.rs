@@ -294,7 +294,7 @@ pub fn image_value(
 /// shorter (pbrt-v4's `maxanisotropy`: the shorter grown to it); no shorter axis,
 /// bilinear at the base; else [`ewa_level`] at `lod = levels − 1 + log2 |shorter|` (at
 /// least 0) and the next, blended by its fraction, a level past the top its one texel.
-/// texture.glsl `image_ewa`.
+/// texture.glsl `image_ewa_lod` and `image_value`.
 pub fn ewa(levels: &[TextureImage], at: Vec2, d0: Vec2, d1: Vec2, wrap: Wrap, most: f32) -> Vec3 {
     let (mut d0, mut d1) = (d0, d1);
     if d0.length_squared() < d1.length_squared() {

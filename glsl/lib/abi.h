@@ -223,7 +223,7 @@
 // SPEC_MORE_FEATURES: a uint, the MORE_FEATURE_* bits (FEATURE_*'s 32 are all taken).
 #define SPEC_MORE_FEATURES 1
 // Image textures read by pbrt-v4's elliptically weighted average (texture.glsl
-// image_ewa): a loop over the texels under the footprint's ellipse.
+// image_ewa_level): a loop over the texels under the footprint's ellipse.
 #define MORE_FEATURE_EWA_TEXTURES 1
 
 // Texture slots of a material (texture.glsl's material_texture).

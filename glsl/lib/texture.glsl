@@ -139,12 +139,11 @@ vec3 image_ewa_level(GpuTexture t, vec2 st, vec2 d0, vec2 d1) {
     return sum / weights;
 }
 
-// pbrt-v4's EWA lookup of image t (levels MIP levels) at st under the footprint (d0, d1):
-// the longer axis d0, the shorter stretched to at least 1/other.z of it (maxanisotropy);
-// without one (zero), bilinear at the base; else the level lod = levels - 1 + log2 of the
-// shorter's length (at least 0) and the next blended by its fraction, a level past the
-// top read as the top's one texel. CPU mirror: src/mipmap.rs ewa.
-vec3 image_ewa(GpuTexture t, int levels, vec2 st, vec2 d0, vec2 d1) {
+// pbrt-v4's EWA footprint of image t (levels MIP levels): d0 made the longer axis and d1
+// the shorter, stretched to at least 1/other.z of it (maxanisotropy); the level to read,
+// lod = levels - 1 + log2 of the shorter's length (at least 0), or -1 where the shorter is
+// zero (no footprint: bilinear at the base). CPU mirror: src/mipmap.rs ewa.
+float image_ewa_lod(GpuTexture t, int levels, inout vec2 d0, inout vec2 d1) {
     if (dot(d0, d0) < dot(d1, d1)) {
         vec2 s = d0;
         d0 = d1;
@@ -158,27 +157,8 @@ vec3 image_ewa(GpuTexture t, int levels, vec2 st, vec2 d0, vec2 d1) {
         d1 *= k;
         shorter *= k;
     }
-    if (shorter == 0.0) return image_lookup(t, st, false);
-    float lod = max(0.0, float(levels - 1) + log2(shorter));
-    int first = int(floor(lod));
-    float blend = lod - float(first);
-    vec3 v = vec3(0.0);
-    for (int i = 0; i < levels; ++i) {
-        if (i == first || i == first + 1) {
-            // (One call for both levels: the kernels inline it.)
-            v += (i == first ? 1.0 - blend : blend) * image_ewa_level(t, st, d0, d1);
-            if (i == first + 1) break;
-        }
-        if (i == levels - 1) {
-            // Past the top: its one texel.
-            vec3 top = texel(t, 0, 0);
-            if (first >= levels) v += (1.0 - blend) * top;
-            v += blend * top;
-            break;
-        }
-        t = next_image_level(t);
-    }
-    return v;
+    if (shorter == 0.0) return -1.0;
+    return max(0.0, float(levels - 1) + log2(shorter));
 }
 
 // An image texture's texels at (s, t) where the footprint's (s, t) derivatives are dst0
@@ -186,9 +166,11 @@ vec3 image_ewa(GpuTexture t, int levels, vec2 st, vec2 d0, vec2 d1) {
 // (other.y > 1, FEATURE_MIP_TEXTURES) at the level they pick, pbrt-v4's MIPMap::Filter:
 // width = 2 max |d|, level = levels - 1 + log2(width); past the top level its one texel;
 // else point or bilinear at floor(level) (0 below it), trilinear blending floor(level)
-// and the next by level's fraction (bilinear at the base below level 1). The levels are
-// walked to in one loop, each lookup at one call. A NaN or infinite footprint reads as none.
-// CPU mirror: src/mipmap.rs image_value.
+// and the next by level's fraction (bilinear at the base below level 1); EWA
+// (MORE_FEATURE_EWA_TEXTURES) the ellipse at the two levels image_ewa_lod picks, a level
+// past the top read as the top's one texel. The levels are walked to in one loop, each
+// lookup at one call. A NaN or infinite footprint reads as none. CPU mirror:
+// src/mipmap.rs image_value.
 vec3 image_value(GpuTexture t, vec2 st, vec2 dst0, vec2 dst1, uint tf) {
     if (t.flags.y == 0u) {
         st.y = 1.0 - st.y;
@@ -203,28 +185,37 @@ vec3 image_value(GpuTexture t, vec2 st, vec2 dst0, vec2 dst1, uint tf) {
         dst0 = vec2(0.0);
         dst1 = vec2(0.0);
     }
-    if (has_more_feature(MORE_FEATURE_EWA_TEXTURES) && t.other.x == float(TEXTURE_FILTER_EWA)
-        && has_texture_feature(tf, FEATURE_MIP_TEXTURES) && t.other.y > 1.0) {
-        return image_ewa(t, int(t.other.y), st, dst0, dst1);
-    }
     bool point = t.other.x == float(TEXTURE_FILTER_POINT);
+    bool ewa = false;
     int first = 0;
     int count = 1;
     float blend = 0.0;
     int levels = int(t.other.y);
     if (has_texture_feature(tf, FEATURE_MIP_TEXTURES) && levels > 1) {
-        float width = 2.0 * max(max(abs(dst0.x), abs(dst0.y)), max(abs(dst1.x), abs(dst1.y)));
-        float level = float(levels - 1) + log2(max(width, 1e-8));
-        if (level >= float(levels - 1)) {
-            // The top level's one texel.
-            first = levels - 1;
-            point = true;
-            st = vec2(0.5);
-        } else {
-            first = max(0, int(floor(level)));
-            if (t.other.x == float(TEXTURE_FILTER_TRILINEAR) && first > 0) {
+        if (has_more_feature(MORE_FEATURE_EWA_TEXTURES) && t.other.x == float(TEXTURE_FILTER_EWA)) {
+            float lod = image_ewa_lod(t, levels, dst0, dst1);
+            if (lod >= 0.0) {
+                ewa = true;
+                first = int(floor(lod));
+                blend = lod - float(first);
                 count = 2;
-                blend = level - float(first);
+                // (Past the top, both levels are the top's texel.)
+                first = min(first, levels);
+            }
+        } else {
+            float width = 2.0 * max(max(abs(dst0.x), abs(dst0.y)), max(abs(dst1.x), abs(dst1.y)));
+            float level = float(levels - 1) + log2(max(width, 1e-8));
+            if (level >= float(levels - 1)) {
+                // The top level's one texel.
+                first = levels - 1;
+                point = true;
+                st = vec2(0.5);
+            } else {
+                first = max(0, int(floor(level)));
+                if (t.other.x == float(TEXTURE_FILTER_TRILINEAR) && first > 0) {
+                    count = 2;
+                    blend = level - float(first);
+                }
             }
         }
     }
@@ -232,9 +223,11 @@ vec3 image_value(GpuTexture t, vec2 st, vec2 dst0, vec2 dst1, uint tf) {
     for (int i = 0; i < first + count; ++i) {
         if (i >= first) {
             float weight = count == 1 ? 1.0 : i == first ? 1.0 - blend : blend;
-            v += weight * image_lookup(t, st, point);
+            // (EWA's level past the top: the top's one texel.)
+            v += weight * (i >= levels ? texel(t, 0, 0)
+                           : ewa ? image_ewa_level(t, st, dst0, dst1) : image_lookup(t, st, point));
         }
-        t = next_image_level(t);
+        if (i < levels - 1) t = next_image_level(t);
     }
     return v;
 }
