@@ -236,10 +236,13 @@ pub fn filter_width(dst: (Vec2, Vec2)) -> f32 {
     2.0 * dst.0.abs().max_element().max(dst.1.abs().max_element())
 }
 
+/// A footprint's component this large or larger (or NaN) makes it degenerate: read as none.
+const DEGENERATE: f32 = (1u64 << 60) as f32;
+
 /// `image` (a pyramid, or one level) at `at` (x to the right, y down, in [0,1]²) where
 /// the footprint's (s, t) derivatives are `dst`, read as `filter` says (module docs; EWA's
-/// footprint at most `max_anisotropy` times longer than wide). A footprint with a NaN or
-/// infinite component is read as none. GLSL: texture.glsl image_value.
+/// footprint at most `max_anisotropy` times longer than wide). A footprint with a component
+/// NaN, infinite or of 2^60 or more is read as none. GLSL: texture.glsl image_value.
 pub fn image_value(
     image: &TextureImage,
     filter: Filter,
@@ -251,13 +254,12 @@ pub fn image_value(
     let levels = image.levels();
     let n = levels.len();
     let bilerp = |l: usize| bilinear(&levels[l], at, wrap, wrap);
-    // A footprint with a NaN or infinite component (a degenerate differential) is none.
-    let finite = dst.0.is_finite() && dst.1.is_finite();
-    let dst = if finite {
-        dst
-    } else {
-        (Vec2::ZERO, Vec2::ZERO)
-    };
+    // A footprint with a component NaN, infinite or of 2^60 or more (a degenerate
+    // differential) is none.
+    let sane = [dst.0, dst.1]
+        .iter()
+        .all(|d| d.x.abs() < DEGENERATE && d.y.abs() < DEGENERATE);
+    let dst = if sane { dst } else { (Vec2::ZERO, Vec2::ZERO) };
     if n <= 1 {
         return match filter {
             Filter::Point => nearest(&levels[0], at, wrap, wrap),
@@ -667,8 +669,9 @@ mod tests {
         );
     }
 
-    /// A degenerate footprint (a NaN or infinite component) is read as none by every
-    /// filter: the base level, never a level or ellipse made from it.
+    /// A degenerate footprint (a component NaN, infinite or of 2^60 or more) is read as
+    /// none by every filter: the base level, never a level or ellipse made from it; one
+    /// just below the bound is a footprint still.
     #[test]
     fn a_nan_or_infinite_footprint_reads_as_none() {
         let image = floats(16, 16, |x, y| {
@@ -684,7 +687,13 @@ mod tests {
             Filter::Ewa,
         ] {
             let want = image_value(&p, filter, at, none, Wrap::Repeat, 8.0);
-            for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            for bad in [
+                f32::NAN,
+                f32::INFINITY,
+                f32::NEG_INFINITY,
+                -1e30,
+                2f32.powi(60),
+            ] {
                 for dst in [
                     (Vec2::new(bad, 0.01), Vec2::new(0.0, 0.01)),
                     (Vec2::new(0.01, 0.0), Vec2::new(0.02, bad)),
@@ -693,6 +702,12 @@ mod tests {
                     let got = image_value(&p, filter, at, dst, Wrap::Repeat, 8.0);
                     assert_eq!(got, want, "{filter:?} {dst:?}");
                 }
+            }
+            if filter != Filter::Bilinear {
+                let large = 2f32.powi(59);
+                let top = (Vec2::new(large, 0.0), Vec2::new(0.0, large));
+                let got = image_value(&p, filter, at, top, Wrap::Repeat, 8.0);
+                assert_eq!(got, Vec3::from_array(p.levels()[4].texel(0)), "{filter:?}");
             }
         }
     }

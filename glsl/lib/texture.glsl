@@ -169,7 +169,7 @@ float image_ewa_lod(GpuTexture t, int levels, inout vec2 d0, inout vec2 d1) {
 // and the next by level's fraction (bilinear at the base below level 1); EWA
 // (MORE_FEATURE_EWA_TEXTURES) the ellipse at the two levels image_ewa_lod picks, a level
 // past the top read as the top's one texel. The levels are walked to in one loop, each
-// lookup at one call. A NaN or infinite footprint reads as none. CPU mirror:
+// lookup at one call. A degenerate footprint (NaN, infinite, 2^60) reads as none. CPU mirror:
 // src/mipmap.rs image_value.
 vec3 image_value(GpuTexture t, vec2 st, vec2 dst0, vec2 dst1, uint tf) {
     if (t.flags.y == 0u) {
@@ -178,10 +178,11 @@ vec3 image_value(GpuTexture t, vec2 st, vec2 dst0, vec2 dst1, uint tf) {
         dst0.y = -dst0.y;
         dst1.y = -dst1.y;
     }
-    // A footprint with a NaN or infinite component (a degenerate differential) is read as
-    // none: the level and the ellipse made from it would be undefined. (Its exponent bits
-    // tested, which no float optimisation may fold.)
-    if (any(equal(floatBitsToUint(vec4(dst0, dst1)) & 0x7f800000u, uvec4(0x7f800000u)))) {
+    // A footprint with a component NaN, infinite or of 2^60 or more (a degenerate
+    // differential) is read as none: the level and the ellipse made from it would be
+    // undefined. (Its exponent bits tested, which no float optimisation may fold.)
+    uvec4 exponents = floatBitsToUint(vec4(dst0, dst1)) & 0x7f800000u;
+    if (any(greaterThanEqual(exponents, uvec4((127u + 60u) << 23)))) {
         dst0 = vec2(0.0);
         dst1 = vec2(0.0);
     }
@@ -223,8 +224,9 @@ vec3 image_value(GpuTexture t, vec2 st, vec2 dst0, vec2 dst1, uint tf) {
     for (int i = 0; i < first + count; ++i) {
         if (i >= first) {
             float weight = count == 1 ? 1.0 : i == first ? 1.0 - blend : blend;
-            // (EWA's level past the top: the top's one texel.)
-            v += weight * (i >= levels ? texel(t, 0, 0)
+            // (EWA's level past the top: the top's one texel. An image of no levels, as
+            // an environment map's, has other.y zero.)
+            v += weight * (ewa && i >= levels ? texel(t, 0, 0)
                            : ewa ? image_ewa_level(t, st, dst0, dst1) : image_lookup(t, st, point));
         }
         if (i < levels - 1) t = next_image_level(t);
