@@ -16,6 +16,10 @@ use std::sync::Arc;
 
 /// An image texture's `maxanisotropy` where none is given (pbrt-v4's default).
 pub const DEFAULT_MAX_ANISOTROPY: f32 = 8.0;
+/// The largest `maxanisotropy` the reader accepts (pbrt-v4 sets none): an EWA lookup
+/// visits the texels of its ellipse's bounding box at the level where the ellipse is a
+/// texel wide: about half this squared for a diagonal one (half a million texels).
+pub const MAX_ANISOTROPY: f32 = 1024.0;
 
 /// A texture: what a material reads at a surface point's (u, v), after the mapping
 /// `(s, t) = (su u + du, sv v + dv)` (`mapping` holds su, sv, du, dv).

@@ -298,6 +298,17 @@ fn imagemap_wrap_modes_invert_and_mappings() {
     );
     let e = anisotropy("\"float maxanisotropy\" 0.5").expect_err("below 1");
     assert!(e.message.contains("maxanisotropy 0.5") && e.line > 0, "{e}");
+    assert_eq!(
+        anisotropy("\"float maxanisotropy\" 1024").unwrap(),
+        (1024.0, 0)
+    );
+    for bad in ["1025", "1e30", "-1"] {
+        let e = anisotropy(&format!("\"float maxanisotropy\" {bad}")).expect_err(bad);
+        assert!(
+            e.message.contains("from 1 to 1024") && e.line > 0,
+            "{bad}: {e}"
+        );
+    }
     std::fs::remove_dir_all(&d).ok();
 }
 

@@ -411,7 +411,10 @@ impl Parser {
                     "maxanisotropy",
                     crate::texture::DEFAULT_MAX_ANISOTROPY as f64,
                 );
-                if !(max_anisotropy >= 1.0 && max_anisotropy.is_finite()) {
+                // At most MAX_ANISOTROPY: an EWA ellipse's bounding box (the texels its loop
+                // visits, at the level where it is a texel wide) grows with the square of
+                // its length, and pbrt-v4's unbounded value can make that loop endless.
+                if !(1.0..=crate::texture::MAX_ANISOTROPY).contains(&max_anisotropy) {
                     let p = params
                         .find("maxanisotropy")
                         .expect("given: not the default");
@@ -419,7 +422,10 @@ impl Parser {
                         p.file,
                         p.line,
                         d,
-                        format!("imagemap: maxanisotropy {max_anisotropy}: expected a number of at least 1"),
+                        format!(
+                            "imagemap: maxanisotropy {max_anisotropy}: expected a number from 1 to {}",
+                            crate::texture::MAX_ANISOTROPY
+                        ),
                     ));
                 }
                 let scale = num("scale", 1.0);
