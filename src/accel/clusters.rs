@@ -29,6 +29,7 @@
 //! core (twenty-eighth session).
 
 use super::collapse::collapse;
+use super::cwbvh::{requantize_node, requantize_tree, Child};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::{node::Bvh2Node, reinsertion::ReinsertionOptimizer, Bvh2};
 use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
@@ -73,7 +74,8 @@ pub fn build(
     if let [Item::Cluster(_)] = items[..] {
         // One cluster, no long run: the input in its own order, as before.
         let boxes: Vec<Aabb> = bounds.iter().map(obvhs_box).collect();
-        let cw = collapse(&ploc(boxes, params), max_leaf);
+        let mut cw = collapse(&ploc(boxes, params), max_leaf);
+        requantize_tree(&mut cw.nodes, &cw.primitive_indices, |p| bounds[p as usize]);
         return (cw.nodes, cw.primitive_indices);
     }
     // The pieces' reinsertion that of obvhs's "medium" preset (see CLUSTER_REINSERTION).
@@ -320,15 +322,15 @@ fn split<'a>(keys: &'a [(u64, u32)], cluster_size: usize, items: &mut Vec<Item<'
     split(&keys[middle..], cluster_size, items);
 }
 
-/// Each item's compressed tree (its references mapped to input indices), the items
-/// shared out to the threads.
+/// Each item's compressed tree (its nodes requantized, its references mapped to input
+/// indices) and its exact box, the items shared out to the threads.
 fn build_items(
     bounds: &[Bounds],
     items: &[Item],
     params: BvhBuildParams,
     max_leaf: u32,
     threads: usize,
-) -> Vec<CwBvh> {
+) -> Vec<(CwBvh, Bounds)> {
     let mut items: Vec<&Item> = items.iter().collect();
     super::map_in_parallel(&mut items, threads, |item| {
         let keys = item.keys();
@@ -344,10 +346,13 @@ fn build_items(
                 }
                 Item::Run(_) => collapse(&balanced(&s.boxes), max_leaf),
             };
+            let exact = requantize_tree(&mut cw.nodes, &cw.primitive_indices, |r| {
+                bounds[keys[r as usize].1 as usize]
+            });
             for r in &mut cw.primitive_indices {
                 *r = keys[*r as usize].1;
             }
-            cw
+            (cw, exact)
         })
     })
 }
@@ -377,13 +382,15 @@ fn balanced(boxes: &[Aabb]) -> Bvh2 {
 }
 
 /// One compressed tree: a compressed tree over the items' root boxes (one item a leaf
-/// slot) whose leaf slots become the items' roots.
+/// slot) whose leaf slots become the items' roots (each item requantized, with its exact
+/// box; the top tree's nodes are requantized here, from those).
 ///
 /// A node's internal children sit together from its `child_base_idx`, in slot order, so
 /// each top node's children are laid out anew: its occupied slots all internal, an item's
 /// root copied into its place and the item's other nodes after it, their child and
 /// primitive indices moved by where the item's nodes and references now start.
-fn join(trees: &[CwBvh], params: BvhBuildParams) -> (Vec<CwBvhNode>, Vec<u32>) {
+fn join(items: &[(CwBvh, Bounds)], params: BvhBuildParams) -> (Vec<CwBvhNode>, Vec<u32>) {
+    let trees: Vec<&CwBvh> = items.iter().map(|(t, _)| t).collect();
     let roots: Vec<Aabb> = trees.iter().map(|t| t.total_aabb).collect();
     let mut binary = PlocBuilder::with_capacity(roots.len()).build(
         params.ploc_search_distance,
@@ -397,16 +404,20 @@ fn join(trees: &[CwBvh], params: BvhBuildParams) -> (Vec<CwBvhNode>, Vec<u32>) {
     let top = collapse(&binary, 1);
     let mut first_ref = Vec::with_capacity(trees.len());
     let mut refs = Vec::with_capacity(trees.iter().map(|t| t.primitive_indices.len()).sum());
-    for t in trees {
+    for t in &trees {
         first_ref.push(refs.len() as u32);
         refs.extend_from_slice(&t.primitive_indices);
     }
     let mut nodes: Vec<CwBvhNode> =
         Vec::with_capacity(trees.iter().map(|t| t.nodes.len()).sum::<usize>() + top.nodes.len());
-    // (top node, where it goes); the root first.
+    // (top node, where it goes); the root first. The top nodes' places in that order,
+    // and the exact box of each node they point to, for their requantization.
     nodes.push(CwBvhNode::default());
     let mut queue = std::collections::VecDeque::from([(0usize, 0usize)]);
+    let mut top_places = Vec::new();
+    let mut exact = std::collections::HashMap::new();
     while let Some((t, at)) = queue.pop_front() {
+        top_places.push(at);
         let mut node = top.nodes[t];
         let group = nodes.len();
         let mut imask = 0u8;
@@ -446,9 +457,18 @@ fn join(trees: &[CwBvh], params: BvhBuildParams) -> (Vec<CwBvhNode>, Vec<u32>) {
                     let tree = &trees[item].nodes;
                     nodes[here] = moved(tree[0]);
                     nodes.extend(tree[1..].iter().map(|&n| moved(n)));
+                    exact.insert(here as u32, items[item].1);
                 }
             }
         }
+    }
+    // A top node's children come after it: the last first.
+    for &at in top_places.iter().rev() {
+        let whole = requantize_node(&mut nodes[at], |c| match c {
+            Child::Node(c) => exact[&c],
+            Child::Leaf { .. } => unreachable!("a top node's slots all hold nodes"),
+        });
+        exact.insert(at as u32, whole);
     }
     (nodes, refs)
 }

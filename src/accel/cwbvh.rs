@@ -96,56 +96,62 @@ pub fn child_box(node: &CwBvhNode, slot: usize) -> Aabb {
     }
 }
 
-/// The node records and exact boxes that [`Cwbvh::requantize`] writes from several
-/// threads, each node by one thread.
-struct Shared {
-    nodes: *mut CwBvhNode,
-    exact: *mut Aabb,
-}
-
-// SAFETY: the threads write disjoint nodes (see `Cwbvh::requantize`).
-unsafe impl Sync for Shared {}
-
-impl Shared {
-    /// Re-encodes node `i` from the exact boxes of its children, and records its own.
-    ///
-    /// # Safety
-    /// `i` and its children are nodes of the tree; no other thread reads or writes node
-    /// `i` or its exact box, nor writes its children's exact boxes, meanwhile.
-    unsafe fn requantize_node(&self, i: usize, bounds: &[Aabb], prim_refs: &[u32]) {
-        let node = unsafe { &mut *self.nodes.add(i) };
-        let mut boxes = [Aabb::empty(); 8];
-        for (slot, b) in boxes.iter_mut().enumerate() {
-            *b = match child(node, slot) {
-                None => Aabb::empty(),
-                Some(Child::Node(c)) => unsafe { *self.exact.add(c as usize) },
-                Some(Child::Leaf { first, count }) => (first..first + count)
-                    .map(|r| bounds[prim_refs[r as usize] as usize])
-                    .fold(Aabb::empty(), Aabb::union),
-            };
-        }
-        let whole = boxes.iter().fold(Aabb::empty(), |a, b| a.union(*b));
-        unsafe { *self.exact.add(i) = whole };
-        if whole.is_empty() {
-            return;
-        }
-        node.p = whole.min;
-        for a in 0..3 {
-            node.e[a] = scale_exponent(whole.min[a], whole.max[a]);
-        }
-        let (p, e) = (node.p, node.e);
-        for (slot, b) in boxes.iter().enumerate() {
-            if b.is_empty() {
-                continue;
-            }
-            node.child_min_x[slot] = quantize_down(b.min.x, e[0], p.x);
-            node.child_min_y[slot] = quantize_down(b.min.y, e[1], p.y);
-            node.child_min_z[slot] = quantize_down(b.min.z, e[2], p.z);
-            node.child_max_x[slot] = quantize_up(b.max.x, e[0], p.x);
-            node.child_max_y[slot] = quantize_up(b.max.y, e[1], p.y);
-            node.child_max_z[slot] = quantize_up(b.max.z, e[2], p.z);
+/// Re-encodes `node` from the exact boxes of its children (`child_box` of each), and
+/// returns its own exact box, their union (an empty node is left as it is).
+pub(super) fn requantize_node(node: &mut CwBvhNode, child_box: impl Fn(Child) -> Aabb) -> Aabb {
+    let mut boxes = [Aabb::empty(); 8];
+    for (slot, b) in boxes.iter_mut().enumerate() {
+        if let Some(c) = child(node, slot) {
+            *b = child_box(c);
         }
     }
+    let whole = boxes.iter().fold(Aabb::empty(), |a, b| a.union(*b));
+    if whole.is_empty() {
+        return whole;
+    }
+    node.p = whole.min;
+    for a in 0..3 {
+        node.e[a] = scale_exponent(whole.min[a], whole.max[a]);
+    }
+    let (p, e) = (node.p, node.e);
+    for (slot, b) in boxes.iter().enumerate() {
+        if b.is_empty() {
+            continue;
+        }
+        node.child_min_x[slot] = quantize_down(b.min.x, e[0], p.x);
+        node.child_min_y[slot] = quantize_down(b.min.y, e[1], p.y);
+        node.child_min_z[slot] = quantize_down(b.min.z, e[2], p.z);
+        node.child_max_x[slot] = quantize_up(b.max.x, e[0], p.x);
+        node.child_max_y[slot] = quantize_up(b.max.y, e[1], p.y);
+        node.child_max_z[slot] = quantize_up(b.max.z, e[2], p.z);
+    }
+    whole
+}
+
+/// Re-encodes every node of a tree whose children come after their parents (the order
+/// `super::collapse` and `super::clusters`'s join lay nodes out in) from the exact boxes
+/// of its children, the last node first: a leaf's box is the union of `leaf_box` of its
+/// references. Returns the root's exact box. Each node's encoding depends on its
+/// children's boxes alone, so a tree requantized in pieces (each cluster's, then the
+/// nodes above them) is the tree requantized whole.
+pub(super) fn requantize_tree(
+    nodes: &mut [CwBvhNode],
+    prim_refs: &[u32],
+    leaf_box: impl Fn(u32) -> Aabb,
+) -> Aabb {
+    let mut exact = vec![Aabb::empty(); nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        exact[i] = requantize_node(&mut nodes[i], |c| match c {
+            Child::Node(c) => {
+                debug_assert!(c as usize > i, "a child before its parent");
+                exact[c as usize]
+            }
+            Child::Leaf { first, count } => (first..first + count)
+                .map(|r| leaf_box(prim_refs[r as usize]))
+                .fold(Aabb::empty(), Aabb::union),
+        });
+    }
+    exact.first().copied().unwrap_or(Aabb::empty())
 }
 
 /// The scale of exponent bits `e`, 2^(e - 127).
@@ -251,74 +257,10 @@ impl Cwbvh {
         // Large inputs are built in clusters on every core (super::clusters).
         let mut params = obvhs::BvhBuildParams::slow_build();
         params.pre_split = false;
+        // Its nodes requantized (see the module docs) as the clusters are built.
         let (nodes, prim_refs) =
             super::clusters::build(bounds, params, MAX_LEAF_SIZE, cluster_size, threads);
-        let mut bvh = Cwbvh { nodes, prim_refs };
-        bvh.requantize(bounds, threads);
-        bvh
-    }
-
-    /// Re-encodes every node from the exact boxes of its children (see the module
-    /// docs), on `threads` threads: level by level from the deepest (a node's children
-    /// are one level below it), the nodes of a level in parallel, each from the exact
-    /// boxes of its children, which the level before made. Each node's encoding depends
-    /// on its children alone, so the tree is the same on any number of threads.
-    fn requantize(&mut self, bounds: &[Aabb], threads: usize) {
-        self.requantize_in_pieces(bounds, threads, 1 << 12);
-    }
-
-    /// [`Cwbvh::requantize`], a level's nodes taken `piece` at a time (a level of at
-    /// most `piece` nodes on the calling thread).
-    fn requantize_in_pieces(&mut self, bounds: &[Aabb], threads: usize, piece: usize) {
-        let n = self.nodes.len();
-        // Levels: children come after their parent, so one forward sweep has them all.
-        let mut level = vec![0u32; n];
-        for i in 0..n {
-            for slot in 0..8 {
-                if let Some(Child::Node(c)) = child(&self.nodes[i], slot) {
-                    level[c as usize] = level[i] + 1;
-                }
-            }
-        }
-        let levels = level.iter().max().map_or(0, |&l| l as usize + 1);
-        // The nodes by level (a counting sort), each level in index order.
-        let mut start = vec![0usize; levels + 1];
-        for &l in &level {
-            start[l as usize + 1] += 1;
-        }
-        for l in 0..levels {
-            start[l + 1] += start[l];
-        }
-        let mut by_level = vec![0u32; n];
-        let mut next = start.clone();
-        for (i, &l) in level.iter().enumerate() {
-            by_level[next[l as usize]] = i as u32;
-            next[l as usize] += 1;
-        }
-        drop(level);
-        let mut exact = vec![Aabb::empty(); n];
-        let shared = Shared {
-            nodes: self.nodes.as_mut_ptr(),
-            exact: exact.as_mut_ptr(),
-        };
-        let prim_refs = &self.prim_refs;
-        for l in (0..levels).rev() {
-            let ids = &by_level[start[l]..start[l + 1]];
-            // SAFETY: each node of this level is written by one call alone, and a call
-            // reads only that node and the exact boxes of its children, one level deeper,
-            // which no call of this level writes.
-            let run = |ids: &[u32]| {
-                for &i in ids {
-                    unsafe { shared.requantize_node(i as usize, bounds, prim_refs) };
-                }
-            };
-            if ids.len() <= piece || threads <= 1 {
-                run(ids);
-            } else {
-                let mut pieces: Vec<&[u32]> = ids.chunks(piece.max(1)).collect();
-                super::map_in_parallel(&mut pieces, threads, |piece| run(piece));
-            }
-        }
+        Cwbvh { nodes, prim_refs }
     }
 
     /// Depth of the tree (the root alone is 1).
@@ -895,24 +837,23 @@ mod tests {
         assert!(one.nodes.len() > 1000 / 4);
     }
 
-    /// Requantizing level by level on several threads gives every node the bytes it has
-    /// from one thread: the nodes' boxes wiped and requantized on three threads, a level
-    /// taken seven nodes at a time, are the one-thread build's.
+    /// Requantizing each cluster's tree as it is built, then the nodes that join them,
+    /// gives every node the bytes the whole tree requantized at once gives: a build of
+    /// many clusters, its nodes' boxes wiped and requantized whole, is the same.
     #[test]
-    fn requantizing_on_threads_gives_the_same_nodes() {
+    fn requantizing_in_clusters_gives_the_whole_trees_nodes() {
         let bounds = soup_bounds(7, 20_000, 500);
-        let one = Cwbvh::build_in_clusters(&bounds, 1 << 12, 1);
-        let mut again = Cwbvh {
-            nodes: one.nodes.clone(),
-            prim_refs: one.prim_refs.clone(),
-        };
+        let one = Cwbvh::build_in_clusters(&bounds, 1 << 10, 2);
+        let mut again = one.clone();
         for n in &mut again.nodes {
             n.p = Vec3::ZERO;
             n.e = [0; 3];
             n.child_min_x = [0; 8];
             n.child_max_y = [0; 8];
         }
-        again.requantize_in_pieces(&bounds, 3, 7);
+        let root = requantize_tree(&mut again.nodes, &again.prim_refs, |p| bounds[p as usize]);
+        let all = bounds.iter().fold(Aabb::empty(), |a, &b| a.union(b));
+        assert_eq!((root.min, root.max), (all.min, all.max));
         let bytes = |b: &Cwbvh| bytemuck::cast_slice::<_, u8>(&b.nodes).to_vec();
         assert!(one.nodes.len() > 1000, "{} nodes", one.nodes.len());
         assert!(bytes(&one) == bytes(&again), "the nodes differ");
