@@ -18,9 +18,14 @@ pub struct GpuTriangle {
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct GpuTriangleAttributes {
+pub struct GpuTriangleUv {
     pub uv01: [f32; 4],
     pub uv2: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuTriangleShading {
     pub n0: [f32; 4],
     pub n1: [f32; 4],
     pub n2: [f32; 4],
@@ -484,7 +489,8 @@ pub fn layouts() -> Vec<StructLayout> {
             tex1
         ),
         layout!(GpuGbufferSurface, wo, ns, tex0, tex1, rng),
-        layout!(GpuTriangleAttributes, uv01, uv2, n0, n1, n2),
+        layout!(GpuTriangleUv, uv01, uv2),
+        layout!(GpuTriangleShading, n0, n1, n2),
         layout!(GpuTexture, info, flags, scale, other, mapping, proj0, proj1, proj2),
         layout!(PassParams, first_sample, samples, row_begin, row_end),
         layout!(

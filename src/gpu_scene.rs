@@ -1041,27 +1041,41 @@ fn sparse_grid(floats: &mut Vec<f32>, g: &crate::scene::SparseGrid) -> u32 {
     at
 }
 
-/// A triangle's attribute record: none for one with neither texture coordinates, shading
-/// normals nor alpha (its triangle record's index NO_ATTRIBUTES). The records are in the
-/// triangles' order (the world's, then each object's), one for each that has one.
-pub fn triangle_attributes(t: &crate::scene::Triangle) -> Option<GpuTriangleAttributes> {
-    if !t.has_attributes() {
-        return None;
-    }
+/// A triangle's texture-coordinate record, naming its shading record `shading`
+/// (NO_ATTRIBUTES for none): made for a triangle with any attributes (texture coordinates,
+/// shading normals or alpha; its triangle record's index NO_ATTRIBUTES without), pbrt's
+/// (0,0), (1,0), (1,1) where it has none of its own. The records are in the triangles'
+/// order (the world's, then each object's), one for each that has attributes.
+pub fn triangle_uv(t: &crate::scene::Triangle, shading: u32) -> GpuTriangleUv {
     let uv = t.uv.unwrap_or([
         glam::Vec2::new(0.0, 0.0),
         glam::Vec2::new(1.0, 0.0),
         glam::Vec2::new(1.0, 1.0),
     ]);
+    GpuTriangleUv {
+        uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
+        uv2: [
+            uv[2].x,
+            uv[2].y,
+            t.normals.is_some() as u32 as f32,
+            f32::from_bits(shading),
+        ],
+    }
+}
+
+/// A triangle's shading record (its shading normals, zero without, and its alpha): none
+/// for one with neither. In the triangles' order, one for each that has one.
+pub fn triangle_shading(t: &crate::scene::Triangle) -> Option<GpuTriangleShading> {
+    if !t.has_shading() {
+        return None;
+    }
     let n = t.normals.unwrap_or([Vec3::ZERO; 3]);
     let (alpha_kind, alpha_value) = match t.alpha {
         None => (crate::abi::ALPHA_NONE, 0.0),
         Some(crate::scene::Alpha::Constant(a)) => (crate::abi::ALPHA_CONSTANT, a),
         Some(crate::scene::Alpha::Texture(i)) => (crate::abi::ALPHA_TEXTURE, f32::from_bits(i)),
     };
-    Some(GpuTriangleAttributes {
-        uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
-        uv2: [uv[2].x, uv[2].y, t.normals.is_some() as u32 as f32, 0.0],
+    Some(GpuTriangleShading {
         n0: n[0].extend(alpha_kind as f32).to_array(),
         n1: n[1].extend(alpha_value).to_array(),
         n2: n[2].extend(0.0).to_array(),
@@ -1217,20 +1231,39 @@ const NO_INSTANCES: [GpuInstance; 1] = [GpuInstance {
 
 /// The triangle records' triangles: the world's, then each object's, each in its BVH
 /// leaf order (`BvhData::triangle_order`, `object_orders`), found by record index, with
-/// the count of attribute records before every `ATTRIBUTE_BLOCK`-th record, so that any
-/// piece of the triangle and attribute records can be made on its own.
+/// the count of texture-coordinate and of shading records before every
+/// `ATTRIBUTE_BLOCK`-th record, so that any piece of the triangle, texture-coordinate and
+/// shading records can be made on its own.
 struct TriangleRecords<'a> {
     scene: &'a Scene,
     bvh: &'a BvhData,
     /// Each object's first record.
     object_first: Vec<usize>,
     count: usize,
-    attributes: usize,
-    /// The attribute records before record `k * ATTRIBUTE_BLOCK`, for each k.
-    blocks: Vec<usize>,
+    /// The records of each kind ([`Attribute`]).
+    totals: [usize; 2],
+    /// The records of each kind before record `k * ATTRIBUTE_BLOCK`, for each k.
+    blocks: Vec<[usize; 2]>,
 }
 
 const ATTRIBUTE_BLOCK: usize = 4096;
+
+/// The kinds of a triangle's attribute records: texture coordinates (any attributes),
+/// shading (normals or alpha).
+#[derive(Clone, Copy)]
+enum Attribute {
+    Uv = 0,
+    Shading = 1,
+}
+
+impl Attribute {
+    fn has(self, t: &crate::scene::Triangle) -> bool {
+        match self {
+            Attribute::Uv => t.has_attributes(),
+            Attribute::Shading => t.has_shading(),
+        }
+    }
+}
 
 impl<'a> TriangleRecords<'a> {
     fn new(scene: &'a Scene, bvh: &'a BvhData) -> TriangleRecords<'a> {
@@ -1245,25 +1278,30 @@ impl<'a> TriangleRecords<'a> {
             bvh,
             object_first,
             count,
-            attributes: 0,
+            totals: [0; 2],
             blocks: Vec::new(),
         };
         let mut blocks: Vec<usize> = (0..count.div_ceil(ATTRIBUTE_BLOCK)).collect();
         let counts = crate::accel::map_in_parallel(&mut blocks, crate::accel::threads(), |b| {
             let range = *b * ATTRIBUTE_BLOCK..((*b + 1) * ATTRIBUTE_BLOCK).min(count);
-            range
-                .filter(|&r| records.triangle(r).has_attributes())
-                .count()
+            let mut n = [0; 2];
+            for r in range {
+                let t = records.triangle(r);
+                n[0] += t.has_attributes() as usize;
+                n[1] += t.has_shading() as usize;
+            }
+            n
         });
-        let mut before = 0;
+        let mut before = [0; 2];
         records.blocks = counts
             .iter()
             .map(|&c| {
-                before += c;
-                before - c
+                let here = before;
+                before = [before[0] + c[0], before[1] + c[1]];
+                here
             })
             .collect();
-        records.attributes = before;
+        records.totals = before;
         records
     }
 
@@ -1278,25 +1316,28 @@ impl<'a> TriangleRecords<'a> {
         &self.scene.objects[k].triangles[order[r - self.object_first[k]] as usize]
     }
 
-    /// The attribute records before record `r`.
-    fn attributes_before(&self, r: usize) -> usize {
+    /// The records of kind `a` before record `r`.
+    fn before(&self, r: usize, a: Attribute) -> usize {
         let b = r / ATTRIBUTE_BLOCK;
-        let Some(&before) = self.blocks.get(b) else {
-            return self.attributes;
+        let Some(before) = self.blocks.get(b) else {
+            return self.totals[a as usize];
         };
-        before
+        before[a as usize]
             + (b * ATTRIBUTE_BLOCK..r)
-                .filter(|&r| self.triangle(r).has_attributes())
+                .filter(|&r| a.has(self.triangle(r)))
                 .count()
     }
 
-    /// The record whose triangle has attribute record `k` (`k < attributes`).
-    fn with_attribute(&self, k: usize) -> usize {
-        let b = self.blocks.partition_point(|&before| before <= k) - 1;
-        let mut before = self.blocks[b];
+    /// The record whose triangle has record `k` of kind `a` (`k < totals[a]`).
+    fn with(&self, k: usize, a: Attribute) -> usize {
+        let b = self
+            .blocks
+            .partition_point(|before| before[a as usize] <= k)
+            - 1;
+        let mut before = self.blocks[b][a as usize];
         let mut r = b * ATTRIBUTE_BLOCK;
         loop {
-            if self.triangle(r).has_attributes() {
+            if a.has(self.triangle(r)) {
                 if before == k {
                     return r;
                 }
@@ -1304,6 +1345,11 @@ impl<'a> TriangleRecords<'a> {
             }
             r += 1;
         }
+    }
+
+    /// Records of kind `a` from record `k` on, each with its triangle's record index.
+    fn each(&self, k: usize, a: Attribute) -> impl Iterator<Item = usize> + '_ {
+        (self.with(k, a)..self.count).filter(move |&r| a.has(self.triangle(r)))
     }
 }
 
@@ -1325,12 +1371,12 @@ impl GpuScene {
         // on every core (DataArray::made).
         let records = TriangleRecords::new(scene, bvh);
         let triangle_count = records.count as u64;
-        let attribute_count = records.attributes as u64;
+        let [uv_count, shading_count] = records.totals.map(|n| n as u64);
         let triangle_emitter = std::mem::take(&mut table.triangle_emitter);
         let triangle_records = |at: u64, out: &mut [u8]| {
             let size = std::mem::size_of::<GpuTriangle>();
             let first = at as usize / size;
-            let mut attribute = records.attributes_before(first) as u32;
+            let mut attribute = records.before(first, Attribute::Uv) as u32;
             for (record, r) in out.chunks_exact_mut(size).zip(first..) {
                 let t = records.triangle(r);
                 let a = if t.has_attributes() {
@@ -1347,16 +1393,28 @@ impl GpuScene {
                 }));
             }
         };
-        let attribute_records = |at: u64, out: &mut [u8]| {
-            let size = std::mem::size_of::<GpuTriangleAttributes>();
-            let mut r = records.with_attribute(at as usize / size);
-            for record in out.chunks_exact_mut(size) {
-                while !records.triangle(r).has_attributes() {
-                    r += 1;
-                }
-                let a = triangle_attributes(records.triangle(r)).expect("attributes");
-                record.copy_from_slice(bytemuck::bytes_of(&a));
-                r += 1;
+        let uv_records = |at: u64, out: &mut [u8]| {
+            let size = std::mem::size_of::<GpuTriangleUv>();
+            let first = records.with(at as usize / size, Attribute::Uv);
+            let mut shading = records.before(first, Attribute::Shading) as u32;
+            let each = records.each(at as usize / size, Attribute::Uv);
+            for (record, r) in out.chunks_exact_mut(size).zip(each) {
+                let t = records.triangle(r);
+                let s = if t.has_shading() {
+                    shading += 1;
+                    shading - 1
+                } else {
+                    NO_ATTRIBUTES
+                };
+                record.copy_from_slice(bytemuck::bytes_of(&triangle_uv(t, s)));
+            }
+        };
+        let shading_records = |at: u64, out: &mut [u8]| {
+            let size = std::mem::size_of::<GpuTriangleShading>();
+            let each = records.each(at as usize / size, Attribute::Shading);
+            for (record, r) in out.chunks_exact_mut(size).zip(each) {
+                let s = triangle_shading(records.triangle(r)).expect("a shading record");
+                record.copy_from_slice(bytemuck::bytes_of(&s));
             }
         };
         let spheres: Vec<GpuSphere> = scene
@@ -1438,10 +1496,10 @@ impl GpuScene {
             [
                 triangle_data,
                 DataArray::made(
-                    "triangle attributes",
-                    attribute_count,
-                    std::mem::size_of::<GpuTriangleAttributes>() as u64,
-                    attribute_records,
+                    "triangle texture coordinates",
+                    uv_count,
+                    std::mem::size_of::<GpuTriangleUv>() as u64,
+                    uv_records,
                 ),
                 if ray_query {
                     DataArray::none("BVH nodes")
@@ -1465,6 +1523,12 @@ impl GpuScene {
                 },
                 DataArray::made("texels", textures.texel_count(), 4, textures.texel_writer()),
                 DataArray::new("medium grids", bytemuck::cast_slice(&medium_grids), 4),
+                DataArray::made(
+                    "triangle shading",
+                    shading_count,
+                    std::mem::size_of::<GpuTriangleShading>() as u64,
+                    shading_records,
+                ),
             ],
             max_chunk_bytes,
         )?;
@@ -1582,10 +1646,10 @@ mod tests {
 
     #[test]
     fn triangle_records_find_any_record_and_its_attributes() {
-        // The world's triangles and two objects', some with attributes (runs and lone
-        // ones across block boundaries), in shuffled leaf orders: each record's triangle,
-        // its attribute rank and the record of each attribute as a walk in order finds
-        // them.
+        // The world's triangles and two objects', some with texture coordinates, some
+        // with shading normals (runs and lone ones across block boundaries), in shuffled
+        // leaf orders: each record's triangle, its rank among each kind of attribute
+        // record and the record of each attribute as a walk in order finds them.
         let mut state = 0x2545_f491_4f6c_dd1du64;
         let mut next = move |n: u64| {
             state ^= state << 13;
@@ -1594,15 +1658,21 @@ mod tests {
             state % n
         };
         let triangles = |count: usize, next: &mut dyn FnMut(u64) -> u64| {
-            let mut with = false;
+            let (mut with, mut shaded) = (false, false);
             (0..count)
                 .map(|i| {
                     if next(97) == 0 {
                         with = !with;
                     }
+                    if next(89) == 0 {
+                        shaded = !shaded;
+                    }
                     let mut t = crate::scene::Triangle::new([Vec3::splat(i as f32); 3], i as u32);
                     if with || next(11) == 0 {
                         t.uv = Some([glam::Vec2::ZERO; 3]);
+                    }
+                    if (shaded && next(2) == 0) || next(13) == 0 {
+                        t.normals = Some([Vec3::Z; 3]);
                     }
                     t
                 })
@@ -1651,17 +1721,21 @@ mod tests {
         .collect();
         let records = TriangleRecords::new(&scene, &bvh);
         assert_eq!(records.count, all.len());
-        let mut before = 0;
-        for (r, t) in all.iter().enumerate() {
-            assert!(std::ptr::eq(records.triangle(r), *t), "record {r}");
-            assert_eq!(records.attributes_before(r), before, "record {r}");
-            if t.has_attributes() {
-                assert_eq!(records.with_attribute(before), r, "attribute {before}");
-                before += 1;
+        for a in [Attribute::Uv, Attribute::Shading] {
+            let mut before = 0;
+            for (r, t) in all.iter().enumerate() {
+                assert!(std::ptr::eq(records.triangle(r), *t), "record {r}");
+                assert_eq!(records.before(r, a), before, "record {r}");
+                if a.has(t) {
+                    assert_eq!(records.with(before, a), r, "attribute {before}");
+                    assert_eq!(records.each(before, a).next(), Some(r));
+                    before += 1;
+                }
             }
+            assert_eq!(records.totals[a as usize], before);
+            assert!(before > ATTRIBUTE_BLOCK && before < all.len() - ATTRIBUTE_BLOCK);
         }
-        assert_eq!(records.attributes, before);
-        assert!(before > ATTRIBUTE_BLOCK && before < all.len() - ATTRIBUTE_BLOCK);
+        assert!(records.totals[1] < records.totals[0]);
     }
 
     #[test]

@@ -3,7 +3,7 @@
 mod common;
 
 use common::*;
-use lightpath::abi::{DATA_ATTRIBUTES, DATA_TEXELS, DATA_TRIANGLES};
+use lightpath::abi::{DATA_ATTRIBUTES, DATA_SHADING, DATA_TEXELS, DATA_TRIANGLES};
 use lightpath::render::AccelChoice::{Bvh, Bvh2, RayQuery};
 use lightpath::scene::{IntegratorKind, NextEventEstimation, SampleMode, Scene};
 
@@ -637,13 +637,13 @@ fn a_gbuffer_film_shades_each_material_class_in_every_band() {
 }
 
 /// Scene data past one binding's range (issue 30; lavapipe: 128 MiB): a plane of
-/// 3,125,000 small textured triangles (150 MB of triangle records, 250 MB of attribute
-/// records) under a constant sky, its texture a 4096 × 4000 image (197 MB of texels)
+/// 4,500,000 small textured triangles with shading normals (216 MB of triangle records,
+/// 144 MB of texture-coordinate records, 216 MB of shading records) under a constant sky, its texture a 4096 × 4000 image (197 MB of texels)
 /// whose last quarter of rows, all past the first 128 MiB, is brighter: every backend's
 /// PT sees albedo × sky in every pixel (a diffuse plane under a uniform sky, one bounce;
 /// each pixel within 25 %, each region's mean within 2 %), so a triangle read wrong
-/// shows the sky or nothing, a texel read wrong the other albedo. The upload's trace shows
-/// the three kinds past the range (the BVH's nodes, 24 MB compressed and 63 MB binary, are
+/// shows the sky or nothing, a texel read wrong the other albedo (a shading record read
+/// wrong, a turned normal). The upload's trace shows the four kinds past the range (the BVH's nodes, 24 MB compressed and 63 MB binary, are
 /// not: chunked_scene_data_gives_the_same_images reads them past their first chunk).
 #[test]
 fn a_scene_past_one_binding_in_each_kind_of_data_renders() {
@@ -671,7 +671,7 @@ Shape "trianglemesh" "point3 P" [-1 -1 0  1 -1 0  1 1 0] "point2 uv" [0 0 1 0 1 
     // same, and its parameters are not recomputed over millions of triangles per ray.)
     let camera = scene.clone();
     let template = scene.triangles[0].clone();
-    let n = 1250usize;
+    let n = 1500usize;
     let corner = |i: usize, j: usize| {
         let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
         (
@@ -692,6 +692,7 @@ Shape "trianglemesh" "point3 P" [-1 -1 0  1 -1 0  1 1 0] "point2 uv" [0 0 1 0 1 
                 let mut t = template.clone();
                 t.v = k.map(|k| c[k].0);
                 t.uv = Some(k.map(|k| c[k].1));
+                t.normals = Some([glam::Vec3::Z; 3]);
                 t
             })
         })
@@ -708,7 +709,7 @@ Shape "trianglemesh" "point3 P" [-1 -1 0  1 -1 0  1 1 0] "point2 uv" [0 0 1 0 1 
         let out = render_traced(&scene, 1, accel, &mut trace);
         let bytes: Vec<u64> = scene_data(&trace).iter().map(|k| k.1).collect();
         eprintln!("{accel:?}: bytes per kind {bytes:?}");
-        for kind in [DATA_TRIANGLES, DATA_ATTRIBUTES, DATA_TEXELS] {
+        for kind in [DATA_TRIANGLES, DATA_ATTRIBUTES, DATA_SHADING, DATA_TEXELS] {
             assert!(
                 bytes[kind as usize] > range,
                 "{accel:?}: kind {kind}: {bytes:?}"
@@ -765,7 +766,7 @@ fn scene_data(trace: &lightpath::trace::Trace) -> Vec<(&'static str, u64, usize)
 }
 
 /// Cutting the scene's data into chunks changes no image: with chunks of 256 bytes (four
-/// triangles, three attribute records, three compressed or eight binary BVH nodes, 64
+/// triangles, eight texture-coordinate and four shading records, two compressed or eight binary BVH nodes, 64
 /// floats — thousands of chunks where the device's chunks are one per kind), PT, BDPT and
 /// MMLT on every backend give the same bits as with the device's chunks, on the instanced
 /// scene (triangles with normals and uv, object trees), the image- and procedurally

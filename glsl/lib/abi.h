@@ -80,17 +80,19 @@
 #define BINDING_SCENE_DATA 38
 
 // The kinds of scene data read by address, each in chunks (lib/scene_data.glsl):
-// GpuTriangle records (the world's, then each object's); GpuTriangleAttributes records;
+// GpuTriangle records (the world's, then each object's); GpuTriangleUv records;
 // the BVH's nodes (BvhNode or CwbvhNode, as the backend's walk reads them); the BVH
 // leaves' primitive references (uint); texels (floats: images, tables, lens systems);
-// grid media's floats (density, Le-scale and majorant grids; FEATURE_GRID_MEDIA).
+// grid media's floats (density, Le-scale and majorant grids; FEATURE_GRID_MEDIA);
+// GpuTriangleShading records.
 #define DATA_TRIANGLES 0
 #define DATA_ATTRIBUTES 1
 #define DATA_BVH_NODES 2
 #define DATA_BVH_PRIMS 3
 #define DATA_TEXELS 4
 #define DATA_GRIDS 5
-#define DATA_KINDS 6
+#define DATA_SHADING 6
+#define DATA_KINDS 7
 // A kind's shift (its header's z) when its one chunk is also bound at its binding
 // (triangles, BVH nodes, BVH primitive references): the kernels read the binding.
 #define DATA_IN_BINDING 32
@@ -474,17 +476,24 @@ struct GpuTriangle {
     vec4 v2;
 };
 
-// A triangle's texture coordinates and shading normals at its corners. Without
-// attributes a triangle has pbrt's (0,0), (1,0), (1,1) and its geometric normal.
-// A triangle's alpha (pbrt-v4's `alpha`, GpuTriangleAttributes.n0.w as a float): none
-// (opaque), a constant (n1.w) or a float texture (n1.w, uint bits).
+// A triangle's attributes: its texture coordinates at its corners (a GpuTriangleUv
+// record, DATA_ATTRIBUTES) and, where it has shading normals or alpha, a
+// GpuTriangleShading record (DATA_SHADING) that the first names. Without attributes a
+// triangle has pbrt's (0,0), (1,0), (1,1) and its geometric normal; without shading
+// normals, its geometric normal. A triangle's alpha (pbrt-v4's `alpha`,
+// GpuTriangleShading.n0.w as a float): none (opaque), a constant (n1.w) or a float
+// texture (n1.w, uint bits).
 #define ALPHA_NONE 0
 #define ALPHA_CONSTANT 1
 #define ALPHA_TEXTURE 2
 
-struct GpuTriangleAttributes {
+struct GpuTriangleUv {
     vec4 uv01;          // (u0, v0, u1, v1)
-    vec4 uv2;           // xy: (u2, v2), z: 1 when n0..n2 hold shading normals
+    vec4 uv2;           // xy: (u2, v2), z: 1 when n0..n2 hold shading normals, w: the
+                        // shading record (uint bits), NO_ATTRIBUTES for none
+};
+
+struct GpuTriangleShading {
     vec4 n0;            // w: the alpha's kind (ALPHA_*)
     vec4 n1;            // w: the alpha constant, or its texture (uint bits)
     vec4 n2;

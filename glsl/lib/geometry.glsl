@@ -109,12 +109,13 @@ bool alpha_cut(GpuTriangle tri, vec2 bary, vec3 o, vec3 d) {
     if (!has_feature(FEATURE_ALPHA)) return false;
     uint ai = floatBitsToUint(tri.v2.w);
     if (ai == NO_ATTRIBUTES) return false;
-    float kind = attribute_record(ai).n0.w;
+    TriangleAttributes at = attribute_record(ai);
+    float kind = at.n0.w;
     if (kind == float(ALPHA_NONE)) return false;
-    float alpha = attribute_record(ai).n1.w;
+    float alpha = at.n1.w;
     if (kind == float(ALPHA_TEXTURE)) {
-        vec4 uv01 = attribute_record(ai).uv01;
-        vec2 uv2 = attribute_record(ai).uv2.xy;
+        vec4 uv01 = at.uv01;
+        vec2 uv2 = at.uv2.xy;
         float b0 = 1.0 - bary.x - bary.y;
         vec2 uv = b0 * uv01.xy + bary.x * uv01.zw + bary.y * uv2;
         vec3 p = tri.v0.xyz + bary.x * (tri.v1.xyz - tri.v0.xyz) + bary.y * (tri.v2.xyz - tri.v0.xyz);
@@ -195,8 +196,8 @@ GpuTriangle world_triangle(uint id, out uint inst) {
 }
 
 // The attribute record a, its shading normals carried to the world through inst.
-GpuTriangleAttributes world_attributes(uint a, uint inst) {
-    GpuTriangleAttributes at = attribute_record(a);
+TriangleAttributes world_attributes(uint a, uint inst) {
+    TriangleAttributes at = attribute_record(a);
     if (has_feature(FEATURE_INSTANCES) && inst != NO_INSTANCE && at.uv2.z != 0.0) {
         at.n0.xyz = instance_normal(inst, at.n0.xyz);
         at.n1.xyz = instance_normal(inst, at.n1.xyz);
@@ -228,7 +229,7 @@ ShadingGeometry map_geometry(Hit hit, Surface s) {
         vec3 n1 = vec3(0.0);
         vec3 n2 = vec3(0.0);
         if (a != NO_ATTRIBUTES) {
-            GpuTriangleAttributes at = world_attributes(a, inst);
+            TriangleAttributes at = world_attributes(a, inst);
             uv0 = at.uv01.xy;
             uv1 = at.uv01.zw;
             uv2 = at.uv2.xy;
@@ -425,7 +426,7 @@ Surface surface_at(Hit hit, vec3 o, vec3 d) {
             // pbrt's default (0,0), (1,0), (1,1).
             s.uv = vec2(hit.bary.x + hit.bary.y, hit.bary.y);
         } else {
-            GpuTriangleAttributes at = world_attributes(a, inst);
+            TriangleAttributes at = world_attributes(a, inst);
             s.uv = b0 * at.uv01.xy + hit.bary.x * at.uv01.zw + hit.bary.y * at.uv2.xy;
             if (at.uv2.z != 0.0) {
                 vec3 ns = b0 * at.n0.xyz + hit.bary.x * at.n1.xyz + hit.bary.y * at.n2.xyz;

@@ -1,4 +1,5 @@
-// The scene's large arrays (triangles, their attributes, the BVH, texels, medium grids)
+// The scene's large arrays (triangles, their attributes, the BVH, texels, medium grids,
+// the triangles' shading records)
 // read by device address, so that none is bounded by a binding's range (lavapipe: 128
 // MiB) or by one allocation (2 GiB): each kind (abi.h DATA_*) is cut into chunks of 2^shift
 // records, each chunk a buffer of its own (src/gpu_scene.rs `SceneData`, which picks the
@@ -23,7 +24,8 @@ layout(std430, set = 0, binding = BINDING_SCENE_DATA) restrict readonly buffer S
 };
 
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer TriangleChunk { GpuTriangle at[]; };
-layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer AttributeChunk { GpuTriangleAttributes at[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer AttributeChunk { GpuTriangleUv at[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer ShadingChunk { GpuTriangleShading at[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer FloatChunk { float at[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer UintChunk { uint at[]; };
 
@@ -46,10 +48,31 @@ GpuTriangle triangle_record(uint i) {
     return TriangleChunk(a).at[j];
 }
 
-GpuTriangleAttributes attribute_record(uint i) {
+// A triangle's attributes as one value: its GpuTriangleUv record i and the
+// GpuTriangleShading record that names (zero where it names none: no shading normals,
+// ALPHA_NONE).
+struct TriangleAttributes {
+    vec4 uv01;
+    vec4 uv2;
+    vec4 n0;
+    vec4 n1;
+    vec4 n2;
+};
+
+TriangleAttributes attribute_record(uint i) {
     uint j;
     uvec2 a = data_chunk(DATA_ATTRIBUTES, i, j);
-    return AttributeChunk(a).at[j];
+    GpuTriangleUv uv = AttributeChunk(a).at[j];
+    TriangleAttributes at = TriangleAttributes(uv.uv01, uv.uv2, vec4(0.0), vec4(0.0), vec4(0.0));
+    uint s = floatBitsToUint(uv.uv2.w);
+    if (s != NO_ATTRIBUTES) {
+        uvec2 b = data_chunk(DATA_SHADING, s, j);
+        GpuTriangleShading sh = ShadingChunk(b).at[j];
+        at.n0 = sh.n0;
+        at.n1 = sh.n1;
+        at.n2 = sh.n2;
+    }
+    return at;
 }
 
 float texel(uint i) {

@@ -165,13 +165,19 @@ impl PreparedScene {
     }
 }
 
-/// An error naming what does not fit where `triangles` triangle records and
-/// `attributed` attribute records need more than a device heap of `heap` bytes (0: not
-/// known, no check).
-fn fits_device(triangles: u64, attributed: u64, heap: u64, device: &str) -> Result<()> {
+/// An error naming what does not fit where `triangles` triangle records,
+/// `attributed` texture-coordinate records and `shaded` shading records need more than a
+/// device heap of `heap` bytes (0: not known, no check).
+fn fits_device(
+    triangles: u64,
+    attributed: u64,
+    shaded: u64,
+    heap: u64,
+    device: &str,
+) -> Result<()> {
     let triangle_bytes = triangles * std::mem::size_of::<crate::abi::GpuTriangle>() as u64;
-    let attribute_bytes =
-        attributed * std::mem::size_of::<crate::abi::GpuTriangleAttributes>() as u64;
+    let attribute_bytes = attributed * std::mem::size_of::<crate::abi::GpuTriangleUv>() as u64
+        + shaded * std::mem::size_of::<crate::abi::GpuTriangleShading>() as u64;
     if heap > 0 && triangle_bytes + attribute_bytes > heap {
         bail!(
             "the scene's {triangles} triangles need {triangle_bytes} bytes on the device, and their attribute records (texture coordinates, normals or alpha) {attribute_bytes} more: more than {device} holds ({heap} bytes in its largest memory heap); the scene does not fit this device"
@@ -329,13 +335,15 @@ impl Engine {
     fn check_device_memory(&self, scene: &Scene) -> Result<()> {
         let heap = self.device.info.device_local_bytes;
         let count = scene.unique_triangle_count();
-        let attributed = scene
-            .triangles
-            .iter()
-            .chain(scene.objects.iter().flat_map(|o| o.triangles.iter()))
-            .filter(|t| t.has_attributes())
-            .count() as u64;
-        fits_device(count, attributed, heap, &self.device.info.name)
+        let all = || {
+            scene
+                .triangles
+                .iter()
+                .chain(scene.objects.iter().flat_map(|o| o.triangles.iter()))
+        };
+        let attributed = all().filter(|t| t.has_attributes()).count() as u64;
+        let shaded = all().filter(|t| t.has_shading()).count() as u64;
+        fits_device(count, attributed, shaded, heap, &self.device.info.name)
     }
 
     /// The kernel `name`, or with `variant` its profiling variant (`name+variant`),
@@ -445,6 +453,7 @@ impl Engine {
             "probe BVH primitives",
             "probe texels",
             "probe medium grids",
+            "probe triangle shading",
         ];
         let kinds: [DataArray; crate::abi::DATA_KINDS as usize] =
             std::array::from_fn(
@@ -824,21 +833,21 @@ mod tests {
     /// heap is not known, passes.
     #[test]
     fn a_scene_past_the_devices_memory_is_an_error_that_names_it() {
-        let err = fits_device(20_000_000, 10_000_000, 1 << 30, "a small GPU")
+        let err = fits_device(20_000_000, 10_000_000, 5_000_000, 1 << 30, "a small GPU")
             .unwrap_err()
             .to_string();
         for part in [
             "20000000 triangles",
             "960000000 bytes",
-            "800000000 more",
+            "560000000 more",
             "a small GPU",
             "1073741824 bytes",
             "does not fit",
         ] {
             assert!(err.contains(part), "{part}: {err}");
         }
-        assert!(fits_device(20_000_000, 0, 1 << 30, "a small GPU").is_ok());
-        assert!(fits_device(20_000_000, 10_000_000, 0, "unknown").is_ok());
+        assert!(fits_device(20_000_000, 0, 0, 1 << 30, "a small GPU").is_ok());
+        assert!(fits_device(20_000_000, 10_000_000, 5_000_000, 0, "unknown").is_ok());
     }
 
     #[test]

@@ -583,10 +583,16 @@ impl Alpha {
 }
 
 impl Triangle {
-    /// Whether it has an attribute record (texture coordinates, shading normals or
-    /// alpha; gpu_scene.rs `triangle_attributes`).
+    /// Whether it has attribute records (texture coordinates, shading normals or
+    /// alpha; gpu_scene.rs `triangle_uv`).
     pub fn has_attributes(&self) -> bool {
-        self.uv.is_some() || self.normals.is_some() || self.alpha.is_some()
+        self.uv.is_some() || self.has_shading()
+    }
+
+    /// Whether its attributes include a shading record (shading normals or alpha;
+    /// gpu_scene.rs `triangle_shading`).
+    pub fn has_shading(&self) -> bool {
+        self.normals.is_some() || self.alpha.is_some()
     }
 
     pub fn new(v: [Vec3; 3], material: u32) -> Triangle {
