@@ -433,27 +433,20 @@ fn mip_lookups_match_their_mirror_point_by_point() {
         let mut r = renderer(Bvh);
         lightpath::probe::texture(&mut r.engine, &s, &inputs).expect("texture probe")
     };
-    let (mut off, mut above, mut bad) = (Vec::new(), 0, Vec::new());
-    let (mut off_ewa_spherical, mut ewa_spherical_lookups, mut other_lookups) = (Vec::new(), 0, 0);
-    for (i, (o, (k, uv, p, f))) in got.iter().zip(&footprints).enumerate() {
-        let t = &s.textures[*k];
-        let want = texture_value_in(t, *uv, *p, Vec3::Y, *f);
-        let base = texture_value_in(t, *uv, *p, Vec3::Y, Footprint::default());
-        let v = Vec3::new(o.eval[0], o.eval[1], o.eval[2]);
-        // (The spherical mapping's acos and atan differ from the host's in their last
-        // bits: (s, t) a little apart, the texels' differences times that.)
-        let spherical = t
-            .leaves()
-            .iter()
-            .any(|l| matches!(l.projection(), Projection::Spherical { .. }));
-        let tolerance = if spherical { 1e-3 } else { 1e-4 };
-        let differs =
-            !((v - want).abs().max_element() <= tolerance * want.abs().max_element().max(1.0));
-        // (EWA's weights are steps of the ellipse's form, and its texels those whose centres
-        // it holds: under the spherical mapping's (s, t) a few lookups jump by a texel's
-        // weight. They are counted on their own.)
-        let ewa_spherical = spherical
-            && t.leaves().iter().any(|l| {
+    // Each texture's leaves: spherically mapped (the spherical mapping's acos and atan
+    // differ from the host's in their last bits: (s, t) a little apart, the texels'
+    // differences times that); spherically mapped and read by EWA (whose weights are steps
+    // of the ellipse's form, and its texels those whose centres it holds: a few lookups
+    // jump by a texel's weight — counted on their own); all uv mapped.
+    let facts: Vec<(bool, bool, bool)> = s
+        .textures
+        .iter()
+        .map(|t| {
+            let leaves = t.leaves();
+            let spherical = leaves
+                .iter()
+                .any(|l| matches!(l.projection(), Projection::Spherical { .. }));
+            let ewa = leaves.iter().any(|l| {
                 matches!(
                     l,
                     Texture::Image {
@@ -462,46 +455,52 @@ fn mip_lookups_match_their_mirror_point_by_point() {
                     }
                 )
             });
-        let (list, count) = if ewa_spherical {
-            (&mut off_ewa_spherical, &mut ewa_spherical_lookups)
-        } else {
-            (&mut off, &mut other_lookups)
-        };
+            let uv_mapped = leaves
+                .iter()
+                .all(|l| matches!(l.projection(), Projection::Uv));
+            (spherical, spherical && ewa, uv_mapped)
+        })
+        .collect();
+    // (The lookups that differ, and all, of each group: the others, spherical EWA.)
+    let mut groups: [(Vec<String>, usize); 2] = Default::default();
+    let (mut above, mut bad) = (0, Vec::new());
+    for (i, (o, (k, uv, p, f))) in got.iter().zip(&footprints).enumerate() {
+        let t = &s.textures[*k];
+        let (spherical, ewa_spherical, uv_mapped) = facts[*k];
+        let want = texture_value_in(t, *uv, *p, Vec3::Y, *f);
+        let base = texture_value_in(t, *uv, *p, Vec3::Y, Footprint::default());
+        let v = Vec3::new(o.eval[0], o.eval[1], o.eval[2]);
+        let tolerance = if spherical { 1e-3 } else { 1e-4 };
+        let differs =
+            !((v - want).abs().max_element() <= tolerance * want.abs().max_element().max(1.0));
+        let (list, count) = &mut groups[ewa_spherical as usize];
         *count += 1;
         if differs {
             list.push(format!("texture {k} at {uv} {p} {f:?}: {v} against {want}"));
         }
         // Every degenerate footprint read as none, on the device and its mirror alike (the
         // uv mapping's: the others make (s, t) footprints of their own from dp).
-        if degenerate.contains(&i) {
-            let uv_mapped = t
-                .leaves()
-                .iter()
-                .all(|l| matches!(l.projection(), Projection::Uv));
-            if !v.is_finite() || (uv_mapped && (differs || want != base)) {
-                bad.push(format!(
-                    "texture {k} at {uv} {f:?}: {v}, mirror {want}, base {base}"
-                ));
-            }
+        if degenerate.contains(&i) && (!v.is_finite() || (uv_mapped && (differs || want != base))) {
+            bad.push(format!(
+                "texture {k} at {uv} {f:?}: {v}, mirror {want}, base {base}"
+            ));
         }
         if (want - base).abs().max_element() > 0.01 {
             above += 1;
         }
     }
-    assert!(
-        off.len() * 200 < other_lookups,
-        "{} of {} lookups differ, first: {:?}",
-        off.len(),
-        other_lookups,
-        &off[..off.len().min(5)]
-    );
-    assert!(
-        off_ewa_spherical.len() * 8 < ewa_spherical_lookups,
-        "{} of {} spherically mapped EWA lookups differ, first: {:?}",
-        off_ewa_spherical.len(),
-        ewa_spherical_lookups,
-        &off_ewa_spherical[..off_ewa_spherical.len().min(5)]
-    );
+    // At most 1/200 of the others may differ, 1/8 of the spherically mapped EWA lookups.
+    for ((off, lookups), (share, what)) in groups
+        .iter()
+        .zip([(200, "lookups"), (8, "spherically mapped EWA lookups")])
+    {
+        assert!(
+            off.len() * share < *lookups,
+            "{} of {lookups} {what} differ, first: {:?}",
+            off.len(),
+            &off[..off.len().min(5)]
+        );
+    }
     assert!(
         bad.is_empty(),
         "{} of {} degenerate footprints misread, first: {:?}",
