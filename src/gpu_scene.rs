@@ -106,7 +106,7 @@ pub fn scene_bounds(scene: &Scene) -> (Vec3, f32) {
         .iter()
         .map(|o| {
             let mut b = crate::accel::geometry::Aabb::empty();
-            for t in &o.triangles {
+            for t in o.triangles.iter() {
                 for v in t.v {
                     b.grow(v);
                 }
@@ -164,8 +164,8 @@ pub fn emitter_table_in(scene: &Scene, order: &[u32], radius: impl Fn() -> f32) 
     let triangles = order
         .iter()
         .take(if any { order.len() } else { 0 })
-        .map(|&i| &scene.triangles[i as usize]);
-    for (i, t) in triangles.enumerate() {
+        .map(|&i| (i as usize, &scene.triangles[i as usize]));
+    for (i, (j, t)) in triangles.enumerate() {
         let m = &scene.materials[t.material as usize];
         if !m.is_emissive() {
             continue;
@@ -187,7 +187,11 @@ pub fn emitter_table_in(scene: &Scene, order: &[u32], radius: impl Fn() -> f32) 
                 i as u32,
                 m.two_sided_emission as u32,
                 // (pbrt-v4's invisible area light: alpha 0, cut out of every ray.)
-                if t.alpha.is_some_and(crate::scene::Alpha::is_zero) {
+                if scene
+                    .triangles
+                    .alpha(j)
+                    .is_some_and(crate::scene::Alpha::is_zero)
+                {
                     EMITTER_HIDDEN
                 } else {
                     0
@@ -1257,7 +1261,7 @@ enum Attribute {
 }
 
 impl Attribute {
-    fn has(self, t: &crate::scene::Triangle) -> bool {
+    fn has(self, t: &crate::scene::TriangleCorners) -> bool {
         match self {
             Attribute::Uv => t.has_attributes(),
             Attribute::Shading => t.has_shading(),
@@ -1305,15 +1309,30 @@ impl<'a> TriangleRecords<'a> {
         records
     }
 
-    /// Record `r`'s triangle.
-    fn triangle(&self, r: usize) -> &'a crate::scene::Triangle {
+    /// Record `r`'s triangle: its list and its index there.
+    fn at(&self, r: usize) -> (&'a crate::scene::Triangles, usize) {
         let world = &self.bvh.triangle_order;
         if r < world.len() {
-            return &self.scene.triangles[world[r] as usize];
+            return (&self.scene.triangles, world[r] as usize);
         }
         let k = self.object_first.partition_point(|&f| f <= r) - 1;
         let order = &self.bvh.object_orders[k];
-        &self.scene.objects[k].triangles[order[r - self.object_first[k]] as usize]
+        (
+            &self.scene.objects[k].triangles,
+            order[r - self.object_first[k]] as usize,
+        )
+    }
+
+    /// Record `r`'s triangle's corners and material.
+    fn triangle(&self, r: usize) -> &'a crate::scene::TriangleCorners {
+        let (list, i) = self.at(r);
+        &list[i]
+    }
+
+    /// Record `r`'s triangle, whole.
+    fn whole(&self, r: usize) -> crate::scene::Triangle {
+        let (list, i) = self.at(r);
+        list.get(i)
     }
 
     /// The records of kind `a` before record `r`.
@@ -1349,7 +1368,26 @@ impl<'a> TriangleRecords<'a> {
 
     /// Records of kind `a` from record `k` on, each with its triangle's record index.
     fn each(&self, k: usize, a: Attribute) -> impl Iterator<Item = usize> + '_ {
-        (self.with(k, a)..self.count).filter(move |&r| a.has(self.triangle(r)))
+        self.each_from(self.with(k, a), a)
+    }
+
+    /// The triangle records from `r` on whose triangles have a record of kind `a`.
+    fn each_from(&self, r: usize, a: Attribute) -> impl Iterator<Item = usize> + '_ {
+        (r..self.count).filter(move |&r| a.has(self.triangle(r)))
+    }
+
+    /// For a walk over the triangle records from `r` on, in order: each one's record of
+    /// kind `a` (its index among them), or NO_ATTRIBUTES where its triangle has none.
+    fn ranks(&self, r: usize, a: Attribute) -> impl FnMut(&crate::scene::TriangleCorners) -> u32 {
+        let mut next = self.before(r, a) as u32;
+        move |t| {
+            if a.has(t) {
+                next += 1;
+                next - 1
+            } else {
+                NO_ATTRIBUTES
+            }
+        }
     }
 }
 
@@ -1376,15 +1414,10 @@ impl GpuScene {
         let triangle_records = |at: u64, out: &mut [u8]| {
             let size = std::mem::size_of::<GpuTriangle>();
             let first = at as usize / size;
-            let mut attribute = records.before(first, Attribute::Uv) as u32;
+            let mut rank = records.ranks(first, Attribute::Uv);
             for (record, r) in out.chunks_exact_mut(size).zip(first..) {
                 let t = records.triangle(r);
-                let a = if t.has_attributes() {
-                    attribute += 1;
-                    attribute - 1
-                } else {
-                    NO_ATTRIBUTES
-                };
+                let a = rank(t);
                 let emitter = triangle_emitter.get(r).copied().unwrap_or(NO_EMITTER);
                 record.copy_from_slice(bytemuck::bytes_of(&GpuTriangle {
                     v0: t.v[0].extend(bits(t.material)).to_array(),
@@ -1396,24 +1429,20 @@ impl GpuScene {
         let uv_records = |at: u64, out: &mut [u8]| {
             let size = std::mem::size_of::<GpuTriangleUv>();
             let first = records.with(at as usize / size, Attribute::Uv);
-            let mut shading = records.before(first, Attribute::Shading) as u32;
-            let each = records.each(at as usize / size, Attribute::Uv);
-            for (record, r) in out.chunks_exact_mut(size).zip(each) {
-                let t = records.triangle(r);
-                let s = if t.has_shading() {
-                    shading += 1;
-                    shading - 1
-                } else {
-                    NO_ATTRIBUTES
-                };
-                record.copy_from_slice(bytemuck::bytes_of(&triangle_uv(t, s)));
+            let mut rank = records.ranks(first, Attribute::Shading);
+            for (record, r) in out
+                .chunks_exact_mut(size)
+                .zip(records.each_from(first, Attribute::Uv))
+            {
+                let s = rank(records.triangle(r));
+                record.copy_from_slice(bytemuck::bytes_of(&triangle_uv(&records.whole(r), s)));
             }
         };
         let shading_records = |at: u64, out: &mut [u8]| {
             let size = std::mem::size_of::<GpuTriangleShading>();
             let each = records.each(at as usize / size, Attribute::Shading);
             for (record, r) in out.chunks_exact_mut(size).zip(each) {
-                let s = triangle_shading(records.triangle(r)).expect("a shading record");
+                let s = triangle_shading(&records.whole(r)).expect("a shading record");
                 record.copy_from_slice(bytemuck::bytes_of(&s));
             }
         };
@@ -1676,7 +1705,7 @@ mod tests {
                     }
                     t
                 })
-                .collect::<Vec<_>>()
+                .collect::<crate::scene::Triangles>()
         };
         let mut scene = Scene {
             triangles: triangles(3 * ATTRIBUTE_BLOCK + 77, &mut next),
@@ -1707,7 +1736,7 @@ mod tests {
             instances: Vec::new(),
             triangle_ids: 0,
         };
-        let all: Vec<&crate::scene::Triangle> = (bvh
+        let all: Vec<&crate::scene::TriangleCorners> = (bvh
             .triangle_order
             .iter()
             .map(|&i| &scene.triangles[i as usize]))

@@ -591,7 +591,7 @@ mod tests {
         }
         let mut id = ntri;
         for i in &scene.instances {
-            for t in &scene.objects[i.object as usize].triangles {
+            for t in scene.objects[i.object as usize].triangles.all() {
                 prims.push(Prim::Triangle(
                     t.v.map(|v| i.object_to_world.transform_point3(v)),
                 ));

@@ -200,7 +200,7 @@ pub fn shading_normal(scene: &Scene, prim: usize, p: Vec3) -> Vec3 {
         Box<dyn Fn() -> ShadingGeometry>,
     );
     if prim < ntri {
-        let t = scene.triangles[prim];
+        let t = scene.triangles.get(prim);
         let e1 = t.v[1] - t.v[0];
         let e2 = t.v[2] - t.v[0];
         let ng_ = e1.cross(e2).normalize();

@@ -779,7 +779,7 @@ fn alpha_cut_outs_render_alike_in_every_strategy_and_integrator() {
         ramp = ramp.display(),
     );
     let s = room(&light, false, 3);
-    assert_eq!(s.triangles.iter().filter(|t| t.alpha.is_some()).count(), 4);
+    assert_eq!(s.triangles.all().filter(|t| t.alpha.is_some()).count(), 4);
     assert_each_strategy_alone_matches_pt("alpha", kind, &s, 3);
     assert_integrators_agree_over("alpha", &s, STRATEGY_SEEDS, 1024);
 }

@@ -670,7 +670,7 @@ Shape "trianglemesh" "point3 P" [-1 -1 0  1 -1 0  1 1 0] "point2 uv" [0 0 1 0 1 
     // (The expected image is made on the one-triangle scene: the camera's rays are the
     // same, and its parameters are not recomputed over millions of triangles per ray.)
     let camera = scene.clone();
-    let template = scene.triangles[0].clone();
+    let template = scene.triangles.get(0);
     let n = 1500usize;
     let corner = |i: usize, j: usize| {
         let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);

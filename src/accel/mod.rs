@@ -177,7 +177,7 @@ pub(crate) fn map_pieces<T: Sync, R: Send>(
 }
 
 /// Each triangle's box, made a piece per core.
-fn triangle_bounds(triangles: &[crate::scene::Triangle]) -> Vec<Aabb> {
+fn triangle_bounds(triangles: &[crate::scene::TriangleCorners]) -> Vec<Aabb> {
     let mut bounds = vec![Aabb::empty(); triangles.len()];
     let piece = triangles.len().div_ceil(threads()).max(1 << 16);
     let mut pieces: Vec<_> = bounds

@@ -302,7 +302,7 @@ impl Engine {
                     gpu_scene.triangle_chunks(),
                     scene.triangles.len() as u32,
                     &spheres,
-                    scene.triangles.iter().any(|t| t.alpha.is_some()),
+                    scene.triangles.alphas().next().is_some(),
                     &object_ranges(scene),
                     &scene.instances,
                 )
@@ -341,8 +341,9 @@ impl Engine {
                 .iter()
                 .chain(scene.objects.iter().flat_map(|o| o.triangles.iter()))
         };
-        let attributed = all().filter(|t| t.has_attributes()).count() as u64;
-        let shaded = all().filter(|t| t.has_shading()).count() as u64;
+        let [attributed, shaded] = all().fold([0u64; 2], |[a, s], t| {
+            [a + t.has_attributes() as u64, s + t.has_shading() as u64]
+        });
         fits_device(count, attributed, shaded, heap, &self.device.info.name)
     }
 
@@ -748,16 +749,16 @@ pub fn scene_features(scene: &Scene) -> u32 {
     if !scene.instances.is_empty() {
         features |= crate::abi::FEATURE_INSTANCES;
     }
-    if scene.triangles.iter().any(|t| t.alpha.is_some()) {
+    if scene.triangles.alphas().next().is_some() {
         features |= FEATURE_ALPHA;
     }
     // The alpha test is inlined in every traversal: it holds the code of the alpha
     // textures' features only.
     let mut alpha_textures: Vec<u32> = scene
         .triangles
-        .iter()
-        .filter_map(|t| match t.alpha {
-            Some(crate::scene::Alpha::Texture(i)) => Some(i),
+        .alphas()
+        .filter_map(|a| match a {
+            crate::scene::Alpha::Texture(i) => Some(i),
             _ => None,
         })
         .collect();
@@ -937,7 +938,9 @@ mod tests {
                 | FEATURE_ALPHA
                 | FEATURE_ALPHA_BILERP_TEXTURES
         );
-        s.triangles[0].alpha = Some(crate::scene::Alpha::Texture(0));
+        let mut t = s.triangles.get(0);
+        t.alpha = Some(crate::scene::Alpha::Texture(0));
+        s.triangles.set(0, t);
         assert_eq!(
             scene_features(&s),
             FEATURE_TEXTURE_PROJECTIONS

@@ -11,9 +11,11 @@ pub mod ply;
 pub mod sensor;
 pub mod spectrum;
 mod subdiv;
+mod triangles;
 
 pub use parse::{parse_file, parse_str, ParseError};
 pub use pbrt::{parse_pbrt_file, parse_pbrt_str};
+pub use triangles::{TriangleCorners, Triangles, DEFAULT_UV};
 
 /// Reads a scene file: pbrt-v4's format for `.pbrt`, else the `.test` format.
 ///
@@ -1032,7 +1034,7 @@ pub struct Scene {
     pub camera: Camera,
     pub settings: Settings,
     pub materials: Vec<Material>,
-    pub triangles: Vec<Triangle>,
+    pub triangles: Triangles,
     pub spheres: Vec<Sphere>,
     pub quad_lights: Vec<QuadLight>,
     pub delta_lights: Vec<DeltaLight>,
@@ -1069,7 +1071,7 @@ pub struct Scene {
 pub struct Object {
     /// The name the file gave it (for messages).
     pub name: String,
-    pub triangles: Vec<Triangle>,
+    pub triangles: Triangles,
 }
 
 /// One object of `Scene::objects` under an invertible object-to-world transform.
@@ -1098,7 +1100,7 @@ impl Default for Scene {
             camera: Camera::default(),
             settings: Settings::default(),
             materials: Vec::new(),
-            triangles: Vec::new(),
+            triangles: Triangles::default(),
             spheres: Vec::new(),
             quad_lights: Vec::new(),
             delta_lights: Vec::new(),
@@ -1139,8 +1141,8 @@ impl Scene {
             let m = i.object_to_world;
             let normal_matrix = Mat3::from_mat4(m).inverse().transpose();
             let swaps = i.swaps_handedness();
-            for t in &self.objects[i.object as usize].triangles {
-                let mut w = *t;
+            for t in self.objects[i.object as usize].triangles.all() {
+                let mut w = t;
                 w.v = t.v.map(|v| m.transform_point3(v));
                 w.normals = t
                     .normals

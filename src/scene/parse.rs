@@ -1330,7 +1330,7 @@ mod tests {
         scene.triangles[0].v[0]
     }
 
-    fn normal(t: &Triangle) -> Vec3 {
+    fn normal(t: &crate::scene::TriangleCorners) -> Vec3 {
         (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0])
     }
 
@@ -1706,7 +1706,7 @@ mod tests {
             ));
             let front = ac.cross(ab);
             let mut area = 0.0;
-            for t in &s.triangles {
+            for t in s.triangles.iter() {
                 let n = normal(t);
                 close(n.normalize(), front.normalize());
                 area += 0.5 * n.length();
@@ -1726,7 +1726,7 @@ mod tests {
     #[test]
     fn the_course_cornell_light_faces_down() {
         let s = parse("quadLight -0.25 1.999 -0.25  0 0 0.5  0.5 0 0  30 26 21\n");
-        for t in &s.triangles {
+        for t in s.triangles.iter() {
             close(normal(t).normalize(), -Vec3::Y);
         }
     }
@@ -2746,7 +2746,7 @@ mediuminterface vacuum vacuum
                 s.materials.iter().any(Material::is_emissive) || !s.delta_lights.is_empty(),
                 "{name}: no light"
             );
-            for t in &s.triangles {
+            for t in s.triangles.iter() {
                 assert!(
                     normal(t).length() > 0.0,
                     "{name}: degenerate triangle {:?}",
@@ -2771,7 +2771,7 @@ mediuminterface vacuum vacuum
             close(lo, Vec3::new(-1.0, 0.0, -1.0));
             close(hi, Vec3::new(1.0, 2.0, 1.0));
             // The light's two triangles face down into the box.
-            let lights: Vec<&Triangle> = s
+            let lights: Vec<&crate::scene::TriangleCorners> = s
                 .triangles
                 .iter()
                 .filter(|t| s.materials[t.material as usize].is_emissive())

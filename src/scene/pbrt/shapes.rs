@@ -652,10 +652,7 @@ impl Parser {
                         None => t,
                     })
                 };
-                // (Straight into the scene: a copy of a mesh of millions of triangles
-                // costs its memory twice, and the time to touch it.)
-                let count = indices.len() / 3;
-                self.scene.triangles.reserve(count);
+                self.scene.triangles.reserve(indices.len() / 3);
                 match (power, emission) {
                     // pbrt-v4 makes one light per triangle of a mesh, each emitting
                     // `power`: radiance power / (sides π area) per triangle.
@@ -668,37 +665,11 @@ impl Parser {
                             self.scene.triangles.push(Triangle { material, ..t });
                         }
                     }
-                    // Made in pieces on every core, each written at its piece's start in
-                    // the scene's spare capacity, then moved down over the gaps the
-                    // triangles without area left: the same list as one by one.
-                    _ => {
-                        let start = self.scene.triangles.len();
-                        let spare = &mut self.scene.triangles.spare_capacity_mut()[..count];
-                        let mut pieces: Vec<_> = spare
-                            .chunks_mut(EMIT_PIECE)
-                            .zip(indices.chunks(3 * EMIT_PIECE))
-                            .collect();
-                        let made = crate::accel::map_in_parallel(
-                            &mut pieces,
-                            crate::accel::threads(),
-                            |(out, corners)| {
-                                let mut n = 0;
-                                for t in corners.chunks(3).filter_map(make) {
-                                    out[n].write(t);
-                                    n += 1;
-                                }
-                                n
-                            },
-                        );
-                        let mut end = 0;
-                        for (k, n) in made.into_iter().enumerate() {
-                            spare.copy_within(k * EMIT_PIECE..k * EMIT_PIECE + n, end);
-                            end += n;
-                        }
-                        // SAFETY: the first `end` spare records were written just above
-                        // (each piece's first n, moved down in order).
-                        unsafe { self.scene.triangles.set_len(start + end) };
-                    }
+                    // Made in pieces on every core (Triangles::extend_in_parallel).
+                    _ => self
+                        .scene
+                        .triangles
+                        .extend_in_parallel(&indices, EMIT_PIECE, make),
                 }
             }
             ShapeKind::Sphere { radius } => {

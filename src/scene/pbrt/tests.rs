@@ -1127,7 +1127,7 @@ fn a_singular_transform_squashes_shapes_without_nans() {
     // The squashed quad: gone; the tetrahedron's two faces that keep area in y = 0; the
     // plain quad.
     assert_eq!(s.triangles.len(), 2 + 2, "{:?}", s.triangles);
-    for t in &s.triangles {
+    for t in s.triangles.all() {
         assert!(t.v.iter().all(|v| v.is_finite()), "{t:?}");
         assert!(t.normals.is_none(), "{t:?}");
     }
@@ -1475,7 +1475,7 @@ fn loop_subdivision_surfaces() {
         "WorldBegin\nShape \"loopsubdiv\" \"integer levels\" 2 {oct}\n"
     ));
     assert_eq!(s.triangles.len(), 8 * 16);
-    assert!(s.triangles.iter().all(|t| t.normals.is_some()));
+    assert!(s.triangles.all().all(|t| t.normals.is_some()));
     let s = parse(&format!("WorldBegin\nShape \"loopsubdiv\" {oct}\n"));
     assert_eq!(s.triangles.len(), 8 * 64, "3 levels by default");
     let e = parse_err(&format!(
@@ -1595,7 +1595,7 @@ fn a_displaced_plymesh_is_refined_and_moved_along_its_normals() {
             "{} triangles",
             s.triangles.len()
         );
-        for t in &s.triangles {
+        for t in s.triangles.all() {
             for k in 0..3 {
                 let (a, b) = (t.v[k], t.v[(k + 1) % 3]);
                 assert!(
@@ -1680,7 +1680,7 @@ fn cylinders_are_pbrt_v4s_quadrics() {
         .sum();
     let want = std::f32::consts::PI * 0.5 * 1.0;
     assert!((area / want - 1.0).abs() < 1e-3, "{area} against {want}");
-    for t in &s.triangles {
+    for t in s.triangles.all() {
         let g = (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]);
         let mid = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
         assert!(
@@ -1715,7 +1715,7 @@ fn curves_are_diced_into_tubes_and_ribbons() {
     let tube = 2 * curves::CURVE_SIDES * curves::CURVE_STEPS_PER_SEGMENT;
     let ribbon = 2 * curves::CURVE_STEPS_PER_SEGMENT;
     assert_eq!(s.triangles.len(), tube + 2 * tube + ribbon);
-    for t in &s.triangles[..tube] {
+    for t in s.triangles.all().take(tube) {
         for (k, v) in t.v.iter().enumerate() {
             // On the tube of radius 0.1 around the x axis moved to z = 1, its normals radial.
             let r = Vec3::new(0.0, v.y, v.z - 1.0);
@@ -1726,7 +1726,7 @@ fn curves_are_diced_into_tubes_and_ribbons() {
         }
     }
     // The ribbon: flat in z = 1, 0.5 wide across y, two-sided (no vertex normals).
-    for t in &s.triangles[3 * tube..] {
+    for t in s.triangles.all().skip(3 * tube) {
         assert!(t.normals.is_none());
         assert!(t
             .v
@@ -1793,15 +1793,15 @@ fn shapes_whose_alpha_is_zero_are_left_out_unless_they_emit() {
     assert_eq!((s.triangles.len(), s.spheres.len()), (4, 0));
     let cut = s
         .triangles
-        .iter()
-        .filter(|t| t.alpha == Some(crate::scene::Alpha::Constant(0.0)));
+        .alphas()
+        .filter(|&a| a == crate::scene::Alpha::Constant(0.0));
     assert_eq!(cut.count(), 2);
     let s = parse(
         "WorldBegin\nAreaLightSource \"diffuse\" \"rgb L\" [ 7 7 7 ]\n\
          Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0  1 1 0 ] \"float alpha\" [ 0 ]\n",
     );
     assert_eq!(s.triangles.len(), 2);
-    for t in &s.triangles {
+    for t in s.triangles.all() {
         assert!(s.materials[t.material as usize].is_emissive());
         assert_eq!(t.alpha, Some(crate::scene::Alpha::Constant(0.0)));
     }
@@ -2794,24 +2794,41 @@ fn image_files_are_read_together_at_the_end_of_the_parse() {
 
 /// A mesh of more triangles than one piece of the parallel emit, with triangles without
 /// area here and there (one in every piece's first and last place among them): the scene
-/// holds the others, in the file's order.
+/// holds the others, in the file's order, each with its own texture coordinates and its
+/// shading normals where they are not zero (shading records made in every piece).
 #[test]
 fn a_large_mesh_keeps_its_triangles_in_order_without_the_degenerate_ones() {
     let n = 3 * super::shapes::EMIT_PIECE + 123;
     let degenerate = |i: usize| i % 97 == 5 || i % super::shapes::EMIT_PIECE == 0 || i == n - 1;
-    let (mut p, mut idx) = (String::new(), String::new());
+    let shaded = |i: usize| i % 5 != 0;
+    let (mut p, mut idx, mut nn, mut uv) =
+        (String::new(), String::new(), String::new(), String::new());
     for i in 0..n {
         let x = i as f32;
         let top = if degenerate(i) { 0.0 } else { 1.0 };
         p += &format!("{x} 0 0 {} 0 0 {x} {top} 0 ", x + 1.0);
         idx += &format!("{} {} {} ", 3 * i, 3 * i + 1, 3 * i + 2);
+        nn += if shaded(i) {
+            "0 0 1 0 0 1 0 0 1 "
+        } else {
+            "0 0 0 0 0 0 0 0 0 "
+        };
+        uv += &format!("{x} 0 0 0 0 0 ");
     }
     let s = parse(&format!(
-        "WorldBegin\nShape \"trianglemesh\" \"point3 P\" [{p}] \"integer indices\" [{idx}]"
+        "WorldBegin\nShape \"trianglemesh\" \"point3 P\" [{p}] \"integer indices\" [{idx}] \
+         \"normal N\" [{nn}] \"point2 uv\" [{uv}]"
     ));
     let kept: Vec<usize> = (0..n).filter(|&i| !degenerate(i)).collect();
     assert_eq!(s.triangles.len(), kept.len());
-    for (t, &i) in s.triangles.iter().zip(&kept) {
+    for (j, &i) in kept.iter().enumerate() {
+        let t = s.triangles.get(j);
         assert_eq!(t.v[0].x, i as f32, "triangle {i}");
+        assert_eq!(
+            t.uv.expect("texture coordinates")[0].x,
+            i as f32,
+            "triangle {i}"
+        );
+        assert_eq!(t.normals.is_some(), shaded(i), "triangle {i}");
     }
 }
