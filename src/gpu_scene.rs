@@ -1045,36 +1045,33 @@ fn sparse_grid(floats: &mut Vec<f32>, g: &crate::scene::SparseGrid) -> u32 {
     at
 }
 
-/// A triangle's texture-coordinate record, naming its shading record `shading`
+/// Triangle `i` of `list`'s texture-coordinate record, naming its shading record `shading`
 /// (NO_ATTRIBUTES for none): made for a triangle with any attributes (texture coordinates,
 /// shading normals or alpha; its triangle record's index NO_ATTRIBUTES without), pbrt's
 /// (0,0), (1,0), (1,1) where it has none of its own. The records are in the triangles'
 /// order (the world's, then each object's), one for each that has attributes.
-pub fn triangle_uv(t: &crate::scene::Triangle, shading: u32) -> GpuTriangleUv {
-    let uv = t.uv.unwrap_or([
-        glam::Vec2::new(0.0, 0.0),
-        glam::Vec2::new(1.0, 0.0),
-        glam::Vec2::new(1.0, 1.0),
-    ]);
+pub fn triangle_uv(list: &crate::scene::Triangles, i: usize, shading: u32) -> GpuTriangleUv {
+    let uv = list.uv(i);
+    let normals = list[i].has_shading() && list.normals(i).is_some();
     GpuTriangleUv {
         uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
         uv2: [
             uv[2].x,
             uv[2].y,
-            t.normals.is_some() as u32 as f32,
+            normals as u32 as f32,
             f32::from_bits(shading),
         ],
     }
 }
 
-/// A triangle's shading record (its shading normals, zero without, and its alpha): none
-/// for one with neither. In the triangles' order, one for each that has one.
-pub fn triangle_shading(t: &crate::scene::Triangle) -> Option<GpuTriangleShading> {
-    if !t.has_shading() {
+/// Triangle `i` of `list`'s shading record (its shading normals, zero without, and its
+/// alpha): none for one with neither. In the triangles' order, one for each that has one.
+pub fn triangle_shading(list: &crate::scene::Triangles, i: usize) -> Option<GpuTriangleShading> {
+    if !list[i].has_shading() {
         return None;
     }
-    let n = t.normals.unwrap_or([Vec3::ZERO; 3]);
-    let (alpha_kind, alpha_value) = match t.alpha {
+    let n = list.normals(i).unwrap_or([Vec3::ZERO; 3]);
+    let (alpha_kind, alpha_value) = match list.alpha(i) {
         None => (crate::abi::ALPHA_NONE, 0.0),
         Some(crate::scene::Alpha::Constant(a)) => (crate::abi::ALPHA_CONSTANT, a),
         Some(crate::scene::Alpha::Texture(i)) => (crate::abi::ALPHA_TEXTURE, f32::from_bits(i)),
@@ -1329,12 +1326,6 @@ impl<'a> TriangleRecords<'a> {
         &list[i]
     }
 
-    /// Record `r`'s triangle, whole.
-    fn whole(&self, r: usize) -> crate::scene::Triangle {
-        let (list, i) = self.at(r);
-        list.get(i)
-    }
-
     /// The records of kind `a` before record `r`.
     fn before(&self, r: usize, a: Attribute) -> usize {
         let b = r / ATTRIBUTE_BLOCK;
@@ -1434,15 +1425,17 @@ impl GpuScene {
                 .chunks_exact_mut(size)
                 .zip(records.each_from(first, Attribute::Uv))
             {
-                let s = rank(records.triangle(r));
-                record.copy_from_slice(bytemuck::bytes_of(&triangle_uv(&records.whole(r), s)));
+                let (list, i) = records.at(r);
+                let s = rank(&list[i]);
+                record.copy_from_slice(bytemuck::bytes_of(&triangle_uv(list, i, s)));
             }
         };
         let shading_records = |at: u64, out: &mut [u8]| {
             let size = std::mem::size_of::<GpuTriangleShading>();
             let each = records.each(at as usize / size, Attribute::Shading);
             for (record, r) in out.chunks_exact_mut(size).zip(each) {
-                let s = triangle_shading(&records.whole(r)).expect("a shading record");
+                let (list, i) = records.at(r);
+                let s = triangle_shading(list, i).expect("a shading record");
                 record.copy_from_slice(bytemuck::bytes_of(&s));
             }
         };

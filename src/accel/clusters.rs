@@ -143,9 +143,9 @@ thread_local! {
 }
 
 /// `(Morton code of the box centre, index)`, sorted (the index breaks ties, so the
-/// order is the input's alone). The keys are made a piece per thread, then put in
-/// buckets by their codes' top [`BUCKET_BITS`] bits (a counting sort) and the buckets
-/// sorted at once; where one bucket would hold more than a quarter of them (a scene
+/// order is the input's alone). The keys are made and counted a piece per thread, then
+/// put in buckets by their codes' top [`BUCKET_BITS`] bits (a counting sort, each piece
+/// scattering its own keys at once) and the buckets sorted at once; where one bucket would hold more than a quarter of them (a scene
 /// whose primitives crowd one corner of its box), sorted in `threads` pieces at once
 /// and merged instead. Either way the same list.
 fn sorted_keys(boxes: &[Bounds], threads: usize) -> Vec<(u64, u32)> {
@@ -166,39 +166,57 @@ fn sorted_keys(boxes: &[Bounds], threads: usize) -> Vec<(u64, u32)> {
         cells / extent,
         glam::Vec3A::ZERO,
     );
+    let bucket = |k: &(u64, u32)| (k.0 >> (3 * MORTON_BITS - BUCKET_BITS)) as usize;
     let mut keys = vec![(0u64, 0u32); boxes.len()];
     let mut pieces: Vec<(usize, &mut [(u64, u32)])> = keys
         .chunks_mut(piece)
         .enumerate()
         .map(|(k, c)| (k * piece, c))
         .collect();
-    super::map_in_parallel(&mut pieces, threads, |(first, out)| {
+    // Each piece's keys and how many fall in each bucket.
+    let counts = super::map_in_parallel(&mut pieces, threads, |(first, out)| {
+        let mut count = vec![0usize; 1 << BUCKET_BITS];
         for (i, key) in out.iter_mut().enumerate() {
             let q = ((obvhs_box(&boxes[*first + i]).center() - centres.min) * scale)
                 .clamp(glam::Vec3A::ZERO, glam::Vec3A::splat(cells))
                 .as_uvec3();
             *key = (morton(q.x, q.y, q.z), (*first + i) as u32);
+            count[bucket(key)] += 1;
         }
+        count
     });
     drop(pieces);
-    let bucket = |k: &(u64, u32)| (k.0 >> (3 * MORTON_BITS - BUCKET_BITS)) as usize;
-    let mut start = vec![0usize; (1 << BUCKET_BITS) + 1];
-    for k in &keys {
-        start[bucket(k) + 1] += 1;
-    }
-    if start.iter().any(|&c| c > keys.len() / 4) {
+    let total = |b: usize| counts.iter().map(|c| c[b]).sum::<usize>();
+    if (0..1 << BUCKET_BITS).any(|b| total(b) > keys.len() / 4) {
         return merged_keys(keys, threads);
     }
-    for b in 0..1 << BUCKET_BITS {
-        start[b + 1] += start[b];
-    }
+    // Each bucket's place, shared out to the pieces in order (piece p's part of bucket b
+    // after the parts of the pieces before it): each piece scatters its keys into its own
+    // parts, every piece at once, and the buckets hold their keys in the input's order.
     let mut sorted = vec![(0u64, 0u32); keys.len()];
-    let mut next = start.clone();
-    for k in &keys {
-        let b = bucket(k);
-        sorted[next[b]] = *k;
-        next[b] += 1;
+    let mut parts: Vec<(&[(u64, u32)], Vec<&mut [(u64, u32)]>)> = keys
+        .chunks(piece)
+        .map(|k| (k, Vec::with_capacity(1 << BUCKET_BITS)))
+        .collect();
+    let mut rest = &mut sorted[..];
+    let mut start = vec![0usize; (1 << BUCKET_BITS) + 1];
+    for b in 0..1 << BUCKET_BITS {
+        for (p, count) in counts.iter().enumerate() {
+            let (part, tail) = std::mem::take(&mut rest).split_at_mut(count[b]);
+            parts[p].1.push(part);
+            rest = tail;
+        }
+        start[b + 1] = start[b] + total(b);
     }
+    super::map_in_parallel(&mut parts, threads, |(keys, parts)| {
+        let mut next = vec![0usize; 1 << BUCKET_BITS];
+        for k in keys.iter() {
+            let b = bucket(k);
+            parts[b][next[b]] = *k;
+            next[b] += 1;
+        }
+    });
+    drop(parts);
     drop(keys);
     let mut buckets = Vec::new();
     let mut rest = &mut sorted[..];
