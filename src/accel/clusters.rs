@@ -143,11 +143,11 @@ thread_local! {
 }
 
 /// `(Morton code of the box centre, index)`, sorted (the index breaks ties, so the
-/// order is the input's alone). The keys are made and counted a piece per thread, then
-/// put in buckets by their codes' top [`BUCKET_BITS`] bits (a counting sort, each piece
-/// scattering its own keys at once) and the buckets sorted at once; where one bucket would hold more than a quarter of them (a scene
-/// whose primitives crowd one corner of its box), sorted in `threads` pieces at once
-/// and merged instead. Either way the same list.
+/// order is the input's alone). The keys are counted by their codes' top [`BUCKET_BITS`]
+/// bits a piece per thread, then made again and put in those buckets (a counting sort,
+/// each piece scattering its own keys at once) and the buckets sorted at once; where one
+/// bucket would hold more than a quarter of them (a scene whose primitives crowd one
+/// corner of its box), sorted in `threads` pieces at once and merged instead. Either way the same list.
 fn sorted_keys(boxes: &[Bounds], threads: usize) -> Vec<(u64, u32)> {
     let piece = boxes.len().div_ceil(threads.max(1)).max(1 << 16);
     let centres = super::map_pieces(boxes, piece, threads, |boxes| {
@@ -166,37 +166,41 @@ fn sorted_keys(boxes: &[Bounds], threads: usize) -> Vec<(u64, u32)> {
         cells / extent,
         glam::Vec3A::ZERO,
     );
+    let key = |i: usize| {
+        let q = ((obvhs_box(&boxes[i]).center() - centres.min) * scale)
+            .clamp(glam::Vec3A::ZERO, glam::Vec3A::splat(cells))
+            .as_uvec3();
+        (morton(q.x, q.y, q.z), i as u32)
+    };
     let bucket = |k: &(u64, u32)| (k.0 >> (3 * MORTON_BITS - BUCKET_BITS)) as usize;
-    let mut keys = vec![(0u64, 0u32); boxes.len()];
-    let mut pieces: Vec<(usize, &mut [(u64, u32)])> = keys
-        .chunks_mut(piece)
-        .enumerate()
-        .map(|(k, c)| (k * piece, c))
+    // How many of each piece's keys fall in each bucket. (The keys are made again where
+    // they are scattered: an array of them all would be 16 bytes a primitive of fresh
+    // memory, which costs more to touch than the codes cost to make.)
+    let mut pieces: Vec<std::ops::Range<usize>> = (0..boxes.len())
+        .step_by(piece)
+        .map(|first| first..(first + piece).min(boxes.len()))
         .collect();
-    // Each piece's keys and how many fall in each bucket.
-    let counts = super::map_in_parallel(&mut pieces, threads, |(first, out)| {
+    let counts = super::map_in_parallel(&mut pieces, threads, |range| {
         let mut count = vec![0usize; 1 << BUCKET_BITS];
-        for (i, key) in out.iter_mut().enumerate() {
-            let q = ((obvhs_box(&boxes[*first + i]).center() - centres.min) * scale)
-                .clamp(glam::Vec3A::ZERO, glam::Vec3A::splat(cells))
-                .as_uvec3();
-            *key = (morton(q.x, q.y, q.z), (*first + i) as u32);
-            count[bucket(key)] += 1;
+        for i in range.clone() {
+            count[bucket(&key(i))] += 1;
         }
         count
     });
-    drop(pieces);
     let total = |b: usize| counts.iter().map(|c| c[b]).sum::<usize>();
-    if (0..1 << BUCKET_BITS).any(|b| total(b) > keys.len() / 4) {
-        return merged_keys(keys, threads);
+    if (0..1 << BUCKET_BITS).any(|b| total(b) > boxes.len() / 4) {
+        let keys = super::map_in_parallel(&mut pieces, threads, |r| {
+            r.clone().map(key).collect::<Vec<_>>()
+        });
+        return merged_keys(keys.concat(), threads);
     }
     // Each bucket's place, shared out to the pieces in order (piece p's part of bucket b
     // after the parts of the pieces before it): each piece scatters its keys into its own
-    // parts, every piece at once, and the buckets hold their keys in the input's order.
-    let mut sorted = vec![(0u64, 0u32); keys.len()];
-    let mut parts: Vec<(&[(u64, u32)], Vec<&mut [(u64, u32)]>)> = keys
-        .chunks(piece)
-        .map(|k| (k, Vec::with_capacity(1 << BUCKET_BITS)))
+    // parts, every piece at once.
+    let mut sorted = vec![(0u64, 0u32); boxes.len()];
+    let mut parts: Vec<(std::ops::Range<usize>, Vec<&mut [(u64, u32)]>)> = pieces
+        .into_iter()
+        .map(|r| (r, Vec::with_capacity(1 << BUCKET_BITS)))
         .collect();
     let mut rest = &mut sorted[..];
     let mut start = vec![0usize; (1 << BUCKET_BITS) + 1];
@@ -208,16 +212,16 @@ fn sorted_keys(boxes: &[Bounds], threads: usize) -> Vec<(u64, u32)> {
         }
         start[b + 1] = start[b] + total(b);
     }
-    super::map_in_parallel(&mut parts, threads, |(keys, parts)| {
+    super::map_in_parallel(&mut parts, threads, |(range, parts)| {
         let mut next = vec![0usize; 1 << BUCKET_BITS];
-        for k in keys.iter() {
-            let b = bucket(k);
-            parts[b][next[b]] = *k;
+        for i in range.clone() {
+            let k = key(i);
+            let b = bucket(&k);
+            parts[b][next[b]] = k;
             next[b] += 1;
         }
     });
     drop(parts);
-    drop(keys);
     let mut buckets = Vec::new();
     let mut rest = &mut sorted[..];
     for b in 0..1 << BUCKET_BITS {
