@@ -598,19 +598,19 @@ impl Parser {
         };
         match s.kind {
             ShapeKind::Mesh { p, indices, n, uv } => {
-                let wp: Vec<Vec3> = p.iter().map(|&x| ctm.transform_point3(x)).collect();
+                // (Carried to the world in place: a mesh of millions of vertices would
+                // otherwise touch as much fresh memory again.)
+                let mut wp = p;
+                for x in &mut wp {
+                    *x = ctm.transform_point3(*x);
+                }
                 let normal_matrix = Mat3::from_mat4(ctm).inverse().transpose();
-                let wn: Option<Vec<Vec3>> = n.map(|n| {
-                    n.iter()
-                        .map(|&x| {
-                            let v = (normal_matrix * x).normalize_or_zero();
-                            if s.reverse {
-                                -v
-                            } else {
-                                v
-                            }
-                        })
-                        .collect()
+                let wn: Option<Vec<Vec3>> = n.map(|mut n| {
+                    for x in &mut n {
+                        let v = (normal_matrix * *x).normalize_or_zero();
+                        *x = if s.reverse { -v } else { v };
+                    }
+                    n
                 });
                 let emission = s
                     .area
