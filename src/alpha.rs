@@ -30,7 +30,7 @@ pub fn alpha_cut(t: &Triangle, textures: &[Texture], bary: Vec2, o: Vec3, d: Vec
         None => return false,
         Some(Alpha::Constant(a)) => a,
         Some(Alpha::Texture(i)) => {
-            let uv = t.uv.unwrap_or([Vec2::ZERO, Vec2::X, Vec2::ONE]);
+            let uv = t.uv.unwrap_or(crate::scene::DEFAULT_UV);
             let b0 = 1.0 - bary.x - bary.y;
             let st = b0 * uv[0] + bary.x * uv[1] + bary.y * uv[2];
             let p = t.v[0] + bary.x * (t.v[1] - t.v[0]) + bary.y * (t.v[2] - t.v[0]);

@@ -1052,7 +1052,7 @@ fn sparse_grid(floats: &mut Vec<f32>, g: &crate::scene::SparseGrid) -> u32 {
 /// order (the world's, then each object's), one for each that has attributes.
 pub fn triangle_uv(list: &crate::scene::Triangles, i: usize, shading: u32) -> GpuTriangleUv {
     let uv = list.uv(i);
-    let normals = list[i].has_shading() && list.normals(i).is_some();
+    let normals = list.normals(i).is_some();
     GpuTriangleUv {
         uv01: [uv[0].x, uv[0].y, uv[1].x, uv[1].y],
         uv2: [

@@ -210,7 +210,7 @@ pub fn shading_normal(scene: &Scene, prim: usize, p: Vec3) -> Vec3 {
         let b1 = w.cross(e2).dot(full) / full.length_squared();
         let b2 = e1.cross(w).dot(full) / full.length_squared();
         let b0 = 1.0 - b1 - b2;
-        let uvs = t.uv.unwrap_or([Vec2::ZERO, Vec2::X, Vec2::ONE]);
+        let uvs = t.uv.unwrap_or(crate::scene::DEFAULT_UV);
         let ns_ = match t.normals {
             Some(n) => {
                 let s = b0 * n[0] + b1 * n[1] + b2 * n[2];

@@ -243,20 +243,20 @@ impl Triangles {
             },
         );
         let mut end = 0;
+        // Each piece's count and the shading records before its own (0: none to shift).
+        let mut shifts = Vec::with_capacity(made.len());
         for (k, (n, shading)) in made.into_iter().enumerate() {
-            let from = k * piece..k * piece + n;
-            corners.copy_within(from.clone(), end);
-            uvs.copy_within(from, end);
-            let before = self.shading.len() as u32;
-            if before > 0 && !shading.is_empty() {
-                for c in &mut corners[end..end + n] {
-                    // SAFETY: written by the piece's maker and moved here just above.
-                    let c = unsafe { c.assume_init_mut() };
-                    if c.attributes & NO_SHADING != NO_SHADING {
-                        c.attributes += before;
-                    }
-                }
+            if end != k * piece {
+                let from = k * piece..k * piece + n;
+                corners.copy_within(from.clone(), end);
+                uvs.copy_within(from, end);
             }
+            let before = if shading.is_empty() {
+                0
+            } else {
+                self.shading.len() as u32
+            };
+            shifts.push((n, before));
             assert!(
                 self.shading.len() + shading.len() <= NO_SHADING as usize,
                 "more than 2^31 - 1 triangles with shading records"
@@ -264,6 +264,26 @@ impl Triangles {
             self.shading.extend(shading);
             end += n;
         }
+        // Each piece's shading indices shifted by the records before it, every piece at
+        // once.
+        let mut rest = &mut corners[..end];
+        let mut parts = Vec::new();
+        for (n, before) in shifts {
+            let (part, tail) = std::mem::take(&mut rest).split_at_mut(n);
+            if before > 0 {
+                parts.push((part, before));
+            }
+            rest = tail;
+        }
+        crate::accel::map_in_parallel(&mut parts, crate::accel::threads(), |(part, before)| {
+            for c in part.iter_mut() {
+                // SAFETY: written by the piece's maker and moved here above.
+                let c = unsafe { c.assume_init_mut() };
+                if c.attributes & NO_SHADING != NO_SHADING {
+                    c.attributes += *before;
+                }
+            }
+        });
         // SAFETY: the first `end` spare records of both lists were written just above (each
         // piece's first n, moved down in order).
         unsafe {

@@ -628,7 +628,7 @@ impl Parser {
                     // pbrt's default uv for a triangle without them: (0,0), (1,0), (1,1).
                     t.uv = Some(match &uv {
                         Some(uv) => [uv[a], uv[b], uv[cc]],
-                        None => [Vec2::ZERO, Vec2::X, Vec2::ONE],
+                        None => crate::scene::DEFAULT_UV,
                     });
                     t.alpha = s.alpha;
                     if (t.v[1] - t.v[0]).cross(t.v[2] - t.v[0]).length_squared() == 0.0 {
