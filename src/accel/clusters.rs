@@ -147,7 +147,8 @@ thread_local! {
 /// bits a piece per thread, then made again and put in those buckets (a counting sort,
 /// each piece scattering its own keys at once) and the buckets sorted at once; where one
 /// bucket would hold more than a quarter of them (a scene whose primitives crowd one
-/// corner of its box), sorted in `threads` pieces at once and merged instead. Either way the same list.
+/// corner of its box), sorted in `threads` pieces at once and merged instead. Either way
+/// the same list.
 fn sorted_keys(boxes: &[Bounds], threads: usize) -> Vec<(u64, u32)> {
     let piece = boxes.len().div_ceil(threads.max(1)).max(1 << 16);
     let centres = super::map_pieces(boxes, piece, threads, |boxes| {
